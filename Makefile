@@ -1,0 +1,38 @@
+# Two commands matter: `make demo` and `make test`. Each sets everything up on a
+# fresh machine (Debian libllvm19 when missing, a .venv with labcut installed
+# editable with its test extras) and is idempotent.
+
+PYTHON ?= python3
+VENV   := .venv
+BIN    := $(VENV)/bin
+STAMP  := $(VENV)/.labcut-installed
+OUT    ?= out/demo
+PYTEST_WORKERS ?= 2
+
+.PHONY: setup llvm demo test clean help
+
+help:
+	@echo "make demo   set up, then run the main job on a bundled stone"
+	@echo "make test   set up, then run the test suite"
+
+llvm:
+	@bash tools/ensure-llvm.sh
+
+$(STAMP): pyproject.toml
+	$(PYTHON) -m venv $(VENV)
+	$(BIN)/python -m pip install --quiet --upgrade pip
+	$(BIN)/python -m pip install --quiet -e '.[test]'
+	@touch $(STAMP)
+
+setup: llvm $(STAMP)
+
+demo: setup
+	@mkdir -p $(OUT)
+	$(BIN)/labcut spectrum --preset blue --plot $(OUT)/spectrum-blue.png --json $(OUT)/spectrum-blue.json
+	@echo "demo outputs in $(OUT)/"
+
+test: setup
+	$(BIN)/python -m pytest -q -n $(PYTEST_WORKERS) tests
+
+clean:
+	rm -rf $(VENV) out .pytest_cache .hypothesis

@@ -1,0 +1,1 @@
+"""Command-line front end of labcut (console script ``labcut``)."""

@@ -1,0 +1,48 @@
+"""Entry point of the ``labcut`` console script.
+
+Errors a user can cause print one line on stderr and exit with status 2; no
+traceback reaches the terminal (set LABCUT_DEBUG=1 to see one).
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+
+import click
+
+from . import spectrum  # noqa: F401  (registers its command)
+from .root import app, err_console
+
+
+def _fail(message: str, code: int = 2) -> None:
+    err_console.print(f"[bold red]error:[/] {message}", highlight=False, soft_wrap=True)
+    sys.exit(code)
+
+
+def main(argv: list[str] | None = None) -> None:
+    """Run the CLI; map every expected failure to a one-line message and exit 2."""
+    from labcut.errors import LabcutError
+
+    try:
+        result = app(args=argv, standalone_mode=False)
+    except LabcutError as exc:
+        _fail(str(exc))
+    except click.exceptions.Abort:
+        _fail("aborted", 130)
+    except click.exceptions.ClickException as exc:  # usage errors: unknown option, bad value
+        _fail(exc.format_message(), exc.exit_code or 2)
+    except (FileNotFoundError, IsADirectoryError, PermissionError) as exc:
+        _fail(f"{exc.strerror}: {exc.filename}" if exc.filename else str(exc))
+    except KeyboardInterrupt:
+        _fail("interrupted", 130)
+    except Exception as exc:  # a bug: still one line unless debugging
+        if os.environ.get("LABCUT_DEBUG"):
+            raise
+        _fail(f"internal error ({type(exc).__name__}): {exc} (set LABCUT_DEBUG=1 for a traceback)", 1)
+    else:
+        sys.exit(result if isinstance(result, int) else 0)
+
+
+if __name__ == "__main__":
+    main()

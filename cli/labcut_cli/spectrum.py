@@ -1,0 +1,1 @@
+"""``labcut spectrum`` (placeholder removed below once written)."""

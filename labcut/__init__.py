@@ -1,0 +1,66 @@
+"""labcut: find the lamella orientation that makes a labradorite cut flash.
+
+Public API (DESIGN.md §5; these names are a contract)::
+
+    import labcut
+    lab = labcut.Labradorite.from_peak_wavelength(470.0)
+    lab.reflectance(wavelength_nm, cos_theta)
+    mesh = labcut.load_mesh("stone.stl")
+    cab = labcut.cabochon(outline="oval", length=16, width=12, dome="low")
+
+Heavy modules (Mitsuba, Dr.Jit, trimesh, manifold3d) load on first use.
+"""
+
+from __future__ import annotations
+
+import importlib
+from typing import Any
+
+from . import backend as _backend
+
+_backend.configure_environment()
+_backend.check_llvm()
+
+from .errors import (  # noqa: E402
+    BackendError,
+    LabcutError,
+    LLVMVersionError,
+    MeshError,
+    ParameterError,
+)
+
+__version__ = "0.1.0"
+
+# name -> "module:attribute", resolved on first access
+_LAZY = {
+    "Labradorite": "labcut.physics.material:Labradorite",
+    "physics": "labcut.physics",
+    "colour": "labcut.colour",
+    "cabochon": "labcut.geometry.cabochon:cabochon",
+    "load_mesh": "labcut.geometry.meshio:load_mesh",
+}
+
+
+def __getattr__(name: str) -> Any:
+    target = _LAZY.get(name)
+    if target is None:
+        raise AttributeError(f"module 'labcut' has no attribute {name!r}")
+    module_name, _, attr = target.partition(":")
+    module = importlib.import_module(module_name)
+    value = getattr(module, attr) if attr else module
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(list(globals()) + list(_LAZY))
+
+
+__all__ = [
+    "BackendError",
+    "LabcutError",
+    "LLVMVersionError",
+    "MeshError",
+    "ParameterError",
+    *_LAZY,
+]

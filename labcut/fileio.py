@@ -1,0 +1,47 @@
+"""Output files that are never left half-written.
+
+Every file labcut writes (PNG, EXR, JSON, meshes) goes through :func:`atomic_output`:
+the writer fills a temporary file next to the target, which replaces the target
+only once the writer has finished without error. A failure leaves no partial file.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import tempfile
+from collections.abc import Iterator
+from pathlib import Path
+
+from .errors import ParameterError
+
+
+def check_output_path(path: str | os.PathLike[str], suffixes: tuple[str, ...] | None = None) -> Path:
+    """Validate an output path: its folder exists and, if given, its suffix is allowed."""
+    out = Path(path)
+    if out.name == "" or out.is_dir():
+        raise ParameterError(f"output path {str(path)!r} is a folder, not a file name")
+    if not out.parent.exists() and str(out.parent) != "":
+        raise ParameterError(f"output folder {str(out.parent)!r} does not exist")
+    if suffixes is not None and out.suffix.lower() not in suffixes:
+        raise ParameterError(f"output file {out.name!r} must end in one of {', '.join(suffixes)}")
+    return out
+
+
+@contextlib.contextmanager
+def atomic_output(path: str | os.PathLike[str], suffixes: tuple[str, ...] | None = None) -> Iterator[Path]:
+    """Yield a temporary path with the target's suffix; move it onto ``path`` on success.
+
+    >>> with atomic_output("plot.png") as tmp:
+    ...     figure.savefig(tmp)
+    """
+    out = check_output_path(path, suffixes)
+    fd, tmp_name = tempfile.mkstemp(prefix=f".{out.stem}.", suffix=out.suffix, dir=out.parent or ".")
+    os.close(fd)
+    tmp = Path(tmp_name)
+    try:
+        yield tmp
+        os.replace(tmp, out)
+    finally:
+        if tmp.exists():
+            tmp.unlink()

@@ -1,0 +1,83 @@
+"""One set of elementary functions over numpy (float64) and Dr.Jit (float32) arrays.
+
+The lamella physics in :mod:`labcut.physics.lamella` is written once against an
+``ops`` namespace; :func:`ops_for` picks numpy's or Dr.Jit's from the arguments.
+The API and the tests call it with numpy arrays, the Mitsuba BSDF with Dr.Jit
+arrays inside a traced kernel, so the same expression serves both.
+
+Dr.Jit has no ``expm1``: :func:`_dr_expm1` uses Kahan's trick
+``(u - 1) * x / log(u)`` with ``u = exp(x)``, which is accurate to a few ulp for
+small ``x``; all its branches are kept finite so reverse-mode AD sees no NaN.
+"""
+
+from __future__ import annotations
+
+from types import SimpleNamespace
+from typing import Any
+
+import numpy as np
+
+
+def _np_safe_sqrt(x: Any) -> Any:
+    return np.sqrt(np.maximum(x, 0.0))
+
+
+NUMPY = SimpleNamespace(
+    name="numpy",
+    exp=np.exp,
+    expm1=np.expm1,
+    sin=np.sin,
+    cos=np.cos,
+    tanh=np.tanh,
+    sqrt=np.sqrt,
+    safe_sqrt=_np_safe_sqrt,
+    abs=np.abs,
+    maximum=np.maximum,
+    minimum=np.minimum,
+    select=np.where,
+    tiny=1e-300,
+)
+
+_DRJIT: SimpleNamespace | None = None
+
+
+def _drjit_ops() -> SimpleNamespace:
+    global _DRJIT
+    if _DRJIT is None:
+        import drjit as dr
+
+        def expm1(x: Any) -> Any:
+            u = dr.exp(x)
+            um1 = u - 1.0
+            small = um1 == 0.0
+            log_u = dr.log(dr.select(small, 1.5, u))  # finite in both branches
+            big = dr.abs(x) > 0.5  # exp(x) - 1 is already accurate here
+            kahan = um1 * x / dr.select(small, 1.0, log_u)
+            return dr.select(small, x, dr.select(big, um1, kahan))
+
+        _DRJIT = SimpleNamespace(
+            name="drjit",
+            exp=dr.exp,
+            expm1=expm1,
+            sin=dr.sin,
+            cos=dr.cos,
+            tanh=dr.tanh,
+            sqrt=dr.sqrt,
+            safe_sqrt=dr.safe_sqrt,
+            abs=dr.abs,
+            maximum=dr.maximum,
+            minimum=dr.minimum,
+            select=dr.select,
+            tiny=1e-30,
+        )
+    return _DRJIT
+
+
+def is_drjit(x: Any) -> bool:
+    """True for a Dr.Jit array (without importing drjit for plain numbers)."""
+    return type(x).__module__.startswith("drjit")
+
+
+def ops_for(*args: Any) -> SimpleNamespace:
+    """Dr.Jit ops if any argument is a Dr.Jit array, else numpy ops."""
+    return _drjit_ops() if any(is_drjit(a) for a in args) else NUMPY
