@@ -49,6 +49,9 @@ WRITE_FORMATS = (".ply", ".stl", ".obj", ".off", ".glb", ".3mf")
 #: length of one file unit in mm
 UNITS = {"mm": 1.0, "cm": 10.0, "m": 1000.0, "um": 1e-3, "in": 25.4}
 
+#: largest share of the surface that hole patches may make up
+MAX_PATCH_FRACTION = 0.2
+
 #: relative volume gap between a mesh and its convex hull below which it is convex
 CONVEX_RTOL = 1e-6
 
@@ -144,33 +147,58 @@ def _face_components(faces: np.ndarray, n_vertices: int) -> tuple[np.ndarray, in
 
 
 def _boundary_loops(faces: np.ndarray) -> list[list[int]] | None:
-    """Directed boundary loops (edges used by one face), or None if not traceable."""
+    """Simple directed boundary loops (edges used by one face), or None if not traceable.
+
+    A vertex where two holes touch is split so every loop visits a vertex once.
+    """
     e = np.vstack([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]])
     key = np.sort(e, axis=1)
     _, inv, cnt = np.unique(key, axis=0, return_inverse=True, return_counts=True)
     inv = inv.ravel()
     boundary = e[cnt[inv] == 1]
-    nxt: dict[int, int] = {}
+    out_edges: dict[int, list[int]] = {}
     for u, v in boundary:
-        if int(u) in nxt:
-            return None  # a vertex where two holes touch: ambiguous
-        nxt[int(u)] = int(v)
-    loops = []
-    seen: set[int] = set()
-    for start in list(nxt):
-        if start in seen:
-            continue
-        loop = [start]
-        seen.add(start)
-        cur = nxt[start]
-        while cur != start:
-            if cur in seen or cur not in nxt:
-                return None
-            loop.append(cur)
-            seen.add(cur)
-            cur = nxt[cur]
-        loops.append(loop)
+        out_edges.setdefault(int(u), []).append(int(v))
+    loops: list[list[int]] = []
+    while out_edges:
+        start = next(iter(out_edges))
+        path = [start]
+        pos = {start: 0}
+        cur = start
+        while True:
+            nxts = out_edges.get(cur)
+            if not nxts:
+                return None  # open chain: the boundary does not close
+            nxt = nxts.pop()
+            if not nxts:
+                del out_edges[cur]
+            if nxt in pos:
+                i = pos[nxt]
+                loop = path[i:]
+                for w in loop[1:]:
+                    pos.pop(w, None)
+                path = path[: i + 1]
+                loops.append(loop)
+                if nxt == start and len(path) == 1:
+                    break
+                cur = nxt
+                continue
+            pos[nxt] = len(path)
+            path.append(nxt)
+            cur = nxt
+    if any(len(lp) < 3 for lp in loops):
+        return None
     return loops
+
+
+def _same_orientation(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Per row: do triangles ``a`` and ``b`` (same vertices) have the same cyclic order?"""
+    def canon(t: np.ndarray) -> np.ndarray:
+        k = np.argmin(t, axis=1)
+        idx = (k[:, None] + np.arange(3)[None, :]) % 3
+        return np.take_along_axis(t, idx, axis=1)
+
+    return np.all(canon(a) == canon(b), axis=1)
 
 
 def _edge_use(faces: np.ndarray) -> tuple[int, int]:
@@ -180,8 +208,32 @@ def _edge_use(faces: np.ndarray) -> tuple[int, int]:
     return int((cnt == 1).sum()), int((cnt > 2).sum())
 
 
+def _check_stl(path: Path) -> None:
+    """Refuse a truncated or padded binary STL before trimesh guesses at it."""
+    size = path.stat().st_size
+    with open(path, "rb") as fh:
+        head = fh.read(min(size, 4096))
+    stripped = head.lstrip()
+    if stripped[:5].lower() == b"solid" and (b"facet" in head.lower() or size < 84):
+        return  # ASCII STL
+    if size < 84:
+        raise MeshError(f"{path.name} is not a valid STL: {size} bytes is shorter than a binary STL header")
+    count = int.from_bytes(head[80:84], "little")
+    expected = 84 + 50 * count
+    if size != expected:
+        if stripped[:5].lower() == b"solid":
+            return  # an ASCII STL whose first facet is beyond 4 kB
+        raise MeshError(
+            f"{path.name} is a truncated or corrupt binary STL: its header announces {count} triangles "
+            f"({expected} bytes) but the file has {size} bytes"
+        )
+
+
 def _read(path: Path, fmt: str) -> tuple[np.ndarray, np.ndarray]:
     import trimesh
+
+    if fmt == "stl":
+        _check_stl(path)
 
     try:
         loaded = trimesh.load(str(path), file_type=fmt, process=False, force="mesh")
@@ -297,15 +349,15 @@ def validate_arrays(
         )
 
     # consistent winding
+    original = f.copy()
     mesh = trimesh.Trimesh(vertices=v, faces=f, process=False)
     if not mesh.is_winding_consistent:
-        before = f.copy()
+        if not repair:
+            raise MeshError(f"{name}: its faces are not consistently wound (repair disabled)")
         trimesh.repair.fix_winding(mesh)
         f = np.asarray(mesh.faces, dtype=np.int64)
-        changed = int(np.any(before != f, axis=1).sum())
         if not trimesh.Trimesh(vertices=v, faces=f, process=False).is_winding_consistent:
             raise MeshError(f"{name} has a winding that cannot be made consistent (a non-orientable surface?)")
-        fix(f"reversed {changed} faces whose winding disagreed with their neighbours")
 
     # holes
     if n_boundary:
@@ -327,7 +379,19 @@ def validate_arrays(
             new_f.append(np.column_stack([np.roll(lp, -1), lp, np.full(len(lp), nxt_index)]))
             nxt_index += 1
         v = np.vstack(new_v)
+        patch = np.vstack(new_f[1:])
         f = np.vstack(new_f)
+        patch_area = 0.5 * np.linalg.norm(
+            np.cross(v[patch[:, 1]] - v[patch[:, 0]], v[patch[:, 2]] - v[patch[:, 0]]), axis=1
+        ).sum()
+        own_area = 0.5 * np.linalg.norm(
+            np.cross(v[original[:, 1]] - v[original[:, 0]], v[original[:, 2]] - v[original[:, 0]]), axis=1
+        ).sum()
+        if patch_area > MAX_PATCH_FRACTION * (patch_area + own_area):
+            raise MeshError(
+                f"{name} is too open to repair: closing its {len(loops)} holes would make up "
+                f"{100 * patch_area / (patch_area + own_area):.0f} % of its surface"
+            )
         fix(f"closed {len(loops)} hole{'s' if len(loops) != 1 else ''} ({n_boundary} open edges) with fan patches")
         nb2, nm2 = _edge_use(f)
         if nb2 or nm2:
@@ -341,8 +405,12 @@ def validate_arrays(
         flip = inward[labels]
         f = f.copy()
         f[flip] = f[flip][:, ::-1]
-        what = "all faces" if inward.all() else f"{int(inward.sum())} of {count} shells"
-        fix(f"inverted {what}: the normals pointed inward")
+    # report orientation changes against the file's own faces
+    flipped = ~_same_orientation(original, f[: len(original)])
+    if flipped.all():
+        fix("inverted all faces: the normals pointed inward")
+    elif flipped.any():
+        fix(f"reversed {int(flipped.sum())} of {len(original)} faces whose winding disagreed with the rest")
 
     man = m3.Manifold(m3.Mesh64(vert_properties=np.ascontiguousarray(v), tri_verts=np.ascontiguousarray(f, dtype=np.uint64)))
     status = man.status()
@@ -351,8 +419,9 @@ def validate_arrays(
     out = man.to_mesh64()
     v2 = np.asarray(out.vert_properties)[:, :3].astype(np.float64)
     f2 = np.asarray(out.tri_verts).astype(np.int64)
-    if len(f2) == 0:
-        raise MeshError(f"{name} encloses no volume")
+    ext = np.ptp(v2, axis=0) if len(v2) else np.zeros(3)
+    if len(f2) == 0 or man.volume() <= 1e-9 * max(float(np.prod(ext)), 1e-300) or ext.min() <= 0:
+        raise MeshError(f"{name} encloses no volume (a flat or empty surface)")
     if len(f2) < len(f):
         fix(f"collapsed {len(f) - len(f2)} degenerate (zero-area or sliver) triangles")
     elif flat.any():

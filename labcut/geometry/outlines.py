@@ -364,14 +364,16 @@ def validate_outline(points: object, name: str = "outline") -> np.ndarray:
     if len(p) < 3:
         raise ParameterError(f"{name} needs at least 3 distinct points, got {len(p)}")
     size = max(float(np.ptp(p[:, 0])), float(np.ptp(p[:, 1])))
+    if size <= 0:
+        raise ParameterError(f"{name} encloses no area (its points coincide)")
+    hit = _segments_intersect(p) if len(p) > 3 else None
+    if hit is not None:
+        raise ParameterError(f"{name} is self-intersecting (edges {hit[0]} and {hit[1]} cross or touch)")
     area = polygon_area(p)
-    if abs(area) <= 1e-9 * size * size or size <= 0:
+    if abs(area) <= 1e-9 * size * size:
         raise ParameterError(f"{name} encloses no area (its points are collinear)")
     if area < 0:
         p = p[::-1].copy()
-    hit = _segments_intersect(p)
-    if hit is not None:
-        raise ParameterError(f"{name} is self-intersecting (edges {hit[0]} and {hit[1]} cross or touch)")
     return p
 
 

@@ -157,12 +157,14 @@ class Profile:
     def rings(self, count: int) -> tuple[np.ndarray, np.ndarray]:
         """Ring positions for a mesh: ``(s, z)`` with ``s`` from 1 (foot, z = 0) to 0 (apex).
 
-        ``count`` intervals are spaced evenly by arc length of the profile curve
-        ``(a s, z)``; the table edge of a buff-top (where the slope breaks) is
+        ``count`` intervals are spaced evenly by arc length of the normalised
+        profile curve ``(s, z / H_v)``; the table edge of a buff-top (where the slope breaks) is
         always a ring. The last ring has ``s = 0`` (the apex or table centre).
         """
         count = max(2, int(count))
-        a = self.ref_half_width
+        # arc length of the normalised curve (s, z / H_v): the spacing, and so the
+        # relative volume error, does not depend on how low or high the dome is
+        a = self.virtual_height
         th = np.linspace(0.0, math.pi / 2, 20001)
         s = np.cos(th)  # dense near s = 1, where elliptic and tallow domes are steep
         s[-1] = 0.0
