@@ -9,7 +9,12 @@ from __future__ import annotations
 import os
 import sys
 
-import click
+import typer
+
+try:  # typer >= 0.20 vendors click; older releases use click itself
+    from typer import TyperException as _UsageError
+except ImportError:  # pragma: no cover
+    from click.exceptions import ClickException as _UsageError
 
 from . import spectrum  # noqa: F401  (registers its command)
 from .root import app, err_console
@@ -24,14 +29,19 @@ def main(argv: list[str] | None = None) -> None:
     """Run the CLI; map every expected failure to a one-line message and exit 2."""
     from labcut.errors import LabcutError
 
+    args = sys.argv[1:] if argv is None else list(argv)
+    if not args:
+        args = ["--help"]
     try:
-        result = app(args=argv, standalone_mode=False)
+        result = app(args=args, prog_name="labcut", standalone_mode=False)
     except LabcutError as exc:
         _fail(str(exc))
-    except click.exceptions.Abort:
+    except typer.Exit as exc:
+        sys.exit(exc.exit_code)
+    except typer.Abort:
         _fail("aborted", 130)
-    except click.exceptions.ClickException as exc:  # usage errors: unknown option, bad value
-        _fail(exc.format_message(), exc.exit_code or 2)
+    except _UsageError as exc:  # usage errors: unknown option, bad value
+        _fail(exc.format_message(), getattr(exc, "exit_code", 2) or 2)
     except (FileNotFoundError, IsADirectoryError, PermissionError) as exc:
         _fail(f"{exc.strerror}: {exc.filename}" if exc.filename else str(exc))
     except KeyboardInterrupt:

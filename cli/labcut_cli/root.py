@@ -47,3 +47,18 @@ def write_json(path: str, data: Any) -> None:
 
     with atomic_output(path, (".json",)) as tmp:
         tmp.write_text(json.dumps(data, indent=2, allow_nan=False) + "\n")
+
+
+def _version(value: bool) -> None:
+    if value:
+        from labcut import __version__
+
+        console.print(f"labcut {__version__}")
+        raise typer.Exit()
+
+
+@app.callback()
+def _root(
+    version: bool = typer.Option(False, "--version", help="Print the version and exit.", callback=_version, is_eager=True),
+) -> None:
+    """Plan labradorite cuts: lamella physics, stone geometry, rendering and orientation."""

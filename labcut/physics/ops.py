@@ -8,6 +8,10 @@ arrays inside a traced kernel, so the same expression serves both.
 Dr.Jit has no ``expm1``: :func:`_dr_expm1` uses Kahan's trick
 ``(u - 1) * x / log(u)`` with ``u = exp(x)``, which is accurate to a few ulp for
 small ``x``; all its branches are kept finite so reverse-mode AD sees no NaN.
+
+``wide``/``narrow`` move a value to float64 and back (identity for numpy): the
+one quantity whose condition number exceeds float32's resolution, the Bragg
+phase of a nearly perfect stack, is reduced modulo 2π in float64.
 """
 
 from __future__ import annotations
@@ -22,8 +26,15 @@ def _np_safe_sqrt(x: Any) -> Any:
     return np.sqrt(np.maximum(x, 0.0))
 
 
+def _identity(x: Any) -> Any:
+    return x
+
+
 NUMPY = SimpleNamespace(
     name="numpy",
+    wide=_identity,
+    narrow=_identity,
+    round=np.round,
     exp=np.exp,
     expm1=np.expm1,
     sin=np.sin,
@@ -55,8 +66,22 @@ def _drjit_ops() -> SimpleNamespace:
             kahan = um1 * x / dr.select(small, 1.0, log_u)
             return dr.select(small, x, dr.select(big, um1, kahan))
 
+        def wide(x: Any) -> Any:
+            """Float64 copy of a Dr.Jit float array (same backend, AD kept)."""
+            if not dr.is_array_v(x):
+                return x
+            return dr.float64_array_t(type(x))(x)
+
+        def narrow(x: Any) -> Any:
+            if not dr.is_array_v(x):
+                return x
+            return dr.float32_array_t(type(x))(x)
+
         _DRJIT = SimpleNamespace(
             name="drjit",
+            wide=wide,
+            narrow=narrow,
+            round=dr.round,
             exp=dr.exp,
             expm1=expm1,
             sin=dr.sin,

@@ -1,0 +1,66 @@
+"""Material options shared by every command that takes a labradorite material.
+
+Exactly one base (``--preset``, ``--peak``, ``--an`` or ``--material FILE.json``),
+default the blue-green :class:`labcut.Labradorite`; the layer options
+(``--d-a`` ... ``--n-surface``) then override single parameters.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Annotated, Any, Optional
+
+import typer
+
+from labcut.errors import ParameterError
+
+Preset = Annotated[Optional[str], typer.Option("--preset", "-p", help="Named material: blue, green, gold, red.", rich_help_panel="Material")]
+Peak = Annotated[Optional[float], typer.Option("--peak", help="Flash peak at normal incidence, nm.", rich_help_panel="Material")]
+Anorthite = Annotated[Optional[float], typer.Option("--an", help="Bulk anorthite content, mol % (Bøggild range 44-61).", rich_help_panel="Material")]
+MaterialFile = Annotated[Optional[Path], typer.Option("--material", help="Material JSON (as written by --json / Labradorite.to_dict).", rich_help_panel="Material")]
+Layer = lambda flag, text: Annotated[Optional[float], typer.Option(flag, help=text, rich_help_panel="Layer parameters")]  # noqa: E731
+DA = Layer("--d-a", "Mean thickness of phase a, nm.")
+DB = Layer("--d-b", "Mean thickness of phase b, nm.")
+SA = Layer("--sigma-a", "Thickness standard deviation of phase a, nm.")
+SB = Layer("--sigma-b", "Thickness standard deviation of phase b, nm.")
+NA = Layer("--n-a", "Refractive index of phase a.")
+NB = Layer("--n-b", "Refractive index of phase b.")
+NS = Layer("--n-surface", "Bulk refractive index of the stone.")
+SPREAD = Layer("--spread", "Angular spread of the lamellae, degrees.")
+Pairs = Annotated[Optional[int], typer.Option("--pairs", help="Number of lamella pairs.", rich_help_panel="Layer parameters")]
+
+
+def build_material(
+    preset: str | None = None,
+    peak: float | None = None,
+    an: float | None = None,
+    material_file: Path | None = None,
+    **overrides: Any,
+) -> Any:
+    """The material the options describe; conflicting bases are a ParameterError."""
+    from labcut import Labradorite
+
+    given = [name for name, v in (("--preset", preset), ("--peak", peak), ("--an", an), ("--material", material_file)) if v is not None]
+    if len(given) > 1:
+        raise ParameterError(f"give only one of {', '.join(given)}")
+    changes = {k: v for k, v in overrides.items() if v is not None}
+    if material_file is not None:
+        try:
+            data = json.loads(Path(material_file).read_text())
+        except FileNotFoundError:
+            raise ParameterError(f"material file {str(material_file)!r} does not exist") from None
+        except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+            raise ParameterError(f"material file {str(material_file)!r} is not readable JSON ({exc})") from None
+        if isinstance(data, dict) and "material" in data and isinstance(data["material"], dict):
+            data = data["material"]
+        if not isinstance(data, dict):
+            raise ParameterError(f"material file {str(material_file)!r} must hold a JSON object")
+        return Labradorite.from_dict({**data, **changes})
+    if preset is not None:
+        return Labradorite.preset(preset, **changes)
+    if peak is not None:
+        return Labradorite.from_peak_wavelength(peak, **changes)
+    if an is not None:
+        return Labradorite.from_anorthite(an, **changes)
+    return Labradorite(**changes)

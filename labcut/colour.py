@@ -1,0 +1,193 @@
+"""Colour of the flash: spectrum -> CIE 1931 XYZ -> sRGB, and dominant wavelength.
+
+The CIE 1931 2° observer, the D65 illuminant and the XYZ -> linear sRGB matrix
+come from Mitsuba (``mitsuba.scalar_rgb``: tabulated once, 1 nm steps over
+360-830 nm, no variant is set). Conventions:
+
+* XYZ of a reflectance spectrum R(λ) under an illuminant S(λ) is
+  ``∫ R S xyz̄ dλ / ∫ S ȳ dλ``: a perfect white reflector has Y = 1, and under
+  D65 its linear sRGB is (1, 1, 1). This is what a Mitsuba spectral render of a
+  white-lit surface shows, and what the RGB variants of the BSDF tabulate.
+* ``srgb`` is a display swatch: linear sRGB clipped to >= 0, scaled so its
+  brightest channel is 1, then gamma-encoded (IEC 61966-2-1). ``linear_srgb`` is
+  the unscaled, unclipped value.
+* Dominant wavelength (CIE 15): the spectral-locus wavelength hit by the ray from
+  the white point (the illuminant's chromaticity) through the colour; a colour on
+  the purple side gets the negative complementary wavelength. Excitation purity
+  is the distance to white over the distance of the boundary point to white.
+"""
+
+from __future__ import annotations
+
+import functools
+from dataclasses import asdict, dataclass
+from typing import Any
+
+import numpy as np
+
+from .errors import ParameterError
+
+LAMBDA_MIN_NM = 360.0
+LAMBDA_MAX_NM = 830.0
+ILLUMINANTS = ("D65", "E")
+
+
+@dataclass(frozen=True)
+class _Tables:
+    wavelengths: np.ndarray  # (K,) nm
+    xyz_bar: np.ndarray  # (K, 3) CIE 1931 colour matching functions
+    d65: np.ndarray  # (K,) relative spectral power
+    xyz_to_srgb: np.ndarray  # (3, 3) linear sRGB = M @ XYZ
+
+
+@functools.lru_cache(maxsize=1)
+def tables() -> _Tables:
+    """CIE tables on a 1 nm grid from Mitsuba (cached)."""
+    import mitsuba.scalar_rgb as mis
+
+    wl = np.arange(LAMBDA_MIN_NM, LAMBDA_MAX_NM + 0.5, 1.0)
+    xyz = np.array([list(mis.cie1931_xyz(float(w))) for w in wl], dtype=np.float64)
+    d65 = np.array([float(mis.cie_d65(float(w))) for w in wl], dtype=np.float64)
+    m = np.array([list(mis.xyz_to_srgb(mis.Color3f(*e))) for e in np.eye(3)], dtype=np.float64).T
+    return _Tables(wl, xyz, d65, m)
+
+
+def illuminant_spd(name: str = "D65") -> np.ndarray:
+    """Relative spectral power of ``D65`` or equal-energy ``E`` on the table grid."""
+    t = tables()
+    key = str(name).upper()
+    if key == "D65":
+        return t.d65
+    if key == "E":
+        return np.ones_like(t.d65)
+    raise ParameterError(f"unknown illuminant {name!r}; choose one of {', '.join(ILLUMINANTS)}")
+
+
+def reflectance_to_xyz(reflectance: np.ndarray, illuminant: str = "D65") -> np.ndarray:
+    """XYZ (..., 3) of reflectance spectra (..., K) sampled on :func:`tables` wavelengths."""
+    t = tables()
+    r = np.asarray(reflectance, dtype=np.float64)
+    if r.shape[-1] != t.wavelengths.size:
+        raise ParameterError(f"reflectance spectra need {t.wavelengths.size} samples (360-830 nm, 1 nm steps)")
+    s = illuminant_spd(illuminant)
+    weights = t.xyz_bar * s[:, None]
+    return (r @ weights) / float(s @ t.xyz_bar[:, 1])
+
+
+def xyz_to_linear_srgb(xyz: np.ndarray) -> np.ndarray:
+    """Linear sRGB (D65 white) of XYZ values (..., 3)."""
+    return np.asarray(xyz, dtype=np.float64) @ tables().xyz_to_srgb.T
+
+
+def encode_srgb(linear: np.ndarray) -> np.ndarray:
+    """sRGB transfer function (IEC 61966-2-1) of linear values clipped to [0, 1]."""
+    x = np.clip(np.asarray(linear, dtype=np.float64), 0.0, 1.0)
+    return np.where(x <= 0.0031308, 12.92 * x, 1.055 * np.power(x, 1.0 / 2.4) - 0.055)
+
+
+def xy_chromaticity(xyz: np.ndarray) -> np.ndarray:
+    xyz = np.asarray(xyz, dtype=np.float64)
+    total = xyz.sum(axis=-1, keepdims=True)
+    return xyz[..., :2] / np.where(total > 0, total, 1.0)
+
+
+def _ray_hit(origin: np.ndarray, direction: np.ndarray, a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Ray parameter t and segment parameter u of the ray's hits on segments a->b."""
+    e = b - a
+    denom = direction[0] * e[:, 1] - direction[1] * e[:, 0]
+    safe = np.where(np.abs(denom) > 1e-15, denom, np.nan)
+    w = a - origin
+    t = (w[:, 0] * e[:, 1] - w[:, 1] * e[:, 0]) / safe
+    u = (w[:, 0] * direction[1] - w[:, 1] * direction[0]) / safe
+    return t, u
+
+
+def dominant_wavelength(xyz: np.ndarray, illuminant: str = "D65") -> tuple[float, float]:
+    """``(dominant wavelength nm, excitation purity)`` of one XYZ colour.
+
+    Negative wavelength: complementary wavelength of a purple. NaN for a colour
+    at the white point (no hue).
+    """
+    t = tables()
+    white = xy_chromaticity(reflectance_to_xyz(np.ones_like(t.wavelengths), illuminant))
+    sample = xy_chromaticity(np.asarray(xyz, dtype=np.float64))
+    direction = sample - white
+    dist = float(np.hypot(*direction))
+    if dist < 1e-6:
+        return float("nan"), 0.0
+    keep = (t.wavelengths >= 380.0) & (t.wavelengths <= 700.0)
+    lam = t.wavelengths[keep]
+    locus = xy_chromaticity(t.xyz_bar[keep])
+    a, b = locus[:-1], locus[1:]
+    for sign in (1.0, -1.0):
+        tt, uu = _ray_hit(white, sign * direction, a, b)
+        hit = np.where((tt > 0) & (uu >= 0) & (uu <= 1))[0]
+        if hit.size:
+            i = hit[np.argmin(tt[hit])]
+            wavelength = float(lam[i] + uu[i] * (lam[i + 1] - lam[i]))
+            if sign > 0:
+                return wavelength, min(dist / float(tt[i] * dist), 1.0) if tt[i] > 0 else 0.0
+            # purple: purity against the line of purples
+            tp, _ = _ray_hit(white, direction, locus[-1:], locus[:1])
+            purity = 1.0 / float(tp[0]) if np.isfinite(tp[0]) and tp[0] > 0 else float("nan")
+            return -wavelength, min(purity, 1.0)
+    return float("nan"), float("nan")
+
+
+@dataclass(frozen=True)
+class FlashColour:
+    """The colour of a flash (or any reflectance spectrum) under an illuminant."""
+
+    xyz: tuple[float, float, float]
+    linear_srgb: tuple[float, float, float]
+    srgb: tuple[float, float, float]
+    hex: str
+    dominant_wavelength_nm: float
+    purity: float
+    luminance: float
+
+    def to_dict(self) -> dict[str, Any]:
+        return asdict(self)
+
+
+def colour_of_spectrum(reflectance: np.ndarray, illuminant: str = "D65") -> FlashColour:
+    """:class:`FlashColour` of a reflectance spectrum sampled on :func:`tables` wavelengths."""
+    xyz = reflectance_to_xyz(reflectance, illuminant)
+    lin = xyz_to_linear_srgb(xyz)
+    shown = np.clip(lin, 0.0, None)
+    peak = float(shown.max())
+    swatch = encode_srgb(shown / peak) if peak > 0 else np.zeros(3)
+    hexcode = "#" + "".join(f"{int(round(255 * v)):02x}" for v in swatch)
+    dom, purity = dominant_wavelength(xyz, illuminant)
+    return FlashColour(
+        xyz=tuple(float(v) for v in xyz),
+        linear_srgb=tuple(float(v) for v in lin),
+        srgb=tuple(float(v) for v in swatch),
+        hex=hexcode,
+        dominant_wavelength_nm=dom,
+        purity=purity,
+        luminance=float(xyz[1]),
+    )
+
+
+def flash_colour(material: Any, cos_theta: float = 1.0, illuminant: str = "D65") -> FlashColour:
+    """Colour of ``material``'s lamella reflection at internal ``cos_theta``."""
+    return colour_of_spectrum(material.reflectance(tables().wavelengths, cos_theta), illuminant)
+
+
+def reflectance_rgb(material: Any, cos_theta: Any, illuminant: str = "D65") -> np.ndarray:
+    """Linear sRGB reflectance (..., 3) of ``material`` at an array of internal cosines.
+
+    The table the RGB variants of the BSDF look up: ``R(λ, cos θ)`` integrated
+    against the CIE curves once per material, never per ray.
+    """
+    c = np.asarray(cos_theta, dtype=np.float64)
+    spectra = material.reflectance(tables().wavelengths, c[..., None])
+    return xyz_to_linear_srgb(reflectance_to_xyz(spectra, illuminant))
+
+
+def reflectance_luminance(material: Any, cos_theta: Any, illuminant: str = "D65") -> np.ndarray:
+    """Luminance Y (...) of ``material``'s reflectance: the mono variants' table."""
+    c = np.asarray(cos_theta, dtype=np.float64)
+    spectra = material.reflectance(tables().wavelengths, c[..., None])
+    return reflectance_to_xyz(spectra, illuminant)[..., 1]

@@ -1,0 +1,15 @@
+"""Lamella physics of labradorite: stack reflectance and the material model."""
+
+from .lamella import bragg_wavelength, interface_reflectance, lamella_intensity, saturate, stack_reflectance
+from .material import AN_RANGE, PERIOD_RANGE_NM, Labradorite
+
+__all__ = [
+    "AN_RANGE",
+    "PERIOD_RANGE_NM",
+    "Labradorite",
+    "bragg_wavelength",
+    "interface_reflectance",
+    "lamella_intensity",
+    "saturate",
+    "stack_reflectance",
+]

@@ -1,0 +1,1 @@
+"""Figures (matplotlib, Agg backend): spectra, and later score maps and reports."""

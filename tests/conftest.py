@@ -1,0 +1,35 @@
+"""Shared test configuration: deterministic hypothesis runs, CLI runner."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+from hypothesis import HealthCheck, settings
+
+settings.register_profile(
+    "labcut",
+    deadline=None,
+    derandomize=True,  # CI must not flake: the same examples every run
+    suppress_health_check=[HealthCheck.too_slow],
+)
+settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "labcut"))
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def run_cli(*args: str, cwd: Path | None = None) -> subprocess.CompletedProcess[str]:
+    """Run the installed ``labcut`` console script; returns the completed process."""
+    exe = Path(sys.executable).with_name("labcut")
+    cmd = [str(exe)] if exe.exists() else [sys.executable, "-m", "labcut_cli.app"]
+    env = {**os.environ, "COLUMNS": "120", "NO_COLOR": "1"}
+    env.pop("LABCUT_DEBUG", None)
+    return subprocess.run([*cmd, *args], capture_output=True, text=True, cwd=cwd, env=env, timeout=300)
+
+
+@pytest.fixture
+def cli():
+    return run_cli

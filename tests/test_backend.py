@@ -1,0 +1,84 @@
+"""Backend selection and the libLLVM start-up check."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+
+import pytest
+
+from labcut import backend
+from labcut.errors import BackendError, LLVMVersionError, ParameterError
+
+
+def test_picks_llvm_without_cuda_and_names_variants():
+    assert backend.device() in ("llvm", "cuda")
+    name = backend.variant_name("rgb")
+    assert name.endswith("_ad_rgb") and name.split("_")[0] == backend.device()
+    assert backend.variant_name("spectral", polarized=True).endswith("_ad_spectral_polarized")
+
+
+def test_bad_mode_is_a_parameter_error():
+    with pytest.raises(ParameterError):
+        backend.variant_name("hyperspectral")
+    with pytest.raises(ParameterError):
+        backend.variant_name("rgb", polarized=True)
+
+
+def test_check_llvm_names_the_fix(monkeypatch):
+    monkeypatch.delenv("DRJIT_LIBLLVM_PATH", raising=False)
+    monkeypatch.setattr(backend, "find_libllvm", lambda: (15, "/usr/lib/x86_64-linux-gnu/libLLVM-15.so.1"))
+    monkeypatch.setattr(backend, "_cuda_driver_present", lambda: False)
+    with pytest.raises(LLVMVersionError, match="libllvm19") as info:
+        backend.check_llvm()
+    assert "libLLVM 15" in str(info.value) and "\n" not in str(info.value)
+
+
+def test_check_llvm_passes_with_a_new_llvm(monkeypatch):
+    monkeypatch.setattr(backend, "find_libllvm", lambda: (19, "/usr/lib/x86_64-linux-gnu/libLLVM.so.19.1"))
+    backend.check_llvm()
+
+
+def test_llvm_file_names_parse():
+    assert backend._llvm_major("libLLVM-15.so.1") == 15
+    assert backend._llvm_major("libLLVM.so.19.1") == 19
+    assert backend._llvm_major("libLLVM-19.so") == 19
+    assert backend._llvm_major("libfoo.so") is None
+
+
+def test_kernel_cache_is_per_user_and_llvm_is_pinned():
+    code = "import os, labcut; print(os.environ['DRJIT_CACHE_DIR']); print(os.environ.get('DRJIT_LIBLLVM_PATH', ''))"
+    env = {k: v for k, v in os.environ.items() if k not in ("DRJIT_CACHE_DIR", "DRJIT_LIBLLVM_PATH", "_LABCUT_SET_LIBLLVM")}
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, check=True).stdout.split("\n")
+    assert out[0].endswith(os.path.join("labcut", "drjit"))
+    assert backend._llvm_major(out[1]) >= backend.MIN_LLVM
+
+
+def test_import_fails_clearly_without_a_usable_llvm(tmp_path):
+    fake = tmp_path / "libLLVM-15.so.1"
+    fake.write_bytes(b"")
+    env = {**os.environ, "DRJIT_LIBLLVM_PATH": str(fake)}
+    env.pop("_LABCUT_SET_LIBLLVM", None)
+    proc = subprocess.run([sys.executable, "-c", "import labcut"], capture_output=True, text=True, env=env)
+    if backend._cuda_driver_present():
+        pytest.skip("a CUDA driver is present: labcut runs on CUDA without LLVM")
+    assert proc.returncode != 0
+    assert "LLVMVersionError" in proc.stderr and "libllvm19" in proc.stderr
+
+
+def test_bad_forced_backend(monkeypatch):
+    backend.device.cache_clear()
+    monkeypatch.setenv("LABCUT_BACKEND", "opencl")
+    try:
+        with pytest.raises(BackendError):
+            backend.device()
+    finally:
+        backend.device.cache_clear()
+
+
+def test_set_variant_selects_mitsuba_variant():
+    import mitsuba as mi
+
+    name = backend.set_variant("mono")
+    assert mi.variant() == name

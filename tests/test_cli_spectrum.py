@@ -1,0 +1,84 @@
+"""``labcut spectrum`` from the outside: tables, files, and one-line errors."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from labcut import Labradorite
+
+
+def test_table_plot_and_json(cli, tmp_path):
+    png, js = tmp_path / "s.png", tmp_path / "s.json"
+    proc = cli("spectrum", "--preset", "green", "--angles", "0,20,40", "-o", str(png), "--json", str(js))
+    assert proc.returncode == 0, proc.stderr
+    assert "peak λ" in proc.stdout and "530.0 nm" in proc.stdout
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and png.stat().st_size > 20_000
+    data = json.loads(js.read_text())
+    assert [row["angle_deg"] for row in data["angles"]] == [0.0, 20.0, 40.0]
+    assert abs(data["angles"][0]["peak_nm"] - 530.0) < 0.05
+    assert Labradorite.from_dict(data["material"]) == Labradorite.preset("green")
+
+
+def test_json_to_stdout_is_machine_readable(cli, tmp_path):
+    proc = cli("spectrum", "--an", "52", "--json", "-", "--no-plot", cwd=tmp_path)
+    assert proc.returncode == 0, proc.stderr
+    data = json.loads(proc.stdout)
+    assert data["material"]["name"] == "An52"
+    assert not list(tmp_path.iterdir())
+
+
+def test_explicit_layers_and_material_file(cli, tmp_path):
+    proc = cli("spectrum", "--d-a", "90", "--d-b", "80", "--sigma-a", "10", "--pairs", "3000", "--json", str(tmp_path / "m.json"), "--no-plot")
+    assert proc.returncode == 0, proc.stderr
+    proc = cli("spectrum", "--material", str(tmp_path / "m.json"), "--json", "-", "--no-plot")
+    data = json.loads(proc.stdout)["material"]
+    assert (data["d_a"], data["d_b"], data["sigma_a"], data["pairs"]) == (90.0, 80.0, 10.0, 3000)
+
+
+@pytest.mark.parametrize(
+    "args",
+    [
+        ["--d-a", "-3"],
+        ["--n-a", "1.0"],
+        ["--peak", "nan"],
+        ["--an", "70"],
+        ["--preset", "purple"],
+        ["--preset", "blue", "--peak", "470"],
+        ["--angles", "0,95"],
+        ["--angles", "zero"],
+        ["--material", "/no/such/file.json"],
+        ["--bogus-option"],
+        ["--pairs", "many"],
+    ],
+)
+def test_bad_input_is_one_line_and_exit_2(cli, tmp_path, args):
+    proc = cli("spectrum", *args, "-o", str(tmp_path / "x.png"))
+    assert proc.returncode == 2
+    assert "Traceback" not in proc.stderr
+    assert len(proc.stderr.strip().splitlines()) == 1 and proc.stderr.startswith("error:")
+    assert not (tmp_path / "x.png").exists()
+
+
+def test_bad_output_paths_leave_nothing(cli, tmp_path):
+    for out in (str(tmp_path / "missing" / "x.png"), str(tmp_path / "x.jpg"), str(tmp_path)):
+        proc = cli("spectrum", "-o", out)
+        assert proc.returncode == 2 and proc.stderr.startswith("error:")
+    assert not list(tmp_path.iterdir())
+
+
+def test_broken_material_file(cli, tmp_path):
+    bad = tmp_path / "bad.json"
+    bad.write_text("{not json")
+    proc = cli("spectrum", "--material", str(bad), "--no-plot")
+    assert proc.returncode == 2 and "not readable JSON" in proc.stderr
+    bad.write_text(json.dumps({"d_a": -1}))
+    proc = cli("spectrum", "--material", str(bad), "--no-plot")
+    assert proc.returncode == 2 and "d_a" in proc.stderr
+
+
+def test_help_and_version(cli):
+    assert cli().returncode == 0
+    proc = cli("--version")
+    assert proc.returncode == 0 and "labcut" in proc.stdout

@@ -1,0 +1,67 @@
+"""Colour conversion against known CIE facts."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from labcut import Labradorite, ParameterError
+from labcut.colour import (
+    colour_of_spectrum,
+    dominant_wavelength,
+    reflectance_rgb,
+    reflectance_to_xyz,
+    tables,
+    xyz_to_linear_srgb,
+)
+
+
+def test_white_reflector_is_srgb_white_under_d65():
+    ones = np.ones_like(tables().wavelengths)
+    xyz = reflectance_to_xyz(ones)
+    assert xyz[1] == pytest.approx(1.0)
+    assert np.allclose(xyz_to_linear_srgb(xyz), 1.0, atol=2e-3)
+    c = colour_of_spectrum(0.5 * ones)
+    assert np.isnan(c.dominant_wavelength_nm) and c.purity == 0.0
+
+
+def test_d65_white_point_chromaticity():
+    xyz = reflectance_to_xyz(np.ones_like(tables().wavelengths))
+    x, y = xyz[0] / xyz.sum(), xyz[1] / xyz.sum()
+    assert abs(x - 0.3127) < 2e-3 and abs(y - 0.3290) < 2e-3
+
+
+@pytest.mark.parametrize("nm", [460.0, 490.0, 520.0, 560.0, 600.0, 650.0])
+def test_narrow_band_has_its_own_dominant_wavelength_and_full_purity(nm):
+    wl = tables().wavelengths
+    spectrum = np.exp(-0.5 * ((wl - nm) / 1.5) ** 2)
+    dom, purity = dominant_wavelength(reflectance_to_xyz(spectrum))
+    assert abs(dom - nm) < 1.5
+    assert purity > 0.9
+
+
+def test_purple_gets_negative_complementary_wavelength():
+    wl = tables().wavelengths
+    spectrum = np.exp(-0.5 * ((wl - 440) / 10) ** 2) + np.exp(-0.5 * ((wl - 650) / 10) ** 2)
+    dom, purity = dominant_wavelength(reflectance_to_xyz(spectrum))
+    assert 490.0 < -dom < 575.0 and 0.0 < purity <= 1.0
+
+
+def test_preset_colours_have_the_expected_hue():
+    blue = Labradorite.preset("blue").flash_colour()
+    red = Labradorite.preset("red").flash_colour()
+    assert blue.srgb[2] == pytest.approx(1.0) and blue.srgb[0] < 0.3
+    assert red.srgb[0] == pytest.approx(1.0) and red.srgb[2] < 0.3
+    assert blue.hex.startswith("#") and len(blue.hex) == 7
+
+
+def test_rgb_table_matches_per_angle_colour():
+    lab = Labradorite.preset("green")
+    table = reflectance_rgb(lab, np.array([1.0, 0.8]))
+    assert table.shape == (2, 3)
+    assert np.allclose(table[0], lab.flash_colour(1.0).linear_srgb)
+
+
+def test_unknown_illuminant():
+    with pytest.raises(ParameterError):
+        Labradorite().flash_colour(illuminant="A")

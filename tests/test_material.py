@@ -1,0 +1,94 @@
+"""Labradorite parameters: validation, constructors, serialisation."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from labcut import Labradorite, LabcutError, ParameterError
+
+
+@pytest.mark.parametrize(
+    "kwargs, fragment",
+    [
+        ({"d_a": -5.0}, "d_a"),
+        ({"d_b": 0.0}, "d_b"),
+        ({"n_a": 1.0}, "n_a"),
+        ({"n_b": 0.9}, "n_b"),
+        ({"n_surface": float("nan")}, "finite"),
+        ({"sigma_a": -1.0}, "sigma_a"),
+        ({"sigma_b": float("inf")}, "finite"),
+        ({"pairs": 0}, "pairs"),
+        ({"pairs": 2.5}, "whole"),
+        ({"spread_deg": 0.0}, "spread"),
+        ({"body_albedo": 1.5}, "body_albedo"),
+        ({"d_a": "thick"}, "number"),
+    ],
+)
+def test_bad_parameters_raise_typed_error_with_message(kwargs, fragment):
+    with pytest.raises(ParameterError, match=fragment):
+        Labradorite(**kwargs)
+
+
+@pytest.mark.parametrize("wavelength, cos_theta", [(0.0, 1.0), (-400.0, 1.0), (float("nan"), 1.0), (500.0, float("nan")), (500.0, 1.5), ("x", 1.0)])
+def test_bad_evaluation_arguments(wavelength, cos_theta):
+    with pytest.raises(ParameterError):
+        Labradorite().reflectance(wavelength, cos_theta)
+
+
+@pytest.mark.parametrize("an", [43.9, 61.1, 0.0, 100.0, float("nan")])
+def test_anorthite_outside_boggild_range(an):
+    with pytest.raises(ParameterError):
+        Labradorite.from_anorthite(an)
+
+
+def test_anorthite_ends_map_to_visible_period_range():
+    assert Labradorite.from_anorthite(44.0).period_nm == pytest.approx(128.0)
+    assert Labradorite.from_anorthite(61.0).period_nm == pytest.approx(252.0)
+    assert Labradorite.from_anorthite(52.0).name == "An52"
+
+
+def test_unknown_preset_and_bad_peak():
+    with pytest.raises(ParameterError, match="blue"):
+        Labradorite.preset("purple")
+    with pytest.raises(ParameterError):
+        Labradorite.from_peak_wavelength(float("nan"))
+    with pytest.raises(ParameterError):
+        Labradorite.from_peak_wavelength(-470.0)
+
+
+def test_errors_are_labcut_errors_and_value_errors():
+    with pytest.raises(LabcutError):
+        Labradorite(d_a=-1)
+    with pytest.raises(ValueError):
+        Labradorite(d_a=-1)
+
+
+def test_round_trip_through_dict():
+    lab = Labradorite.preset("gold", sigma_a=20.0, pairs=8000)
+    again = Labradorite.from_dict(lab.to_dict())
+    assert again == lab
+    with pytest.raises(ParameterError, match="colour"):
+        Labradorite.from_dict({**lab.to_dict(), "colour": "gold"})
+
+
+def test_replace_validates():
+    with pytest.raises(ParameterError):
+        Labradorite().replace(d_a=-3)
+    assert Labradorite().replace(pairs=10).pairs == 10
+
+
+@settings(max_examples=60)
+@given(st.one_of(st.floats(allow_nan=True, allow_infinity=True), st.integers(-10, 10)))
+def test_any_thickness_is_accepted_or_rejected_cleanly(d):
+    try:
+        lab = Labradorite(d_a=d)
+    except ParameterError as exc:
+        assert str(exc) and "\n" not in str(exc)
+    else:
+        assert lab.d_a > 0 and math.isfinite(lab.d_a)
+        assert np.all(np.isfinite(lab.reflectance(np.linspace(380, 780, 5), 1.0)))
