@@ -233,6 +233,11 @@ def test_bundled_meshes_exist():
     names = {p.name for p in BUNDLED}
     for required in (
         "oval-16x12-low.ply",
+        "oval-16x12-medium.ply",
+        "oval-16x12-high.ply",
+        "round-12-low.ply",
+        "round-12-medium.ply",
+        "round-12-high.ply",
         "carving-biplane.ply",
         "slab-20x20x3.ply",
         "cube-10.ply",
@@ -265,3 +270,16 @@ def test_benchmark_oval_matches_builder():
     assert 20_000 <= len(m.faces) <= 50_000
     assert m.volume == pytest.approx(ref.volume, rel=1e-6)
     assert np.allclose(m.extents, [16, 12, 2.4], atol=1e-5)
+
+
+def test_make_meshes_regenerates_the_committed_files(tmp_path):
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("make_meshes", ROOT / "examples" / "make_meshes.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    mod.main(tmp_path)
+    made = sorted(p.name for p in tmp_path.iterdir())
+    assert made == sorted(p.name for p in MESHES.iterdir())
+    for name in made:
+        assert (tmp_path / name).read_bytes() == (MESHES / name).read_bytes(), name
