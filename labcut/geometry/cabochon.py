@@ -216,7 +216,8 @@ def cabochon(
             dome (same profile as the crown, usually lower; may also be
             ``"low"``/``"medium"``/``"high"``).
         buff_top: ``False`` or the linear fraction (0, 0.95] of the outline
-            covered by a flat table on top of the crown.
+            covered by a flat table on top of the crown (``True``: 0.5). The
+            total dome height stays ``dome``.
         corner_radius: corner radius in mm of the ``"rectangle"`` outline
             (default 15 % of its smaller side).
         resolution: points around the outline (16..4096) or ``"default"``

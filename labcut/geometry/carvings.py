@@ -88,7 +88,7 @@ def _octagon(a: float, b: float, c: float) -> np.ndarray:
 def step_cut(
     length: float = 12.0,
     width: float = 10.0,
-    corner: float = 0.18,
+    corner: float = 0.25,
     girdle: float = 0.3,
     crown_steps: tuple[tuple[float, float], ...] = ((0.14, 38.0), (0.12, 30.0), (0.10, 22.0)),
     pavilion_steps: tuple[tuple[float, float], ...] = ((0.14, 50.0), (0.14, 44.0), (0.16, 40.0)),
