@@ -357,3 +357,13 @@ def test_impossible_parameters_are_clear_errors(kwargs, match):
         cabochon(**kwargs)
     assert "\n" not in str(info.value)
     assert isinstance(info.value, labcut.LabcutError)
+
+
+def test_long_traced_outline_is_resampled_keeping_corners():
+    edges = [((0, 0), (10, 0)), ((10, 0), (10, 10)), ((10, 10), (0, 10)), ((0, 10), (0, 0))]
+    t = np.linspace(0, 1, 1500, endpoint=False)[:, None]
+    traced = np.vstack([np.array(a) + t * (np.array(b) - np.array(a)) for a, b in edges])  # 6000 points
+    m = cabochon(traced, dome=2)
+    assert len(m.faces) < 50_000
+    check_solid(m, 10, 10, 2)
+    assert rel_err(m, 100 * 2 / 3 * 2) < VOLUME_RTOL  # corners kept: the square is exact

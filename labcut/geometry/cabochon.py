@@ -145,6 +145,18 @@ def _outline_points(outline: Any, length: Any, width: Any, corner_radius: Any, n
     pts = (pts - (lo + hi) / 2) * np.array([sx, sy])
     if len(pts) < n:
         pts = _ol.densify(pts, n)
+    elif len(pts) > n:
+        # a traced outline with many points: resample to the resolution, keeping
+        # corners (turns over 15 degrees) and the extreme points as vertices
+        d_in = pts - np.roll(pts, 1, axis=0)
+        d_out = np.roll(pts, -1, axis=0) - pts
+        turn = np.abs(np.arctan2(d_in[:, 0] * d_out[:, 1] - d_in[:, 1] * d_out[:, 0], np.einsum("ij,ij->i", d_in, d_out)))
+        keys = set(np.flatnonzero(turn > np.radians(15.0)).tolist())
+        keys |= {int(np.argmin(pts[:, 0])), int(np.argmax(pts[:, 0])), int(np.argmin(pts[:, 1])), int(np.argmax(pts[:, 1]))}
+        if len(keys) < n:
+            fewer = _ol._resample(pts, sorted(keys), n)
+            if _ol._segments_intersect(fewer) is None and _ol.star_centre(fewer) is not None:
+                pts = fewer
     return pts, "custom"
 
 
@@ -203,7 +215,9 @@ def cabochon(
         outline: ``"round"``, ``"oval"``, ``"cushion"``, ``"pear"``,
             ``"marquise"`` (or ``"navette"``), ``"rectangle"``, or an ``(K, 2)``
             array of x, y points in mm (a closed, simple polygon that is
-            star-shaped about some point; either winding).
+            star-shaped about some point; either winding). Polygons with fewer
+            than ``resolution`` points get extra points along their edges,
+            longer ones are resampled to ``resolution`` points keeping corners.
         length: size along X in mm (for ``"round"``, the diameter). With a user
             outline, optional: the outline is scaled to this length.
         width: size along Y in mm (``"round"``: may be omitted or equal to length).
