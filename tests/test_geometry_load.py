@@ -283,3 +283,11 @@ def test_make_meshes_regenerates_the_committed_files(tmp_path):
     assert made == sorted(p.name for p in MESHES.iterdir())
     for name in made:
         assert (tmp_path / name).read_bytes() == (MESHES / name).read_bytes(), name
+
+
+@pytest.mark.parametrize("suffix", [".obj", ".off", ".ply", ".gltf", ".glb", ".stl", ".3mf"])
+def test_random_bytes_fail_in_one_line(tmp_path, suffix):
+    rng = np.random.default_rng(7)
+    path = tmp_path / f"noise{suffix}"
+    path.write_bytes(rng.integers(0, 256, 3000, dtype=np.uint8).tobytes())
+    assert path.name in one_line_error(path)

@@ -234,11 +234,19 @@ def _read(path: Path, fmt: str) -> tuple[np.ndarray, np.ndarray]:
 
     if fmt == "stl":
         _check_stl(path)
+    if fmt == "gltf":
+        with open(path, "rb") as fh:
+            if fh.read(256).lstrip()[:1] != b"{":
+                raise MeshError(f"cannot read {path.name} as GLTF: it is not a JSON glTF file (binary glTF ends in .glb)")
 
     try:
         loaded = trimesh.load(str(path), file_type=fmt, process=False, force="mesh")
+    except ImportError:
+        # trimesh only reaches for a charset detector when a text format is not UTF-8
+        raise MeshError(f"cannot read {path.name} as {fmt.upper()}: it is not a UTF-8 text {fmt.upper()} file") from None
     except Exception as exc:  # trimesh raises many kinds on a bad file
-        raise MeshError(f"cannot read {path.name} as {fmt.upper()}: {_one_line(exc) or type(exc).__name__}") from None
+        detail = _one_line(exc) if len(str(exc)) > 12 else f"{type(exc).__name__}: {_one_line(exc)}"
+        raise MeshError(f"cannot read {path.name} as {fmt.upper()} ({detail})") from None
     if isinstance(loaded, trimesh.Scene):  # pragma: no cover - force="mesh" flattens scenes
         geoms = [g for g in loaded.dump() if isinstance(g, trimesh.Trimesh)]
         loaded = trimesh.util.concatenate(geoms) if geoms else trimesh.Trimesh()
