@@ -17,6 +17,7 @@ except ImportError:  # pragma: no cover
     from click.exceptions import ClickException as _UsageError
 
 from . import spectrum  # noqa: F401  (registers its command)
+from . import geometry  # noqa: F401  (registers cabochon, inspect)
 from .root import app, err_console
 
 
