@@ -93,256 +93,273 @@ def _normal_from_props(props: Any) -> tuple[float, float, float]:
     return tuple(float(x) for x in m / norm)
 
 
-class LabradoriteBSDF(mi.BSDF):
-    """Mitsuba BSDF plugin ``labradorite`` (see the module docstring).
+_CLASSES: dict[str, type] = {}
 
-    Properties: ``normal`` (lamella normal, mesh frame; default +Z), the
-    :class:`~labcut.physics.material.Labradorite` parameters by name
-    (``n_a``, ``n_b``, ``d_a``, ``d_b``, ``sigma_a``, ``sigma_b``, ``pairs``,
-    ``spread_deg``, ``body_albedo``, ``n_surface``), and the switches
-    ``surface``, ``schiller``, ``body`` (bool, default True) that leave a lobe
-    out entirely (its component still exists so indices stay 0/1/2).
 
-    Differentiable parameter exposed by ``traverse``: ``normal``.
-    """
+def bsdf_class() -> type:
+    """The plugin class for the current Mitsuba variant (``mi.BSDF`` differs per variant)."""
+    variant = mi.variant()
+    if variant is None or variant.startswith("scalar"):
+        raise ParameterError("the labradorite BSDF needs a JIT variant (llvm_ad_* or cuda_ad_*)")
+    if variant not in _CLASSES:
+        _CLASSES[variant] = _define_class()
+    return _CLASSES[variant]
 
-    def __init__(self, props: Any) -> None:
-        mi.BSDF.__init__(self, props)
-        self.material = material_from_props(props)
-        self.normal = mi.Vector3f(*_normal_from_props(props))
-        self.eta = float(self.material.n_surface)
-        self.kappa = vmf_kappa(self.material.spread_deg)
-        # density normalisation of the axial vMF over the hemisphere around m
-        self.one_minus_exp_k = -math.expm1(-self.kappa)
-        self.q_norm = self.kappa / (2.0 * math.pi * self.one_minus_exp_k)
-        self.use_surface = bool(props.get("surface", True))
-        self.use_schiller = bool(props.get("schiller", True))
-        self.use_body = bool(props.get("body", True)) and self.material.body_albedo > 0.0
-        self._spectral = bool(mi.is_spectral)
-        self._build_tables()
 
-        front = mi.BSDFFlags.FrontSide
-        self.m_components = [
-            mi.BSDFFlags.DeltaReflection | front,
-            mi.BSDFFlags.GlossyReflection | front,
-            mi.BSDFFlags.DiffuseReflection | front,
-        ]
-        self.m_flags = self.m_components[0] | self.m_components[1] | self.m_components[2]
+def _define_class() -> type:
+    class LabradoriteBSDF(mi.BSDF):
+        """Mitsuba BSDF plugin ``labradorite`` (see the module docstring).
 
-    # ------------------------------------------------------------------ set-up
-    def _build_tables(self) -> None:
-        """Per-material lookup tables (RGB / mono) and the lobe-selection weight."""
-        from ..colour import reflectance_luminance, reflectance_rgb
+        Properties: ``normal`` (lamella normal, mesh frame; default +Z), the
+        :class:`~labcut.physics.material.Labradorite` parameters by name
+        (``n_a``, ``n_b``, ``d_a``, ``d_b``, ``sigma_a``, ``sigma_b``, ``pairs``,
+        ``spread_deg``, ``body_albedo``, ``n_surface``), and the switches
+        ``surface``, ``schiller``, ``body`` (bool, default True) that leave a lobe
+        out entirely (its component still exists so indices stay 0/1/2).
 
-        c = np.linspace(0.0, 1.0, TABLE_SIZE)
-        lum = reflectance_luminance(self.material, c)
-        # schiller sampling weight: mean luminance reflectance over the angles light meets
-        self.schiller_weight = float(max(np.mean(lum[TABLE_SIZE // 2 :]), 0.02))
-        self.table = None
-        if not self._spectral:
-            if mi.is_rgb:
-                data = np.clip(reflectance_rgb(self.material, c), 0.0, None).astype(np.float32)
-            else:
-                data = lum[:, None].astype(np.float32)
-            self.table = mi.Texture1f(mi.TensorXf(data))
+        Differentiable parameter exposed by ``traverse``: ``normal``.
+        """
 
-    # ------------------------------------------------------------------ helpers
-    def _lamella_reflectance(self, si: Any, cos_l: Any) -> Any:
-        """R(λ, cos θ_l) as an UnpolarizedSpectrum."""
-        if self._spectral:
+        def __init__(self, props: Any) -> None:
+            mi.BSDF.__init__(self, props)
+            self.material = material_from_props(props)
+            self.normal = mi.Vector3f(*_normal_from_props(props))
+            self.eta = float(self.material.n_surface)
+            self.kappa = vmf_kappa(self.material.spread_deg)
+            # density normalisation of the axial vMF over the hemisphere around m
+            self.one_minus_exp_k = -math.expm1(-self.kappa)
+            self.q_norm = self.kappa / (2.0 * math.pi * self.one_minus_exp_k)
+            self.use_surface = bool(props.get("surface", True))
+            self.use_schiller = bool(props.get("schiller", True))
+            self.use_body = bool(props.get("body", True)) and self.material.body_albedo > 0.0
+            self._spectral = bool(mi.is_spectral)
+            self._build_tables()
+
+            front = mi.BSDFFlags.FrontSide
+            self.m_components = [
+                mi.BSDFFlags.DeltaReflection | front,
+                mi.BSDFFlags.GlossyReflection | front,
+                mi.BSDFFlags.DiffuseReflection | front,
+            ]
+            self.m_flags = self.m_components[0] | self.m_components[1] | self.m_components[2]
+
+        # ------------------------------------------------------------------ set-up
+        def _build_tables(self) -> None:
+            """Per-material lookup tables (RGB / mono) and the lobe-selection weight."""
+            from ..colour import reflectance_luminance, reflectance_rgb
+
+            c = np.linspace(0.0, 1.0, TABLE_SIZE)
+            lum = reflectance_luminance(self.material, c)
+            # schiller sampling weight: mean luminance reflectance over the angles light meets
+            self.schiller_weight = float(max(np.mean(lum[TABLE_SIZE // 2 :]), 0.02))
+            self.table = None
+            if not self._spectral:
+                if mi.is_rgb:
+                    data = np.clip(reflectance_rgb(self.material, c), 0.0, None).astype(np.float32)
+                else:
+                    data = lum[:, None].astype(np.float32)
+                self.table = mi.Texture1f(mi.TensorXf(data))
+
+        # ------------------------------------------------------------------ helpers
+        def _lamella_reflectance(self, si: Any, cos_l: Any) -> Any:
+            """R(λ, cos θ_l) as an UnpolarizedSpectrum."""
+            if self._spectral:
+                m = self.material
+                r = stack_reflectance(si.wavelengths, cos_l, m.n_a, m.n_b, m.d_a, m.d_b, m.sigma_a, m.sigma_b, m.pairs)
+                return mi.UnpolarizedSpectrum(r)
+            values = self.table.eval(mi.Point1f(dr.clip(cos_l, 0.0, 1.0)))
+            if len(values) == 1:
+                return mi.UnpolarizedSpectrum(values[0])
+            return mi.UnpolarizedSpectrum(values[0], values[1], values[2])
+
+        def _internal(self, w: Any) -> Any:
+            """Internal direction (pointing up) that refracts into the external direction ``w``."""
+            inv = 1.0 / self.eta
+            t = mi.Vector3f(w.x * inv, w.y * inv, 0.0)
+            return mi.Vector3f(t.x, t.y, dr.safe_sqrt(1.0 - dr.squared_norm(t)))
+
+        def _external(self, b: Any) -> tuple[Any, Any]:
+            """External direction of the internal direction ``b``, and whether it escapes (no TIR)."""
+            tx, ty = b.x * self.eta, b.y * self.eta
+            s2 = tx * tx + ty * ty
+            return mi.Vector3f(tx, ty, dr.safe_sqrt(1.0 - s2)), (s2 < 1.0) & (b.z > 0.0)
+
+        def _lamella_local(self, si: Any) -> Any:
+            return si.to_local(dr.normalize(self.normal))
+
+        def _q(self, cos_hm: Any) -> Any:
+            """Axial vMF density of lamella orientation at |h·m| = ``cos_hm`` (per steradian)."""
+            return self.q_norm * dr.exp(self.kappa * (dr.abs(cos_hm) - 1.0))
+
+        def _weights(self, ctx: Any, cos_i: Any) -> tuple[Any, Any, Any, Any]:
+            """Selection probabilities of (surface, schiller, body) and the Fresnel term."""
+            f_i = mi.fresnel(cos_i, self.eta)[0]
+            w_spec = f_i if (self.use_surface and ctx.is_enabled(mi.BSDFFlags.DeltaReflection, 0)) else mi.Float(0.0)
+            w_sch = (1.0 - f_i) * self.schiller_weight if (self.use_schiller and ctx.is_enabled(mi.BSDFFlags.GlossyReflection, 1)) else mi.Float(0.0)
+            w_body = (1.0 - f_i) * self.material.body_albedo if (self.use_body and ctx.is_enabled(mi.BSDFFlags.DiffuseReflection, 2)) else mi.Float(0.0)
+            total = w_spec + w_sch + w_body
+            inv = dr.select(total > 0.0, dr.rcp(total), 0.0)
+            return w_spec * inv, w_sch * inv, w_body * inv, f_i
+
+        def _schiller_terms(self, si: Any, wo: Any) -> tuple[Any, Any]:
+            """(f_s · cos θ_o as UnpolarizedSpectrum, pdf of the schiller lobe) for local wo."""
+            wi = si.wi
+            a = self._internal(wi)
+            b = self._internal(wo)
+            h = dr.normalize(a + b)
+            cos_l = dr.dot(a, h)
+            m = self._lamella_local(si)
+            q = self._q(dr.dot(h, m))
+            t_i = 1.0 - mi.fresnel(mi.Frame3f.cos_theta(wi), self.eta)[0]
+            t_o = 1.0 - mi.fresnel(mi.Frame3f.cos_theta(wo), self.eta)[0]
+            cos_o = mi.Frame3f.cos_theta(wo)
+            denom = 4.0 * cos_l * dr.maximum(a.z, b.z)
+            shape = q / dr.maximum(denom, 1e-12)
+            r = self._lamella_reflectance(si, cos_l)
+            value = r * (t_i * t_o * shape * cos_o / (self.eta * self.eta))
+            pdf = q * cos_o / dr.maximum(4.0 * cos_l * self.eta * self.eta * b.z, 1e-12)
+            return value, pdf
+
+        def _body_terms(self, si: Any, wo: Any) -> tuple[Any, Any]:
+            cos_i = mi.Frame3f.cos_theta(si.wi)
+            cos_o = mi.Frame3f.cos_theta(wo)
+            t = (1.0 - mi.fresnel(cos_i, self.eta)[0]) * (1.0 - mi.fresnel(cos_o, self.eta)[0])
+            value = self.material.body_albedo * dr.inv_pi * t * cos_o
+            return value, mi.warp.square_to_cosine_hemisphere_pdf(wo)
+
+        def _to_spectrum(self, value: Any) -> Any:
+            if mi.is_polarized:
+                return mi.Spectrum(mi.mueller.depolarizer(mi.UnpolarizedSpectrum(value)))
+            return mi.Spectrum(value)
+
+        def _surface_weight(self, ctx: Any, si: Any, wo: Any, f_i: Any) -> Any:
+            """Weight of the delta surface reflection (Mueller matrix in polarized variants)."""
+            if not mi.is_polarized:
+                return mi.Spectrum(f_i)
+            wi_hat = wo if ctx.mode == mi.TransportMode.Radiance else si.wi
+            wo_hat = si.wi if ctx.mode == mi.TransportMode.Radiance else wo
+            eta = mi.Complex2f(self.eta, 0.0)
+            value = mi.Spectrum(mi.mueller.specular_reflection(mi.Frame3f.cos_theta(wo_hat), eta))
+            n = mi.Vector3f(0.0, 0.0, 1.0)
+            s_in = dr.normalize(dr.cross(n, -wo_hat))
+            s_out = dr.normalize(dr.cross(n, wi_hat))
+            collinear = dr.all(s_in == 0.0) | dr.any(dr.isnan(s_in))
+            s_in = dr.select(collinear, mi.Vector3f(1.0, 0.0, 0.0), s_in)
+            s_out = dr.select(collinear, mi.Vector3f(1.0, 0.0, 0.0), s_out)
+            return mi.mueller.rotate_mueller_basis(
+                value, -wo_hat, s_in, mi.mueller.stokes_basis(-wo_hat), wi_hat, s_out, mi.mueller.stokes_basis(wi_hat)
+            )
+
+        # ------------------------------------------------------------------ BSDF interface
+        def sample(self, ctx: Any, si: Any, sample1: Any, sample2: Any, active: Any = True) -> tuple[Any, Any]:
+            cos_i = mi.Frame3f.cos_theta(si.wi)
+            active = mi.Bool(active) & (cos_i > 0.0)
+            p_spec, p_sch, p_body, f_i = self._weights(ctx, cos_i)
+
+            pick_spec = sample1 < p_spec
+            pick_sch = (~pick_spec) & (sample1 < p_spec + p_sch)
+            pick_body = (~pick_spec) & (~pick_sch) & (p_body > 0.0)
+
+            # schiller: h from the axial vMF around m, mirror a, refract out
+            m = self._lamella_local(si)
+            m = dr.select(dr.dot(m, self._internal(si.wi)) < 0.0, -m, m)
+            k = self.kappa
+            w = dr.clip(1.0 + dr.log(1.0 - sample2.x * self.one_minus_exp_k) / k, 0.0, 1.0)
+            sin_w = dr.safe_sqrt(1.0 - w * w)
+            phi = dr.two_pi * sample2.y
+            sp, cp = dr.sincos(phi)
+            h = mi.Frame3f(m).to_world(mi.Vector3f(sin_w * cp, sin_w * sp, w))
+            a = self._internal(si.wi)
+            h = dr.select(dr.dot(a, h) < 0.0, -h, h)
+            b = 2.0 * dr.dot(a, h) * h - a
+            wo_sch, escapes = self._external(b)
+
+            wo_body = mi.warp.square_to_cosine_hemisphere(sample2)
+            wo_spec = mi.reflect(si.wi)
+
+            bs = dr.zeros(mi.BSDFSample3f)
+            bs.wo = dr.select(pick_spec, wo_spec, dr.select(pick_sch, wo_sch, wo_body))
+            bs.eta = 1.0
+            bs.sampled_component = dr.select(pick_spec, mi.UInt32(0), dr.select(pick_sch, mi.UInt32(1), mi.UInt32(2)))
+            bs.sampled_type = dr.select(
+                pick_spec,
+                mi.UInt32(+mi.BSDFFlags.DeltaReflection),
+                dr.select(pick_sch, mi.UInt32(+mi.BSDFFlags.GlossyReflection), mi.UInt32(+mi.BSDFFlags.DiffuseReflection)),
+            )
+            active &= pick_spec | (pick_sch & escapes) | pick_body
+            active &= mi.Frame3f.cos_theta(bs.wo) > 0.0
+
+            # non-delta: value / pdf of the mixture (as plastic.cpp does)
+            sch_val, sch_pdf = self._schiller_terms(si, bs.wo)
+            body_val, body_pdf = self._body_terms(si, bs.wo)
+            pdf_mix = p_sch * sch_pdf + p_body * body_pdf
+            bs.pdf = dr.select(pick_spec, p_spec, pdf_mix)
+            value_mix = self._to_spectrum(sch_val * dr.select(p_sch > 0.0, 1.0, 0.0) + body_val * dr.select(p_body > 0.0, 1.0, 0.0))
+            weight_mix = value_mix * dr.select(pdf_mix > 0.0, dr.rcp(pdf_mix), 0.0)
+            weight_spec = self._surface_weight(ctx, si, bs.wo, f_i) * dr.select(p_spec > 0.0, dr.rcp(p_spec), 0.0)
+            weight = dr.select(pick_spec, weight_spec, weight_mix)
+            active &= bs.pdf > 0.0
+            return bs, dr.select(active, weight, 0.0)
+
+        def eval(self, ctx: Any, si: Any, wo: Any, active: Any = True) -> Any:
+            value, _ = self._eval_pdf(ctx, si, wo, active)
+            return value
+
+        def pdf(self, ctx: Any, si: Any, wo: Any, active: Any = True) -> Any:
+            _, pdf = self._eval_pdf(ctx, si, wo, active)
+            return pdf
+
+        def eval_pdf(self, ctx: Any, si: Any, wo: Any, active: Any = True) -> tuple[Any, Any]:
+            return self._eval_pdf(ctx, si, wo, active)
+
+        def _eval_pdf(self, ctx: Any, si: Any, wo: Any, active: Any) -> tuple[Any, Any]:
+            cos_i = mi.Frame3f.cos_theta(si.wi)
+            cos_o = mi.Frame3f.cos_theta(wo)
+            active = mi.Bool(active) & (cos_i > 0.0) & (cos_o > 0.0)
+            p_spec, p_sch, p_body, _ = self._weights(ctx, cos_i)
+            use_sch = self.use_schiller and ctx.is_enabled(mi.BSDFFlags.GlossyReflection, 1)
+            use_body = self.use_body and ctx.is_enabled(mi.BSDFFlags.DiffuseReflection, 2)
+            value = mi.UnpolarizedSpectrum(0.0)
+            pdf = mi.Float(0.0)
+            if use_sch:
+                v, p = self._schiller_terms(si, wo)
+                value += v
+                pdf += p_sch * p
+            if use_body:
+                v, p = self._body_terms(si, wo)
+                value += v
+                pdf += p_body * p
+            return (
+                dr.select(active, self._to_spectrum(value), 0.0),
+                dr.select(active, pdf, 0.0),
+            )
+
+        def eval_schiller_luminance(self, si: Any, wo: Any) -> Any:
+            """Schiller lobe only, f_s·cos θ_o, as UnpolarizedSpectrum (flash metrics)."""
+            value, _ = self._schiller_terms(si, wo)
+            return value
+
+        def traverse(self, callback: Any) -> None:
+            callback.put("normal", self.normal, mi.ParamFlags.Differentiable)
+
+        def parameters_changed(self, keys: list[str]) -> None:
+            pass  # the normal is normalised where it is used; nothing is cached from it
+
+        def to_string(self) -> str:
             m = self.material
-            r = stack_reflectance(si.wavelengths, cos_l, m.n_a, m.n_b, m.d_a, m.d_b, m.sigma_a, m.sigma_b, m.pairs)
-            return mi.UnpolarizedSpectrum(r)
-        values = self.table.eval(mi.Point1f(dr.clip(cos_l, 0.0, 1.0)))
-        if len(values) == 1:
-            return mi.UnpolarizedSpectrum(values[0])
-        return mi.UnpolarizedSpectrum(values[0], values[1], values[2])
+            return (
+                f"LabradoriteBSDF[normal={self.normal}, d=({m.d_a:g}, {m.d_b:g}) nm, "
+                f"sigma=({m.sigma_a:g}, {m.sigma_b:g}) nm, pairs={m.pairs}, spread={m.spread_deg:g} deg, "
+                f"body_albedo={m.body_albedo:g}, eta={self.eta:g}]"
+            )
 
-    def _internal(self, w: Any) -> Any:
-        """Internal direction (pointing up) that refracts into the external direction ``w``."""
-        inv = 1.0 / self.eta
-        t = mi.Vector3f(w.x * inv, w.y * inv, 0.0)
-        return mi.Vector3f(t.x, t.y, dr.safe_sqrt(1.0 - dr.squared_norm(t)))
-
-    def _external(self, b: Any) -> tuple[Any, Any]:
-        """External direction of the internal direction ``b``, and whether it escapes (no TIR)."""
-        tx, ty = b.x * self.eta, b.y * self.eta
-        s2 = tx * tx + ty * ty
-        return mi.Vector3f(tx, ty, dr.safe_sqrt(1.0 - s2)), (s2 < 1.0) & (b.z > 0.0)
-
-    def _lamella_local(self, si: Any) -> Any:
-        return si.to_local(dr.normalize(self.normal))
-
-    def _q(self, cos_hm: Any) -> Any:
-        """Axial vMF density of lamella orientation at |h·m| = ``cos_hm`` (per steradian)."""
-        return self.q_norm * dr.exp(self.kappa * (dr.abs(cos_hm) - 1.0))
-
-    def _weights(self, ctx: Any, cos_i: Any) -> tuple[Any, Any, Any, Any]:
-        """Selection probabilities of (surface, schiller, body) and the Fresnel term."""
-        f_i = mi.fresnel(cos_i, self.eta)[0]
-        w_spec = f_i if (self.use_surface and ctx.is_enabled(mi.BSDFFlags.DeltaReflection, 0)) else mi.Float(0.0)
-        w_sch = (1.0 - f_i) * self.schiller_weight if (self.use_schiller and ctx.is_enabled(mi.BSDFFlags.GlossyReflection, 1)) else mi.Float(0.0)
-        w_body = (1.0 - f_i) * self.material.body_albedo if (self.use_body and ctx.is_enabled(mi.BSDFFlags.DiffuseReflection, 2)) else mi.Float(0.0)
-        total = w_spec + w_sch + w_body
-        inv = dr.select(total > 0.0, dr.rcp(total), 0.0)
-        return w_spec * inv, w_sch * inv, w_body * inv, f_i
-
-    def _schiller_terms(self, si: Any, wo: Any) -> tuple[Any, Any]:
-        """(f_s · cos θ_o as UnpolarizedSpectrum, pdf of the schiller lobe) for local wo."""
-        wi = si.wi
-        a = self._internal(wi)
-        b = self._internal(wo)
-        h = dr.normalize(a + b)
-        cos_l = dr.dot(a, h)
-        m = self._lamella_local(si)
-        q = self._q(dr.dot(h, m))
-        t_i = 1.0 - mi.fresnel(mi.Frame3f.cos_theta(wi), self.eta)[0]
-        t_o = 1.0 - mi.fresnel(mi.Frame3f.cos_theta(wo), self.eta)[0]
-        cos_o = mi.Frame3f.cos_theta(wo)
-        denom = 4.0 * cos_l * dr.maximum(a.z, b.z)
-        shape = q / dr.maximum(denom, 1e-12)
-        r = self._lamella_reflectance(si, cos_l)
-        value = r * (t_i * t_o * shape * cos_o / (self.eta * self.eta))
-        pdf = q * cos_o / dr.maximum(4.0 * cos_l * self.eta * self.eta * b.z, 1e-12)
-        return value, pdf
-
-    def _body_terms(self, si: Any, wo: Any) -> tuple[Any, Any]:
-        cos_i = mi.Frame3f.cos_theta(si.wi)
-        cos_o = mi.Frame3f.cos_theta(wo)
-        t = (1.0 - mi.fresnel(cos_i, self.eta)[0]) * (1.0 - mi.fresnel(cos_o, self.eta)[0])
-        value = self.material.body_albedo * dr.inv_pi * t * cos_o
-        return value, mi.warp.square_to_cosine_hemisphere_pdf(wo)
-
-    def _to_spectrum(self, value: Any) -> Any:
-        if mi.is_polarized:
-            return mi.Spectrum(mi.mueller.depolarizer(mi.UnpolarizedSpectrum(value)))
-        return mi.Spectrum(value)
-
-    def _surface_weight(self, ctx: Any, si: Any, wo: Any, f_i: Any) -> Any:
-        """Weight of the delta surface reflection (Mueller matrix in polarized variants)."""
-        if not mi.is_polarized:
-            return mi.Spectrum(f_i)
-        wi_hat = wo if ctx.mode == mi.TransportMode.Radiance else si.wi
-        wo_hat = si.wi if ctx.mode == mi.TransportMode.Radiance else wo
-        eta = mi.Complex2f(self.eta, 0.0)
-        value = mi.Spectrum(mi.mueller.specular_reflection(mi.Frame3f.cos_theta(wo_hat), eta))
-        n = mi.Vector3f(0.0, 0.0, 1.0)
-        s_in = dr.normalize(dr.cross(n, -wo_hat))
-        s_out = dr.normalize(dr.cross(n, wi_hat))
-        collinear = dr.all(s_in == 0.0) | dr.any(dr.isnan(s_in))
-        s_in = dr.select(collinear, mi.Vector3f(1.0, 0.0, 0.0), s_in)
-        s_out = dr.select(collinear, mi.Vector3f(1.0, 0.0, 0.0), s_out)
-        return mi.mueller.rotate_mueller_basis(
-            value, -wo_hat, s_in, mi.mueller.stokes_basis(-wo_hat), wi_hat, s_out, mi.mueller.stokes_basis(wi_hat)
-        )
-
-    # ------------------------------------------------------------------ BSDF interface
-    def sample(self, ctx: Any, si: Any, sample1: Any, sample2: Any, active: Any = True) -> tuple[Any, Any]:
-        cos_i = mi.Frame3f.cos_theta(si.wi)
-        active = mi.Bool(active) & (cos_i > 0.0)
-        p_spec, p_sch, p_body, f_i = self._weights(ctx, cos_i)
-
-        pick_spec = sample1 < p_spec
-        pick_sch = (~pick_spec) & (sample1 < p_spec + p_sch)
-        pick_body = (~pick_spec) & (~pick_sch) & (p_body > 0.0)
-
-        # schiller: h from the axial vMF around m, mirror a, refract out
-        m = self._lamella_local(si)
-        m = dr.select(dr.dot(m, self._internal(si.wi)) < 0.0, -m, m)
-        k = self.kappa
-        w = dr.clip(1.0 + dr.log(1.0 - sample2.x * self.one_minus_exp_k) / k, 0.0, 1.0)
-        sin_w = dr.safe_sqrt(1.0 - w * w)
-        phi = dr.two_pi * sample2.y
-        sp, cp = dr.sincos(phi)
-        h = mi.Frame3f(m).to_world(mi.Vector3f(sin_w * cp, sin_w * sp, w))
-        a = self._internal(si.wi)
-        h = dr.select(dr.dot(a, h) < 0.0, -h, h)
-        b = 2.0 * dr.dot(a, h) * h - a
-        wo_sch, escapes = self._external(b)
-
-        wo_body = mi.warp.square_to_cosine_hemisphere(sample2)
-        wo_spec = mi.reflect(si.wi)
-
-        bs = dr.zeros(mi.BSDFSample3f)
-        bs.wo = dr.select(pick_spec, wo_spec, dr.select(pick_sch, wo_sch, wo_body))
-        bs.eta = 1.0
-        bs.sampled_component = dr.select(pick_spec, mi.UInt32(0), dr.select(pick_sch, mi.UInt32(1), mi.UInt32(2)))
-        bs.sampled_type = dr.select(
-            pick_spec,
-            mi.UInt32(+mi.BSDFFlags.DeltaReflection),
-            dr.select(pick_sch, mi.UInt32(+mi.BSDFFlags.GlossyReflection), mi.UInt32(+mi.BSDFFlags.DiffuseReflection)),
-        )
-        active &= pick_spec | (pick_sch & escapes) | pick_body
-        active &= mi.Frame3f.cos_theta(bs.wo) > 0.0
-
-        # non-delta: value / pdf of the mixture (as plastic.cpp does)
-        sch_val, sch_pdf = self._schiller_terms(si, bs.wo)
-        body_val, body_pdf = self._body_terms(si, bs.wo)
-        pdf_mix = p_sch * sch_pdf + p_body * body_pdf
-        bs.pdf = dr.select(pick_spec, p_spec, pdf_mix)
-        value_mix = self._to_spectrum(sch_val * dr.select(p_sch > 0.0, 1.0, 0.0) + body_val * dr.select(p_body > 0.0, 1.0, 0.0))
-        weight_mix = value_mix * dr.select(pdf_mix > 0.0, dr.rcp(pdf_mix), 0.0)
-        weight_spec = self._surface_weight(ctx, si, bs.wo, f_i) * dr.select(p_spec > 0.0, dr.rcp(p_spec), 0.0)
-        weight = dr.select(pick_spec, weight_spec, weight_mix)
-        active &= bs.pdf > 0.0
-        return bs, dr.select(active, weight, 0.0)
-
-    def eval(self, ctx: Any, si: Any, wo: Any, active: Any = True) -> Any:
-        value, _ = self._eval_pdf(ctx, si, wo, active)
-        return value
-
-    def pdf(self, ctx: Any, si: Any, wo: Any, active: Any = True) -> Any:
-        _, pdf = self._eval_pdf(ctx, si, wo, active)
-        return pdf
-
-    def eval_pdf(self, ctx: Any, si: Any, wo: Any, active: Any = True) -> tuple[Any, Any]:
-        return self._eval_pdf(ctx, si, wo, active)
-
-    def _eval_pdf(self, ctx: Any, si: Any, wo: Any, active: Any) -> tuple[Any, Any]:
-        cos_i = mi.Frame3f.cos_theta(si.wi)
-        cos_o = mi.Frame3f.cos_theta(wo)
-        active = mi.Bool(active) & (cos_i > 0.0) & (cos_o > 0.0)
-        p_spec, p_sch, p_body, _ = self._weights(ctx, cos_i)
-        use_sch = self.use_schiller and ctx.is_enabled(mi.BSDFFlags.GlossyReflection, 1)
-        use_body = self.use_body and ctx.is_enabled(mi.BSDFFlags.DiffuseReflection, 2)
-        value = mi.UnpolarizedSpectrum(0.0)
-        pdf = mi.Float(0.0)
-        if use_sch:
-            v, p = self._schiller_terms(si, wo)
-            value += v
-            pdf += p_sch * p
-        if use_body:
-            v, p = self._body_terms(si, wo)
-            value += v
-            pdf += p_body * p
-        return (
-            dr.select(active, self._to_spectrum(value), 0.0),
-            dr.select(active, pdf, 0.0),
-        )
-
-    def eval_schiller_luminance(self, si: Any, wo: Any) -> Any:
-        """Schiller lobe only, f_s·cos θ_o, as UnpolarizedSpectrum (flash metrics)."""
-        value, _ = self._schiller_terms(si, wo)
-        return value
-
-    def traverse(self, callback: Any) -> None:
-        callback.put("normal", self.normal, mi.ParamFlags.Differentiable)
-
-    def parameters_changed(self, keys: list[str]) -> None:
-        pass  # the normal is normalised where it is used; nothing is cached from it
-
-    def to_string(self) -> str:
-        m = self.material
-        return (
-            f"LabradoriteBSDF[normal={self.normal}, d=({m.d_a:g}, {m.d_b:g}) nm, "
-            f"sigma=({m.sigma_a:g}, {m.sigma_b:g}) nm, pairs={m.pairs}, spread={m.spread_deg:g} deg, "
-            f"body_albedo={m.body_albedo:g}, eta={self.eta:g}]"
-        )
+    return LabradoriteBSDF
 
 
 def register() -> None:
     """Register the plugin for the current variant (idempotent)."""
-    mi.register_bsdf(PLUGIN_NAME, lambda props: LabradoriteBSDF(props))
+    cls = bsdf_class()
+    mi.register_bsdf(PLUGIN_NAME, lambda props: cls(props))
 
 
 def _on_variant_change(old: str | None, new: str | None) -> None:

@@ -1,0 +1,285 @@
+"""``labcut.render``: render a stone with the labradorite BSDF, simulating only what the call needs.
+
+The render plan (variant, integrator, depth, lobes) is chosen from the request
+and the mesh, logged, and returned on the result:
+
+* colour: ``rgb`` unless ``mode="spectral"`` / ``"mono"`` is asked for; polarized
+  transport only when a polarizer angle is given.
+* light transport: a convex stone lit by anything is rendered with direct
+  lighting only (the BSDF is a surface model: no path can leave a convex stone
+  and come back); a non-convex carving gets a path tracer with a few bounces
+  so light reflected between its parts is included.
+* lobes: ``("surface", "schiller", "body")`` by default; a schiller-only render
+  (flash maps) switches the others off inside the plugin.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..errors import ParameterError
+from ..physics.material import Labradorite
+from .images import save_image
+from .scene import Lighting, View, camera, check_envmap, lighting_preset, to_mitsuba_mesh, view_presets
+
+log = logging.getLogger("labcut.render")
+
+LOBES = ("surface", "schiller", "body")
+
+
+@dataclass(frozen=True)
+class RenderPlan:
+    """What a render simulates, and why."""
+
+    variant: str
+    integrator: str
+    max_depth: int
+    lobes: tuple[str, ...]
+    convex: bool
+    polarizer_deg: float | None
+    reasons: tuple[str, ...] = ()
+
+    def to_dict(self) -> dict[str, Any]:
+        return asdict(self)
+
+
+@dataclass
+class RenderResult:
+    """A rendered image (linear RGB, float32, H x W x 3) and how it was made."""
+
+    image: np.ndarray
+    plan: RenderPlan
+    spp: int
+    seconds: float
+    views: list[str] = field(default_factory=list)
+
+    @property
+    def samples_per_second(self) -> float:
+        h, w = self.image.shape[:2]
+        return h * w * self.spp / max(self.seconds, 1e-9)
+
+    def save(self, path: str | Path, exposure: float | None = None) -> Path:
+        """PNG (tonemapped, sRGB) or EXR (linear HDR) by suffix; written atomically."""
+        return save_image(self.image, path, exposure)
+
+
+def normalize_normal(normal: Any) -> np.ndarray:
+    """Validate a lamella normal (3 finite numbers, not zero) and return it as a unit vector, z >= 0."""
+    try:
+        m = np.asarray(normal, dtype=np.float64).reshape(3)
+    except (TypeError, ValueError):
+        raise ParameterError(f"lamella normal must be three numbers, got {normal!r}") from None
+    if not np.all(np.isfinite(m)):
+        raise ParameterError(f"lamella normal must be finite, got {m.tolist()}")
+    norm = float(np.linalg.norm(m))
+    if norm < 1e-9:
+        raise ParameterError("lamella normal must not be the zero vector")
+    m = m / norm
+    return -m if m[2] < 0 else m  # axial: report the upper-hemisphere representative
+
+
+def _is_convex(mesh: Any) -> bool:
+    info = getattr(mesh, "metadata", {}).get("labcut", {})
+    if "convex" in info:
+        return bool(info["convex"])
+    from ..geometry.meshio import is_convex_mesh
+
+    return bool(is_convex_mesh(mesh))
+
+
+def plan_render(
+    mesh: Any,
+    lighting: Lighting,
+    mode: str = "rgb",
+    polarizer_deg: float | None = None,
+    lobes: Sequence[str] = LOBES,
+    max_depth: int | None = None,
+) -> RenderPlan:
+    """Choose variant, integrator and depth for a request (see the module docstring)."""
+    from ..backend import variant_name
+
+    lobes = tuple(lobes)
+    bad = [x for x in lobes if x not in LOBES]
+    if bad or not lobes:
+        raise ParameterError(f"lobes must be a non-empty subset of {', '.join(LOBES)}, got {list(lobes)}")
+    polarized = polarizer_deg is not None
+    if polarized and mode == "rgb":
+        mode = "spectral"
+    variant = variant_name(mode, polarized)
+    convex = _is_convex(mesh)
+    reasons = [f"{mode} colour{' with polarization (polarizer given)' if polarized else ''}"]
+    if max_depth is not None:
+        integrator, depth = ("path", int(max_depth))
+        reasons.append(f"path tracing to depth {depth} as requested")
+    elif convex:
+        integrator, depth = ("direct", 2)
+        reasons.append("convex stone: direct lighting is exact (no light path leaves and re-enters)")
+    else:
+        integrator, depth = ("path", 4)
+        reasons.append("non-convex stone: path tracing, 3 bounces, for light reflected between parts")
+    if lobes != LOBES:
+        reasons.append(f"lobes: {', '.join(lobes)} only")
+    return RenderPlan(variant, integrator, depth, lobes, convex, polarizer_deg, tuple(reasons))
+
+
+def bsdf_dict(material: Labradorite, normal: np.ndarray, lobes: Sequence[str] = LOBES) -> dict[str, Any]:
+    """Plugin dictionary of the labradorite BSDF for ``material`` and a lamella normal."""
+    d: dict[str, Any] = {"type": "labradorite", "normal": [float(x) for x in normal]}
+    for key, value in material.to_dict().items():
+        if key != "name":
+            d[key] = value
+    for lobe in LOBES:
+        d[lobe] = lobe in lobes
+    return d
+
+
+def build_scene(
+    mesh: Any,
+    material: Labradorite,
+    lamella_normal: Any,
+    lighting: str | Lighting = "overhead",
+    view: str | View | tuple[float, float] = "face-up",
+    resolution: int = 512,
+    mode: str = "rgb",
+    polarizer_deg: float | None = None,
+    lobes: Sequence[str] = LOBES,
+    max_depth: int | None = None,
+    perspective: bool = False,
+    integrator: str | None = None,
+) -> tuple[Any, RenderPlan]:
+    """The Mitsuba scene for one view (selects the plan's variant). Returns (scene, plan).
+
+    ``integrator`` overrides the plan's (e.g. ``"prb"`` for gradients).
+    """
+    import mitsuba as mi
+
+    from . import bsdf as _bsdf  # noqa: F401  (registers the plugin)
+
+    if not isinstance(material, Labradorite):
+        raise ParameterError(f"material must be a labcut.Labradorite, got {type(material).__name__}")
+    normal = normalize_normal(lamella_normal)
+    if not (isinstance(resolution, int | np.integer) and 8 <= int(resolution) <= 8192):
+        raise ParameterError(f"resolution must be a whole number of pixels in [8, 8192], got {resolution!r}")
+    light = lighting_preset(lighting)
+    views = view_presets(view)
+    if len(views) != 1:
+        raise ParameterError("build_scene takes a single view; render() handles 'orbit'")
+    plan = plan_render(mesh, light, mode, polarizer_deg, lobes, max_depth)
+    mi.set_variant(plan.variant)
+    if light.envmap is not None:
+        check_envmap(light.envmap)
+    bsdf = mi.load_dict(bsdf_dict(material, normal, plan.lobes))
+    name = integrator or plan.integrator
+    integ: dict[str, Any] = {"type": name, "max_depth": plan.max_depth} if name != "direct" else {"type": "direct"}
+    if name == "direct":
+        integ.update({"emitter_samples": 1, "bsdf_samples": 1})
+    if plan.polarizer_deg is not None:
+        integ = {"type": "stokes", "nested": integ}
+    scene_dict: dict[str, Any] = {
+        "type": "scene",
+        "integrator": integ,
+        "sensor": camera(mesh, views[0], int(resolution), perspective),
+        "stone": to_mitsuba_mesh(mesh, bsdf),
+        **light.emitters(),
+    }
+    return mi.load_dict(scene_dict), plan
+
+
+def _polarizer_intensity(image: np.ndarray, angle_deg: float) -> np.ndarray:
+    """Intensity through an ideal linear polarizer from a Stokes image (S0..S3 RGB blocks)."""
+    s0, s1, s2 = image[..., 0:3], image[..., 3:6], image[..., 6:9]
+    a = math.radians(2.0 * angle_deg)
+    return 0.5 * (s0 + s1 * math.cos(a) + s2 * math.sin(a))
+
+
+def render(
+    mesh: Any,
+    material: Labradorite,
+    lamella_normal: Any = (0.0, 0.0, 1.0),
+    *,
+    lighting: str | Lighting = "overhead",
+    view: str | View | tuple[float, float] = "face-up",
+    spp: int = 64,
+    resolution: int = 512,
+    mode: str = "rgb",
+    polarizer_deg: float | None = None,
+    lobes: Sequence[str] = LOBES,
+    max_depth: int | None = None,
+    perspective: bool = False,
+    seed: int = 0,
+    output: str | Path | None = None,
+    progress: Callable[[int, int], None] | None = None,
+) -> RenderResult:
+    """Render ``mesh`` (mm, +Z face-up) cut from ``material`` with lamellae normal to ``lamella_normal``.
+
+    Parameters
+    ----------
+    lighting: ``overhead`` | ``sky`` | ``studio`` | an .exr/.hdr environment map | :class:`Lighting`.
+    view: ``face-up`` | ``tilted`` | ``side`` | ``orbit`` (8 views tiled 4 x 2) | (tilt°, azimuth°).
+    spp: samples per pixel (>= 1); rendered in passes so ``progress(done, total)`` can report.
+    mode: ``rgb`` | ``mono`` | ``spectral``; ``polarizer_deg`` renders polarized and returns the
+        intensity through an ideal linear polarizer at that angle (0° = transmission axis along
+        the image's horizontal).
+    output: optional .png / .exr path written atomically.
+
+    Returns a :class:`RenderResult` whose ``image`` is linear RGB float32 and ``plan`` says
+    what was simulated.
+    """
+    import drjit as dr
+    import mitsuba as mi
+
+    if not (isinstance(spp, int | np.integer) and spp >= 1):
+        raise ParameterError(f"spp must be a whole number >= 1, got {spp!r}")
+    if output is not None:
+        from ..fileio import check_output_path
+
+        check_output_path(output, (".png", ".exr"))
+    views = view_presets(view)
+    total = int(spp) * len(views)
+    per_pass = max(1, min(int(spp), 16))
+    done = 0
+    tiles = []
+    plan = None
+    start = time.perf_counter()
+    for v in views:
+        scene, plan = build_scene(
+            mesh, material, lamella_normal, lighting, v, resolution, mode, polarizer_deg, lobes, max_depth, perspective
+        )
+        accum = None
+        remaining = int(spp)
+        k = 0
+        while remaining > 0:
+            n = min(per_pass, remaining)
+            img = mi.render(scene, spp=n, seed=seed * 100003 + k)
+            arr = np.array(img, dtype=np.float64) * n
+            accum = arr if accum is None else accum + arr
+            remaining -= n
+            done += n
+            k += 1
+            if progress is not None:
+                progress(done, total)
+        image = accum / float(spp)
+        if plan.polarizer_deg is not None:
+            image = _polarizer_intensity(image, plan.polarizer_deg)
+        tiles.append(image[..., :3].astype(np.float32))
+        dr.flush_malloc_cache()
+    seconds = time.perf_counter() - start
+    assert plan is not None
+    if len(tiles) == 1:
+        image = tiles[0]
+    else:
+        rows = [np.concatenate(tiles[i : i + 4], axis=1) for i in range(0, len(tiles), 4)]
+        image = np.concatenate(rows, axis=0)
+    log.info("render plan: %s", "; ".join(plan.reasons))
+    result = RenderResult(np.ascontiguousarray(image), plan, int(spp), seconds, [v.name for v in views])
+    if output is not None:
+        result.save(output)
+    return result
