@@ -38,8 +38,8 @@ _LAZY = {
     "colour": "labcut.colour",
     "cabochon": "labcut.geometry.cabochon:cabochon",
     "load_mesh": "labcut.geometry.meshio:load_mesh",
-    "render": "labcut.render.api:render",
-    "RenderResult": "labcut.render.api:RenderResult",
+    "render": "labcut.rendering.api:render",
+    "RenderResult": "labcut.rendering.api:RenderResult",
 }
 
 

@@ -157,7 +157,11 @@ def build_scene(
 ) -> tuple[Any, RenderPlan]:
     """The Mitsuba scene for one view (selects the plan's variant). Returns (scene, plan).
 
-    ``integrator`` overrides the plan's (e.g. ``"prb"`` for gradients).
+    ``integrator`` overrides the plan's (e.g. ``"prb"`` for gradients). For
+    gradients leave the delta ``surface`` lobe out (``lobes=("schiller", "body")``):
+    it does not depend on the lamella normal, and prb's ``relative_grad`` of the
+    re-evaluated BSDF would credit radiance reached through the delta lobe to
+    the glossy lobe evaluated in that direction, biasing the gradient.
     """
     import mitsuba as mi
 
@@ -194,8 +198,11 @@ def build_scene(
 
 
 def _polarizer_intensity(image: np.ndarray, angle_deg: float) -> np.ndarray:
-    """Intensity through an ideal linear polarizer from a Stokes image (S0..S3 RGB blocks)."""
-    s0, s1, s2 = image[..., 0:3], image[..., 3:6], image[..., 6:9]
+    """Intensity through an ideal linear polarizer from a Stokes image.
+
+    Mitsuba's ``stokes`` integrator writes RGB, then S0, S1, S2, S3 (3 channels each).
+    """
+    s0, s1, s2 = image[..., 3:6], image[..., 6:9], image[..., 9:12]
     a = math.radians(2.0 * angle_deg)
     return 0.5 * (s0 + s1 * math.cos(a) + s2 * math.sin(a))
 
@@ -269,6 +276,8 @@ def render(
         image = accum / float(spp)
         if plan.polarizer_deg is not None:
             image = _polarizer_intensity(image, plan.polarizer_deg)
+        if image.shape[-1] == 1:  # mono film: luminance, shown grey
+            image = np.repeat(image, 3, axis=-1)
         tiles.append(image[..., :3].astype(np.float32))
         dr.flush_malloc_cache()
     seconds = time.perf_counter() - start

@@ -64,7 +64,7 @@ def material_from_props(props: Any) -> Labradorite:
     """The :class:`Labradorite` described by a plugin's properties (validated)."""
     params: dict[str, Any] = {}
     for key in _MATERIAL_KEYS:
-        if props.has_property(key):
+        if key in props:
             params[key] = props[key]
     return Labradorite(**params)
 
@@ -80,7 +80,7 @@ def vmf_kappa(spread_deg: float) -> float:
 
 
 def _normal_from_props(props: Any) -> tuple[float, float, float]:
-    if not props.has_property("normal"):
+    if "normal" not in props:
         return (0.0, 0.0, 1.0)
     value = props["normal"]
     try:

@@ -159,7 +159,7 @@ def camera(mesh: Any, view: View, resolution: int, perspective: bool = False, fo
         "width": int(resolution),
         "height": int(resolution),
         "rfilter": {"type": "gaussian"},
-        "pixel_format": "rgb",
+        "pixel_format": "luminance" if mi.is_monochromatic else "rgb",
     }
     if perspective:
         distance = radius / math.sin(math.radians(fov_deg) / 2.0) * 1.05

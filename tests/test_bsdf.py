@@ -1,0 +1,187 @@
+"""The labradorite BSDF: sampling vs pdf (chi²), reciprocity, energy, variants, bad input."""
+
+from __future__ import annotations
+
+import math
+
+import drjit as dr
+import mitsuba as mi
+import numpy as np
+import pytest
+
+from labcut import ParameterError
+from labcut.backend import set_variant
+
+
+def _use(mode: str = "rgb", polarized: bool = False) -> None:
+    set_variant(mode, polarized)
+    import labcut.rendering.bsdf  # noqa: F401  (registers for the variant)
+
+
+def _si(n: int, wi) -> mi.SurfaceInteraction3f:
+    si = dr.zeros(mi.SurfaceInteraction3f, n)
+    si.wi = wi
+    si.sh_frame = mi.Frame3f(mi.Vector3f(0.0, 0.0, 1.0))
+    si.n = mi.Vector3f(0.0, 0.0, 1.0)
+    if mi.is_spectral:
+        si.wavelengths = mi.UnpolarizedSpectrum(450.0, 500.0, 550.0, 600.0)
+    return si
+
+
+def _bsdf(**params):
+    return mi.load_dict({"type": "labradorite", **params})
+
+
+def adapter(params: dict, wi, ctx):
+    """mitsuba.chi2.BSDFAdapter, plus the shading frame the lamella normal is expressed in."""
+
+    def sample_func(sample):
+        bsdf = _bsdf(**params)
+        bs, weight = bsdf.sample(ctx, _si(dr.width(sample), wi), sample[0], mi.Point2f(sample[1], sample[2]))
+        w = dr.full(mi.Float, 1.0, dr.width(weight))
+        w[dr.all(mi.unpolarized_spectrum(weight) == 0)] = 0
+        return bs.wo, w
+
+    def pdf_func(wo):
+        return _bsdf(**params).pdf(ctx, _si(dr.width(wo), wi), wo)
+
+    return sample_func, pdf_func
+
+
+CHI2_CASES = [
+    # component, lamella normal, spread (deg), incident direction (local)
+    ("glossy", [0.0, 0.0, 1.0], 3.0, [0.0, 0.0, 1.0]),
+    ("glossy", [0.0, 0.0, 1.0], 3.0, [0.3, 0.0, 0.954]),
+    ("glossy", [0.0, 0.0, 1.0], 8.0, [0.7, 0.1, 0.7]),
+    ("glossy", [0.25, 0.1, 1.0], 5.0, [-0.5, 0.2, 0.84]),
+    ("glossy", [-0.4, 0.3, 1.0], 12.0, [0.2, -0.3, 0.93]),
+    ("glossy", [0.0, 0.0, 1.0], 1.0, [0.5, 0.0, 0.866]),
+    ("diffuse", [0.0, 0.0, 1.0], 3.0, [0.6, 0.0, 0.8]),
+    ("diffuse", [0.3, 0.0, 1.0], 3.0, [0.05, 0.0, 0.999]),
+    ("both", [0.2, 0.0, 1.0], 8.0, [0.4, 0.1, 0.91]),
+    ("both", [0.0, 0.3, 1.0], 4.0, [0.0, -0.6, 0.8]),
+]
+
+
+@pytest.mark.parametrize("component, normal, spread, wi", CHI2_CASES)
+def test_chi2_sampling_matches_pdf(component, normal, spread, wi):
+    from mitsuba.chi2 import ChiSquareTest, SphericalDomain
+
+    _use("rgb")
+    ctx = mi.BSDFContext()
+    if component == "glossy":
+        ctx.component = 1
+    elif component == "diffuse":
+        ctx.component = 2
+    else:
+        ctx.type_mask = mi.BSDFFlags.GlossyReflection | mi.BSDFFlags.DiffuseReflection
+    sample_func, pdf_func = adapter({"normal": normal, "spread_deg": spread}, dr.normalize(mi.ScalarVector3f(wi)), ctx)
+    chi2 = ChiSquareTest(
+        domain=SphericalDomain(), sample_func=sample_func, pdf_func=pdf_func, sample_dim=3,
+        res=201, ires=32, sample_count=1_000_000,
+    )
+    assert chi2.run(), chi2.messages
+    assert float(np.sum(chi2.pdf)) > 0.05  # the lobe has mass: the test was not vacuous
+
+
+@pytest.mark.parametrize("mode, polarized", [("spectral", False), ("mono", False), ("spectral", True)])
+def test_chi2_in_other_variants(mode, polarized):
+    from mitsuba.chi2 import ChiSquareTest, SphericalDomain
+
+    _use(mode, polarized)
+    ctx = mi.BSDFContext()
+    ctx.type_mask = mi.BSDFFlags.GlossyReflection | mi.BSDFFlags.DiffuseReflection
+    sf, pf = adapter({"normal": [0.2, 0.0, 1.0], "spread_deg": 6.0}, dr.normalize(mi.ScalarVector3f(0.3, 0.1, 0.95)), ctx)
+    chi2 = ChiSquareTest(domain=SphericalDomain(), sample_func=sf, pdf_func=pf, sample_dim=3, res=151, ires=32)
+    assert chi2.run(), chi2.messages
+
+
+def _directions(n: int, seed: int) -> np.ndarray:
+    rng = np.random.default_rng(seed)
+    u = rng.random((n, 2))
+    z = 0.02 + 0.98 * u[:, 0]
+    r = np.sqrt(1 - z * z)
+    return np.stack([r * np.cos(2 * np.pi * u[:, 1]), r * np.sin(2 * np.pi * u[:, 1]), z], axis=1)
+
+
+@pytest.mark.parametrize("mode", ["rgb", "spectral"])
+@pytest.mark.parametrize("normal, spread", [([0, 0, 1], 3.0), ([0.3, -0.2, 1.0], 6.0), ([1.0, 0.0, 0.2], 15.0)])
+def test_reciprocity(mode, normal, spread):
+    _use(mode)
+    bsdf = _bsdf(normal=normal, spread_deg=spread)
+    ctx = mi.BSDFContext()
+    a, b = _directions(4000, 1), _directions(4000, 2)
+    # concentrate pairs near the schiller lobe too: b = a mirrored about the lamella normal
+    m = np.asarray(normal, float) / np.linalg.norm(normal)
+    mirrored = 2 * (a @ m)[:, None] * m - a
+    b = np.where((mirrored[:, 2] > 0.05)[:, None], mirrored * 0.999 + 0.001 * b, b)
+    b /= np.linalg.norm(b, axis=1)[:, None]
+    va, vb = mi.Vector3f(a.T), mi.Vector3f(b.T)
+    f_ab = np.array(mi.unpolarized_spectrum(bsdf.eval(ctx, _si(len(a), va), vb))) / b[:, 2][None, :]
+    f_ba = np.array(mi.unpolarized_spectrum(bsdf.eval(ctx, _si(len(a), vb), va))) / a[:, 2][None, :]
+    assert np.all(np.isfinite(f_ab))
+    assert np.allclose(f_ab, f_ba, rtol=2e-3, atol=1e-6)
+
+
+@pytest.mark.parametrize(
+    "params",
+    [
+        {"normal": [0, 0, 1], "spread_deg": 3.0},
+        {"normal": [0.5, 0.0, 1.0], "spread_deg": 2.0},
+        {"normal": [1.0, 0.0, 0.0], "spread_deg": 20.0},
+        # a perfect, thick stack: R = 1 at its Bragg peak
+        {"normal": [0, 0, 1], "spread_deg": 1.0, "sigma_a": 0.0, "sigma_b": 0.0, "pairs": 100000, "body_albedo": 1.0},
+    ],
+)
+@pytest.mark.parametrize("mode", ["rgb", "spectral"])
+def test_albedo_at_most_one_for_every_incident_direction(params, mode):
+    _use(mode)
+    bsdf = _bsdf(**params)
+    ctx = mi.BSDFContext()
+    n = 1 << 17
+    rng = np.random.default_rng(3)
+    for theta in np.radians([0.0, 20.0, 45.0, 70.0, 85.0, 89.0]):
+        for phi in (0.0, 2.0):
+            wi = mi.Vector3f(math.sin(theta) * math.cos(phi), math.sin(theta) * math.sin(phi), math.cos(theta))
+            si = _si(n, wi)
+            s = rng.random((3, n)).astype(np.float32)
+            _, w = bsdf.sample(ctx, si, mi.Float(s[0]), mi.Point2f(s[1], s[2]))
+            w = np.array(mi.unpolarized_spectrum(w))
+            assert np.all(np.isfinite(w)) and np.all(w >= 0)
+            albedo = w.mean(axis=1)
+            err = 4 * w.std(axis=1) / math.sqrt(n)
+            assert np.all(albedo <= 1.0 + err + 1e-3), (theta, albedo)
+
+
+def test_polarized_surface_is_a_mueller_matrix_and_schiller_is_depolarised():
+    _use("spectral", polarized=True)
+    bsdf = _bsdf(normal=[0, 0, 1])
+    ctx = mi.BSDFContext()
+    wi = dr.normalize(mi.Vector3f(0.8, 0.0, 0.5))
+    wo = dr.normalize(mi.Vector3f(-0.75, 0.0, 0.6))
+    value = bsdf.eval(ctx, _si(1, wi), wo)
+    m = np.array([[np.array(value[i, j])[0, 0] for j in range(4)] for i in range(4)])
+    assert m[0, 0] > 0 and np.allclose(m.ravel()[1:], 0.0)  # depolariser: only M00
+    bs, w = bsdf.sample(ctx, _si(1, wi), mi.Float(0.0), mi.Point2f(0.5, 0.5))  # picks the surface
+    assert int(bs.sampled_component[0]) == 0
+    assert abs(float(np.array(w[0, 1])[0, 0])) > 1e-4  # Fresnel reflection polarises
+
+
+@pytest.mark.parametrize("normal", [[0, 0, 0], [float("nan"), 0, 1], [0, 0, float("inf")]])
+def test_bad_normal_is_a_clear_error(normal):
+    _use("rgb")
+    with pytest.raises(Exception, match="lamella normal"):
+        _bsdf(normal=normal)
+
+
+def test_bad_material_is_a_clear_error():
+    _use("rgb")
+    with pytest.raises(Exception, match="d_a"):
+        _bsdf(d_a=-10.0)
+
+
+def test_traverse_exposes_a_differentiable_normal():
+    _use("rgb")
+    params = mi.traverse(_bsdf(normal=[0, 0.2, 1]))
+    assert "normal" in params.keys()
+    assert not params.flags("normal") & int(mi.ParamFlags.NonDifferentiable)
