@@ -29,6 +29,9 @@ setup: llvm $(STAMP)
 demo: setup
 	@mkdir -p $(OUT)
 	$(BIN)/labcut spectrum --preset blue --plot $(OUT)/spectrum-blue.png --json $(OUT)/spectrum-blue.json
+	$(BIN)/labcut inspect meshes/oval-16x12-low.ply
+	$(BIN)/labcut render meshes/oval-16x12-low.ply --preset blue --normal 0,0,1 --spp 64 --resolution 384 -o $(OUT)/oval-face-up.png
+	$(BIN)/labcut render meshes/oval-16x12-low.ply --preset blue --normal 0.26,0,1 --view tilted --spp 64 --resolution 384 -o $(OUT)/oval-tilted-lamellae.png
 	@echo "demo outputs in $(OUT)/"
 
 test: setup

@@ -1,0 +1,55 @@
+"""``labcut render`` end to end."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+MESH = str(Path(__file__).resolve().parents[1] / "meshes" / "oval-16x12-low.ply")
+
+
+def test_render_png_exr_and_plan_json(cli, tmp_path):
+    png, js = tmp_path / "r.png", tmp_path / "r.json"
+    proc = cli("render", MESH, "-o", str(png), "--normal", "0.1,0,1", "--preset", "gold", "--spp", "4", "--resolution", "64", "--json", str(js))
+    assert proc.returncode == 0, proc.stderr
+    assert png.read_bytes()[:4] == b"\x89PNG"
+    data = json.loads(js.read_text())
+    assert data["plan"]["integrator"] == "direct" and data["plan"]["variant"].endswith("_ad_rgb")
+    assert abs(sum(x * x for x in data["normal"]) - 1.0) < 1e-9
+    proc = cli("render", MESH, "-o", str(tmp_path / "r.exr"), "--spp", "2", "--resolution", "32", "--mode", "spectral", "--view", "30,270")
+    assert proc.returncode == 0, proc.stderr
+    assert (tmp_path / "r.exr").read_bytes()[:4] == b"\x76\x2f\x31\x01"  # OpenEXR magic
+
+
+@pytest.mark.parametrize(
+    "args",
+    [
+        ["--normal", "0,0,0"],
+        ["--normal", "nan,0,1"],
+        ["--normal", "1,2"],
+        ["--lighting", "disco"],
+        ["--view", "100,0"],
+        ["--mode", "hyper"],
+        ["--spp", "0"],
+        ["--preset", "purple"],
+        ["--lighting", "/no/such/sky.exr"],
+    ],
+)
+def test_bad_input_one_line_exit_2_no_file(cli, tmp_path, args):
+    out = tmp_path / "bad.png"
+    proc = cli("render", MESH, "-o", str(out), "--resolution", "16", *args)
+    assert proc.returncode == 2, proc.stderr
+    assert proc.stderr.strip().splitlines()[-1].startswith("error:") and "Traceback" not in proc.stderr
+    assert not out.exists()
+
+
+def test_unreadable_mesh(cli, tmp_path):
+    bad = tmp_path / "broken.stl"
+    bad.write_bytes(b"solid nothing here")
+    proc = cli("render", str(bad), "-o", str(tmp_path / "x.png"))
+    assert proc.returncode == 2 and "Traceback" not in proc.stderr
+    proc = cli("render", str(tmp_path / "missing.ply"), "-o", str(tmp_path / "x.png"))
+    assert proc.returncode == 2
+    assert not (tmp_path / "x.png").exists()
