@@ -30,6 +30,7 @@ def render(
     resolution: Annotated[int, typer.Option(help="Image width and height in pixels.", min=8, max=8192)] = 512,
     mode: Annotated[str, typer.Option(help="Colour transport: rgb, spectral or mono.")] = "rgb",
     polarizer: Annotated[Optional[float], typer.Option(help="Look through a linear polarizer at this angle (degrees).")] = None,
+    zoning: Annotated[Optional[str], typer.Option(help="Colour zones: smooth, sharp, or a zoning .json file (docs/zoning.md).")] = None,
     schiller_only: Annotated[bool, typer.Option("--schiller-only", help="Render only the schiller flash (no glare, no body).")] = False,
     exposure: Annotated[Optional[float], typer.Option(help="Exposure multiplier for PNG output (default: automatic).")] = None,
     json_path: Annotated[Optional[str], typer.Option("--json", help="Write the render plan and timing as JSON ('-' for stdout).")] = None,
@@ -52,6 +53,17 @@ def render(
         check_output_path(json_path, (".json",))
     material = m.build_material(preset, peak, an, material_file, sigma_a=sigma_a, sigma_b=sigma_b, pairs=pairs, spread_deg=spread)
     lamella = parse_vector(normal, "--normal")
+    zoning_spec = None
+    if zoning is not None:
+        from labcut.errors import ParameterError
+        from labcut.rendering.zoning import PRESETS, Zoning
+
+        if zoning.strip().lower() in PRESETS:
+            zoning_spec = Zoning.preset(zoning, material)
+        elif zoning.lower().endswith(".json") or Path(zoning).exists():
+            zoning_spec = Zoning.load(zoning, material)
+        else:
+            raise ParameterError(f"--zoning must be {', '.join(PRESETS)} or a zoning .json file, got {zoning!r}")
     view_spec: str | tuple[float, float] = view
     if "," in view:
         view_spec = parse_vector(view, "--view", length=2)  # type: ignore[assignment]
@@ -68,7 +80,7 @@ def render(
     with progress_bar("rendering", "samples/pixel") as update:
         result = labcut.render(
             mesh, material, lamella, lighting=lighting, view=view_spec, spp=spp, resolution=resolution,
-            mode=mode, polarizer_deg=polarizer, lobes=lobes, progress=update,
+            mode=mode, polarizer_deg=polarizer, lobes=lobes, progress=update, zoning=zoning_spec,
         )
     result.save(output, exposure)
     summary = {
@@ -83,6 +95,8 @@ def render(
         "samples_per_second": result.samples_per_second,
         "views": result.views,
     }
+    if zoning_spec is not None:
+        summary["zoning"] = zoning_spec.to_dict()
     if json_path == "-":
         typer.echo(json.dumps(summary, indent=2))
         return

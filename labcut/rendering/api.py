@@ -19,7 +19,7 @@ import logging
 import math
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -130,14 +130,19 @@ def plan_render(
     return RenderPlan(variant, integrator, depth, lobes, convex, polarizer_deg, tuple(reasons))
 
 
-def bsdf_dict(material: Labradorite, normal: np.ndarray, lobes: Sequence[str] = LOBES) -> dict[str, Any]:
-    """Plugin dictionary of the labradorite BSDF for ``material`` and a lamella normal."""
+def bsdf_dict(material: Labradorite, normal: np.ndarray, lobes: Sequence[str] = LOBES, *, zoning: Any = None) -> dict[str, Any]:
+    """Plugin dictionary of the labradorite BSDF for ``material`` and a lamella normal.
+
+    ``zoning``: an optional :class:`~labcut.rendering.zoning.BakedZoning` (needs a JIT variant set).
+    """
     d: dict[str, Any] = {"type": "labradorite", "normal": [float(x) for x in normal]}
     for key, value in material.to_dict().items():
         if key != "name":
             d[key] = value
     for lobe in LOBES:
         d[lobe] = lobe in lobes
+    if zoning is not None:
+        d.update(zoning.props())
     return d
 
 
@@ -154,6 +159,8 @@ def build_scene(
     max_depth: int | None = None,
     perspective: bool = False,
     integrator: str | None = None,
+    *,
+    zoning: Any = None,
 ) -> tuple[Any, RenderPlan]:
     """The Mitsuba scene for one view (selects the plan's variant). Returns (scene, plan).
 
@@ -162,6 +169,9 @@ def build_scene(
     it does not depend on the lamella normal, and prb's ``relative_grad`` of the
     re-evaluated BSDF would credit radiance reached through the delta lobe to
     the glossy lobe evaluated in that direction, biasing the gradient.
+
+    ``zoning``: ``None``, ``"smooth"``, ``"sharp"`` or a :class:`~labcut.rendering.zoning.Zoning`
+    (docs/zoning.md); its noise is baked over the mesh's bounding box.
     """
     import mitsuba as mi
 
@@ -169,6 +179,9 @@ def build_scene(
 
     if not isinstance(material, Labradorite):
         raise ParameterError(f"material must be a labcut.Labradorite, got {type(material).__name__}")
+    from .zoning import resolve as _resolve_zoning
+
+    zone = _resolve_zoning(zoning, material)
     normal = normalize_normal(lamella_normal)
     if not (isinstance(resolution, int | np.integer) and 8 <= int(resolution) <= 8192):
         raise ParameterError(f"resolution must be a whole number of pixels in [8, 8192], got {resolution!r}")
@@ -177,10 +190,15 @@ def build_scene(
     if len(views) != 1:
         raise ParameterError("build_scene takes a single view; render() handles 'orbit'")
     plan = plan_render(mesh, light, mode, polarizer_deg, lobes, max_depth)
+    baked = None
+    if zone is not None:
+        baked = zone.bake(mesh.bounds)
+        label = f"{zone.name} " if zone.name else ""
+        plan = replace(plan, reasons=plan.reasons + (f"colour zoning: {label}{zone.mode}, {len(zone.materials)} parameter sets",))
     mi.set_variant(plan.variant)
     if light.envmap is not None:
         check_envmap(light.envmap)
-    bsdf = mi.load_dict(bsdf_dict(material, normal, plan.lobes))
+    bsdf = mi.load_dict(bsdf_dict(material, normal, plan.lobes, zoning=baked))
     name = integrator or plan.integrator
     integ: dict[str, Any] = {"type": name, "max_depth": plan.max_depth} if name != "direct" else {"type": "direct"}
     if name == "direct":
@@ -224,6 +242,7 @@ def render(
     seed: int = 0,
     output: str | Path | None = None,
     progress: Callable[[int, int], None] | None = None,
+    zoning: Any = None,
 ) -> RenderResult:
     """Render ``mesh`` (mm, +Z face-up) cut from ``material`` with lamellae normal to ``lamella_normal``.
 
@@ -236,6 +255,9 @@ def render(
         intensity through an ideal linear polarizer at that angle (0° = transmission axis along
         the image's horizontal).
     output: optional .png / .exr path written atomically.
+    zoning: ``None`` | ``"smooth"`` | ``"sharp"`` | a :class:`~labcut.rendering.zoning.Zoning`:
+        colour zones, lamella parameters blended through the stone by a noise field
+        (paper §3.2.2; docs/zoning.md). Presets are built on ``material``.
 
     Returns a :class:`RenderResult` whose ``image`` is linear RGB float32 and ``plan`` says
     what was simulated.
@@ -249,6 +271,12 @@ def render(
         from ..fileio import check_output_path
 
         check_output_path(output, (".png", ".exr"))
+    if zoning is not None:
+        from .zoning import resolve as _resolve_zoning
+
+        if not isinstance(material, Labradorite):
+            raise ParameterError(f"material must be a labcut.Labradorite, got {type(material).__name__}")
+        zoning = _resolve_zoning(zoning, material)  # validate (and build presets) once, before rendering
     views = view_presets(view)
     total = int(spp) * len(views)
     per_pass = max(1, min(int(spp), 16))
@@ -258,7 +286,8 @@ def render(
     start = time.perf_counter()
     for v in views:
         scene, plan = build_scene(
-            mesh, material, lamella_normal, lighting, v, resolution, mode, polarizer_deg, lobes, max_depth, perspective
+            mesh, material, lamella_normal, lighting, v, resolution, mode, polarizer_deg, lobes, max_depth, perspective,
+            zoning=zoning,
         )
         accum = None
         remaining = int(spp)

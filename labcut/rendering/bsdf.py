@@ -39,6 +39,11 @@ Colour. Spectral variants evaluate R at ``si.wavelengths`` through
 API). RGB variants look R up in a table of linear sRGB over cos θ (R integrated
 against the CIE curves under D65 once per material, :mod:`labcut.colour`); mono
 variants in a table of luminance.
+
+Colour zoning (optional, :mod:`labcut.rendering.zoning`, docs/zoning.md): the
+properties ``zoning_grid``, ``zoning_path``, ``zoning_lo``, ``zoning_hi`` carry a
+baked noise grid and a parameter path; R then varies with the hit point ``si.p``
+and the BSDF is flagged ``SpatiallyVarying``.
 """
 
 from __future__ import annotations
@@ -117,6 +122,9 @@ def _define_class() -> type:
         ``surface``, ``schiller``, ``body`` (bool, default True) that leave a lobe
         out entirely (its component still exists so indices stay 0/1/2).
 
+        Optional colour zoning: ``zoning_grid``, ``zoning_path``, ``zoning_lo``,
+        ``zoning_hi`` (see :class:`labcut.rendering.zoning.ZoningKernel`).
+
         Differentiable parameter exposed by ``traverse``: ``normal``.
         """
 
@@ -133,6 +141,11 @@ def _define_class() -> type:
             self.use_schiller = bool(props.get("schiller", True))
             self.use_body = bool(props.get("body", True)) and self.material.body_albedo > 0.0
             self._spectral = bool(mi.is_spectral)
+            self.zoning = None
+            if "zoning_grid" in props:
+                from .zoning import SHARED_KEYS, ZoningKernel
+
+                self.zoning = ZoningKernel(props, {k: getattr(self.material, k) for k in SHARED_KEYS})
             self._build_tables()
 
             front = mi.BSDFFlags.FrontSide
@@ -142,12 +155,18 @@ def _define_class() -> type:
                 mi.BSDFFlags.DiffuseReflection | front,
             ]
             self.m_flags = self.m_components[0] | self.m_components[1] | self.m_components[2]
+            if self.zoning is not None:
+                self.m_flags = self.m_flags | mi.BSDFFlags.SpatiallyVarying
 
         # ------------------------------------------------------------------ set-up
         def _build_tables(self) -> None:
             """Per-material lookup tables (RGB / mono) and the lobe-selection weight."""
             from ..colour import reflectance_luminance, reflectance_rgb
 
+            if self.zoning is not None:  # the zoning's own tables; sampling weight averaged over x
+                self.schiller_weight = self.zoning.weight
+                self.table = None
+                return
             c = np.linspace(0.0, 1.0, TABLE_SIZE)
             lum = reflectance_luminance(self.material, c)
             # schiller sampling weight: mean luminance reflectance over the angles light meets
@@ -163,6 +182,8 @@ def _define_class() -> type:
         # ------------------------------------------------------------------ helpers
         def _lamella_reflectance(self, si: Any, cos_l: Any) -> Any:
             """R(λ, cos θ_l) as an UnpolarizedSpectrum."""
+            if self.zoning is not None:
+                return self.zoning.reflectance(si, cos_l)
             if self._spectral:
                 m = self.material
                 r = stack_reflectance(si.wavelengths, cos_l, m.n_a, m.n_b, m.d_a, m.d_b, m.sigma_a, m.sigma_b, m.pairs)
@@ -350,7 +371,7 @@ def _define_class() -> type:
             return (
                 f"LabradoriteBSDF[normal={self.normal}, d=({m.d_a:g}, {m.d_b:g}) nm, "
                 f"sigma=({m.sigma_a:g}, {m.sigma_b:g}) nm, pairs={m.pairs}, spread={m.spread_deg:g} deg, "
-                f"body_albedo={m.body_albedo:g}, eta={self.eta:g}]"
+                f"body_albedo={m.body_albedo:g}, eta={self.eta:g}{', zoned' if self.zoning is not None else ''}]"
             )
 
     return LabradoriteBSDF

@@ -1,0 +1,600 @@
+"""Colour zoning (paper §3.2.2, Fig. 5, 6, 9-12): lamella parameters that vary through the stone.
+
+A real labradorite is rarely one colour: its composition, and with it the lamella
+thicknesses, drift through the crystal, so its flash shows zones of colour. The
+paper drives this with a Perlin noise value ``x`` in [0, 1] and a lookup table
+(LUT) that maps ``x`` to a lamella parameter set, unblended in some ranges of
+``x`` and linearly blended in the ranges between them (Fig. 6). labcut does the
+same:
+
+* :class:`Zoning` holds 1+ parameter sets (:class:`~labcut.Labradorite`
+  materials that differ only in the *zoned* parameters ``d_a``, ``d_b``,
+  ``sigma_a``, ``sigma_b``, ``pairs``), the LUT as a list of unblended
+  ``ranges`` ``(x_lo, x_hi, set)``, and the noise (``scale_mm``, ``octaves``,
+  ``seed``, ``resolution``). ``mode="smooth"`` blends linearly across the gap
+  between two ranges; ``mode="sharp"`` replaces each gap by a step at its
+  middle (Spectrolite-like zone edges, paper Fig. 10).
+* The noise is 3D fBm of Perlin gradient noise in object (= mesh = world) space,
+  in mm, baked once per render on a grid over the mesh's bounding box and then
+  *equalised*: each grid value is replaced by its rank, scaled to [0, 1]. ``x``
+  is therefore uniformly distributed over the box, and a LUT range of width w
+  holds a fraction w of the stone's volume (about; the stone is not its box).
+* Parameters, not colours, are blended: the LUT path ``P(x)`` interpolates
+  ``d_a, d_b, sigma_a, sigma_b, pairs`` between two sets, as the paper does.
+  :meth:`Zoning.bake` tabulates ``P`` on 128 values of ``x``.
+
+In the kernel (:mod:`labcut.rendering.bsdf`) the grid is a trilinear
+``mi.Texture3f`` read at ``si.p``; spectral variants read the five parameters
+from a 1D texture over ``x`` and evaluate :func:`labcut.physics.stack_reflectance`
+with them at ``si.wavelengths``; RGB and mono variants read a 2D table of linear
+sRGB (or luminance) reflectance over (``x``, cos θ), integrated against the CIE
+curves once per render from the same parameter path. docs/zoning.md has the details.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+import json
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..errors import ParameterError
+from ..physics.lamella import stack_reflectance
+from ..physics.material import Labradorite
+
+#: Parameters a zoning blends between its sets.
+ZONED_KEYS = ("d_a", "d_b", "sigma_a", "sigma_b", "pairs")
+#: Parameters every set of one zoning must share (one BSDF has one surface, one lobe width).
+SHARED_KEYS = ("n_a", "n_b", "spread_deg", "body_albedo", "n_surface")
+MODES = ("smooth", "sharp")
+PRESETS = ("smooth", "sharp")
+#: Values of x at which the parameter path is tabulated for the kernel.
+PATH_SIZE = 128
+#: Entries over cos θ of the RGB / mono reflectance table.
+COS_SIZE = 256
+
+_LACUNARITY = 2.0
+_GAIN = 0.5
+
+
+# ---------------------------------------------------------------------- noise
+def _perlin_tables(seed: int) -> tuple[np.ndarray, np.ndarray]:
+    """Permutation (512) and 256 random unit gradients of one seed."""
+    rng = np.random.default_rng(np.random.SeedSequence([0x1AB0, int(seed)]))
+    perm = rng.permutation(256)
+    grads = rng.normal(size=(256, 3))
+    grads /= np.linalg.norm(grads, axis=1, keepdims=True)
+    return np.concatenate([perm, perm]).astype(np.int64), grads
+
+
+def perlin3(points: np.ndarray, perm: np.ndarray, grads: np.ndarray) -> np.ndarray:
+    """3D Perlin gradient noise (quintic fade, unit gradients) at ``points`` (N, 3), lattice spacing 1.
+
+    Zero at every lattice point; values lie within about +-1.
+    """
+    p = np.asarray(points, dtype=np.float64)
+    cell = np.floor(p)
+    f = p - cell
+    i = cell.astype(np.int64) & 255
+    fade = f * f * f * (f * (f * 6.0 - 15.0) + 10.0)
+    out = np.zeros(p.shape[0])
+    for dx in (0, 1):
+        wx = fade[:, 0] if dx else 1.0 - fade[:, 0]
+        hx = perm[i[:, 0] + dx]
+        for dy in (0, 1):
+            wy = fade[:, 1] if dy else 1.0 - fade[:, 1]
+            hy = perm[hx + i[:, 1] + dy]
+            for dz in (0, 1):
+                wz = fade[:, 2] if dz else 1.0 - fade[:, 2]
+                g = grads[perm[hy + i[:, 2] + dz]]
+                dot = g[:, 0] * (f[:, 0] - dx) + g[:, 1] * (f[:, 1] - dy) + g[:, 2] * (f[:, 2] - dz)
+                out += wx * wy * wz * dot
+    return out
+
+
+def fbm(points: np.ndarray, scale_mm: float, octaves: int, seed: int) -> np.ndarray:
+    """Fractal sum of Perlin noise at ``points`` (N, 3) in mm: lattice spacing ``scale_mm``,
+    each octave twice the frequency and half the amplitude of the one before, each with
+    its own random offset. Deterministic for a seed; not normalised."""
+    perm, grads = _perlin_tables(seed)
+    rng = np.random.default_rng(np.random.SeedSequence([0x0C7A, int(seed)]))
+    offsets = rng.uniform(0.0, 256.0, size=(int(octaves), 3))
+    p = np.asarray(points, dtype=np.float64) / float(scale_mm)
+    total = np.zeros(p.shape[0])
+    amp, freq = 1.0, 1.0
+    for o in range(int(octaves)):
+        total += amp * perlin3(p * freq + offsets[o], perm, grads)
+        amp *= _GAIN
+        freq *= _LACUNARITY
+    return total
+
+
+def equalise(values: np.ndarray) -> np.ndarray:
+    """Rank transform to [0, 1]: the smallest value -> 0, the largest -> 1, uniform in between."""
+    v = np.asarray(values, dtype=np.float64).ravel()
+    ranks = np.empty(v.size)
+    ranks[np.argsort(v, kind="stable")] = np.arange(v.size)
+    return (ranks / max(v.size - 1, 1)).reshape(np.shape(values))
+
+
+# ---------------------------------------------------------------------- helpers
+def _number(name: str, value: Any, low: float, high: float, *, integer: bool = False) -> Any:
+    try:
+        x = float(value)
+    except (TypeError, ValueError):
+        raise ParameterError(f"zoning {name} must be a number, got {value!r}") from None
+    if isinstance(value, bool) or not math.isfinite(x) or not low <= x <= high:
+        raise ParameterError(f"zoning {name} must lie in [{low:g}, {high:g}], got {value!r}")
+    if integer:
+        if x != int(x):
+            raise ParameterError(f"zoning {name} must be a whole number, got {value!r}")
+        return int(x)
+    return x
+
+
+def _shared(material: Labradorite) -> dict[str, Any]:
+    return {k: getattr(material, k) for k in SHARED_KEYS}
+
+
+def _inherited(base: Labradorite) -> dict[str, Any]:
+    """Everything of ``base`` but its thicknesses and name: what a preset set inherits."""
+    return {k: v for k, v in base.to_dict().items() if k not in ("d_a", "d_b", "name")}
+
+
+def default_ranges(count: int) -> tuple[tuple[float, float, int], ...]:
+    """``count`` sets in order, each unblended over the middle half of an equal share of [0, 1]."""
+    share = 1.0 / count
+    out = []
+    for k in range(count):
+        lo = 0.0 if k == 0 else (k + 0.25) * share
+        hi = 1.0 if k == count - 1 else (k + 0.75) * share
+        out.append((lo, hi, k))
+    return tuple(out)
+
+
+@dataclass(frozen=True)
+class BakedZoning:
+    """A zoning baked for one mesh: the noise grid over a box and the tabulated parameter path.
+
+    ``grid``: (nz, ny, nx) float32 values of x in [0, 1] at cell centres
+    ``lo + (i + 0.5) (hi - lo) / n`` (Mitsuba's texture convention, so a point p
+    is looked up at ``(p - lo) / (hi - lo)``). ``path``: (PATH_SIZE, 5) float32,
+    row i the parameters ``d_a, d_b, sigma_a, sigma_b, pairs`` at ``x = i / (PATH_SIZE - 1)``.
+    """
+
+    grid: np.ndarray
+    lo: tuple[float, float, float]
+    hi: tuple[float, float, float]
+    path: np.ndarray
+
+    def props(self) -> dict[str, Any]:
+        """The ``labradorite`` plugin properties that carry this zoning (needs a JIT variant set)."""
+        import mitsuba as mi
+
+        return {
+            "zoning_grid": mi.TensorXf(np.ascontiguousarray(self.grid[..., None], dtype=np.float32)),
+            "zoning_path": mi.TensorXf(np.ascontiguousarray(self.path, dtype=np.float32)),
+            "zoning_lo": [float(v) for v in self.lo],
+            "zoning_hi": [float(v) for v in self.hi],
+        }
+
+    def values_at(self, points: np.ndarray) -> np.ndarray:
+        """x at ``points`` (N, 3) by trilinear interpolation of the grid (numpy twin of the kernel lookup)."""
+        from scipy.ndimage import map_coordinates
+
+        p = np.asarray(points, dtype=np.float64)
+        lo, hi = np.asarray(self.lo), np.asarray(self.hi)
+        n = np.array(self.grid.shape[::-1], dtype=np.float64)  # nx, ny, nz
+        idx = (p - lo) / (hi - lo) * n - 0.5
+        return map_coordinates(self.grid.astype(np.float64), idx[:, ::-1].T, order=1, mode="nearest")
+
+
+@dataclass(frozen=True)
+class Zoning:
+    """Colour zoning: a noise field in object space that blends lamella parameter sets through a LUT.
+
+    Attributes
+    ----------
+    materials:
+        One or more parameter sets (:class:`~labcut.Labradorite`). They may differ only in
+        ``d_a``, ``d_b``, ``sigma_a``, ``sigma_b`` and ``pairs``; the other parameters
+        (indices, spread, body albedo) are one per stone. One set is a valid, degenerate zoning.
+    ranges:
+        The LUT: unblended ranges ``(x_lo, x_hi, set index)`` over the noise value x in
+        [0, 1], sorted and not overlapping; between two ranges the parameters blend linearly
+        from one range's set to the next one's (``mode="smooth"``) or jump at the middle of
+        the gap (``"sharp"``). x below the first range takes its set, above the last likewise.
+        Default: the sets in order, each unblended over the middle half of an equal share.
+        The paper's Fig. 6 is ``((0, 0.5, 0), (0.9, 1, 1))``.
+    scale_mm:
+        Lattice spacing of the noise's first octave, mm: roughly the size of a zone.
+    octaves:
+        Number of fBm octaves (1-8); more give rougher, more ragged zone edges.
+    seed:
+        Seed of the noise (gradients and octave offsets); the same seed, mesh and
+        parameters always give the same zones.
+    mode:
+        ``"smooth"`` (blended gaps, Labradorite, Fig. 9) or ``"sharp"`` (steps, Spectrolite, Fig. 10).
+    resolution:
+        Grid samples along the longest side of the mesh's bounding box (8-256); the other
+        sides get proportionally many (at least 8).
+    """
+
+    materials: tuple[Labradorite, ...]
+    ranges: tuple[tuple[float, float, int], ...] | None = None
+    scale_mm: float = 5.0
+    octaves: int = 4
+    seed: int = 0
+    mode: str = "smooth"
+    resolution: int = 64
+    name: str | None = None
+
+    def __post_init__(self) -> None:
+        mats = self.materials
+        if isinstance(mats, Labradorite) or not isinstance(mats, list | tuple):
+            raise ParameterError("zoning materials must be a list of labcut.Labradorite parameter sets")
+        if not 1 <= len(mats) <= 64:
+            raise ParameterError(f"zoning needs 1 to 64 parameter sets, got {len(mats)}")
+        for i, m in enumerate(mats):
+            if not isinstance(m, Labradorite):
+                raise ParameterError(f"zoning set {i} must be a labcut.Labradorite, got {type(m).__name__}")
+        first = _shared(mats[0])
+        for i, m in enumerate(mats[1:], start=1):
+            for key, value in _shared(m).items():
+                if value != first[key]:
+                    raise ParameterError(
+                        f"zoning sets may differ only in {', '.join(ZONED_KEYS)}; set {i} has {key}={value:g}, set 0 {first[key]:g}"
+                    )
+        object.__setattr__(self, "materials", tuple(mats))
+        object.__setattr__(self, "ranges", self._check_ranges(self.ranges, len(mats)))
+        object.__setattr__(self, "scale_mm", _number("scale_mm", self.scale_mm, 0.01, 1e4))
+        object.__setattr__(self, "octaves", _number("octaves", self.octaves, 1, 8, integer=True))
+        object.__setattr__(self, "seed", _number("seed", self.seed, 0, 2**32 - 1, integer=True))
+        object.__setattr__(self, "resolution", _number("resolution", self.resolution, 8, 256, integer=True))
+        mode = str(self.mode).strip().lower() if isinstance(self.mode, str) else self.mode
+        if mode not in MODES:
+            raise ParameterError(f"zoning mode must be one of {', '.join(MODES)}, got {self.mode!r}")
+        object.__setattr__(self, "mode", mode)
+
+    @staticmethod
+    def _check_ranges(ranges: Any, count: int) -> tuple[tuple[float, float, int], ...]:
+        if ranges is None:
+            return default_ranges(count)
+        if isinstance(ranges, str) or not isinstance(ranges, list | tuple) or not ranges:
+            raise ParameterError("zoning ranges must be a non-empty list of [x_lo, x_hi, set] triples")
+        out: list[tuple[float, float, int]] = []
+        for r in ranges:
+            if isinstance(r, str) or not isinstance(r, list | tuple) or len(r) != 3:
+                raise ParameterError(f"each zoning range must be [x_lo, x_hi, set], got {r!r}")
+            lo = _number("range start", r[0], 0.0, 1.0)
+            hi = _number("range end", r[1], 0.0, 1.0)
+            k = _number("range set index", r[2], 0, count - 1, integer=True)
+            if hi < lo:
+                raise ParameterError(f"zoning range [{lo:g}, {hi:g}] ends before it starts")
+            if out and lo < out[-1][1]:
+                raise ParameterError(f"zoning ranges must be sorted and not overlap: [{lo:g}, {hi:g}] starts before {out[-1][1]:g}")
+            out.append((lo, hi, k))
+        unused = sorted(set(range(count)) - {k for _, _, k in out})
+        if unused:
+            raise ParameterError(f"zoning set(s) {', '.join(map(str, unused))} are not used by any range")
+        return tuple(out)
+
+    # ------------------------------------------------------------------ presets and I/O
+    @classmethod
+    def preset(cls, name: str, base: Labradorite | None = None, **changes: Any) -> Zoning:
+        """``smooth`` (paper Fig. 9: blue, green and gold zones, soft blends, few octaves) or
+        ``sharp`` (Fig. 10: the same colours with hard edges and ragged, many-octave noise).
+
+        The sets are ``base`` (default :class:`~labcut.Labradorite`) with the lamella period set
+        for first-order peaks at 470, 530 and 580 nm; every other parameter is ``base``'s.
+        ``changes`` override fields (e.g. ``seed=3``).
+        """
+        key = str(name).strip().lower()
+        if key not in PRESETS:
+            raise ParameterError(f"unknown zoning preset {name!r}; choose one of {', '.join(PRESETS)}")
+        if base is None:
+            base = Labradorite()
+        if not isinstance(base, Labradorite):
+            raise ParameterError(f"zoning base material must be a labcut.Labradorite, got {type(base).__name__}")
+        sets = tuple(
+            Labradorite.from_peak_wavelength(nm, **{**_inherited(base), "name": label})
+            for label, nm in (("blue", 470.0), ("green", 530.0), ("gold", 580.0))
+        )
+        if key == "smooth":
+            fields = dict(ranges=((0.0, 0.35, 0), (0.5, 0.62, 1), (0.8, 1.0, 2)), scale_mm=7.0, octaves=3, mode="smooth")
+        else:
+            fields = dict(ranges=((0.0, 0.4, 0), (0.4, 0.72, 1), (0.72, 1.0, 2)), scale_mm=6.0, octaves=5, mode="sharp")
+        return cls(**{"materials": sets, **fields, "seed": 0, "name": key, **changes})
+
+    def replace(self, **changes: Any) -> Zoning:
+        """A copy with some fields changed (validated again)."""
+        return dataclasses.replace(self, **changes)
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain-JSON description (materials as full parameter dicts); inverse of :meth:`from_dict`."""
+        return {
+            "materials": [m.to_dict() for m in self.materials],
+            "ranges": [list(r) for r in self.ranges],
+            "scale_mm": self.scale_mm,
+            "octaves": self.octaves,
+            "seed": self.seed,
+            "mode": self.mode,
+            "resolution": self.resolution,
+            "name": self.name,
+        }
+
+    @classmethod
+    def from_dict(cls, data: Any, base: Labradorite | None = None) -> Zoning:
+        """A zoning from JSON-like data.
+
+        Keys: the :class:`Zoning` fields, and optionally ``preset`` (``smooth`` / ``sharp``) to
+        start from. Each entry of ``materials`` is a preset name (``"blue"``), a peak
+        wavelength in nm (``530``), or an object of :class:`~labcut.Labradorite` parameters
+        (plus optionally ``peak_nm`` or ``an``); what an entry leaves out comes from ``base``
+        (default :class:`~labcut.Labradorite`), thicknesses included.
+        """
+        if not isinstance(data, dict):
+            raise ParameterError("zoning description must be a JSON object")
+        base = base if base is not None else Labradorite()
+        known = {f.name for f in dataclasses.fields(cls)} | {"preset"}
+        unknown = sorted(set(data) - known)
+        if unknown:
+            raise ParameterError(f"unknown zoning field(s): {', '.join(unknown)}; known: {', '.join(sorted(known))}")
+        fields = {k: v for k, v in data.items() if k not in ("preset", "materials")}
+        if "ranges" in fields and isinstance(fields["ranges"], list):
+            fields["ranges"] = tuple(tuple(r) if isinstance(r, list) else r for r in fields["ranges"])
+        if "materials" in data:
+            entries = data["materials"]
+            if isinstance(entries, str) or not isinstance(entries, list | tuple):
+                raise ParameterError("zoning materials must be a list of presets, peak wavelengths or parameter objects")
+            fields["materials"] = tuple(_material_entry(e, base, i) for i, e in enumerate(entries))
+        if "preset" in data:
+            return cls.preset(data["preset"], base, **fields)
+        if "materials" not in fields:
+            raise ParameterError("zoning description needs 'materials' (or a 'preset')")
+        return cls(**fields)
+
+    @classmethod
+    def load(cls, path: str | Path, base: Labradorite | None = None) -> Zoning:
+        """:meth:`from_dict` of a JSON file (bad files are a :class:`ParameterError`)."""
+        try:
+            data = json.loads(Path(path).read_text())
+        except FileNotFoundError:
+            raise ParameterError(f"zoning file {str(path)!r} does not exist") from None
+        except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+            raise ParameterError(f"zoning file {str(path)!r} is not readable JSON ({str(exc).splitlines()[0]})") from None
+        return cls.from_dict(data, base)
+
+    # ------------------------------------------------------------------ the LUT
+    @property
+    def shared(self) -> dict[str, Any]:
+        """The parameters every set shares (indices, spread, body albedo)."""
+        return _shared(self.materials[0])
+
+    def set_table(self) -> np.ndarray:
+        """(K, 5) float64: each set's ``d_a, d_b, sigma_a, sigma_b, pairs``."""
+        return np.array([[float(getattr(m, k)) for k in ZONED_KEYS] for m in self.materials])
+
+    def blend(self, x: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """For noise values ``x``: ``(set i, set j, t)`` with ``P(x) = (1 - t) P_i + t P_j``."""
+        x = np.clip(np.asarray(x, dtype=np.float64), 0.0, 1.0)
+        ranges = self.ranges
+        i = np.full(x.shape, ranges[0][2], dtype=np.int64)
+        j = i.copy()
+        t = np.zeros(x.shape)
+        for (lo0, hi0, k0), (lo1, hi1, k1) in zip(ranges[:-1], ranges[1:]):
+            gap = (x > hi0) & (x < lo1)
+            if self.mode == "smooth":
+                frac = (x - hi0) / max(lo1 - hi0, 1e-300)
+            else:
+                frac = (x >= 0.5 * (hi0 + lo1)).astype(np.float64)
+            i = np.where(gap, k0, i)
+            j = np.where(gap, k1, j)
+            t = np.where(gap, frac, t)
+            past = x >= lo1  # in the next range, or beyond it (a later pair refines that)
+            i = np.where(past, k1, i)
+            j = np.where(past, k1, j)
+            t = np.where(past, 0.0, t)
+        return i, j, t
+
+    def parameters(self, x: Any) -> np.ndarray:
+        """The parameter path ``P(x)``: (..., 5) float64 ``d_a, d_b, sigma_a, sigma_b, pairs``."""
+        i, j, t = self.blend(x)
+        table = self.set_table()
+        return (1.0 - t)[..., None] * table[i] + t[..., None] * table[j]
+
+    def path_table(self, size: int = PATH_SIZE) -> np.ndarray:
+        """``P`` at ``x = k / (size - 1)``, k = 0..size-1: (size, 5)."""
+        return self.parameters(np.linspace(0.0, 1.0, size))
+
+    # ------------------------------------------------------------------ the noise
+    def grid_shape(self, lo: np.ndarray, hi: np.ndarray) -> tuple[int, int, int]:
+        """(nz, ny, nx) of the baked grid for a box ``lo``-``hi``."""
+        ext = np.asarray(hi, dtype=np.float64) - np.asarray(lo, dtype=np.float64)
+        n = np.maximum(8, np.ceil(self.resolution * ext / ext.max())).astype(int)
+        return int(n[2]), int(n[1]), int(n[0])
+
+    def bake(self, bounds: Any) -> BakedZoning:
+        """Noise grid over ``bounds`` ((2, 3) mm; padded by 2 %) and the parameter path table."""
+        return _bake(self, tuple(map(tuple, np.asarray(bounds, dtype=np.float64).reshape(2, 3).tolist())))
+
+
+def _material_entry(entry: Any, base: Labradorite, index: int) -> Labradorite:
+    inherited = _inherited(base)
+    if isinstance(entry, str):
+        return Labradorite.preset(entry, **inherited)
+    if isinstance(entry, int | float) and not isinstance(entry, bool):
+        return Labradorite.from_peak_wavelength(entry, **{**inherited, "name": f"{entry:g} nm"})
+    if isinstance(entry, dict):
+        e = dict(entry)
+        if "peak_nm" in e and "an" in e:
+            raise ParameterError(f"zoning set {index}: give peak_nm or an, not both")
+        if "peak_nm" in e:
+            peak = e.pop("peak_nm")
+            return Labradorite.from_peak_wavelength(peak, **_checked({**inherited, **e}))
+        if "an" in e:
+            an = e.pop("an")
+            return Labradorite.from_anorthite(an, **_checked({**inherited, **e}))
+        return Labradorite.from_dict({**base.to_dict(), "name": None, **e})
+    raise ParameterError(f"zoning set {index} must be a preset name, a peak wavelength or an object, got {entry!r}")
+
+
+def _checked(params: dict[str, Any]) -> dict[str, Any]:
+    fields = {f.name for f in dataclasses.fields(Labradorite)}
+    unknown = sorted(set(params) - fields)
+    if unknown:
+        raise ParameterError(f"unknown material parameter(s): {', '.join(unknown)}")
+    return params
+
+
+@functools.lru_cache(maxsize=8)
+def _bake(zoning: Zoning, bounds: tuple[tuple[float, ...], ...]) -> BakedZoning:
+    lo, hi = np.array(bounds[0]), np.array(bounds[1])
+    if not (np.all(np.isfinite(lo)) and np.all(np.isfinite(hi)) and np.all(hi >= lo)):
+        raise ParameterError("zoning needs a finite bounding box")
+    ext = np.maximum(hi - lo, 1e-3 * max(float(np.max(hi - lo)), 1e-3))
+    centre = 0.5 * (lo + hi)
+    lo, hi = centre - 0.51 * ext, centre + 0.51 * ext
+    nz, ny, nx = zoning.grid_shape(lo, hi)
+    axes = [lo[a] + (np.arange(n) + 0.5) * (hi[a] - lo[a]) / n for a, n in enumerate((nx, ny, nz))]
+    z, y, x = np.meshgrid(axes[2], axes[1], axes[0], indexing="ij")
+    pts = np.stack([x.ravel(), y.ravel(), z.ravel()], axis=1)
+    grid = equalise(fbm(pts, zoning.scale_mm, zoning.octaves, zoning.seed)).reshape(nz, ny, nx)
+    return BakedZoning(grid.astype(np.float32), tuple(lo.tolist()), tuple(hi.tolist()), zoning.path_table().astype(np.float32))
+
+
+def resolve(spec: Any, material: Labradorite) -> Zoning | None:
+    """The :class:`Zoning` a ``zoning=`` argument names, for stones of ``material``.
+
+    ``None`` (no zoning), ``"smooth"`` / ``"sharp"`` (presets built on ``material``), a dict
+    (:meth:`Zoning.from_dict`) or a :class:`Zoning` whose sets share ``material``'s indices,
+    spread and body albedo.
+    """
+    if spec is None:
+        return None
+    if isinstance(spec, str):
+        return Zoning.preset(spec, material)
+    if isinstance(spec, dict):
+        return Zoning.from_dict(spec, material)
+    if not isinstance(spec, Zoning):
+        raise ParameterError(f"zoning must be None, 'smooth', 'sharp' or a labcut Zoning, got {type(spec).__name__}")
+    mine = _shared(material)
+    for key, value in spec.shared.items():
+        if value != mine[key]:
+            raise ParameterError(
+                f"the zoning's sets have {key}={value:g} but the material has {mine[key]:g}; they must agree"
+            )
+    return spec
+
+
+# ---------------------------------------------------------------------- kernel side
+def _reflectance_rows(path: np.ndarray, shared: dict[str, Any], cos: np.ndarray, luminance: bool) -> np.ndarray:
+    """Linear sRGB (rows, C, 3) or luminance (rows, C, 1) reflectance along a parameter path."""
+    from ..colour import reflectance_to_xyz, tables, xyz_to_linear_srgb
+
+    wl = tables().wavelengths
+    uniq, inverse = np.unique(path.astype(np.float64), axis=0, return_inverse=True)
+    out = []
+    for row in uniq:
+        d_a, d_b, s_a, s_b, pairs = row
+        spectra = stack_reflectance(wl[None, :], cos[:, None], shared["n_a"], shared["n_b"], d_a, d_b, s_a, s_b, pairs)
+        xyz = reflectance_to_xyz(spectra)
+        out.append(xyz[:, 1:2] if luminance else np.clip(xyz_to_linear_srgb(xyz), 0.0, None))
+    return np.stack(out)[np.asarray(inverse).ravel()]
+
+
+@functools.lru_cache(maxsize=16)
+def _table_cached(path_bytes: bytes, rows: int, shared_items: tuple, kind: str) -> np.ndarray:
+    path = np.frombuffer(path_bytes, dtype=np.float32).reshape(rows, len(ZONED_KEYS))
+    cos = np.linspace(0.0, 1.0, COS_SIZE)
+    return _reflectance_rows(path, dict(shared_items), cos, kind == "mono").astype(np.float32)
+
+
+def reflectance_table(path: np.ndarray, shared: dict[str, Any], kind: str) -> np.ndarray:
+    """(rows, COS_SIZE, 3 or 1) float32 table of R over (x, cos θ) for ``kind`` ``rgb`` / ``mono`` (cached)."""
+    p = np.ascontiguousarray(path, dtype=np.float32)
+    return _table_cached(p.tobytes(), p.shape[0], tuple(sorted(shared.items())), kind)
+
+
+def schiller_weight(path: np.ndarray, shared: dict[str, Any]) -> float:
+    """Mean luminance reflectance over x and over cos θ in [0.5, 1]: the schiller lobe's sampling weight."""
+    rows = np.asarray(path)[:: max(1, len(path) // 16)]
+    lum = reflectance_table(rows, shared, "mono")[..., 0]
+    return float(max(np.mean(lum[:, COS_SIZE // 2 :]), 0.02))
+
+
+class ZoningKernel:
+    """The zoning inside a ``labradorite`` BSDF instance: textures and the lookup at a hit.
+
+    Built from the plugin properties ``zoning_grid`` (TensorXf, nz x ny x nx x 1, values of
+    x in [0, 1]), ``zoning_path`` (TensorXf, N x 5: ``d_a, d_b, sigma_a, sigma_b, pairs``
+    at ``x = i / (N - 1)``), ``zoning_lo`` and ``zoning_hi`` (the grid's box, world mm).
+    """
+
+    def __init__(self, props: Any, shared: dict[str, Any]) -> None:
+        import drjit as dr
+        import mitsuba as mi
+
+        grid = props["zoning_grid"]
+        path = props.get("zoning_path", None)
+        if path is None or "zoning_lo" not in props or "zoning_hi" not in props:
+            raise ParameterError("zoning needs zoning_grid, zoning_path, zoning_lo and zoning_hi together")
+        g = np.array(grid, dtype=np.float32)
+        p = np.array(path, dtype=np.float32)
+        if g.ndim != 4 or g.shape[3] != 1 or min(g.shape[:3]) < 2:
+            raise ParameterError(f"zoning_grid must be a (nz, ny, nx, 1) tensor, got shape {g.shape}")
+        if p.ndim != 2 or p.shape[1] != len(ZONED_KEYS) or p.shape[0] < 2:
+            raise ParameterError(f"zoning_path must be an (N, {len(ZONED_KEYS)}) tensor, got shape {p.shape}")
+        if not (np.all(np.isfinite(g)) and np.all(np.isfinite(p))):
+            raise ParameterError("zoning tensors must be finite")
+        if np.any(p[:, :2] <= 0) or np.any(p[:, 2:4] < 0) or np.any(p[:, 4] < 1):
+            raise ParameterError("zoning_path needs d > 0, sigma >= 0 and pairs >= 1")
+        lo = np.array([float(props["zoning_lo"][k]) for k in range(3)])
+        hi = np.array([float(props["zoning_hi"][k]) for k in range(3)])
+        if not (np.all(np.isfinite(lo)) and np.all(np.isfinite(hi)) and np.all(hi > lo)):
+            raise ParameterError("zoning_lo must lie below zoning_hi on every axis")
+        self.shared = dict(shared)
+        self.path = p
+        self.rows = p.shape[0]
+        self.lo = mi.ScalarPoint3f(*lo.tolist())
+        self.inv_ext = mi.ScalarVector3f(*(1.0 / (hi - lo)).tolist())
+        self.grid = mi.Texture3f(mi.TensorXf(g), use_accel=False, filter_mode=dr.FilterMode.Linear, wrap_mode=dr.WrapMode.Clamp)
+        self.spectral = bool(mi.is_spectral)
+        if self.spectral:
+            self.table = mi.Texture1f(mi.TensorXf(p), use_accel=False, filter_mode=dr.FilterMode.Linear, wrap_mode=dr.WrapMode.Clamp)
+        else:
+            data = reflectance_table(p, shared, "rgb" if mi.is_rgb else "mono")
+            self.table = mi.Texture2f(mi.TensorXf(data), use_accel=False, filter_mode=dr.FilterMode.Linear, wrap_mode=dr.WrapMode.Clamp)
+        self.weight = schiller_weight(p, shared)
+
+    def x_at(self, p: Any) -> Any:
+        """Noise value x in [0, 1] at world points ``p`` (trilinear)."""
+        import mitsuba as mi
+
+        u = (mi.Point3f(p) - self.lo) * self.inv_ext
+        return self.grid.eval(u)[0]
+
+    def reflectance(self, si: Any, cos_l: Any) -> Any:
+        """R at the hit ``si`` and internal cos θ ``cos_l`` as an UnpolarizedSpectrum."""
+        import drjit as dr
+        import mitsuba as mi
+
+        x = self.x_at(si.p)
+        n = float(self.rows)
+        ux = (x * (n - 1.0) + 0.5) / n  # row k sits at texel centre (k + 0.5) / n
+        if self.spectral:
+            d_a, d_b, s_a, s_b, pairs = self.table.eval(mi.Point1f(ux))
+            s = self.shared
+            r = stack_reflectance(si.wavelengths, cos_l, s["n_a"], s["n_b"], d_a, d_b, s_a, s_b, dr.maximum(pairs, 1.0))
+            return mi.UnpolarizedSpectrum(r)
+        c = float(COS_SIZE)
+        uc = (dr.clip(cos_l, 0.0, 1.0) * (c - 1.0) + 0.5) / c
+        values = self.table.eval(mi.Point2f(uc, ux))
+        if len(values) == 1:
+            return mi.UnpolarizedSpectrum(values[0])
+        return mi.UnpolarizedSpectrum(values[0], values[1], values[2])
