@@ -39,6 +39,11 @@ _LAZY = {
     "cabochon": "labcut.geometry.cabochon:cabochon",
     "load_mesh": "labcut.geometry.meshio:load_mesh",
     "render": "labcut.rendering.api:render",
+    "recommend_orientation": "labcut.orientation.recommend:recommend_orientation",
+    "evaluate_orientation": "labcut.orientation.recommend:evaluate_orientation",
+    "Recommendation": "labcut.orientation.recommend:Recommendation",
+    "Lights": "labcut.orientation.models:Lights",
+    "Views": "labcut.orientation.models:Views",
     "RenderResult": "labcut.rendering.api:RenderResult",
 }
 

@@ -1,0 +1,326 @@
+"""Optimisers over the lamella normal: exhaustive grid (reference), NLopt, Dr.Jit gradient ascent.
+
+All work in stereographic coordinates ``(u, v)`` (see :mod:`labcut.orientation.scoring`),
+inside the disc of radius ``tan(max_tilt/2)``; points outside are pulled radially onto
+its edge, so the objective is defined on the whole box NLopt searches. A fixed tilt
+axis (a horizontal unit vector) reduces the search to one angle: the normal is +Z
+rotated about that axis.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import ParameterError
+from .scoring import Scorer, normal_to_stereo, stereo_to_normal
+
+OPTIMIZERS = ("nlopt", "gradient", "grid")
+
+
+@dataclass(frozen=True)
+class Constraint:
+    """Where the lamella normal may go: within ``max_tilt_deg`` of +Z, optionally about a fixed axis."""
+
+    max_tilt_deg: float = 90.0
+    tilt_axis: tuple[float, float, float] | None = None
+
+    def __post_init__(self) -> None:
+        if not (isinstance(self.max_tilt_deg, int | float) and math.isfinite(self.max_tilt_deg) and 0.0 < self.max_tilt_deg <= 90.0):
+            raise ParameterError(f"max_tilt must lie in (0, 90] degrees, got {self.max_tilt_deg!r}")
+        if self.tilt_axis is not None:
+            a = np.asarray(self.tilt_axis, dtype=np.float64)
+            if a.shape != (3,) or not np.all(np.isfinite(a)):
+                raise ParameterError("tilt axis must be three finite numbers")
+            a = a - a[2] * np.array([0.0, 0.0, 1.0])
+            if np.linalg.norm(a) < 1e-9:
+                raise ParameterError("tilt axis must be horizontal (it may not be the face-up axis)")
+            object.__setattr__(self, "tilt_axis", tuple(float(x) for x in a / np.linalg.norm(a)))
+
+    @property
+    def radius(self) -> float:
+        return math.tan(math.radians(self.max_tilt_deg) / 2.0)
+
+    def clamp(self, u: float, v: float) -> tuple[float, float]:
+        r = math.hypot(u, v)
+        return (u, v) if r <= self.radius else (u * self.radius / r, v * self.radius / r)
+
+    def axis_normal(self, angle_deg: float) -> np.ndarray:
+        """+Z rotated by ``angle_deg`` about the tilt axis (Rodrigues)."""
+        k = np.asarray(self.tilt_axis)
+        t = math.radians(angle_deg)
+        z = np.array([0.0, 0.0, 1.0])
+        return z * math.cos(t) + np.cross(k, z) * math.sin(t) + k * (k @ z) * (1 - math.cos(t))
+
+    def allowed(self, normals: np.ndarray) -> np.ndarray:
+        return normals[:, 2] >= math.cos(math.radians(self.max_tilt_deg)) - 1e-12
+
+
+def hemisphere_grid(spacing_deg: float, constraint: Constraint) -> np.ndarray:
+    """Unit normals on a Fibonacci spiral with about ``spacing_deg`` between neighbours, within the constraint."""
+    if constraint.tilt_axis is not None:
+        angles = np.arange(-constraint.max_tilt_deg, constraint.max_tilt_deg + 1e-9, spacing_deg)
+        return np.array([constraint.axis_normal(a) for a in angles])
+    cap = 1.0 - math.cos(math.radians(constraint.max_tilt_deg))
+    n = max(8, int(math.ceil(2.0 * math.pi * cap / math.radians(spacing_deg) ** 2)))
+    i = np.arange(n) + 0.5
+    z = 1.0 - cap * i / n
+    r = np.sqrt(np.clip(1.0 - z * z, 0.0, None))
+    phi = i * math.pi * (3.0 - math.sqrt(5.0))
+    return np.stack([r * np.cos(phi), r * np.sin(phi), z], axis=1)
+
+
+def score_map(scorer: Scorer, normals: np.ndarray) -> np.ndarray:
+    """Objective at many normals: the exact binned sum for energy, per-normal scoring otherwise
+    (skipping normals whose energy is below 2 % of the best: no flash can be there)."""
+    energy = scorer.energy_map(normals)
+    if scorer.objective == "energy":
+        return energy
+    out = np.zeros(len(normals))
+    keep = np.nonzero(energy >= 0.02 * energy.max())[0] if energy.max() > 0 else np.arange(len(normals))
+    for i in keep:
+        out[i] = scorer.score(normals[i])
+    return out
+
+
+@dataclass
+class OptimumResult:
+    normal: np.ndarray
+    score: float
+    evaluations: int
+    method: str
+
+
+def _polish_grid(scorer: Scorer, centre: np.ndarray, constraint: Constraint, radius_deg: float, step_deg: float) -> tuple[np.ndarray, float]:
+    """Exhaustive fine grid in a cap around ``centre`` (or a 1D segment for a fixed axis)."""
+    if constraint.tilt_axis is not None:
+        k = np.asarray(constraint.tilt_axis)
+        z = np.array([0.0, 0.0, 1.0])
+        a0 = math.degrees(math.atan2(np.cross(z, centre) @ k, centre @ z))
+        angles = np.clip(np.arange(a0 - radius_deg, a0 + radius_deg + 1e-9, step_deg), -constraint.max_tilt_deg, constraint.max_tilt_deg)
+        cand = np.array([constraint.axis_normal(a) for a in angles])
+    else:
+        u0, v0 = normal_to_stereo(centre)
+        scale = (1.0 + u0 * u0 + v0 * v0) / 2.0  # stereographic radius per radian at (u0, v0)
+        d = math.radians(radius_deg) * scale
+        s = math.radians(step_deg) * scale
+        g = np.arange(-d, d + 1e-12, s)
+        uu, vv = np.meshgrid(u0 + g, v0 + g)
+        pts = [constraint.clamp(a, b) for a, b in zip(uu.ravel(), vv.ravel())]
+        cand = np.array([stereo_to_normal(a, b) for a, b in pts])
+    values = score_map(scorer, cand)
+    i = int(np.argmax(values))
+    return cand[i], float(values[i])
+
+
+def optimize_grid(scorer: Scorer, constraint: Constraint, coarse_deg: float = 1.5, fine_deg: float = 0.1) -> OptimumResult:
+    """Reference: a grid over the whole allowed region, then a 0.1° grid around the 3 best cells."""
+    start = scorer.evaluations
+    normals = hemisphere_grid(coarse_deg, constraint)
+    values = score_map(scorer, normals)
+    order = np.argsort(values)[::-1][:3]
+    best_n, best_v = normals[order[0]], float(values[order[0]])
+    for i in order:
+        n, v = _polish_grid(scorer, normals[i], constraint, 1.5 * coarse_deg, fine_deg)
+        if v > best_v:
+            best_n, best_v = n, v
+    return OptimumResult(best_n, best_v, scorer.evaluations - start, "grid")
+
+
+def _local_lbfgs(scorer: Scorer, u0: float, v0: float, constraint: Constraint) -> tuple[float, float, float]:
+    import nlopt
+
+    r = constraint.radius
+    seen: list = [(u0, v0), -np.inf]
+
+    def f(x: np.ndarray, grad: np.ndarray) -> float:
+        u, v = constraint.clamp(float(x[0]), float(x[1]))
+        value, g = scorer.value_and_grad_uv(u, v)
+        if grad.size:
+            grad[:] = g
+        if value > seen[1]:
+            seen[:] = [(u, v), value]
+        return value
+
+    opt = nlopt.opt(nlopt.LD_LBFGS, 2)
+    opt.set_max_objective(f)
+    opt.set_lower_bounds([-r, -r])
+    opt.set_upper_bounds([r, r])
+    opt.set_xtol_abs(1e-5)
+    opt.set_maxeval(60)
+    try:
+        opt.optimize([u0, v0])
+    except Exception:  # nlopt stops on roundoff / line-search failure: keep the best point seen
+        pass
+    u, v = seen[0]
+    return u, v, scorer.score_uv(u, v)
+
+
+def optimize_nlopt(scorer: Scorer, constraint: Constraint, global_evals: int = 250) -> OptimumResult:
+    """NLopt: DIRECT-L (global, derivative-free) over the disc's bounding box, then an L-BFGS
+    polish (``LD_LBFGS``) with Dr.Jit gradients. A fixed axis uses the same pair in 1D."""
+    import nlopt
+
+    start = scorer.evaluations
+    if constraint.tilt_axis is not None:
+        lim = constraint.max_tilt_deg
+        f = lambda x, grad: scorer.score(constraint.axis_normal(float(x[0])))  # noqa: E731
+        opt = nlopt.opt(nlopt.GN_DIRECT_L, 1)
+        opt.set_max_objective(f)
+        opt.set_lower_bounds([-lim])
+        opt.set_upper_bounds([lim])
+        opt.set_maxeval(max(40, global_evals // 4))
+        x = opt.optimize([0.0])
+        loc = nlopt.opt(nlopt.LN_BOBYQA, 1)
+        loc.set_max_objective(f)
+        loc.set_lower_bounds([-lim])
+        loc.set_upper_bounds([lim])
+        loc.set_xtol_abs(1e-3)
+        loc.set_initial_step(0.5)
+        loc.set_maxeval(40)
+        x = loc.optimize(x)
+        n = constraint.axis_normal(float(x[0]))
+        return OptimumResult(n, scorer.score(n), scorer.evaluations - start, "nlopt")
+    r = constraint.radius
+    best: list = [None, -np.inf]
+
+    def f_global(x: np.ndarray, grad: np.ndarray) -> float:
+        u, v = constraint.clamp(float(x[0]), float(x[1]))
+        value = scorer.score_uv(u, v)
+        if value > best[1]:
+            best[:] = [(u, v), value]
+        return value
+
+    opt = nlopt.opt(nlopt.GN_DIRECT_L, 2)
+    opt.set_max_objective(f_global)
+    opt.set_lower_bounds([-r, -r])
+    opt.set_upper_bounds([r, r])
+    opt.set_maxeval(global_evals)
+    try:
+        opt.optimize([0.0, 0.0])
+    except Exception:  # nlopt's own stop conditions: keep the best point seen
+        pass
+    u0, v0 = best[0]
+    u, v, value = _local_lbfgs(scorer, u0, v0, constraint)
+    if value < best[1]:
+        (u, v), value = best[0], best[1]
+    return OptimumResult(stereo_to_normal(u, v), value, scorer.evaluations - start, "nlopt")
+
+
+def optimize_gradient(scorer: Scorer, constraint: Constraint, starts: int = 12, iterations: int = 60, seed: int = 0) -> OptimumResult:
+    """Dr.Jit gradient ascent (Adam on (u, v)) from ``starts`` spread-out starting normals."""
+    start = scorer.evaluations
+    if constraint.tilt_axis is not None:
+        return _axis_gradient(scorer, constraint, starts, iterations)
+    inits = hemisphere_grid(max(2.0, math.degrees(math.sqrt(2 * math.pi * (1 - math.cos(math.radians(constraint.max_tilt_deg))) / starts))), constraint)
+    inits = inits[np.linspace(0, len(inits) - 1, min(starts, len(inits))).astype(int)]
+    best_uv, best_value = (0.0, 0.0), -np.inf
+    r = constraint.radius
+    if scorer.objective == "energy":  # all starts in one kernel per step
+        x = np.array([normal_to_stereo(n) for n in inits])
+        m1 = np.zeros_like(x)
+        m2 = np.zeros_like(x)
+        lr = 0.02 * max(r, 0.05)
+        for it in range(1, iterations + 1):
+            _, g = scorer.energy_batch_value_and_grad(x[:, 0], x[:, 1])
+            m1 = 0.9 * m1 + 0.1 * g
+            m2 = 0.999 * m2 + 0.001 * g * g
+            step = lr * (m1 / (1 - 0.9**it)) / (np.sqrt(m2 / (1 - 0.999**it)) + 1e-12)
+            x = np.array([constraint.clamp(a, b) for a, b in x + step])
+        values, _ = scorer.energy_batch_value_and_grad(x[:, 0], x[:, 1])
+        i = int(np.argmax(values))
+        best_uv, best_value = (float(x[i, 0]), float(x[i, 1])), float(values[i])
+        inits = []
+    for n0 in inits:
+        x = np.array(normal_to_stereo(n0))
+        m1 = np.zeros(2)
+        m2 = np.zeros(2)
+        lr = 0.02 * max(r, 0.05)
+        for it in range(1, iterations + 1):
+            value, g = scorer.value_and_grad_uv(*constraint.clamp(*x))
+            m1 = 0.9 * m1 + 0.1 * g
+            m2 = 0.999 * m2 + 0.001 * g * g
+            step = lr * (m1 / (1 - 0.9**it)) / (np.sqrt(m2 / (1 - 0.999**it)) + 1e-12)
+            x = np.array(constraint.clamp(*(x + step)))
+            if np.linalg.norm(step) < 1e-6:
+                break
+        value = scorer.score_uv(*x)
+        if value > best_value:
+            best_uv, best_value = (float(x[0]), float(x[1])), value
+    u, v, value = _local_lbfgs(scorer, *best_uv, constraint)
+    if value < best_value:
+        (u, v), value = best_uv, best_value
+    return OptimumResult(stereo_to_normal(u, v), value, scorer.evaluations - start, "gradient")
+
+
+def _axis_gradient(scorer: Scorer, constraint: Constraint, starts: int, iterations: int) -> OptimumResult:
+    start = scorer.evaluations
+    lim = constraint.max_tilt_deg
+    best = (0.0, -np.inf)
+    h = 0.05
+    for a in np.linspace(-lim, lim, max(3, starts)):
+        for _ in range(iterations):
+            f = lambda t: scorer.score(constraint.axis_normal(float(np.clip(t, -lim, lim))))  # noqa: E731
+            g = (f(a + h) - f(a - h)) / (2 * h)
+            a_new = float(np.clip(a + 2.0 * np.sign(g) * min(abs(g) * 50, 1.0), -lim, lim))
+            if abs(a_new - a) < 1e-3:
+                break
+            a = a_new
+        value = scorer.score(constraint.axis_normal(a))
+        if value > best[1]:
+            best = (a, value)
+    n = constraint.axis_normal(best[0])
+    return OptimumResult(n, best[1], scorer.evaluations - start, "gradient")
+
+
+def run_optimizer(name: str, scorer: Scorer, constraint: Constraint, quality: str = "standard") -> OptimumResult:
+    if name == "grid":
+        return optimize_grid(scorer, constraint, coarse_deg={"draft": 2.0, "standard": 1.5, "high": 1.0}[quality])
+    if name == "nlopt":
+        return optimize_nlopt(scorer, constraint, global_evals={"draft": 150, "standard": 250, "high": 400}[quality])
+    if name == "gradient":
+        return optimize_gradient(scorer, constraint, starts={"draft": 8, "standard": 12, "high": 20}[quality])
+    raise ParameterError(f"optimizer must be one of {', '.join(OPTIMIZERS)}, got {name!r}")
+
+
+def tolerance_deg(scores: Callable[[np.ndarray], np.ndarray], best: np.ndarray, best_score: float, constraint: Constraint, keep: float = 0.9, limit_deg: float = 30.0) -> float:
+    """How far (degrees) the normal may miss in any direction and keep ``keep`` x the score.
+
+    Rings of 16 directions (scored together) at growing angular distance; the first
+    ring with a point below ``keep * best_score`` bounds the tolerance (bisected to 0.05°).
+    """
+    target = keep * best_score
+    best = best / np.linalg.norm(best)
+    helper = np.array([1.0, 0.0, 0.0]) if abs(best[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    e1 = np.cross(best, helper)
+    e1 /= np.linalg.norm(e1)
+    e2 = np.cross(best, e1)
+    if constraint.tilt_axis is not None:
+        k = np.asarray(constraint.tilt_axis)
+        dirs = [np.cross(k, best), -np.cross(k, best)]
+    else:
+        dirs = [math.cos(p) * e1 + math.sin(p) * e2 for p in np.linspace(0, 2 * math.pi, 16, endpoint=False)]
+
+    def fails(angle_deg: float) -> bool:
+        t = math.radians(angle_deg)
+        ring = np.array([best * math.cos(t) + d * math.sin(t) for d in dirs])
+        ring = np.where(ring[:, 2:3] < 0, -ring, ring)
+        return bool(np.min(scores(ring)) < target)
+
+    lo, hi = 0.0, None
+    a = 0.25
+    while a <= limit_deg:
+        if fails(a):
+            hi = a
+            break
+        lo = a
+        a *= 1.6
+    if hi is None:
+        return limit_deg
+    while hi - lo > 0.05:
+        mid = 0.5 * (lo + hi)
+        lo, hi = (lo, mid) if fails(mid) else (mid, hi)
+    return lo

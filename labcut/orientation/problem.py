@@ -1,0 +1,257 @@
+"""The flash problem of one cut: (point, light, view) triples and their lamella-independent weights.
+
+For a surface point ``x`` (smooth shading normal ``n``), a light ``l`` and a view
+``v`` the schiller radiance is (the BSDF of :mod:`labcut.rendering.bsdf`)::
+
+    L_s(x, v; m) = Σ_l E_l T_i T_o R_Y(|a·h|) (n·l) / (4 |a·h| max(a·n, b·n) η²) · q(h·m)
+
+``a``, ``b`` are the internal directions refracted from ``l`` and ``v`` and
+``h = normalize(a + b)`` the lamella orientation that mirrors the light into the eye
+(DESIGN.md §4). Everything but ``q(h·m)`` is independent of the lamella normal
+``m``, so one pass builds, per triple, ``h_t`` and ``c_t`` (the factor in front of
+``q``, divided by ``L_ref``); any orientation is then scored by summing
+``c_t q(h_t·m)``, and the whole hemisphere at once by binning ``h_t``
+(:mod:`labcut.orientation.scoremap`).
+
+``L_ref`` (DESIGN.md §4) is ``L_s`` of a flat polished face with the lamellae
+parallel to it, lit and viewed along its normal by one light carrying the total
+irradiance: ``E T(0)² R_Y(1) q(1) / (4 η²)``.
+
+Projected areas: points are sampled uniformly by area; a point counts for view
+``v`` when its geometric normal faces ``v`` and (non-convex meshes only) nothing
+hides it, with weight ``n_g·v``. Lights are tested the same way (lights below a
+face's horizon or hidden by another part contribute nothing).
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from ..errors import MeshError, ParameterError
+from ..physics.material import Labradorite
+from .models import Lights, Views
+
+TABLE_SIZE = 1024
+QUALITY_POINTS = {"draft": 3000, "standard": 8000, "high": 24000}
+
+
+def fresnel_dielectric(cos_i: np.ndarray, eta: float) -> np.ndarray:
+    """Unpolarised Fresnel reflectance from outside (index 1) into index ``eta``."""
+    c = np.clip(cos_i, 0.0, 1.0)
+    s2t = (1.0 - c * c) / (eta * eta)
+    ct = np.sqrt(np.clip(1.0 - s2t, 0.0, None))
+    rs = (c - eta * ct) / (c + eta * ct)
+    rp = (eta * c - ct) / (eta * c + ct)
+    return 0.5 * (rs * rs + rp * rp)
+
+
+def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    return np.einsum("ij,ij->i", a, b)
+
+
+def _internal(w: np.ndarray, n: np.ndarray, eta: float) -> np.ndarray:
+    """Internal direction (pointing out of the surface) that refracts into external ``w``."""
+    cos = _dot(w, n)[:, None]
+    tangent = (w - cos * n) / eta
+    return tangent + n * np.sqrt(np.clip(1.0 - _dot(tangent, tangent), 0.0, None))[:, None]
+
+
+@functools.lru_cache(maxsize=16)
+def luminance_table(material: Labradorite) -> tuple[np.ndarray, np.ndarray]:
+    """(cos θ grid, luminance reflectance R_Y) of a material: the mono BSDF's table, cached."""
+    from ..colour import reflectance_luminance
+
+    c = np.linspace(0.0, 1.0, TABLE_SIZE)
+    return c, reflectance_luminance(material, c)
+
+
+def vmf_kappa(spread_deg: float) -> float:
+    s = math.radians(spread_deg)
+    return 1.0 / (s * s)
+
+
+@dataclass
+class FlashProblem:
+    """Precomputed triples for one (mesh, material, lights, views, quality)."""
+
+    h: np.ndarray  # (T, 3) lamella orientation per triple, mesh frame, h_z >= 0 (axial fold)
+    c: np.ndarray  # (T,) weight in front of q, in units of L_ref
+    pair: np.ndarray  # (T,) index of the (point, view) pair
+    pair_view: np.ndarray  # (P,) view index of each pair
+    pair_weight: np.ndarray  # (P,) projected-area weight, sums to 1 within each view
+    view_weight: np.ndarray  # (V,) normalised view weights
+    view_has_area: np.ndarray  # (V,) bool: some surface faces the view
+    kappa: float
+    q_norm: float
+    tau: float
+    material: Labradorite
+    lights: Lights
+    views: Views
+    convex: bool
+    n_points: int
+    info: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def n_triples(self) -> int:
+        return int(self.c.size)
+
+    def alpha(self) -> np.ndarray:
+        """Per-triple weight of the (linear) energy objective: Σ_t alpha_t q(h_t·m) = energy."""
+        return self.c * self.pair_weight[self.pair] * self.view_weight[self.pair_view[self.pair]]
+
+
+def _smooth_normals(mesh: Any, face_idx: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """Smooth shading normals at sample points, as the renderer shades (sharp edges > 30° kept)."""
+    import trimesh
+
+    split = trimesh.graph.smooth_shade(mesh, angle=math.radians(30.0))
+    # faces keep their order in smooth_shade, so face indices carry over
+    tri = split.vertices[split.faces[face_idx]]
+    bary = trimesh.triangles.points_to_barycentric(tri, points)
+    vn = split.vertex_normals[split.faces[face_idx]]
+    n = np.einsum("ij,ijk->ik", bary, vn)
+    return n / np.linalg.norm(n, axis=1, keepdims=True)
+
+
+def _visibility(mesh: Any, origins: np.ndarray, normals: np.ndarray, dirs: np.ndarray) -> np.ndarray:
+    """(N, D) bool: the ray from each point towards each distant direction escapes the mesh."""
+    import drjit as dr
+    import mitsuba as mi
+
+    from ..backend import set_variant
+    from ..rendering.scene import to_mitsuba_mesh
+
+    set_variant("rgb")
+    scene = mi.load_dict({"type": "scene", "stone": to_mitsuba_mesh(mesh, mi.load_dict({"type": "diffuse"}))})
+    scale = float(np.linalg.norm(mesh.extents))
+    eps = 1e-4 * scale
+    n, d = len(origins), len(dirs)
+    o = np.repeat(origins + eps * normals, d, axis=0)
+    w = np.tile(dirs, (n, 1))
+    ray = mi.Ray3f(mi.Point3f(o[:, 0], o[:, 1], o[:, 2]), mi.Vector3f(w[:, 0], w[:, 1], w[:, 2]))
+    hit = scene.ray_test(ray)
+    dr.eval(hit)
+    return ~np.array(hit, dtype=bool).reshape(n, d)
+
+
+def build_problem(
+    mesh: Any,
+    material: Labradorite,
+    lights: Lights,
+    views: Views,
+    quality: str = "standard",
+    tau: float = 0.1,
+    seed: int = 0,
+    n_points: int | None = None,
+) -> FlashProblem:
+    """Sample the surface and build every (point, light, view) triple (see the module docstring)."""
+    import trimesh
+
+    if quality not in QUALITY_POINTS:
+        raise ParameterError(f"quality must be one of {', '.join(QUALITY_POINTS)}, got {quality!r}")
+    if not (isinstance(tau, int | float) and math.isfinite(tau) and 0.0 < tau < 10.0):
+        raise ParameterError(f"flash threshold tau must lie in (0, 10), got {tau!r}")
+    if not isinstance(mesh, trimesh.Trimesh) or len(mesh.faces) == 0:
+        raise MeshError("the mesh is empty or not a trimesh.Trimesh (load it with labcut.load_mesh)")
+    count = int(n_points or QUALITY_POINTS[quality])
+    area_faces = mesh.area_faces
+    ok = np.isfinite(area_faces) & (area_faces > 0)
+    if not np.any(ok):
+        raise MeshError("the mesh has no face with positive area")
+    rng = np.random.default_rng(seed)
+    prob = np.where(ok, area_faces, 0.0)
+    face_idx = rng.choice(len(area_faces), size=count, p=prob / prob.sum())
+    r1, r2 = rng.random(count), rng.random(count)
+    s = np.sqrt(r1)
+    bary = np.stack([1 - s, s * (1 - r2), s * r2], axis=1)
+    tri = mesh.triangles[face_idx]
+    points = np.einsum("ij,ijk->ik", bary, tri)
+    n_geo = mesh.face_normals[face_idx]
+    n_sh = _smooth_normals(mesh, face_idx, points)
+
+    info = mesh.metadata.get("labcut", {}) if hasattr(mesh, "metadata") else {}
+    if "convex" in info:
+        convex = bool(info["convex"])
+    else:
+        from ..geometry.meshio import is_convex_mesh
+
+        convex = bool(is_convex_mesh(mesh))
+
+    L, E = lights.directions, lights.weights
+    V, wv = views.directions, views.weights
+    eta = material.n_surface
+
+    # facing and visibility: point x view, point x light
+    face_v = (n_geo @ V.T > 1e-6) & (n_sh @ V.T > 1e-6)
+    lit = (n_geo @ L.T > 1e-6) & (n_sh @ L.T > 1e-6) & (E[None, :] > 0)
+    if not convex:
+        face_v &= _visibility(mesh, points, n_geo, V)
+        lit &= _visibility(mesh, points, n_geo, L)
+
+    # projected-area weights per (point, view) pair
+    pi, pv = np.nonzero(face_v)
+    proj = np.einsum("ij,ij->i", n_geo[pi], V[pv])
+    per_view = np.bincount(pv, weights=proj, minlength=len(V))
+    pair_weight = proj / np.where(per_view[pv] > 0, per_view[pv], 1.0)
+
+    # triples: pair x lit lights of that point
+    lit_i, lit_l = np.nonzero(lit)
+    counts = np.bincount(lit_i, minlength=count)
+    starts = np.concatenate([[0], np.cumsum(counts)[:-1]])
+    reps = counts[pi]
+    pair_of_t = np.repeat(np.arange(len(pi)), reps)
+    offs = np.arange(reps.sum()) - np.repeat(np.cumsum(reps) - reps, reps)
+    light_of_t = lit_l[np.repeat(starts[pi], reps) + offs]
+    point_of_t = pi[pair_of_t]
+    view_of_t = pv[pair_of_t]
+
+    n_t = n_sh[point_of_t]
+    wl = L[light_of_t]
+    wo = V[view_of_t]
+    a = _internal(wl, n_t, eta)
+    b = _internal(wo, n_t, eta)
+    hsum = a + b
+    h = hsum / np.sqrt(_dot(hsum, hsum))[:, None]
+    cos_l = np.clip(_dot(a, h), 1e-6, 1.0)
+    a_n = _dot(a, n_t)
+    b_n = _dot(b, n_t)
+    cos_li = _dot(wl, n_t)
+    cos_vo = _dot(wo, n_t)
+    t_i = 1.0 - fresnel_dielectric(cos_li, eta)
+    t_o = 1.0 - fresnel_dielectric(cos_vo, eta)
+    table_c, table_r = luminance_table(material)
+    r_y = np.interp(cos_l, table_c, table_r)
+    kappa = vmf_kappa(material.spread_deg)
+    q_norm = kappa / (2.0 * math.pi * -math.expm1(-kappa))
+    t0 = 1.0 - float(fresnel_dielectric(np.array(1.0), eta))
+    l_ref = float(E.sum()) * t0 * t0 * float(table_r[-1]) * q_norm / (4.0 * eta * eta)
+    if not l_ref > 0:
+        raise ParameterError("the material reflects nothing at normal incidence: no flash can be scored")
+    c = E[light_of_t] * t_i * t_o * r_y * cos_li / (4.0 * cos_l * np.maximum(a_n, b_n) * eta * eta) / l_ref
+    h = np.where(h[:, 2:3] < 0.0, -h, h)  # axial: fold into the upper hemisphere
+    finite = np.isfinite(c) & np.all(np.isfinite(h), axis=1)
+    c = np.where(finite, c, 0.0)
+    h = np.where(finite[:, None], h, np.array([0.0, 0.0, 1.0]))
+    return FlashProblem(
+        h=h,
+        c=c,
+        pair=pair_of_t.astype(np.int64),
+        pair_view=pv.astype(np.int64),
+        pair_weight=pair_weight,
+        view_weight=wv,
+        view_has_area=per_view > 0,
+        kappa=kappa,
+        q_norm=q_norm,
+        tau=float(tau),
+        material=material,
+        lights=lights,
+        views=views,
+        convex=convex,
+        n_points=count,
+        info={"l_ref": l_ref, "pairs": int(len(pi)), "triples": int(c.size)},
+    )

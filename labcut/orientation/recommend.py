@@ -1,0 +1,232 @@
+"""``labcut.recommend_orientation`` and ``labcut.evaluate_orientation`` (DESIGN.md §4-5)."""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from ..errors import ParameterError
+from ..physics.material import Labradorite
+from .models import Lights, Views, lights_from, views_from
+from .optimize import OPTIMIZERS, Constraint, hemisphere_grid, run_optimizer, score_map, tolerance_deg
+from .problem import build_problem
+from .scoring import OBJECTIVES, FlashMetrics, Scorer
+
+MAP_SPACING_DEG = {"draft": 4.0, "standard": 3.0, "high": 1.5}
+RUNNER_UP_SEPARATION_DEG = 12.0
+
+
+def tilt_azimuth(normal: np.ndarray) -> tuple[float, float]:
+    """Tilt from +Z and azimuth from +X toward +Y (degrees, azimuth in [0, 360))."""
+    n = np.asarray(normal, dtype=np.float64)
+    tilt = math.degrees(math.acos(max(-1.0, min(1.0, float(n[2])))))
+    az = math.degrees(math.atan2(float(n[1]), float(n[0]))) % 360.0 if tilt > 1e-9 else 0.0
+    return tilt, az
+
+
+def describe(normal: np.ndarray) -> str:
+    """The orientation in a cutter's words: tilt of the lamella plane towards a side of the stone."""
+    tilt, az = tilt_azimuth(normal)
+    if tilt < 0.5:
+        return "keep the lamella plane parallel to the base (face-up)"
+    sides = ["right (+X)", "back-right", "back (+Y)", "back-left", "left (-X)", "front-left", "front (-Y)", "front-right"]
+    side = sides[int(((az + 22.5) % 360.0) // 45.0)]
+    return f"tilt the lamella plane {tilt:.0f}° towards the {side} of the stone (azimuth {az:.0f}°)"
+
+
+def _axial_angle(a: np.ndarray, b: np.ndarray) -> float:
+    return math.degrees(math.acos(min(1.0, abs(float(a @ b)))))
+
+
+def _upper(n: np.ndarray) -> np.ndarray:
+    n = np.asarray(n, dtype=np.float64)
+    n = n / np.linalg.norm(n)
+    return -n if n[2] < 0 else n
+
+
+@dataclass
+class Recommendation:
+    """The answer of :func:`recommend_orientation`."""
+
+    normal: np.ndarray
+    tilt_deg: float
+    azimuth_deg: float
+    score: float
+    objective: str
+    metrics: FlashMetrics
+    tolerance_deg: float
+    runners_up: list[dict[str, Any]]
+    map_normals: np.ndarray
+    map_scores: np.ndarray
+    optimizer: str
+    evaluations: int
+    seconds: float
+    settings: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def description(self) -> str:
+        return describe(self.normal)
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain JSON: everything but the full score map (``map`` holds it as tilt/azimuth/score lists)."""
+        tilt, az = np.array([tilt_azimuth(n) for n in self.map_normals]).T if len(self.map_normals) else ([], [])
+        return {
+            "normal": [float(x) for x in self.normal],
+            "tilt_deg": self.tilt_deg,
+            "azimuth_deg": self.azimuth_deg,
+            "description": self.description,
+            "objective": self.objective,
+            "score": self.score,
+            "metrics": self.metrics.to_dict(),
+            "tolerance_deg": self.tolerance_deg,
+            "runners_up": self.runners_up,
+            "optimizer": self.optimizer,
+            "evaluations": self.evaluations,
+            "seconds": self.seconds,
+            "settings": self.settings,
+            "map": {"tilt_deg": list(map(float, tilt)), "azimuth_deg": list(map(float, az)), "score": self.map_scores.tolist()},
+        }
+
+
+def _check_material(material: Any) -> Labradorite:
+    if material is None:
+        return Labradorite()
+    if isinstance(material, str):
+        return Labradorite.preset(material)
+    if not isinstance(material, Labradorite):
+        raise ParameterError(f"material must be a labcut.Labradorite or a preset name, got {type(material).__name__}")
+    return material
+
+
+def _setup(mesh, material, lighting, viewing, objective, quality, tau, seed, max_tilt, tilt_axis):
+    if objective not in OBJECTIVES:
+        raise ParameterError(f"objective must be one of {', '.join(OBJECTIVES)}, got {objective!r}")
+    if quality not in MAP_SPACING_DEG:
+        raise ParameterError(f"quality must be one of draft, standard, high, got {quality!r}")
+    material = _check_material(material)
+    lights = lights_from(lighting, quality)
+    views = views_from(viewing, quality)
+    constraint = Constraint(float(max_tilt), tilt_axis)
+    problem = build_problem(mesh, material, lights, views, quality, tau, seed)
+    return material, lights, views, constraint, Scorer(problem, objective)
+
+
+def recommend_orientation(
+    mesh: Any,
+    material: Labradorite | str | None = None,
+    lighting: str | Lights = "overhead",
+    viewing: str | Views = "face-up",
+    objective: str = "energy",
+    quality: str = "standard",
+    optimizer: str = "nlopt",
+    max_tilt: float = 90.0,
+    tilt_axis: Any = None,
+    tau: float = 0.1,
+    seed: int = 0,
+    progress: Callable[[str, float], None] | None = None,
+) -> Recommendation:
+    """Find the lamella normal (mesh frame) that maximises the flash objective.
+
+    Parameters
+    ----------
+    mesh: a ``trimesh.Trimesh`` in mm, +Z face-up (``labcut.load_mesh`` / ``labcut.cabochon``).
+    material: :class:`~labcut.Labradorite` or a preset name (default blue-green labradorite).
+    lighting: ``overhead`` | ``ceiling`` | ``spot`` | ``sky`` | a JSON file | :class:`~labcut.Lights`.
+    viewing: ``face-up`` | ``rocking`` | ``pendant`` | a JSON file | :class:`~labcut.Views`.
+    objective: ``energy`` | ``area`` | ``intensity`` | ``balanced`` (DESIGN.md §4).
+    quality: ``draft`` | ``standard`` | ``high``: surface samples, light/view directions, map spacing.
+    optimizer: ``nlopt`` (DIRECT-L + L-BFGS with Dr.Jit gradients) | ``gradient`` (Dr.Jit
+        multi-start gradient ascent) | ``grid`` (exhaustive reference).
+    max_tilt: largest allowed tilt of the lamella normal from +Z, degrees (the rough is
+        sawn near the plane). ``tilt_axis``: a horizontal axis the normal may only rotate about.
+    tau: flash threshold in units of L_ref.
+    progress: optional ``callback(stage, fraction)``.
+
+    Returns a :class:`Recommendation`: normal (unit, z >= 0), tilt and azimuth, score and all
+    metrics, the tolerance (degrees the cutter may miss and keep 90 % of the score), distinct
+    runner-up optima, and the score map over the allowed hemisphere.
+    """
+    if optimizer not in OPTIMIZERS:
+        raise ParameterError(f"optimizer must be one of {', '.join(OPTIMIZERS)}, got {optimizer!r}")
+    start = time.perf_counter()
+    report = progress or (lambda stage, fraction: None)
+    report("sampling the surface", 0.0)
+    material, lights, views, constraint, scorer = _setup(mesh, material, lighting, viewing, objective, quality, tau, seed, max_tilt, tilt_axis)
+    report("optimising", 0.3)
+    best = run_optimizer(optimizer, scorer, constraint, quality)
+    normal = _upper(best.normal)
+    report("mapping the hemisphere", 0.6)
+    map_normals = hemisphere_grid(MAP_SPACING_DEG[quality], constraint)
+    map_scores = score_map(scorer, map_normals)
+    score = scorer.score(normal)
+    if map_scores.max() > score * (1.0 + 1e-4):  # the map found better: trust the better point, polished
+        from .optimize import _polish_grid
+
+        normal, score = _polish_grid(scorer, map_normals[int(np.argmax(map_scores))], constraint, MAP_SPACING_DEG[quality], 0.1)
+        normal = _upper(normal)
+    report("tolerance and runners-up", 0.8)
+    tol = tolerance_deg(scorer.scores, normal, score, constraint) if score > 0 else 0.0
+    runners = _runners_up(scorer, constraint, map_normals, map_scores, normal, score)
+    metrics = scorer.metrics(normal)
+    tilt, az = tilt_azimuth(normal)
+    report("done", 1.0)
+    return Recommendation(
+        normal=normal, tilt_deg=tilt, azimuth_deg=az, score=float(score), objective=objective, metrics=metrics,
+        tolerance_deg=float(tol), runners_up=runners, map_normals=map_normals, map_scores=map_scores,
+        optimizer=optimizer, evaluations=scorer.evaluations, seconds=time.perf_counter() - start,
+        settings={
+            "material": material.to_dict(), "lighting": lights.name, "viewing": views.name, "quality": quality,
+            "max_tilt_deg": constraint.max_tilt_deg, "tilt_axis": constraint.tilt_axis, "tau": tau, "seed": seed,
+            "convex": scorer.problem.convex, "surface_samples": scorer.problem.n_points,
+            "triples": scorer.problem.n_triples, "lights": int(len(lights.weights)), "views": int(len(views.weights)),
+        },
+    )
+
+
+def _runners_up(scorer: Scorer, constraint: Constraint, normals: np.ndarray, scores: np.ndarray, best: np.ndarray, best_score: float, count: int = 3) -> list[dict[str, Any]]:
+    """Distinct local maxima of the map: >= 12° from better ones, >= 30 % of the best score."""
+    from .optimize import _polish_grid
+
+    out: list[dict[str, Any]] = []
+    taken = [best]
+    for i in np.argsort(scores)[::-1]:
+        if scores[i] < 0.3 * best_score or len(out) >= count:
+            break
+        n = normals[i]
+        if any(_axial_angle(n, t) < RUNNER_UP_SEPARATION_DEG for t in taken):
+            continue
+        near = np.array([_axial_angle(n, m) for m in normals]) < 1.5 * MAP_SPACING_DEG.get("standard", 2.0)
+        if np.any(scores[near] > scores[i]):  # not a local maximum
+            continue
+        polished, value = _polish_grid(scorer, n, constraint, 2.0, 0.25)
+        polished = _upper(polished)
+        if any(_axial_angle(polished, t) < RUNNER_UP_SEPARATION_DEG for t in taken):
+            continue
+        taken.append(polished)
+        tilt, az = tilt_azimuth(polished)
+        out.append({"normal": [float(x) for x in polished], "tilt_deg": tilt, "azimuth_deg": az, "score": float(value),
+                    "relative_score": float(value / best_score) if best_score > 0 else 0.0, "description": describe(polished)})
+    return out
+
+
+def evaluate_orientation(
+    mesh: Any,
+    normal: Any,
+    material: Labradorite | str | None = None,
+    lighting: str | Lights = "overhead",
+    viewing: str | Views = "face-up",
+    quality: str = "standard",
+    tau: float = 0.1,
+    seed: int = 0,
+) -> FlashMetrics:
+    """Flash metrics (DESIGN.md §4) of a given lamella normal (mesh frame, axial)."""
+    from ..rendering.api import normalize_normal
+
+    m = normalize_normal(normal)
+    *_, scorer = _setup(mesh, material, lighting, viewing, "energy", quality, tau, seed, 90.0, None)
+    return scorer.metrics(m)
