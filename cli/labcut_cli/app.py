@@ -18,6 +18,7 @@ except ImportError:  # pragma: no cover
 
 from . import spectrum  # noqa: F401  (registers its command)
 from . import geometry  # noqa: F401  (registers cabochon, inspect)
+from . import recommend  # noqa: F401  (registers recommend-orientation, evaluate-orientation)
 from . import render  # noqa: F401  (registers render)
 from .root import app, err_console
 

@@ -75,6 +75,16 @@ def vmf_kappa(spread_deg: float) -> float:
     return 1.0 / (s * s)
 
 
+def reference_radiance(material: Labradorite, total_irradiance: float) -> float:
+    """L_ref (DESIGN.md §4): flat polished face, lamellae parallel, lit and viewed along its
+    normal by one light of irradiance ``total_irradiance``: ``E T(0)² R_Y(1) q(1) / (4 η²)``."""
+    eta = material.n_surface
+    kappa = vmf_kappa(material.spread_deg)
+    q_norm = kappa / (2.0 * math.pi * -math.expm1(-kappa))
+    t0 = 1.0 - float(fresnel_dielectric(np.array(1.0), eta))
+    return total_irradiance * t0 * t0 * float(luminance_table(material)[1][-1]) * q_norm / (4.0 * eta * eta)
+
+
 @dataclass
 class FlashProblem:
     """Precomputed triples for one (mesh, material, lights, views, quality)."""
@@ -105,14 +115,8 @@ class FlashProblem:
         return self.c * self.pair_weight[self.pair] * self.view_weight[self.pair_view[self.pair]]
 
 
-def _smooth_normals(mesh: Any, face_idx: np.ndarray, points: np.ndarray) -> np.ndarray:
-    """Smooth shading normals at sample points, as the renderer shades (sharp edges > 30° kept)."""
-    import trimesh
-
-    split = trimesh.graph.smooth_shade(mesh, angle=math.radians(30.0))
-    # faces keep their order in smooth_shade, so face indices carry over
-    tri = split.vertices[split.faces[face_idx]]
-    bary = trimesh.triangles.points_to_barycentric(tri, points)
+def _smooth_normals(split: Any, face_idx: np.ndarray, bary: np.ndarray) -> np.ndarray:
+    """Smooth shading normals at sample points of the smooth-shaded mesh (as the renderer shades)."""
     vn = split.vertex_normals[split.faces[face_idx]]
     n = np.einsum("ij,ijk->ik", bary, vn)
     return n / np.linalg.norm(n, axis=1, keepdims=True)
@@ -159,7 +163,10 @@ def build_problem(
     if not isinstance(mesh, trimesh.Trimesh) or len(mesh.faces) == 0:
         raise MeshError("the mesh is empty or not a trimesh.Trimesh (load it with labcut.load_mesh)")
     count = int(n_points or QUALITY_POINTS[quality])
-    area_faces = mesh.area_faces
+    # sample the smooth-shaded copy the renderer uses (split along edges sharper than
+    # 30°; same surface, its own face order), so both estimators shade alike
+    split = trimesh.graph.smooth_shade(mesh, angle=math.radians(30.0))
+    area_faces = split.area_faces
     ok = np.isfinite(area_faces) & (area_faces > 0)
     if not np.any(ok):
         raise MeshError("the mesh has no face with positive area")
@@ -169,10 +176,10 @@ def build_problem(
     r1, r2 = rng.random(count), rng.random(count)
     s = np.sqrt(r1)
     bary = np.stack([1 - s, s * (1 - r2), s * r2], axis=1)
-    tri = mesh.triangles[face_idx]
+    tri = split.triangles[face_idx]
     points = np.einsum("ij,ijk->ik", bary, tri)
-    n_geo = mesh.face_normals[face_idx]
-    n_sh = _smooth_normals(mesh, face_idx, points)
+    n_geo = split.face_normals[face_idx]
+    n_sh = _smooth_normals(split, face_idx, bary)
 
     info = mesh.metadata.get("labcut", {}) if hasattr(mesh, "metadata") else {}
     if "convex" in info:
@@ -228,8 +235,7 @@ def build_problem(
     r_y = np.interp(cos_l, table_c, table_r)
     kappa = vmf_kappa(material.spread_deg)
     q_norm = kappa / (2.0 * math.pi * -math.expm1(-kappa))
-    t0 = 1.0 - float(fresnel_dielectric(np.array(1.0), eta))
-    l_ref = float(E.sum()) * t0 * t0 * float(table_r[-1]) * q_norm / (4.0 * eta * eta)
+    l_ref = reference_radiance(material, float(E.sum()))
     if not l_ref > 0:
         raise ParameterError("the material reflects nothing at normal incidence: no flash can be scored")
     c = E[light_of_t] * t_i * t_o * r_y * cos_li / (4.0 * cos_l * np.maximum(a_n, b_n) * eta * eta) / l_ref

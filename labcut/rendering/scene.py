@@ -63,15 +63,35 @@ class Lighting:
         return out
 
 
-def lighting_preset(spec: str | Lighting) -> Lighting:
-    """``overhead`` | ``sky`` | ``studio`` | path to an EXR/HDR environment map."""
+def lighting_from_lights(lights: Any, total_irradiance: float = 3.0, ambient: float = 0.02) -> Lighting:
+    """Render lighting of an orientation :class:`~labcut.Lights` model: one directional
+    light per direction, irradiances scaled to ``total_irradiance``, plus a dim room."""
+    w = np.asarray(lights.weights, dtype=np.float64)
+    keep = w > 0
+    scale = total_irradiance / float(w[keep].sum())
+    return Lighting(
+        str(lights.name),
+        tuple(tuple(float(x) for x in d) for d in np.asarray(lights.directions)[keep]),
+        tuple(float(x) * scale for x in w[keep]),
+        ambient=ambient,
+    )
+
+
+def lighting_preset(spec: Any) -> Lighting:
+    """``overhead`` | ``sky`` | ``studio`` | an EXR/HDR environment map | a :class:`~labcut.Lights` model.
+
+    ``overhead`` is the same bench lamp as the orientation model's (a disc of 8° straight
+    above the stone) in a dim room, so renders show what recommendations optimise.
+    """
     if isinstance(spec, Lighting):
         return spec
+    if type(spec).__name__ == "Lights":
+        return lighting_from_lights(spec)
     key = str(spec).strip()
     if key == "overhead":
-        # the cutter's bench lamp: one lamp a little behind the viewer's head, dim room
-        d = direction(12.0, FRONT_AZIMUTH_DEG)
-        return Lighting("overhead", (tuple(d),), (3.0,), ambient=0.03)
+        from ..orientation.models import Lights
+
+        return lighting_from_lights(Lights.preset("overhead", "draft"), 3.0, 0.02)
     if key == "sky":
         return Lighting("sky", ambient=0.6)
     if key == "studio":

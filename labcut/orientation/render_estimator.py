@@ -1,0 +1,79 @@
+"""The second estimator of the flash metrics: rendered images (DESIGN.md §4).
+
+For each view an orthographic image of the schiller lobe alone is rendered in the
+mono variant (luminance, as the surface-sample estimator uses) under the model's
+distant lights (no ambient), with direct lighting and shadow rays. Pixels are
+weighted by their coverage (alpha, box filter), so a pixel's weight is the
+projected area it sees; ``L/L_ref`` per pixel gives the same metrics as
+:meth:`labcut.orientation.scoring.Scorer.metrics` from independent machinery:
+Mitsuba's ray tracing, the BSDF plugin and its tables.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from ..physics.material import Labradorite
+from .models import Lights, Views
+from .problem import reference_radiance
+from .scoring import COVERAGE_AREA, FlashMetrics
+
+
+def render_metrics(
+    mesh: Any,
+    material: Labradorite,
+    normal: Any,
+    lights: Lights,
+    views: Views,
+    tau: float = 0.1,
+    resolution: int = 160,
+    spp: int = 16,
+    seed: int = 0,
+) -> FlashMetrics:
+    """Flash metrics of ``normal`` from rendered images, one per view."""
+    import mitsuba as mi
+
+    from ..backend import set_variant
+    from ..rendering import bsdf as _bsdf  # noqa: F401
+    from ..rendering.api import bsdf_dict, normalize_normal
+    from ..rendering.scene import View, camera, to_mitsuba_mesh
+
+    m = normalize_normal(normal)
+    set_variant("mono")
+    emitters = {}
+    for i, (d, e) in enumerate(zip(lights.directions, lights.weights)):
+        if e > 0:
+            emitters[f"light_{i}"] = {"type": "directional", "direction": [-float(x) for x in d], "irradiance": float(e)}
+    l_ref = reference_radiance(material, float(lights.weights.sum()))
+    stone = to_mitsuba_mesh(mesh, mi.load_dict(bsdf_dict(material, m, ("schiller",))))
+    area_v, energy_v, intensity_v = [], [], []
+    for d in views.directions:
+        tilt = math.degrees(math.acos(max(-1.0, min(1.0, float(d[2])))))
+        az = math.degrees(math.atan2(float(d[1]), float(d[0])))
+        sensor = camera(mesh, View("v", tilt, az), resolution)
+        sensor["film"]["pixel_format"] = "luminance_alpha"
+        sensor["film"]["rfilter"] = {"type": "box"}
+        scene = mi.load_dict({"type": "scene", "integrator": {"type": "direct"}, "sensor": sensor, "stone": stone, **emitters})
+        img = np.array(mi.render(scene, spp=spp, seed=seed), dtype=np.float64)
+        value, alpha = img[..., 0], img[..., 1]
+        cover = alpha > 1e-3
+        w = alpha[cover]
+        ratio = value[cover] / w / l_ref
+        flash = ratio >= tau
+        total = float(w.sum())
+        a = float((w * flash).sum()) / total if total > 0 else 0.0
+        e = float((w * ratio).sum()) / total if total > 0 else 0.0
+        i = float((w * ratio * flash).sum()) / float((w * flash).sum()) if a > 0 else 0.0
+        area_v.append(a)
+        energy_v.append(e)
+        intensity_v.append(i)
+    wv = views.weights
+    area, energy, intensity = float(wv @ area_v), float(wv @ energy_v), float(wv @ intensity_v)
+    return FlashMetrics(
+        flash_area=area, flash_intensity=intensity, flash_energy=energy,
+        coverage=float(wv @ (np.array(area_v) > COVERAGE_AREA)), balanced=math.sqrt(max(area * intensity, 0.0)),
+        per_view={"flash_area": area_v, "flash_intensity": intensity_v, "flash_energy": energy_v, "weight": wv.tolist()},
+    )

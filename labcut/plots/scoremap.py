@@ -1,0 +1,61 @@
+"""Polar map of a flash objective over the hemisphere of lamella normals."""
+
+from __future__ import annotations
+
+import math
+import os
+from typing import Any
+
+import numpy as np
+
+from ..fileio import atomic_output
+
+
+def plot_score_map(rec: Any, path: str | os.PathLike[str], title: str | None = None) -> None:
+    """Write a PNG: score vs lamella-normal tilt (radius, degrees) and azimuth (angle),
+    with the recommendation, its tolerance circle and the runners-up marked.
+
+    Azimuth 0° is +X (the stone's right), 90° is +Y (back), 270° is -Y (front).
+    """
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib.tri import Triangulation
+
+    from ..orientation.recommend import tilt_azimuth
+
+    n = rec.map_normals
+    s = rec.map_scores / max(float(rec.score), 1e-30)
+    tilt = np.degrees(np.arccos(np.clip(n[:, 2], -1, 1)))
+    az = np.arctan2(n[:, 1], n[:, 0])
+    x, y = tilt * np.cos(az), tilt * np.sin(az)
+    fig, ax = plt.subplots(figsize=(6.4, 5.6), constrained_layout=True)
+    if len(n) >= 3 and np.ptp(x) > 0 and np.ptp(y) > 0:
+        tri = Triangulation(x, y)
+        cs = ax.tricontourf(tri, s, levels=np.linspace(0, max(1.0, float(s.max())), 21), cmap="magma")
+        fig.colorbar(cs, ax=ax, label=f"{rec.objective} / best")
+    else:
+        ax.scatter(x, y, c=s, cmap="magma")
+    lim = float(tilt.max()) if len(tilt) else 90.0
+    for ring in range(15, int(lim) + 1, 15):
+        ax.add_patch(plt.Circle((0, 0), ring, fill=False, color="white", lw=0.5, alpha=0.5))
+        ax.text(ring * math.cos(math.radians(45)), ring * math.sin(math.radians(45)), f"{ring}°", color="white", fontsize=7)
+    bt, ba = tilt_azimuth(rec.normal)
+    bx, by = bt * math.cos(math.radians(ba)), bt * math.sin(math.radians(ba))
+    ax.add_patch(plt.Circle((bx, by), rec.tolerance_deg, fill=False, color="cyan", lw=1.5, label=f"90 % tolerance ±{rec.tolerance_deg:.1f}°"))
+    ax.plot(bx, by, "c*", ms=14, label=f"best: tilt {bt:.1f}°, azimuth {ba:.0f}°")
+    for i, r in enumerate(rec.runners_up):
+        rx, ry = r["tilt_deg"] * math.cos(math.radians(r["azimuth_deg"])), r["tilt_deg"] * math.sin(math.radians(r["azimuth_deg"]))
+        ax.plot(rx, ry, "wo", ms=7, mfc="none")
+        ax.text(rx, ry, f" {i + 2}", color="white", fontsize=8)
+    ax.set_aspect("equal")
+    ax.set_xlim(-lim, lim)
+    ax.set_ylim(-lim, lim)
+    ax.set_xlabel("tilt towards right (+X), degrees")
+    ax.set_ylabel("tilt towards back (+Y), degrees")
+    ax.set_title(title or "flash score over lamella orientations (front of the stone at the bottom)", fontsize=9)
+    ax.legend(loc="lower right", fontsize=7)
+    with atomic_output(path, (".png",)) as tmp:
+        fig.savefig(tmp, dpi=110, format="png")
+    plt.close(fig)
