@@ -306,7 +306,7 @@ class Zoning:
             for label, nm in (("blue", 470.0), ("green", 530.0), ("gold", 580.0))
         )
         if key == "smooth":
-            fields = dict(ranges=((0.0, 0.35, 0), (0.5, 0.62, 1), (0.8, 1.0, 2)), scale_mm=7.0, octaves=3, mode="smooth")
+            fields = dict(ranges=((0.0, 0.3, 0), (0.5, 0.55, 1), (0.8, 1.0, 2)), scale_mm=7.0, octaves=2, mode="smooth")
         else:
             fields = dict(ranges=((0.0, 0.4, 0), (0.4, 0.72, 1), (0.72, 1.0, 2)), scale_mm=6.0, octaves=5, mode="sharp")
         return cls(**{"materials": sets, **fields, "seed": 0, "name": key, **changes})
