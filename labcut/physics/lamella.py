@@ -11,9 +11,9 @@ Frames and units
 * ``cos_theta``: cosine of the angle between the ray inside the stone and the
   lamella NORMAL. The lamella orientation is axial, so ``|cos_theta|`` is used.
   Both phases see the same angle: their indices differ by 0.45 %, so refraction
-  between them moves the angle by < 0.3° except within ~5° of grazing, where
-  the weak-reflection (kinematic) model itself fails (docs/physics.md, "One
-  angle for both phases").
+  between them moves the angle by < 0.3° up to θ ≈ 49°, 1° at 75°, and the Bragg
+  wavelength by 0.3 % at 60°; near grazing the weak-reflection (kinematic) model
+  itself fails (docs/physics.md, "One angle for both phases").
 * thicknesses ``d_x`` and their standard deviations ``sigma_x`` in nm.
 
 The intensity per lamella pair, ``I = <|V|^2> / (2 N r^2)``, is (DESIGN.md §2)::
@@ -52,10 +52,12 @@ def _one_minus_exp(ops: Any, x: Any) -> Any:
 def _bragg_sine(ops: Any, wavelength_nm: Any, cos_theta: Any, n_a: Any, n_b: Any, d_a: Any, d_b: Any) -> Any:
     """sin((φa + φb)/2), the Bragg term, with the phase reduced modulo 2π in float64.
 
-    Near a Bragg peak of a nearly perfect, thick stack R changes by ~1 when the
-    phase moves by ~1e-6 rad, below float32 resolution; the phase in units of
-    2π, ``t = 2 cos θ (n_a d_a + n_b d_b)/λ``, is therefore formed and
-    reduced to ``t - round(t)`` in float64 (a no-op for numpy float64 input).
+    Near a Bragg peak of a nearly perfect, thick stack the intensity I (and
+    R_kin) has a peak only ~1e-6 wide in relative phase, about ten float32 units;
+    R saturates there, but its band edges still lose accuracy (5.5e-5 in R
+    with the phase in float32 against 2.8e-7, docs/physics-accuracy.md). The
+    phase in units of 2π, ``t = 2 cos θ (n_a d_a + n_b d_b)/λ``, is therefore
+    formed and reduced to ``t - round(t)`` in float64 (a no-op for numpy).
     """
     t = (2.0 * (n_a * d_a + n_b * d_b)) * ops.wide(ops.abs(cos_theta)) / ops.wide(wavelength_nm)
     frac = ops.narrow(t - ops.round(t))
@@ -141,8 +143,10 @@ def interface_reflectance(n_a: Any, n_b: Any) -> Any:
 def saturate(r_kin: Any) -> Any:
     """Map a kinematic reflectance ``R_kin >= 0`` into [0, 1]: ``tanh²(√R_kin)``.
 
-    Exact in both limits: ``R ≈ R_kin`` for ``R_kin << 1`` (kinematic theory) and
-    ``tanh²(2Nr)`` at the Bragg peak of a perfect stack (dynamical theory).
+    ``R ≈ R_kin`` for ``R_kin << 1`` (kinematic theory) and exactly ``tanh²(2Nr)``
+    at the Bragg peak of a perfect stack (dynamical theory). For strongly
+    disordered, highly reflecting stacks it reads high: an incoherent stack has
+    ``R_kin/(1 + R_kin)`` (0.0571 vs 0.0582 at N = 6000; docs/physics.md).
     """
     ops = ops_for(r_kin)
     t = ops.tanh(ops.safe_sqrt(r_kin))

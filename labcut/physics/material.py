@@ -113,8 +113,9 @@ class Labradorite:
 
         Equal phase thicknesses; the period is first set by Bragg's law
         ``λ = 2 (n_a d_a + n_b d_b)`` and then refined so that the peak of the full
-        reflectance (which the λ-dependence of the damping moves by < 1 nm) is at
-        ``nm`` to 0.01 nm. Other parameters as in the constructor.
+        reflectance (which the λ-dependence of the damping moves 1-2.5 nm above
+        the Bragg estimate at σ = 16 nm) is at ``nm`` to 0.01 nm. Other
+        parameters as in the constructor.
         """
         target = _check_number("peak wavelength (nm)", nm, 250.0, 2500.0)
         base = cls(**params)

@@ -10,8 +10,8 @@ Dr.Jit has no ``expm1``: :func:`_dr_expm1` uses Kahan's trick
 small ``x``; all its branches are kept finite so reverse-mode AD sees no NaN.
 
 ``wide``/``narrow`` move a value to float64 and back (identity for numpy): the
-one quantity whose condition number exceeds float32's resolution, the Bragg
-phase of a nearly perfect stack, is reduced modulo 2π in float64.
+Bragg phase, whose peak in I is only ~10 float32 units wide for a nearly perfect
+thick stack, is reduced modulo 2π in float64.
 """
 
 from __future__ import annotations

@@ -1,0 +1,205 @@
+"""Recommend the lamella orientation: physics sanity, estimators, optimisers, robustness."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import labcut
+from labcut import Labradorite, Lights, MeshError, ParameterError, Views
+from labcut.orientation.optimize import Constraint, run_optimizer
+from labcut.orientation.problem import build_problem
+from labcut.orientation.render_estimator import render_metrics
+from labcut.orientation.scoring import Scorer, normal_to_stereo, stereo_to_normal
+
+MESHES = Path(__file__).resolve().parents[1] / "meshes"
+LAB = Labradorite.preset("blue")
+
+
+def angle_deg(a, b) -> float:
+    a, b = np.asarray(a, float), np.asarray(b, float)
+    return math.degrees(math.acos(min(1.0, abs(a @ b) / np.linalg.norm(a) / np.linalg.norm(b))))
+
+
+@pytest.fixture(scope="module")
+def oval():
+    return labcut.load_mesh(MESHES / "oval-16x12-low.ply")
+
+
+@pytest.fixture(scope="module")
+def biplane():
+    return labcut.load_mesh(MESHES / "carving-biplane.ply")
+
+
+def test_symmetric_round_cabochon_recommends_face_up():
+    cab = labcut.load_mesh(MESHES / "round-12-low.ply")
+    rec = labcut.recommend_orientation(cab, LAB, lighting="overhead", viewing="face-up")
+    assert rec.tilt_deg < 2.0
+    assert rec.normal[2] > 0 and abs(np.linalg.norm(rec.normal) - 1) < 1e-9
+    assert 0.5 < rec.tolerance_deg < 30.0
+    assert "parallel to the base" in rec.description
+
+
+def test_oblique_spot_tilts_the_lamellae_towards_it(oval):
+    # a single lamp 35° in front, face-up viewer: the mirror condition needs the lamella
+    # normal tilted towards the front by roughly half the internal angle
+    rec = labcut.recommend_orientation(oval, LAB, lighting="spot", viewing="face-up", quality="draft")
+    assert 6.0 < rec.tilt_deg < 16.0
+    assert 225.0 < rec.azimuth_deg < 315.0  # towards the front (-Y)
+    assert "front" in rec.description
+
+
+@pytest.mark.parametrize("mesh_name", ["oval-16x12-low.ply", "carving-biplane.ply"])
+def test_estimators_agree_on_flash_energy(mesh_name):
+    mesh = labcut.load_mesh(MESHES / mesh_name)
+    lights, views = Lights.preset("overhead", "draft"), Views.preset("face-up", "draft")
+    for normal in ([0.0, 0.0, 1.0], [0.12, -0.05, 1.0]):
+        samples = labcut.evaluate_orientation(mesh, normal, LAB, lights, views, quality="standard")
+        images = render_metrics(mesh, LAB, normal, lights, views, resolution=160, spp=16)
+        assert abs(samples.flash_energy - images.flash_energy) <= 0.05 * images.flash_energy, (samples, images)
+        assert abs(samples.flash_area - images.flash_area) <= 0.05 * max(images.flash_area, 0.02) + 0.01
+
+
+def test_estimators_agree_on_the_best_normal(oval):
+    lights, views = Lights.preset("spot", "draft"), Views.preset("face-up", "draft")
+    rec = labcut.recommend_orientation(oval, LAB, lighting=lights, viewing=views, quality="draft")
+    # render-based energy along the tilt direction through the optimum: its peak is within 1°
+    axis = np.cross([0.0, 0.0, 1.0], rec.normal)
+    axis = axis / np.linalg.norm(axis) if np.linalg.norm(axis) > 1e-9 else np.array([1.0, 0.0, 0.0])
+    offsets = np.arange(-2.0, 2.01, 0.5)
+    energies = []
+    for d in offsets:
+        c = Constraint(90.0, tuple(axis))
+        n = c.axis_normal(rec.tilt_deg * (1 if rec.normal @ np.cross(axis, [0, 0, 1]) >= 0 else -1) + d)
+        energies.append(render_metrics(oval, LAB, n, lights, views, resolution=96, spp=8).flash_energy)
+    a, b, _ = np.polyfit(offsets, energies, 2)
+    peak = -b / (2 * a)
+    assert a < 0 and abs(peak) < 1.0, (offsets, energies)
+
+
+@pytest.fixture(scope="module")
+def problems(oval, biplane):
+    out = {}
+    for name, mesh, lighting in (("oval", oval, "spot"), ("biplane", biplane, "overhead"), ("oval-ceiling", oval, "ceiling")):
+        out[name] = build_problem(mesh, LAB, Lights.preset(lighting, "draft"), Views.preset("rocking", "draft"), "draft")
+    return out
+
+
+@pytest.mark.parametrize("name", ["oval", "biplane", "oval-ceiling"])
+def test_every_optimizer_lands_within_1_degree_of_the_grid(problems, name):
+    scorer = Scorer(problems[name])
+    constraint = Constraint()
+    grid = run_optimizer("grid", scorer, constraint, "draft")
+    for method in ("nlopt", "gradient"):
+        res = run_optimizer(method, scorer, constraint, "standard")
+        assert angle_deg(res.normal, grid.normal) < 1.0, (method, res.normal, grid.normal)
+        assert res.score >= 0.99 * grid.score
+
+
+def test_gradient_vanishes_at_the_optimum_and_matches_finite_differences(problems):
+    scorer = Scorer(problems["oval"])
+    best = run_optimizer("nlopt", scorer, Constraint(), "standard")
+    u0, v0 = normal_to_stereo(best.normal)
+    _, g_opt = scorer.value_and_grad_uv(u0, v0)
+    u1, v1 = u0 + 0.06, v0 - 0.04
+    _, g = scorer.value_and_grad_uv(u1, v1)
+    assert np.linalg.norm(g_opt) < 0.05 * np.linalg.norm(g)
+    h = 2e-3
+    fd = np.array([
+        (scorer.value_and_grad_uv(u1 + h, v1)[0] - scorer.value_and_grad_uv(u1 - h, v1)[0]) / (2 * h),
+        (scorer.value_and_grad_uv(u1, v1 + h)[0] - scorer.value_and_grad_uv(u1, v1 - h)[0]) / (2 * h),
+    ])
+    assert np.allclose(g, fd, rtol=0.03, atol=0.01 * np.abs(fd).max())
+
+
+def test_smooth_objectives_have_gradients_too(problems):
+    for objective in ("area", "intensity", "balanced"):
+        scorer = Scorer(problems["oval"], objective)
+        value, g = scorer.value_and_grad_uv(0.05, 0.02)
+        assert math.isfinite(value) and np.all(np.isfinite(g))
+
+
+def test_constraints_are_respected(oval):
+    rec = labcut.recommend_orientation(oval, LAB, lighting="spot", quality="draft", max_tilt=4.0)
+    assert rec.tilt_deg <= 4.0 + 1e-6
+    rec = labcut.recommend_orientation(oval, LAB, lighting="spot", quality="draft", tilt_axis=(0.0, 1.0, 0.0))
+    assert abs(rec.normal[1]) < 1e-6  # rotating about Y keeps the normal in the XZ plane
+    with pytest.raises(ParameterError):
+        Constraint(0.0)
+    with pytest.raises(ParameterError):
+        Constraint(45.0, (0.0, 0.0, 1.0))
+
+
+def test_deterministic_for_a_seed(oval):
+    a = labcut.recommend_orientation(oval, LAB, quality="draft", seed=3)
+    b = labcut.recommend_orientation(oval, LAB, quality="draft", seed=3)
+    assert np.array_equal(a.normal, b.normal) and a.score == b.score and a.tolerance_deg == b.tolerance_deg
+    json.dumps(a.to_dict(), allow_nan=False)
+
+
+def test_stereographic_parametrisation_round_trips():
+    for n in ([0, 0, 1], [1, 0, 0], [0, 1, 0.0001], [0.3, -0.4, 0.8]):
+        n = np.asarray(n, float) / np.linalg.norm(n)
+        assert np.allclose(stereo_to_normal(*normal_to_stereo(n)), n, atol=1e-9)
+
+
+@pytest.mark.parametrize("normal", [[0, 0, 1], [1, 0, 0], [0, 1, 0], [0, 0, -1], [1, 1, 0], [1e-9, 0, 1], [0.7, 0.7, 1e-7]])
+def test_metrics_are_finite_for_axes_pole_and_horizon(oval, normal):
+    m = labcut.evaluate_orientation(oval, normal, LAB, quality="draft")
+    assert all(math.isfinite(x) for x in (m.flash_area, m.flash_intensity, m.flash_energy, m.coverage))
+
+
+def test_lights_below_the_horizon_and_degenerate_faces(oval):
+    lights = Lights([[0, 0, 1], [0, 0, -1], [1, 0, -0.2]], [1.0, 1.0, 0.5])
+    m = labcut.evaluate_orientation(oval, [0, 0, 1], LAB, lighting=lights, quality="draft")
+    assert math.isfinite(m.flash_energy)
+    degenerate = oval.copy()
+    degenerate.faces = np.vstack([degenerate.faces, [[0, 0, 1], [2, 2, 2]]])
+    m = labcut.evaluate_orientation(degenerate, [0, 0, 1], LAB, quality="draft")
+    assert math.isfinite(m.flash_energy) and m.flash_energy > 0
+
+
+@pytest.mark.parametrize(
+    "kwargs, error",
+    [
+        ({"lighting": "disco"}, ParameterError),
+        ({"viewing": "upside-down"}, ParameterError),
+        ({"objective": "sparkle"}, ParameterError),
+        ({"quality": "ultra"}, ParameterError),
+        ({"optimizer": "magic"}, ParameterError),
+        ({"max_tilt": float("nan")}, ParameterError),
+        ({"material": 42}, ParameterError),
+    ],
+)
+def test_bad_arguments(oval, kwargs, error):
+    with pytest.raises(error):
+        labcut.recommend_orientation(oval, **{"material": LAB, **kwargs})
+
+
+def test_bad_models_and_normals(oval):
+    with pytest.raises(ParameterError):
+        Lights([])
+    with pytest.raises(ParameterError):
+        Lights([[0, 0, 0]])
+    with pytest.raises(ParameterError):
+        Views([[0, 0, -1]])
+    with pytest.raises(ParameterError):
+        Lights([[0, 0, 1]], [float("nan")])
+    with pytest.raises(ParameterError):
+        labcut.evaluate_orientation(oval, [0, 0, 0], LAB)
+    with pytest.raises(MeshError):
+        labcut.evaluate_orientation(labcut.Labradorite, [0, 0, 1], LAB)
+
+
+def test_custom_models_from_json(oval, tmp_path):
+    (tmp_path / "lamp.json").write_text(json.dumps({"directions": [[0, -0.3, 1]], "weights": [2.0]}))
+    (tmp_path / "eye.json").write_text(json.dumps([[0, 0, 1], [0, -0.2, 1]]))
+    rec = labcut.recommend_orientation(oval, LAB, lighting=str(tmp_path / "lamp.json"), viewing=str(tmp_path / "eye.json"), quality="draft")
+    assert rec.settings["lighting"] == "lamp" and rec.settings["views"] == 2
+    (tmp_path / "bad.json").write_text("{not json")
+    with pytest.raises(ParameterError):
+        labcut.recommend_orientation(oval, LAB, lighting=str(tmp_path / "bad.json"))
