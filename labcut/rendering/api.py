@@ -193,8 +193,8 @@ def build_scene(
     baked = None
     if zone is not None:
         baked = zone.bake(mesh.bounds)
-        label = f"{zone.name} " if zone.name else ""
-        plan = replace(plan, reasons=plan.reasons + (f"colour zoning: {label}{zone.mode}, {len(zone.materials)} parameter sets",))
+        label = f" ({zone.name})" if zone.name else ""
+        plan = replace(plan, reasons=plan.reasons + (f"colour zoning{label}: {len(zone.materials)} parameter sets, {zone.mode} transitions",))
     mi.set_variant(plan.variant)
     if light.envmap is not None:
         check_envmap(light.envmap)
