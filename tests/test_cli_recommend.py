@@ -1,0 +1,74 @@
+"""``labcut recommend-orientation`` / ``evaluate-orientation`` end to end."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+MESHES = Path(__file__).resolve().parents[1] / "meshes"
+OVAL = str(MESHES / "oval-16x12-low.ply")
+
+
+def test_recommend_writes_json_render_and_map(cli, tmp_path):
+    js, png, mp = tmp_path / "r.json", tmp_path / "r.png", tmp_path / "m.png"
+    proc = cli("recommend-orientation", OVAL, "--preset", "green", "--lighting", "spot", "--quality", "draft",
+               "--json", str(js), "--render", str(png), "--map", str(mp), "--spp", "4")
+    assert proc.returncode == 0, proc.stderr
+    assert "tilt the lamella plane" in proc.stdout and "front" in proc.stdout and "±" in proc.stdout
+    data = json.loads(js.read_text())
+    assert set(["normal", "tilt_deg", "azimuth_deg", "score", "metrics", "tolerance_deg", "runners_up", "map"]) <= set(data)
+    assert 5.0 < data["tilt_deg"] < 16.0
+    for f in (png, mp):
+        assert f.read_bytes()[:4] == b"\x89PNG"
+
+
+def test_recommend_json_to_stdout(cli):
+    proc = cli("recommend-orientation", OVAL, "--quality", "draft", "--optimizer", "gradient", "--max-tilt", "10", "--json", "-")
+    assert proc.returncode == 0, proc.stderr
+    data = json.loads(proc.stdout)
+    assert data["optimizer"] == "gradient" and data["tilt_deg"] <= 10.0
+
+
+def test_evaluate_orientation(cli):
+    proc = cli("evaluate-orientation", OVAL, "--normal", "0,0,1", "--quality", "draft", "--json", "-")
+    assert proc.returncode == 0, proc.stderr
+    data = json.loads(proc.stdout)
+    assert 0.0 < data["flash_area"] <= 1.0 and data["flash_energy"] > 0
+
+
+@pytest.mark.parametrize(
+    "args",
+    [
+        ["--lighting", "disco"],
+        ["--viewing", "upside-down"],
+        ["--objective", "sparkle"],
+        ["--optimizer", "magic"],
+        ["--max-tilt", "0"],
+        ["--tilt-axis", "0,0,1"],
+        ["--quality", "ultra"],
+        ["--preset", "purple"],
+    ],
+)
+def test_bad_input_one_line_exit_2_and_no_partial_files(cli, tmp_path, args):
+    outs = [tmp_path / "r.json", tmp_path / "r.png", tmp_path / "m.png"]
+    proc = cli("recommend-orientation", OVAL, *args, "--json", str(outs[0]), "--render", str(outs[1]), "--map", str(outs[2]))
+    assert proc.returncode == 2, proc.stderr
+    assert proc.stderr.strip().splitlines()[-1].startswith("error:") and "Traceback" not in proc.stderr
+    assert not any(p.exists() for p in outs)
+
+
+def test_unreadable_mesh_and_zero_normal(cli, tmp_path):
+    bad = tmp_path / "bad.ply"
+    bad.write_bytes(b"ply\nformat garbage\n")
+    proc = cli("recommend-orientation", str(bad), "--json", str(tmp_path / "r.json"))
+    assert proc.returncode == 2 and "Traceback" not in proc.stderr and not (tmp_path / "r.json").exists()
+    proc = cli("evaluate-orientation", OVAL, "--normal", "0,0,0")
+    assert proc.returncode == 2 and "zero" in proc.stderr
+
+
+def test_empty_lighting_file(cli, tmp_path):
+    (tmp_path / "empty.json").write_text(json.dumps({"directions": []}))
+    proc = cli("recommend-orientation", OVAL, "--lighting", str(tmp_path / "empty.json"))
+    assert proc.returncode == 2 and "error:" in proc.stderr
