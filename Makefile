@@ -29,9 +29,10 @@ setup: llvm $(STAMP)
 demo: setup
 	@mkdir -p $(OUT)
 	$(BIN)/labcut spectrum --preset blue --plot $(OUT)/spectrum-blue.png --json $(OUT)/spectrum-blue.json
-	$(BIN)/labcut inspect meshes/oval-16x12-low.ply
-	$(BIN)/labcut render meshes/oval-16x12-low.ply --preset blue --normal 0,0,1 --spp 64 --resolution 384 -o $(OUT)/oval-face-up.png
-	$(BIN)/labcut render meshes/oval-16x12-low.ply --preset blue --normal 0.26,0,1 --view tilted --spp 64 --resolution 384 -o $(OUT)/oval-tilted-lamellae.png
+	$(BIN)/labcut recommend-orientation meshes/oval-16x12-low.ply --preset blue --lighting overhead --viewing face-up \
+		--json $(OUT)/oval-recommendation.json --render $(OUT)/oval-recommended.png --map $(OUT)/oval-score-map.png
+	$(BIN)/labcut recommend-orientation meshes/carving-biplane.ply --preset blue --lighting overhead --viewing rocking \
+		--json $(OUT)/biplane-recommendation.json --render $(OUT)/biplane-recommended.png --map $(OUT)/biplane-score-map.png
 	@echo "demo outputs in $(OUT)/"
 
 test: setup

@@ -111,6 +111,11 @@ def recommend_orientation(
         f"(normal {rec.normal[0]:+.3f}, {rec.normal[1]:+.3f}, {rec.normal[2]:+.3f} in the mesh frame)."
     )
     console.print(_metrics_table("Flash at the recommended orientation", rec.metrics))
+    if rec.metrics.flash_area == 0.0:
+        console.print(
+            f"No part of the stone reaches the flash threshold ({rec.settings['tau']:g} x a face-on flash under one lamp "
+            "of the same total light): diffuse lighting spreads the schiller thin. The energy score still ranks orientations."
+        )
     if rec.runners_up:
         table = Table(title="Other good orientations (distinct optima)")
         for col in ("#", "orientation", f"{objective} vs best"):
