@@ -43,12 +43,16 @@ class _Tables:
 @functools.lru_cache(maxsize=1)
 def tables() -> _Tables:
     """CIE tables on a 1 nm grid from Mitsuba (cached)."""
-    import mitsuba.scalar_rgb as mis
+    import importlib
 
+    from .backend import variant_name
+
+    mis = importlib.import_module(f"mitsuba.{variant_name('rgb')}")  # vectorised; no variant is set
     wl = np.arange(LAMBDA_MIN_NM, LAMBDA_MAX_NM + 0.5, 1.0)
-    xyz = np.array([list(mis.cie1931_xyz(float(w))) for w in wl], dtype=np.float64)
-    d65 = np.array([float(mis.cie_d65(float(w))) for w in wl], dtype=np.float64)
-    m = np.array([list(mis.xyz_to_srgb(mis.Color3f(*e))) for e in np.eye(3)], dtype=np.float64).T
+    w = mis.Float(wl)
+    xyz = np.array(mis.cie1931_xyz(w), dtype=np.float64).T
+    d65 = np.array(mis.cie_d65(w), dtype=np.float64).ravel()
+    m = np.array(mis.xyz_to_srgb(mis.Color3f(np.eye(3))), dtype=np.float64)  # [out channel, in basis]
     return _Tables(wl, xyz, d65, m)
 
 

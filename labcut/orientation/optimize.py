@@ -211,12 +211,24 @@ def optimize_nlopt(scorer: Scorer, constraint: Constraint, global_evals: int = 2
 
 
 def optimize_gradient(scorer: Scorer, constraint: Constraint, starts: int = 12, iterations: int = 60, seed: int = 0) -> OptimumResult:
-    """Dr.Jit gradient ascent (Adam on (u, v)) from ``starts`` spread-out starting normals."""
+    """Dr.Jit gradient ascent (Adam on (u, v)) from ``starts`` spread-out starting normals plus
+    the best distinct cells of a coarse 6° energy map, all starts stepped together in one kernel."""
     start = scorer.evaluations
     if constraint.tilt_axis is not None:
         return _axis_gradient(scorer, constraint, starts, iterations)
     inits = hemisphere_grid(max(2.0, math.degrees(math.sqrt(2 * math.pi * (1 - math.cos(math.radians(constraint.max_tilt_deg))) / starts))), constraint)
     inits = inits[np.linspace(0, len(inits) - 1, min(starts, len(inits))).astype(int)]
+    # plus the best distinct cells of a coarse (6°) energy map: one batched evaluation
+    coarse = hemisphere_grid(6.0, constraint)
+    values = scorer.energy_map(coarse)
+    seeds: list[np.ndarray] = []
+    for i in np.argsort(values)[::-1]:
+        if len(seeds) >= max(4, starts // 2) or values[i] <= 0:
+            break
+        if all(abs(float(coarse[i] @ s)) < math.cos(math.radians(8.0)) for s in seeds):
+            seeds.append(coarse[i])
+    if seeds:
+        inits = np.vstack([np.array(seeds), inits])
     best_uv, best_value = (0.0, 0.0), -np.inf
     r = constraint.radius
     if scorer.objective == "energy":  # all starts in one kernel per step

@@ -188,7 +188,9 @@ def _define_class() -> type:
                 m = self.material
                 r = stack_reflectance(si.wavelengths, cos_l, m.n_a, m.n_b, m.d_a, m.d_b, m.sigma_a, m.sigma_b, m.pairs)
                 return mi.UnpolarizedSpectrum(r)
-            values = self.table.eval(mi.Point1f(dr.clip(cos_l, 0.0, 1.0)))
+            # texel i sits at (i + 0.5)/N: map cos θ in [0, 1] onto the texel centres
+            coord = (dr.clip(cos_l, 0.0, 1.0) * (TABLE_SIZE - 1) + 0.5) * (1.0 / TABLE_SIZE)
+            values = self.table.eval(mi.Point1f(coord))
             if len(values) == 1:
                 return mi.UnpolarizedSpectrum(values[0])
             return mi.UnpolarizedSpectrum(values[0], values[1], values[2])
