@@ -161,3 +161,17 @@ def test_carving_renders_without_nan():
     carving = labcut.load_mesh(MESHES / "carving-biplane.ply")
     r = labcut.render(carving, Labradorite.preset("blue"), (0.3, 0.2, 1.0), resolution=32, spp=4, view="tilted")
     assert np.all(np.isfinite(r.image)) and r.image.max() > 0
+
+
+def test_environment_map_from_file(cab, tmp_path):
+    # a small equirectangular sky: bright band near the zenith, dark below the horizon
+    h, w = 32, 64
+    theta = (np.arange(h) + 0.5) / h * np.pi
+    sky = np.repeat(np.clip(np.cos(theta), 0.0, None)[:, None], w, axis=1)[..., None] * np.ones(3)
+    path = tmp_path / "sky.exr"
+    mi.Bitmap(sky.astype(np.float32), mi.Bitmap.PixelFormat.RGB).write(str(path))
+    r = labcut.render(cab, Labradorite.preset("green"), (0, 0, 1), lighting=str(path), resolution=32, spp=8)
+    assert r.image.max() > 0 and np.all(np.isfinite(r.image))
+    (tmp_path / "broken.exr").write_bytes(b"not an exr")
+    with pytest.raises(ParameterError, match="environment map"):
+        labcut.render(cab, Labradorite(), lighting=str(tmp_path / "broken.exr"), resolution=16, spp=1)
