@@ -37,8 +37,11 @@ def plot_score_map(rec: Any, path: str | os.PathLike[str], title: str | None = N
         fig.colorbar(cs, ax=ax, label=f"{rec.objective} / best")
     else:
         ax.scatter(x, y, c=s, cmap="magma")
-    lim = float(tilt.max()) if len(tilt) else 90.0
-    for ring in range(15, int(lim) + 1, 15):
+    # zoom to where the score lives (>= 2 % of the best), with a margin; never below 15°
+    lit = tilt[s >= 0.02] if np.any(s >= 0.02) else tilt
+    lim = float(min(tilt.max() if len(tilt) else 90.0, max(15.0, 1.3 * float(lit.max()) + 3.0)))
+    step = 5 if lim <= 35 else 15
+    for ring in range(step, int(lim) + 1, step):
         ax.add_patch(plt.Circle((0, 0), ring, fill=False, color="white", lw=0.5, alpha=0.5))
         ax.text(ring * math.cos(math.radians(45)), ring * math.sin(math.radians(45)), f"{ring}°", color="white", fontsize=7)
     bt, ba = tilt_azimuth(rec.normal)
