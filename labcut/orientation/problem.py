@@ -89,9 +89,9 @@ def reference_radiance(material: Labradorite, total_irradiance: float) -> float:
 class FlashProblem:
     """Precomputed triples for one (mesh, material, lights, views, quality)."""
 
-    h: np.ndarray  # (T, 3) lamella orientation per triple, mesh frame, h_z >= 0 (axial fold)
-    c: np.ndarray  # (T,) weight in front of q, in units of L_ref
-    pair: np.ndarray  # (T,) index of the (point, view) pair
+    h: np.ndarray  # (T, 3) float32 lamella orientation per triple, mesh frame, h_z >= 0 (axial fold)
+    c: np.ndarray  # (T,) float32 weight in front of q, in units of L_ref
+    pair: np.ndarray  # (T,) int32 index of the (point, view) pair
     pair_view: np.ndarray  # (P,) view index of each pair
     pair_weight: np.ndarray  # (P,) projected-area weight, sums to 1 within each view
     view_weight: np.ndarray  # (V,) normalised view weights
@@ -206,47 +206,65 @@ def build_problem(
     per_view = np.bincount(pv, weights=proj, minlength=len(V))
     pair_weight = proj / np.where(per_view[pv] > 0, per_view[pv], 1.0)
 
-    # triples: pair x lit lights of that point
-    lit_i, lit_l = np.nonzero(lit)
-    counts = np.bincount(lit_i, minlength=count)
-    starts = np.concatenate([[0], np.cumsum(counts)[:-1]])
-    reps = counts[pi]
-    pair_of_t = np.repeat(np.arange(len(pi)), reps)
-    offs = np.arange(reps.sum()) - np.repeat(np.cumsum(reps) - reps, reps)
-    light_of_t = lit_l[np.repeat(starts[pi], reps) + offs]
-    point_of_t = pi[pair_of_t]
-    view_of_t = pv[pair_of_t]
-
-    n_t = n_sh[point_of_t]
-    wl = L[light_of_t]
-    wo = V[view_of_t]
-    a = _internal(wl, n_t, eta)
-    b = _internal(wo, n_t, eta)
-    hsum = a + b
-    h = hsum / np.sqrt(_dot(hsum, hsum))[:, None]
-    cos_l = np.clip(_dot(a, h), 1e-6, 1.0)
-    a_n = _dot(a, n_t)
-    b_n = _dot(b, n_t)
-    cos_li = _dot(wl, n_t)
-    cos_vo = _dot(wo, n_t)
-    t_i = 1.0 - fresnel_dielectric(cos_li, eta)
-    t_o = 1.0 - fresnel_dielectric(cos_vo, eta)
     table_c, table_r = luminance_table(material)
-    r_y = np.interp(cos_l, table_c, table_r)
     kappa = vmf_kappa(material.spread_deg)
     q_norm = kappa / (2.0 * math.pi * -math.expm1(-kappa))
     l_ref = reference_radiance(material, float(E.sum()))
     if not l_ref > 0:
         raise ParameterError("the material reflects nothing at normal incidence: no flash can be scored")
-    c = E[light_of_t] * t_i * t_o * r_y * cos_li / (4.0 * cos_l * np.maximum(a_n, b_n) * eta * eta) / l_ref
-    h = np.where(h[:, 2:3] < 0.0, -h, h)  # axial: fold into the upper hemisphere
-    finite = np.isfinite(c) & np.all(np.isfinite(h), axis=1)
-    c = np.where(finite, c, 0.0)
-    h = np.where(finite[:, None], h, np.array([0.0, 0.0, 1.0]))
+
+    # triples: each pair x the lights its point sees; built in chunks of points and
+    # stored in float32 (20 bytes a triple) so high quality stays within memory
+    pair_first = np.searchsorted(pi, np.arange(count + 1))  # pairs are sorted by point
+    h_parts, c_parts, pair_parts = [], [], []
+    chunk = max(1, 4_000_000 // max(1, len(V) * max(1, int(lit.sum(axis=1).max(initial=1)))))
+    for p0 in range(0, count, chunk):
+        p1 = min(count, p0 + chunk)
+        q0, q1 = pair_first[p0], pair_first[p1]
+        if q1 == q0:
+            continue
+        c_pi, c_pv = pi[q0:q1], pv[q0:q1]
+        lit_i, lit_l = np.nonzero(lit[p0:p1])
+        lit_i = lit_i + p0
+        counts = np.bincount(lit_i - p0, minlength=p1 - p0)
+        starts = np.concatenate([[0], np.cumsum(counts)[:-1]])
+        reps = counts[c_pi - p0]
+        if reps.sum() == 0:
+            continue
+        pair_of_t = np.repeat(np.arange(q0, q1), reps)
+        offs = np.arange(reps.sum()) - np.repeat(np.cumsum(reps) - reps, reps)
+        light_of_t = lit_l[np.repeat(starts[c_pi - p0], reps) + offs]
+        point_of_t = pi[pair_of_t]
+        view_of_t = pv[pair_of_t]
+
+        n_t = n_sh[point_of_t]
+        wl = L[light_of_t]
+        wo = V[view_of_t]
+        a = _internal(wl, n_t, eta)
+        b = _internal(wo, n_t, eta)
+        hsum = a + b
+        h = hsum / np.sqrt(_dot(hsum, hsum))[:, None]
+        cos_l = np.clip(_dot(a, h), 1e-6, 1.0)
+        cos_li = _dot(wl, n_t)
+        t_i = 1.0 - fresnel_dielectric(cos_li, eta)
+        t_o = 1.0 - fresnel_dielectric(_dot(wo, n_t), eta)
+        r_y = np.interp(cos_l, table_c, table_r)
+        c = E[light_of_t] * t_i * t_o * r_y * cos_li / (4.0 * cos_l * np.maximum(_dot(a, n_t), _dot(b, n_t)) * eta * eta) / l_ref
+        h = np.where(h[:, 2:3] < 0.0, -h, h)  # axial: fold into the upper hemisphere
+        finite = np.isfinite(c) & np.all(np.isfinite(h), axis=1)
+        c_parts.append(np.where(finite, c, 0.0).astype(np.float32))
+        h_parts.append(np.where(finite[:, None], h, np.array([0.0, 0.0, 1.0])).astype(np.float32))
+        pair_parts.append(pair_of_t.astype(np.int32))
+    if c_parts:
+        h, c, pair_of_t = np.concatenate(h_parts), np.concatenate(c_parts), np.concatenate(pair_parts)
+    else:  # nothing lit and seen: an all-dark problem, scored 0 everywhere
+        h, c, pair_of_t = np.array([[0.0, 0.0, 1.0]], np.float32), np.zeros(1, np.float32), np.zeros(1, np.int32)
+        if len(pi) == 0:
+            pi, pv, pair_weight = np.zeros(1, np.int64), np.zeros(1, np.int64), np.zeros(1)
     return FlashProblem(
         h=h,
         c=c,
-        pair=pair_of_t.astype(np.int64),
+        pair=pair_of_t,
         pair_view=pv.astype(np.int64),
         pair_weight=pair_weight,
         view_weight=wv,

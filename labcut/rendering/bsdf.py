@@ -357,11 +357,6 @@ def _define_class() -> type:
                 dr.select(active, pdf, 0.0),
             )
 
-        def eval_schiller_luminance(self, si: Any, wo: Any) -> Any:
-            """Schiller lobe only, f_s·cos θ_o, as UnpolarizedSpectrum (flash metrics)."""
-            value, _ = self._schiller_terms(si, wo)
-            return value
-
         def traverse(self, callback: Any) -> None:
             callback.put("normal", self.normal, mi.ParamFlags.Differentiable)
 
