@@ -2,9 +2,9 @@
 
     .venv/bin/python examples/recommend_carving.py [--out out/examples]
 
-Loads the bundled biplane carving, asks for the orientation that flashes most for a
-viewer who rocks the piece in the hand under ceiling lights, prints the answer in a
-cutter's words, and writes a render and a score map.
+Loads the bundled biplane carving, asks for the orientation that balances flash area
+and intensity for a viewer who rocks the piece in the hand under a bench lamp, prints
+the answer in a cutter's words, and writes a render and a score map.
 """
 
 from __future__ import annotations
@@ -28,12 +28,13 @@ def main() -> None:
 
     mesh = labcut.load_mesh(ROOT / "meshes" / "carving-biplane.ply")
     material = labcut.Labradorite.preset("blue")
-    rec = labcut.recommend_orientation(mesh, material, lighting="ceiling", viewing="rocking", objective="balanced")
+    lamp = Lights.preset("overhead")
+    rec = labcut.recommend_orientation(mesh, material, lighting=lamp, viewing="rocking", objective="balanced")
     print(f"{rec.description}; keep within ±{rec.tolerance_deg:.1f}° for 90 % of the score")
     print(f"flash area {rec.metrics.flash_area:.0%}, intensity {rec.metrics.flash_intensity:.2f}, coverage {rec.metrics.coverage:.0%}")
     for r in rec.runners_up:
         print(f"  also good: {r['description']} ({r['relative_score']:.0%} of the best)")
-    labcut.render(mesh, material, rec.normal, lighting=Lights.preset("ceiling", "draft"), view="tilted", spp=32, resolution=384,
+    labcut.render(mesh, material, rec.normal, lighting=lamp, view="tilted", spp=64, resolution=384,
                   output=out / "carving-recommended.png")
     plot_score_map(rec, out / "carving-score-map.png")
     print(f"render and score map in {out}/")

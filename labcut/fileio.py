@@ -41,6 +41,9 @@ def atomic_output(path: str | os.PathLike[str], suffixes: tuple[str, ...] | None
     tmp = Path(tmp_name)
     try:
         yield tmp
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(tmp, 0o666 & ~umask)  # mkstemp makes 0600: give the file the usual permissions
         os.replace(tmp, out)
     finally:
         if tmp.exists():

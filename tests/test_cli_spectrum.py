@@ -82,3 +82,15 @@ def test_help_and_version(cli):
     assert cli().returncode == 0
     proc = cli("--version")
     assert proc.returncode == 0 and "labcut" in proc.stdout
+
+
+def test_outputs_get_the_usual_permissions(cli, tmp_path):
+    import os
+    import stat
+
+    proc = cli("spectrum", "-o", str(tmp_path / "s.png"), "--json", str(tmp_path / "s.json"))
+    assert proc.returncode == 0
+    umask = os.umask(0)
+    os.umask(umask)
+    for name in ("s.png", "s.json"):
+        assert stat.S_IMODE((tmp_path / name).stat().st_mode) == 0o666 & ~umask
