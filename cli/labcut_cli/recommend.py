@@ -106,9 +106,11 @@ def recommend_orientation(
         write_json(json_path, data)
 
     console.print(f"[bold]Recommendation for {mesh_path.name}[/]: {rec.description}.")
+    ax = rec.tolerance_by_axis
     console.print(
-        f"Keep within [bold]±{rec.tolerance_deg:.1f}°[/] of it to keep 90 % of the {objective} score "
-        f"(normal {rec.normal[0]:+.3f}, {rec.normal[1]:+.3f}, {rec.normal[2]:+.3f} in the mesh frame)."
+        f"Keep within [bold]±{rec.tolerance_deg:.1f}°[/] of it in any direction to keep 90 % of the {objective} score "
+        f"(±{ax['front_back_deg']:.1f}° front-to-back, ±{ax['left_right_deg']:.1f}° side-to-side; "
+        f"normal {rec.normal[0]:+.3f}, {rec.normal[1]:+.3f}, {rec.normal[2]:+.3f} in the mesh frame)."
     )
     console.print(_metrics_table("Flash at the recommended orientation", rec.metrics))
     if rec.metrics.flash_area == 0.0:

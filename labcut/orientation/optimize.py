@@ -298,7 +298,7 @@ def run_optimizer(name: str, scorer: Scorer, constraint: Constraint, quality: st
     raise ParameterError(f"optimizer must be one of {', '.join(OPTIMIZERS)}, got {name!r}")
 
 
-def tolerance_deg(scores: Callable[[np.ndarray], np.ndarray], best: np.ndarray, best_score: float, constraint: Constraint, keep: float = 0.9, limit_deg: float = 30.0) -> float:
+def tolerance_deg(scores: Callable[[np.ndarray], np.ndarray], best: np.ndarray, best_score: float, constraint: Constraint, keep: float = 0.9, limit_deg: float = 30.0, directions: list[np.ndarray] | None = None) -> float:
     """How far (degrees) the normal may miss in any direction and keep ``keep`` x the score.
 
     Rings of 16 directions (scored together) at growing angular distance; the first
@@ -310,7 +310,10 @@ def tolerance_deg(scores: Callable[[np.ndarray], np.ndarray], best: np.ndarray, 
     e1 = np.cross(best, helper)
     e1 /= np.linalg.norm(e1)
     e2 = np.cross(best, e1)
-    if constraint.tilt_axis is not None:
+    if directions is not None:  # tangent directions to test, e.g. front and back only
+        dirs = [d - (d @ best) * best for d in directions]
+        dirs = [d / np.linalg.norm(d) for d in dirs if np.linalg.norm(d) > 1e-9]
+    elif constraint.tilt_axis is not None:
         k = np.asarray(constraint.tilt_axis)
         dirs = [np.cross(k, best), -np.cross(k, best)]
     else:

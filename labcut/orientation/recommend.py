@@ -60,6 +60,7 @@ class Recommendation:
     objective: str
     metrics: FlashMetrics
     tolerance_deg: float
+    tolerance_by_axis: dict[str, float]
     runners_up: list[dict[str, Any]]
     map_normals: np.ndarray
     map_scores: np.ndarray
@@ -84,6 +85,7 @@ class Recommendation:
             "score": self.score,
             "metrics": self.metrics.to_dict(),
             "tolerance_deg": self.tolerance_deg,
+            "tolerance_by_axis": self.tolerance_by_axis,
             "runners_up": self.runners_up,
             "optimizer": self.optimizer,
             "evaluations": self.evaluations,
@@ -172,12 +174,13 @@ def recommend_orientation(
     report("tolerance and runners-up", 0.8)
     tol = tolerance_deg(scorer.scores, normal, score, constraint) if score > 0 else 0.0
     runners = _runners_up(scorer, constraint, map_normals, map_scores, normal, score)
+    by_axis = axis_tolerances(scorer, normal, score, constraint) if score > 0 else {"front_back_deg": 0.0, "left_right_deg": 0.0}
     metrics = scorer.metrics(normal)
     tilt, az = tilt_azimuth(normal)
     report("done", 1.0)
     return Recommendation(
         normal=normal, tilt_deg=tilt, azimuth_deg=az, score=float(score), objective=objective, metrics=metrics,
-        tolerance_deg=float(tol), runners_up=runners, map_normals=map_normals, map_scores=map_scores,
+        tolerance_deg=float(tol), tolerance_by_axis=by_axis, runners_up=runners, map_normals=map_normals, map_scores=map_scores,
         optimizer=optimizer, evaluations=scorer.evaluations, seconds=time.perf_counter() - start,
         settings={
             "material": material.to_dict(), "lighting": lights.name, "viewing": views.name, "quality": quality,
@@ -186,6 +189,18 @@ def recommend_orientation(
             "triples": scorer.problem.n_triples, "lights": int(len(lights.weights)), "views": int(len(views.weights)),
         },
     )
+
+
+def axis_tolerances(scorer: Scorer, best: np.ndarray, best_score: float, constraint: Constraint) -> dict[str, float]:
+    """How far (degrees) the normal may miss tilting towards the front/back (±Y) and the sides (±X).
+
+    The same ring search as :func:`~labcut.orientation.optimize.tolerance_deg`, restricted
+    to the two directions of each axis; the overall tolerance is never larger than either.
+    """
+    out = {}
+    for name, axis in (("front_back_deg", np.array([0.0, 1.0, 0.0])), ("left_right_deg", np.array([1.0, 0.0, 0.0]))):
+        out[name] = tolerance_deg(scorer.scores, best, best_score, constraint, directions=[axis, -axis])
+    return out
 
 
 def _runners_up(scorer: Scorer, constraint: Constraint, normals: np.ndarray, scores: np.ndarray, best: np.ndarray, best_score: float, count: int = 3) -> list[dict[str, Any]]:
