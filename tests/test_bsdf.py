@@ -9,7 +9,6 @@ import mitsuba as mi
 import numpy as np
 import pytest
 
-from labcut import ParameterError
 from labcut.backend import set_variant
 
 

@@ -13,7 +13,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from labcut import Labradorite
-from labcut.physics import lamella_intensity, stack_reflectance
+from labcut.physics import lamella_intensity
 
 rng = np.random.default_rng(7)
 

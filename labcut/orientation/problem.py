@@ -223,7 +223,7 @@ def build_problem(
         q0, q1 = pair_first[p0], pair_first[p1]
         if q1 == q0:
             continue
-        c_pi, c_pv = pi[q0:q1], pv[q0:q1]
+        c_pi = pi[q0:q1]
         lit_i, lit_l = np.nonzero(lit[p0:p1])
         lit_i = lit_i + p0
         counts = np.bincount(lit_i - p0, minlength=p1 - p0)

@@ -128,7 +128,7 @@ class Scorer:
 
     # ------------------------------------------------------------------ core
     def _normal(self, u: Any, v: Any) -> Any:
-        dr, t = self.dr, self.t
+        t = self.t
         r2 = u * u + v * v
         inv = 1.0 / (1.0 + r2)
         return t.Array3f(2.0 * u * inv, 2.0 * v * inv, (1.0 - r2) * inv)
@@ -151,7 +151,7 @@ class Scorer:
         return out
 
     def _objective_dr(self, m: Any, smooth: bool) -> Any:
-        dr, t = self.dr, self.t
+        dr = self.dr
         if self.objective == "energy":
             return dr.sum(self.bin_a * self._q(self.bin_h, m))
         radiance = self._pair_radiance(m)
@@ -184,7 +184,7 @@ class Scorer:
         return np.array([self.score(n) for n in normals])
 
     def score_uv(self, u: float, v: float) -> float:
-        dr, t = self.dr, self.t
+        t = self.t
         self.evaluations += 1
         value = self._objective_dr(self._normal(t.Float(u), t.Float(v)), smooth=False)
         return float(np.array(value).ravel()[0])
@@ -202,7 +202,7 @@ class Scorer:
 
     def metrics(self, normal: np.ndarray) -> FlashMetrics:
         """All flash metrics (hard threshold) of a lamella normal."""
-        dr, t = self.dr, self.t
+        t = self.t
         m = np.asarray(normal, dtype=np.float64)
         m = m / np.linalg.norm(m)
         radiance = np.array(self._pair_radiance(t.Array3f(float(m[0]), float(m[1]), float(m[2]))), dtype=np.float64)
