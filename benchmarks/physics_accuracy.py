@@ -41,6 +41,7 @@ from pathlib import Path
 import numpy as np
 
 import labcut  # noqa: F401  (configures Dr.Jit's libLLVM and cache before drjit loads)
+from labcut.physics.search import golden_section_max
 from labcut import Labradorite
 from labcut.physics import bragg_wavelength, interface_reflectance, lamella_intensity
 
@@ -484,20 +485,8 @@ def fwhm(lab: Labradorite, peak: float, c: float = 1.0, quantity: str = "reflect
 
 
 def refine_peak(f, lo: float, hi: float, tol: float = 1e-11) -> float:
-    """Golden-section maximum of a unimodal f on [lo, hi]."""
-    g = (math.sqrt(5.0) - 1.0) / 2.0
-    x1, x2 = hi - g * (hi - lo), lo + g * (hi - lo)
-    f1, f2 = f(x1), f(x2)
-    while hi - lo > tol:
-        if f1 < f2:
-            lo, x1, f1 = x1, x2, f2
-            x2 = lo + g * (hi - lo)
-            f2 = f(x2)
-        else:
-            hi, x2, f2 = x2, x1, f1
-            x1 = hi - g * (hi - lo)
-            f1 = f(x1)
-    return 0.5 * (lo + hi)
+    """Golden-section maximum of a unimodal f on [lo, hi] (labcut's own search, tighter tolerance)."""
+    return golden_section_max(f, lo, hi, tol)
 
 
 def colour_cells(lab: Labradorite, c: float = 1.0) -> list[str]:

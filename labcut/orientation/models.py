@@ -199,23 +199,21 @@ def _from_json(path: Path, cls: type) -> Any:
     return cls(data["directions"], data.get("weights"), str(data.get("name", path.stem)))
 
 
-def lights_from(spec: Any, quality: str = "standard") -> Lights:
-    """A :class:`Lights` from an instance, a preset name, or a JSON file path."""
-    if isinstance(spec, Lights):
+def _model_from(spec: Any, cls: type, what: str, quality: str) -> Any:
+    if isinstance(spec, cls):
         return spec
     if isinstance(spec, str | Path) and str(spec).lower().endswith(".json"):
-        return _from_json(Path(spec), Lights)
+        return _from_json(Path(spec), cls)
     if isinstance(spec, str):
-        return Lights.preset(spec, quality)
-    raise ParameterError(f"lighting must be a preset name, a JSON file or labcut.Lights, got {type(spec).__name__}")
+        return cls.preset(spec, quality)
+    raise ParameterError(f"{what} must be a preset name, a JSON file or labcut.{cls.__name__}, got {type(spec).__name__}")
+
+
+def lights_from(spec: Any, quality: str = "standard") -> Lights:
+    """A :class:`Lights` from an instance, a preset name, or a JSON file path."""
+    return _model_from(spec, Lights, "lighting", quality)
 
 
 def views_from(spec: Any, quality: str = "standard") -> Views:
     """A :class:`Views` from an instance, a preset name, or a JSON file path."""
-    if isinstance(spec, Views):
-        return spec
-    if isinstance(spec, str | Path) and str(spec).lower().endswith(".json"):
-        return _from_json(Path(spec), Views)
-    if isinstance(spec, str):
-        return Views.preset(spec, quality)
-    raise ParameterError(f"viewing must be a preset name, a JSON file or labcut.Views, got {type(spec).__name__}")
+    return _model_from(spec, Views, "viewing", quality)

@@ -16,6 +16,7 @@ import numpy as np
 
 from ..errors import ParameterError
 from . import lamella
+from .search import golden_section_max
 from .ops import is_drjit
 
 #: Bøggild range of bulk anorthite content (mol % An) over which labradorite
@@ -213,20 +214,8 @@ class Labradorite:
         if i == 0 or i == grid.size - 1:
             return math.nan
         lo, hi = grid[max(i - 1, 0)], grid[min(i + 1, grid.size - 1)]
-        f = (lambda x: float(self.intensity(x, c)))  # R is monotone in I: same peak, no saturation plateau
-        g = (math.sqrt(5.0) - 1.0) / 2.0
-        x1, x2 = hi - g * (hi - lo), lo + g * (hi - lo)
-        f1, f2 = f(x1), f(x2)
-        while hi - lo > 1e-4:
-            if f1 < f2:
-                lo, x1, f1 = x1, x2, f2
-                x2 = lo + g * (hi - lo)
-                f2 = f(x2)
-            else:
-                hi, x2, f2 = x2, x1, f1
-                x1 = hi - g * (hi - lo)
-                f1 = f(x1)
-        return 0.5 * (lo + hi)
+        # R is monotone in I: same peak, and no saturation plateau to confuse the search
+        return golden_section_max(lambda x: float(self.intensity(x, c)), lo, hi, 1e-4)
 
     def peak_reflectance(self, cos_theta: float = 1.0) -> float:
         """Reflectance at the first-order peak, at ``cos_theta`` (NaN when there is none)."""
