@@ -184,3 +184,42 @@ def test_traverse_exposes_a_differentiable_normal():
     params = mi.traverse(_bsdf(normal=[0, 0.2, 1]))
     assert "normal" in params.keys()
     assert not params.flags("normal") & int(mi.ParamFlags.NonDifferentiable)
+
+
+@pytest.mark.parametrize("mode", ["rgb", "spectral"])
+@pytest.mark.parametrize(
+    "params",
+    [
+        {"normal": [1.0, 0.0, 0.0], "spread_deg": 3.0},  # lamellae perpendicular to the surface
+        {"normal": [0.0, 0.0, 1.0], "spread_deg": 0.1},  # nearly a mirror
+        {"normal": [0.3, 0.2, 1.0], "spread_deg": 45.0},  # the widest spread allowed
+        {"normal": [0.0, 0.0, 1.0], "spread_deg": 2.0, "sigma_a": 0.0, "sigma_b": 0.0, "pairs": 100000},
+    ],
+)
+def test_hard_cases_stay_finite_with_finite_gradients(mode, params):
+    _use(mode)
+    bsdf = _bsdf(**params)
+    ctx = mi.BSDFContext()
+    rng = np.random.default_rng(5)
+    n = 20000
+    # incident and outgoing directions crowded at the pole and at grazing incidence
+    z = np.concatenate([np.full(n // 4, 1.0), np.full(n // 4, 1e-7), np.full(n // 4, 1e-3), rng.uniform(0, 1, n // 4)])
+    phi = rng.uniform(0, 2 * np.pi, n)
+    r = np.sqrt(1 - z * z)
+    wi = mi.Vector3f(r * np.cos(phi), r * np.sin(phi), z)
+    wo_np = _directions(n, 9)
+    wo_np[: n // 8, 2] = 1e-7
+    wo_np /= np.linalg.norm(wo_np, axis=1)[:, None]
+    wo = mi.Vector3f(wo_np.T)
+    si = _si(n, wi)
+    value, pdf = bsdf.eval_pdf(ctx, si, wo)
+    assert np.all(np.isfinite(np.array(mi.unpolarized_spectrum(value)))) and np.all(np.isfinite(np.array(pdf)))
+    s = rng.random((3, n)).astype(np.float32)
+    bs, w = bsdf.sample(ctx, si, mi.Float(s[0]), mi.Point2f(s[1], s[2]))
+    assert np.all(np.isfinite(np.array(mi.unpolarized_spectrum(w)))) and np.all(np.isfinite(np.array(bs.pdf)))
+    params_ = mi.traverse(bsdf)
+    dr.enable_grad(params_["normal"])
+    params_.update()
+    value = bsdf.eval(ctx, _si(n, wi), wo)
+    dr.backward(dr.sum(mi.unpolarized_spectrum(value), axis=None))
+    assert np.all(np.isfinite(np.array(dr.grad(params_["normal"]))))
