@@ -94,14 +94,16 @@ class Scorer:
         self.view_weight = t.Float(p.view_weight)
         self.n_pairs = int(p.pair_view.size)
         self.n_views = int(p.view_weight.size)
-        self.kappa = float(p.kappa)
-        self.q_norm = float(p.q_norm)
-        self.tau = float(p.tau)
+        # opaque scalars: one compiled kernel serves every spread and threshold
+        self.kappa = dr.opaque(t.Float, float(p.kappa))
+        self.q_norm = dr.opaque(t.Float, float(p.q_norm))
+        self.tau = dr.opaque(t.Float, float(p.tau))
         self.evaluations = 0
         hb, ab = self._bin_triples()
         self.bin_h = t.Array3f(hb[:, 0], hb[:, 1], hb[:, 2])
         self.bin_a = t.Float(ab)
         self.n_bins = len(ab)
+        self._nb = dr.opaque(t.UInt32, self.n_bins)
 
     def _bin_triples(self, bins: int = 512) -> tuple[np.ndarray, np.ndarray]:
         """Energy weights alpha_t binned by h on a stereographic grid (weighted centroids).
@@ -229,32 +231,42 @@ class Scorer:
             },
         )
 
+    def _energy_many(self, m: Any) -> Any:
+        """Energy at each of the normals ``m`` (Array3f of width k): Σ_b A_b q(h_b·m).
+
+        Built from gathers over an index of width k·n_bins with opaque sizes, so one
+        compiled kernel serves every number of normals and every problem (literal
+        widths in tile/repeat would compile a kernel per distinct k).
+        """
+        dr, t = self.dr, self.t
+        k = dr.width(m)
+        idx = dr.arange(t.UInt32, k * self.n_bins)
+        i_m = idx // self._nb
+        i_b = idx - i_m * self._nb
+        values = dr.gather(t.Float, self.bin_a, i_b) * self._q(dr.gather(t.Array3f, self.bin_h, i_b), dr.gather(t.Array3f, m, i_m))
+        out = dr.zeros(t.Float, k)
+        dr.scatter_reduce(dr.ReduceOp.Add, out, values, i_m)
+        return out
+
     def energy_map(self, normals: np.ndarray) -> np.ndarray:
         """Energy at many unit normals at once from the binned triples, in blocks."""
-        dr, t = self.dr, self.t
-        nb = self.n_bins
+        t = self.t
+        normals = np.asarray(normals, dtype=np.float64)
         out = np.empty(len(normals))
-        chunk = max(1, 16_000_000 // max(nb, 1))
+        chunk = max(1, 16_000_000 // max(self.n_bins, 1))
         for s in range(0, len(normals), chunk):
             m = normals[s : s + chunk]
-            k = len(m)
-            mm = t.Array3f(dr.repeat(t.Float(m[:, 0]), nb), dr.repeat(t.Float(m[:, 1]), nb), dr.repeat(t.Float(m[:, 2]), nb))
-            hh = t.Array3f(dr.tile(self.bin_h.x, k), dr.tile(self.bin_h.y, k), dr.tile(self.bin_h.z, k))
-            vals = dr.tile(self.bin_a, k) * self._q(hh, mm)
-            out[s : s + k] = np.array(dr.block_sum(vals, nb), dtype=np.float64)
+            out[s : s + len(m)] = np.array(self._energy_many(t.Array3f(m[:, 0], m[:, 1], m[:, 2])), dtype=np.float64)
         self.evaluations += len(normals)
         return out
 
     def energy_batch_value_and_grad(self, us: np.ndarray, vs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Energy and its Dr.Jit gradient in (u, v) at several points in one kernel (multi-start ascent)."""
         dr, t = self.dr, self.t
-        k, nb = len(us), self.n_bins
+        k = len(us)
         uu, vv = t.Float(np.asarray(us, dtype=np.float64)), t.Float(np.asarray(vs, dtype=np.float64))
         dr.enable_grad(uu, vv)
-        m = self._normal(uu, vv)
-        mm = t.Array3f(dr.repeat(m.x, nb), dr.repeat(m.y, nb), dr.repeat(m.z, nb))
-        hh = t.Array3f(dr.tile(self.bin_h.x, k), dr.tile(self.bin_h.y, k), dr.tile(self.bin_h.z, k))
-        values = dr.block_sum(dr.tile(self.bin_a, k) * self._q(hh, mm), nb)
+        values = self._energy_many(self._normal(uu, vv))
         dr.backward(dr.sum(values))
         self.evaluations += k
         grads = np.stack([np.array(dr.grad(uu), dtype=np.float64), np.array(dr.grad(vv), dtype=np.float64)], axis=1)
