@@ -129,6 +129,10 @@ class Scorer:
         return centroid, weight
 
     # ------------------------------------------------------------------ core
+    def _scalar(self, x: float) -> Any:
+        """An opaque Dr.Jit scalar: a value, not a literal baked into (and recompiling) the kernel."""
+        return self.dr.opaque(self.t.Float, float(x))
+
     def _normal(self, u: Any, v: Any) -> Any:
         t = self.t
         r2 = u * u + v * v
@@ -186,16 +190,15 @@ class Scorer:
         return np.array([self.score(n) for n in normals])
 
     def score_uv(self, u: float, v: float) -> float:
-        t = self.t
         self.evaluations += 1
-        value = self._objective_dr(self._normal(t.Float(u), t.Float(v)), smooth=False)
+        value = self._objective_dr(self._normal(self._scalar(u), self._scalar(v)), smooth=False)
         return float(np.array(value).ravel()[0])
 
     def value_and_grad_uv(self, u: float, v: float) -> tuple[float, np.ndarray]:
         """Objective (smooth threshold) and its Dr.Jit gradient in (u, v)."""
-        dr, t = self.dr, self.t
+        dr = self.dr
         self.evaluations += 1
-        uu, vv = t.Float(u), t.Float(v)
+        uu, vv = self._scalar(u), self._scalar(v)
         dr.enable_grad(uu, vv)
         value = self._objective_dr(self._normal(uu, vv), smooth=True)
         dr.backward(value)
@@ -207,7 +210,7 @@ class Scorer:
         t = self.t
         m = np.asarray(normal, dtype=np.float64)
         m = m / np.linalg.norm(m)
-        radiance = np.array(self._pair_radiance(t.Array3f(float(m[0]), float(m[1]), float(m[2]))), dtype=np.float64)
+        radiance = np.array(self._pair_radiance(t.Array3f(*(self._scalar(x) for x in m))), dtype=np.float64)
         p = self.problem
         flash = radiance >= p.tau
         V = self.n_views
