@@ -132,6 +132,7 @@ def _define_class() -> type:
             mi.BSDF.__init__(self, props)
             self.material = material_from_props(props)
             self.normal = mi.Vector3f(*_normal_from_props(props))
+            dr.make_opaque(self.normal)  # a value, not a literal: a new normal must not recompile the kernel
             self.eta = float(self.material.n_surface)
             self.kappa = vmf_kappa(self.material.spread_deg)
             # density normalisation of the axial vMF over the hemisphere around m
