@@ -72,3 +72,20 @@ def test_empty_lighting_file(cli, tmp_path):
     (tmp_path / "empty.json").write_text(json.dumps({"directions": []}))
     proc = cli("recommend-orientation", OVAL, "--lighting", str(tmp_path / "empty.json"))
     assert proc.returncode == 2 and "error:" in proc.stderr
+
+
+def test_tilt_axis_with_map_and_all_outputs(cli, tmp_path):
+    outs = [tmp_path / "r.json", tmp_path / "m.png", tmp_path / "r.png"]
+    proc = cli("recommend-orientation", OVAL, "--quality", "draft", "--tilt-axis", "1,0,0", "--lighting", "spot",
+               "--json", str(outs[0]), "--map", str(outs[1]), "--render", str(outs[2]), "--spp", "1")
+    assert proc.returncode == 0, proc.stderr
+    assert all(p.exists() for p in outs)
+    assert abs(json.loads(outs[0].read_text())["normal"][0]) < 1e-6
+
+
+@pytest.mark.parametrize("args, fragment", [(["--seed", "-1"], "seed"), (["--lighting", "EMPTY"], "[x, y, z]")])
+def test_messages_keep_their_text(cli, tmp_path, args, fragment):
+    (tmp_path / "empty.json").write_text(json.dumps({"directions": []}))
+    args = [str(tmp_path / "empty.json") if a == "EMPTY" else a for a in args]
+    proc = cli("recommend-orientation", OVAL, *args)
+    assert proc.returncode == 2 and fragment in proc.stderr and len(proc.stderr.strip().splitlines()) == 1

@@ -53,3 +53,10 @@ def test_unreadable_mesh(cli, tmp_path):
     proc = cli("render", str(tmp_path / "missing.ply"), "-o", str(tmp_path / "x.png"))
     assert proc.returncode == 2
     assert not (tmp_path / "x.png").exists()
+
+
+@pytest.mark.parametrize("args", [["--polarizer", "nan"], ["--polarizer", "inf"], ["--exposure", "-1"], ["--exposure", "nan"]])
+def test_bad_polarizer_or_exposure(cli, tmp_path, args):
+    out = tmp_path / "x.png"
+    proc = cli("render", MESH, "-o", str(out), "--resolution", "16", "--spp", "1", *args)
+    assert proc.returncode == 2 and proc.stderr.startswith("error:") and not out.exists()

@@ -92,3 +92,8 @@ def test_any_thickness_is_accepted_or_rejected_cleanly(d):
     else:
         assert lab.d_a > 0 and math.isfinite(lab.d_a)
         assert np.all(np.isfinite(lab.reflectance(np.linspace(380, 780, 5), 1.0)))
+
+
+def test_material_name_must_be_text():
+    with pytest.raises(ParameterError, match="name"):
+        Labradorite(name=[1, 2])

@@ -208,3 +208,38 @@ def test_custom_models_from_json(oval, tmp_path):
     (tmp_path / "bad.json").write_text("{not json")
     with pytest.raises(ParameterError):
         labcut.recommend_orientation(oval, LAB, lighting=str(tmp_path / "bad.json"))
+
+
+def test_reference_radiance_is_a_face_on_flat_flash():
+    # a slab lit and viewed straight on with the lamellae parallel to its face: L_s = L_ref
+    slab = labcut.load_mesh(MESHES / "slab-20x20x3.ply")
+    m = labcut.evaluate_orientation(slab, [0, 0, 1], LAB, lighting=Lights([[0, 0, 1]]), viewing=Views([[0, 0, 1]]))
+    assert abs(m.flash_intensity - 1.0) < 2e-3 and abs(m.flash_area - 1.0) < 1e-9
+
+
+def test_horizontal_optimum_with_a_tilt_axis_does_not_crash():
+    cube = labcut.load_mesh(MESHES / "cube-10.ply")
+    rec = labcut.recommend_orientation(cube, LAB, lighting=Lights([[0, -1, -0.02]]), viewing=Views([[0, -1, 0.02]]),
+                                       quality="draft", tilt_axis=(1, 0, 0), optimizer="grid")
+    assert rec.tilt_deg > 80.0 and math.isfinite(rec.tolerance_deg)
+    assert all(math.isfinite(v) for v in rec.tolerance_by_axis.values())
+
+
+def test_unlit_stone_is_an_error_not_an_arbitrary_answer(oval):
+    with pytest.raises(ParameterError, match="no light"):
+        labcut.recommend_orientation(oval, LAB, lighting=Lights([[0, 0, -1]]), quality="draft")
+
+
+def test_binned_energy_is_accurate_for_narrow_lobes(oval):
+    narrow = Labradorite.preset("blue", spread_deg=0.2)
+    problem = build_problem(oval, narrow, Lights.preset("spot", "draft"), Views.preset("face-up", "draft"), "draft")
+    scorer = Scorer(problem)
+    for n in ([0.0, -0.2, 1.0], [0.05, -0.25, 1.0], [0.0, 0.0, 1.0]):
+        n = np.asarray(n) / np.linalg.norm(n)
+        exact = scorer.metrics(n).flash_energy
+        assert abs(scorer.score(n) - exact) <= 0.01 * exact + 1e-9
+
+
+def test_balanced_score_is_zero_where_nothing_flashes(problems):
+    scorer = Scorer(problems["oval"], "balanced")
+    assert scorer.score(np.array([1.0, 0.0, 0.05])) == 0.0

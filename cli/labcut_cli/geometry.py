@@ -107,7 +107,7 @@ def cabochon(
     output: Annotated[
         Optional[Path], typer.Option("--output", "-o", help="Mesh file to write: .ply .stl .obj .off .glb .3mf.")
     ] = None,
-    json_path: Annotated[Optional[Path], typer.Option("--json", help="Also write the summary as JSON to this file.")] = None,
+    json_path: Annotated[Optional[Path], typer.Option("--json", help="Also write the summary as JSON to this file ('-' for stdout).")] = None,
 ) -> None:
     """Build a watertight cabochon (mm, +Z face-up, base on z = 0), summarise it and export it."""
     from labcut.errors import ParameterError
@@ -120,7 +120,8 @@ def cabochon(
     # check the outputs before the work
     if output is not None:
         check_output_path(output, WRITE_FORMATS + tuple(s.upper() for s in WRITE_FORMATS))
-    if json_path is not None:
+    to_stdout = json_path is not None and str(json_path) == "-"
+    if json_path is not None and not to_stdout:
         check_output_path(json_path, (".json",))
 
     names = OUTLINES + ("navette",)
@@ -151,9 +152,10 @@ def cabochon(
     if output is not None:
         save_mesh(mesh, output)
     meta = mesh.metadata["labcut"]
-    console.print(_summary_table(summary, f"{meta['outline']} cabochon, {meta['profile']} dome {meta['dome_mm']:.3f} mm"))
-    if output is not None:
-        console.print(f"wrote {output}")
+    if not to_stdout:
+        console.print(_summary_table(summary, f"{meta['outline']} cabochon, {meta['profile']} dome {meta['dome_mm']:.3f} mm"))
+        if output is not None:
+            console.print(f"wrote {output}")
     if json_path is not None:
         data = summary.to_dict()
         data["parameters"] = {k: v for k, v in meta.items() if k not in ("repairs",)}
@@ -167,14 +169,15 @@ def inspect_mesh(
     units: Annotated[str, typer.Option(help="Unit of the file: mm, cm, m, um, in, or mm per unit.")] = "mm",
     recentre: Annotated[bool, typer.Option(help="Centre on the Z axis with the base on z = 0.")] = True,
     repair: Annotated[bool, typer.Option(help="Repair what can be repaired (else any defect is an error).")] = True,
-    json_path: Annotated[Optional[Path], typer.Option("--json", help="Also write the summary as JSON to this file.")] = None,
+    json_path: Annotated[Optional[Path], typer.Option("--json", help="Also write the summary as JSON to this file ('-' for stdout).")] = None,
 ) -> None:
     """Validate a mesh and print its dimensions, volume, weight in carats, triangles, convexity and repairs."""
     from labcut.fileio import check_output_path
     from labcut.geometry.inspect import summarize
     from labcut.geometry.meshio import load_mesh
 
-    if json_path is not None:
+    to_stdout = json_path is not None and str(json_path) == "-"
+    if json_path is not None and not to_stdout:
         check_output_path(json_path, (".json",))
     try:
         unit_arg: str | float = float(units)
@@ -182,7 +185,8 @@ def inspect_mesh(
         unit_arg = units
     mesh = load_mesh(mesh_path, units=unit_arg, recentre=recentre, repair=repair)
     summary = summarize(mesh, mesh_path.name)
-    console.print(_summary_table(summary, f"{mesh_path.name} (in mm)"))
+    if not to_stdout:
+        console.print(_summary_table(summary, f"{mesh_path.name} (in mm)"))
     if json_path is not None:
         data = summary.to_dict()
         data["load_report"] = mesh.metadata["labcut"]

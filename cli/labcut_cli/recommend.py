@@ -10,7 +10,7 @@ import typer
 from rich.table import Table
 
 from . import materials as m
-from .root import app, console, parse_vector, write_json
+from .root import all_or_nothing, app, console, parse_vector, write_json
 
 Lighting = Annotated[str, typer.Option(help="overhead, ceiling, spot, sky, or a JSON file of directions/weights.")]
 Viewing = Annotated[str, typer.Option(help="face-up, rocking, pendant, or a JSON file of directions/weights.")]
@@ -48,7 +48,7 @@ def recommend_orientation(
     optimizer: Annotated[str, typer.Option(help="nlopt, gradient or grid.")] = "nlopt",
     max_tilt: Annotated[float, typer.Option("--max-tilt", help="Largest allowed tilt of the lamella normal, degrees.")] = 90.0,
     tilt_axis: Annotated[Optional[str], typer.Option("--tilt-axis", help="Only tilt about this horizontal axis X,Y,Z.")] = None,
-    seed: Annotated[int, typer.Option(help="Seed of the surface sampling.")] = 0,
+    seed: Annotated[int, typer.Option(help="Seed of the surface sampling.", min=0)] = 0,
     json_path: Annotated[Optional[str], typer.Option("--json", help="Write the result as JSON ('-' for stdout).")] = None,
     render_path: Annotated[Optional[Path], typer.Option("--render", help="Render the stone at the recommended orientation (.png/.exr).")] = None,
     map_path: Annotated[Optional[Path], typer.Option("--map", help="Write a polar map of the score over the hemisphere (.png).")] = None,
@@ -92,18 +92,21 @@ def recommend_orientation(
             result = labcut.render(mesh, material, rec.normal, lighting=lights_from(lighting, quality), spp=spp, resolution=512,
                                    progress=lambda d, t: update(int(d * 100 / t), 100))
     data = rec.to_dict()
-    if render_path is not None:
-        result.save(render_path)
-        data["render"] = {"path": str(render_path), "plan": result.plan.to_dict()}
-    if map_path is not None:
-        from labcut.plots.scoremap import plot_score_map
+    with all_or_nothing() as written:
+        if render_path is not None:
+            result.save(render_path)
+            written.append(Path(render_path))
+            data["render"] = {"path": str(render_path), "plan": result.plan.to_dict()}
+        if map_path is not None:
+            from labcut.plots.scoremap import plot_score_map
 
-        plot_score_map(rec, map_path, title=f"{mesh_path.name}: {objective} under {lighting}, viewed {viewing}")
-    if json_path == "-":
-        typer.echo(json.dumps(data, indent=2))
-        return
-    if json_path is not None:
-        write_json(json_path, data)
+            plot_score_map(rec, map_path, title=f"{mesh_path.name}: {objective} under {lighting}, viewed {viewing}")
+            written.append(Path(map_path))
+        if json_path == "-":
+            typer.echo(json.dumps(data, indent=2, allow_nan=False))
+            return
+        if json_path is not None:
+            write_json(json_path, data)
 
     console.print(f"[bold]Recommendation for {mesh_path.name}[/]: {rec.description}.")
     ax = rec.tolerance_by_axis
@@ -163,4 +166,4 @@ def evaluate_orientation(
         return
     if json_path is not None:
         write_json(json_path, data)
-    console.print(_metrics_table(f"Flash of {mesh_path.name} with lamella normal {tuple(round(x, 3) for x in m_vec)}", metrics))
+    console.print(_metrics_table(f"Flash of {mesh_path.name} with lamella normal ({', '.join(f'{float(x):.3f}' for x in m_vec)})", metrics))

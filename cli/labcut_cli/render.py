@@ -72,6 +72,14 @@ def render(
     from labcut.rendering.scene import lighting_preset, view_presets
 
     normalize_normal(lamella)  # validate everything before the long work starts
+    import math
+
+    from labcut.errors import ParameterError
+
+    if polarizer is not None and not math.isfinite(polarizer):
+        raise ParameterError(f"--polarizer must be a finite angle in degrees, got {polarizer}")
+    if exposure is not None and not (math.isfinite(exposure) and exposure > 0):
+        raise ParameterError(f"--exposure must be a finite number > 0, got {exposure}")
     lighting_preset(lighting)
     view_presets(view_spec)
     variant_name(mode, polarizer is not None and mode != "rgb")

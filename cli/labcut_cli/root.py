@@ -6,8 +6,11 @@ Command modules import :data:`app` from here and register with ``@app.command()`
 
 from __future__ import annotations
 
+import contextlib
 import json
 import math
+from collections.abc import Iterator
+from pathlib import Path
 from typing import Any
 
 import typer
@@ -41,10 +44,27 @@ def parse_vector(text: str, name: str = "vector", length: int = 3) -> tuple[floa
     return values
 
 
+@contextlib.contextmanager
+def all_or_nothing() -> Iterator[list[Path]]:
+    """Collect the output files a command writes; if it fails half-way, remove them again,
+    so a failed command leaves no output behind (each file is itself written atomically)."""
+    written: list[Path] = []
+    try:
+        yield written
+    except BaseException:
+        for p in written:
+            with contextlib.suppress(OSError):
+                p.unlink()
+        raise
+
+
 def write_json(path: str, data: Any) -> None:
-    """Write ``data`` as indented JSON, atomically."""
+    """Write ``data`` as indented JSON, atomically; ``-`` prints it to stdout."""
     from labcut.fileio import atomic_output
 
+    if str(path) == "-":
+        typer.echo(json.dumps(data, indent=2, allow_nan=False))
+        return
     with atomic_output(path, (".json",)) as tmp:
         tmp.write_text(json.dumps(data, indent=2, allow_nan=False) + "\n")
 

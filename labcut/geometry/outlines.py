@@ -23,6 +23,10 @@ import numpy as np
 
 from ..errors import ParameterError
 
+#: Sizes a gem cutter works with: below a grain of sand or above a boulder is an input error.
+MIN_SIZE_MM = 0.1
+MAX_SIZE_MM = 1000.0
+
 #: names accepted by :func:`make_outline`
 OUTLINES = ("round", "oval", "cushion", "pear", "marquise", "rectangle")
 
@@ -41,6 +45,8 @@ def _check_size(name: str, value: float) -> float:
         raise ParameterError(f"{name} must be a number in mm, got {value!r}") from None
     if not math.isfinite(v) or v <= 0:
         raise ParameterError(f"{name} must be a positive finite size in mm, got {value!r}")
+    if not MIN_SIZE_MM <= v <= MAX_SIZE_MM:
+        raise ParameterError(f"{name} must lie between {MIN_SIZE_MM:g} and {MAX_SIZE_MM:g} mm (a stone's size), got {v:g}")
     return v
 
 

@@ -71,6 +71,8 @@ def _validated(directions: Any, weights: Any, what: str, allow_below: bool) -> t
         raise ParameterError(f"{what} need at least one direction given as [x, y, z]")
     if not np.all(np.isfinite(d)):
         raise ParameterError(f"{what} directions must be finite")
+    scale = np.max(np.abs(d), axis=1, keepdims=True)
+    d = d / np.where(scale > 0, scale, 1.0)  # no overflow in the norm for huge components
     norms = np.linalg.norm(d, axis=1)
     if np.any(norms < 1e-9):
         raise ParameterError(f"{what} directions must not be zero vectors")

@@ -311,8 +311,14 @@ def tolerance_deg(scores: Callable[[np.ndarray], np.ndarray], best: np.ndarray, 
     e1 /= np.linalg.norm(e1)
     e2 = np.cross(best, e1)
     if directions is not None:  # tangent directions to test, e.g. front and back only
-        dirs = [d - (d @ best) * best for d in directions]
-        dirs = [d / np.linalg.norm(d) for d in dirs if np.linalg.norm(d) > 1e-9]
+        dirs = []
+        for d in directions:
+            t = d - (d @ best) * best
+            if np.linalg.norm(t) < 1e-6:  # the axis is the normal itself: tilt across it instead
+                t = np.cross(best, d if abs(d[2]) < 0.9 else np.array([1.0, 0.0, 0.0]))
+                if np.linalg.norm(t) < 1e-6:
+                    t = np.cross(best, [0.0, 0.0, 1.0])
+            dirs.append(t / np.linalg.norm(t))
     elif constraint.tilt_axis is not None:
         k = np.asarray(constraint.tilt_axis)
         dirs = [np.cross(k, best), -np.cross(k, best)]

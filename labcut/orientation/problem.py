@@ -158,6 +158,8 @@ def build_problem(
 
     if quality not in QUALITY_POINTS:
         raise ParameterError(f"quality must be one of {', '.join(QUALITY_POINTS)}, got {quality!r}")
+    if not (isinstance(seed, int | np.integer) and 0 <= int(seed) < 2**63):
+        raise ParameterError(f"seed must be a whole number >= 0, got {seed!r}")
     if not (isinstance(tau, int | float) and math.isfinite(tau) and 0.0 < tau < 10.0):
         raise ParameterError(f"flash threshold tau must lie in (0, 10), got {tau!r}")
     if not isinstance(mesh, trimesh.Trimesh) or len(mesh.faces) == 0:
@@ -255,6 +257,11 @@ def build_problem(
         c_parts.append(np.where(finite, c, 0.0).astype(np.float32))
         h_parts.append(np.where(finite[:, None], h, np.array([0.0, 0.0, 1.0])).astype(np.float32))
         pair_parts.append(pair_of_t.astype(np.int32))
+    if not c_parts or not any(float(part.sum()) > 0.0 for part in c_parts):
+        raise ParameterError(
+            "no light reaches a part of the stone that a viewer sees: check that the lights are above "
+            "the surfaces the views look at (+Z is face-up)"
+        )
     if c_parts:
         h, c, pair_of_t = np.concatenate(h_parts), np.concatenate(c_parts), np.concatenate(pair_parts)
     else:  # nothing lit and seen: an all-dark problem, scored 0 everywhere

@@ -105,7 +105,7 @@ class Scorer:
         self.n_bins = len(ab)
         self._nb = dr.opaque(t.UInt32, self.n_bins)
 
-    def _bin_triples(self, bins: int = 512) -> tuple[np.ndarray, np.ndarray]:
+    def _bin_triples(self, bins: int | None = None) -> tuple[np.ndarray, np.ndarray]:
         """Energy weights alpha_t binned by h on a stereographic grid (weighted centroids).
 
         The energy objective is linear in q, so Σ_t alpha_t q(h_t·m) equals
@@ -113,6 +113,9 @@ class Scorer:
         ~30x fewer terms than the triples for the same value.
         """
         p = self.problem
+        if bins is None:  # cells (4/bins rad at the pole) at most 1/8 of the lobe width
+            spread = 1.0 / math.sqrt(p.kappa)
+            bins = int(min(16384, max(512, math.ceil(32.0 / spread))))
         alpha = p.alpha()
         keep = alpha > 0
         a, h = alpha[keep], p.h[keep]
@@ -174,7 +177,8 @@ class Scorer:
             return area
         if self.objective == "intensity":
             return intensity
-        return dr.sqrt(dr.maximum(area * intensity, 1e-20))
+        # the floor keeps the gradient finite where nothing flashes; reported scores have none
+        return dr.sqrt(dr.maximum(area * intensity, 1e-20 if smooth else 0.0))
 
     # ------------------------------------------------------------------ public
     def score(self, normal: np.ndarray) -> float:

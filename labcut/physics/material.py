@@ -106,6 +106,8 @@ class Labradorite:
         object.__setattr__(self, "pairs", int(pairs))
         object.__setattr__(self, "spread_deg", _check_number("spread_deg", self.spread_deg, 0.0, 45.0, low_open=True))
         object.__setattr__(self, "body_albedo", _check_number("body_albedo", self.body_albedo, 0.0, 1.0))
+        if self.name is not None and not isinstance(self.name, str):
+            raise ParameterError(f"material name must be text, got {self.name!r}")
 
     # ------------------------------------------------------------------ constructors
     @classmethod

@@ -27,6 +27,10 @@ def plot_score_map(rec: Any, path: str | os.PathLike[str], title: str | None = N
 
     n = rec.map_normals
     s = rec.map_scores / max(float(rec.score), 1e-30)
+    axis = rec.settings.get("tilt_axis") if isinstance(getattr(rec, "settings", None), dict) else None
+    if axis is not None:
+        _plot_axis_scores(rec, np.asarray(axis, dtype=np.float64), n, s, path, title)
+        return
     tilt = np.degrees(np.arccos(np.clip(n[:, 2], -1, 1)))
     az = np.arctan2(n[:, 1], n[:, 0])
     x, y = tilt * np.cos(az), tilt * np.sin(az)
@@ -59,6 +63,36 @@ def plot_score_map(rec: Any, path: str | os.PathLike[str], title: str | None = N
     ax.set_ylabel("tilt towards back (+Y), degrees")
     ax.set_title(title or "flash score over lamella orientations (front of the stone at the bottom)", fontsize=9)
     ax.legend(loc="lower right", fontsize=7)
+    with atomic_output(path, (".png",)) as tmp:
+        fig.savefig(tmp, dpi=110, format="png")
+    plt.close(fig)
+
+
+def _plot_axis_scores(rec: Any, axis: np.ndarray, normals: np.ndarray, s: np.ndarray, path: Any, title: str | None) -> None:
+    """With a fixed tilt axis the map is one-dimensional: score vs tilt angle about the axis."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    z = np.array([0.0, 0.0, 1.0])
+
+    def angle(m: np.ndarray) -> float:
+        return math.degrees(math.atan2(float(np.cross(z, m) @ axis), float(m @ z)))
+
+    x = np.array([angle(m) for m in normals])
+    order = np.argsort(x)
+    best = angle(np.asarray(rec.normal))
+    fig, ax = plt.subplots(figsize=(6.4, 3.8), constrained_layout=True)
+    ax.plot(x[order], s[order], color="#2b6cb0", lw=2)
+    ax.axvspan(best - rec.tolerance_deg, best + rec.tolerance_deg, color="cyan", alpha=0.25, label=f"90 % tolerance ±{rec.tolerance_deg:.1f}°")
+    ax.axvline(best, color="c", lw=1.5, label=f"best: {best:+.1f}° about the axis")
+    ax.set_xlabel(f"tilt of the lamella normal about the axis ({axis[0]:+.2f}, {axis[1]:+.2f}, {axis[2]:+.2f}), degrees")
+    ax.set_ylabel(f"{rec.objective} / best")
+    ax.set_ylim(0, max(1.05, float(s.max()) * 1.05))
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    ax.set_title(title or "flash score vs tilt about the fixed axis", fontsize=9)
     with atomic_output(path, (".png",)) as tmp:
         fig.savefig(tmp, dpi=110, format="png")
     plt.close(fig)

@@ -79,6 +79,8 @@ def normalize_normal(normal: Any) -> np.ndarray:
         raise ParameterError(f"lamella normal must be three numbers, got {normal!r}") from None
     if not np.all(np.isfinite(m)):
         raise ParameterError(f"lamella normal must be finite, got {m.tolist()}")
+    if np.max(np.abs(m)) > 0:
+        m = m / np.max(np.abs(m))  # no overflow in the norm for huge components
     norm = float(np.linalg.norm(m))
     if norm < 1e-9:
         raise ParameterError("lamella normal must not be the zero vector")
@@ -267,6 +269,8 @@ def render(
 
     if not (isinstance(spp, int | np.integer) and spp >= 1):
         raise ParameterError(f"spp must be a whole number >= 1, got {spp!r}")
+    if polarizer_deg is not None and not (isinstance(polarizer_deg, int | float) and math.isfinite(polarizer_deg)):
+        raise ParameterError(f"polarizer angle must be a finite number of degrees, got {polarizer_deg!r}")
     if output is not None:
         from ..fileio import check_output_path
 

@@ -31,6 +31,8 @@ def tonemap(image: np.ndarray, exposure: float | None = None) -> np.ndarray:
     """
     from ..colour import encode_srgb
 
+    if exposure is not None and not (isinstance(exposure, int | float) and np.isfinite(exposure) and exposure > 0):
+        raise ParameterError(f"exposure must be a finite number > 0, got {exposure!r}")
     x = np.clip(np.nan_to_num(np.asarray(image, dtype=np.float64)), 0.0, None)
     x = x * (auto_exposure(x) if exposure is None else float(exposure))
     m = np.max(x, axis=-1, keepdims=True)
