@@ -55,6 +55,25 @@ def normal_to_stereo(m: np.ndarray) -> tuple[float, float]:
     return float(m[0] / (1 + m[2])), float(m[1] / (1 + m[2]))
 
 
+def _padded_rows(owner: np.ndarray, n_rows: int, t: Any) -> tuple[Any, Any, int]:
+    """Index rows for segment sums: row r lists the positions i with owner[i] == r, padded.
+
+    Returns (index, valid, width) for ``block_sum(gather(values, index, valid), width)``.
+    """
+    owner = np.asarray(owner, dtype=np.int64)
+    counts = np.bincount(owner, minlength=n_rows)
+    width = max(1, int(counts.max(initial=0)))
+    order = np.argsort(owner, kind="stable")
+    starts = np.concatenate([[0], np.cumsum(counts)[:-1]])
+    rows = np.repeat(np.arange(n_rows), counts)
+    cols = np.arange(order.size) - np.repeat(starts, counts)
+    index = np.zeros(n_rows * width, dtype=np.uint32)
+    valid = np.zeros(n_rows * width, dtype=bool)
+    index[rows * width + cols] = order
+    valid[rows * width + cols] = True
+    return t.UInt32(index), t.Bool(valid), width
+
+
 @dataclass
 class FlashMetrics:
     """Flash metrics of one lamella normal: aggregates and per-view values."""
@@ -88,12 +107,15 @@ class Scorer:
         self.h = t.Array3f(p.h[:, 0], p.h[:, 1], p.h[:, 2])
         self.c = t.Float(p.c)
         self.alpha = t.Float(p.alpha())
-        self.pair = t.UInt32(p.pair.astype(np.uint32))
-        self.pair_view = t.UInt32(p.pair_view.astype(np.uint32))
-        self.pair_weight = t.Float(p.pair_weight)
-        self.view_weight = t.Float(p.view_weight)
+        # Deterministic segment sums: every pair's triples (and every view's pairs) are
+        # gathered into fixed-width padded rows and summed with block_sum, so results do
+        # not depend on the order in which threads add (atomic scatter-adds would).
         self.n_pairs = int(p.pair_view.size)
         self.n_views = int(p.view_weight.size)
+        self._pair_rows = _padded_rows(p.pair, self.n_pairs, t)
+        self._view_rows = _padded_rows(p.pair_view, self.n_views, t)
+        self.pair_weight = t.Float(p.pair_weight)
+        self.view_weight = t.Float(p.view_weight)
         # opaque scalars: one compiled kernel serves every spread and threshold
         self.kappa = dr.opaque(t.Float, float(p.kappa))
         self.q_norm = dr.opaque(t.Float, float(p.q_norm))
@@ -146,18 +168,17 @@ class Scorer:
         dr = self.dr
         return self.q_norm * dr.exp(self.kappa * (dr.abs(dr.dot(h, m)) - 1.0))
 
+    def _segment_sum(self, values: Any, rows: tuple[Any, Any, int]) -> Any:
+        dr, t = self.dr, self.t
+        index, valid, width = rows
+        return dr.block_sum(dr.gather(t.Float, values, index, valid), width)
+
     def _pair_radiance(self, m: Any) -> Any:
         """L_s / L_ref of every (point, view) pair."""
-        dr, t = self.dr, self.t
-        out = dr.zeros(t.Float, self.n_pairs)
-        dr.scatter_reduce(dr.ReduceOp.Add, out, self.c * self._q(self.h, m), self.pair)
-        return out
+        return self._segment_sum(self.c * self._q(self.h, m), self._pair_rows)
 
     def _view_sum(self, values: Any) -> Any:
-        dr, t = self.dr, self.t
-        out = dr.zeros(t.Float, self.n_views)
-        dr.scatter_reduce(dr.ReduceOp.Add, out, values, self.pair_view)
-        return out
+        return self._segment_sum(values, self._view_rows)
 
     def _objective_dr(self, m: Any, smooth: bool) -> Any:
         dr = self.dr
@@ -241,9 +262,10 @@ class Scorer:
     def _energy_many(self, m: Any) -> Any:
         """Energy at each of the normals ``m`` (Array3f of width k): Σ_b A_b q(h_b·m).
 
-        Built from gathers over an index of width k·n_bins with opaque sizes, so one
-        compiled kernel serves every number of normals and every problem (literal
-        widths in tile/repeat would compile a kernel per distinct k).
+        Built from gathers over an index of width k·n_bins with an opaque bin count,
+        so one compiled kernel serves every number of normals (literal widths in
+        tile/repeat would compile a kernel per distinct k); rows are summed with
+        block_sum, deterministically.
         """
         dr, t = self.dr, self.t
         k = dr.width(m)
@@ -251,9 +273,7 @@ class Scorer:
         i_m = idx // self._nb
         i_b = idx - i_m * self._nb
         values = dr.gather(t.Float, self.bin_a, i_b) * self._q(dr.gather(t.Array3f, self.bin_h, i_b), dr.gather(t.Array3f, m, i_m))
-        out = dr.zeros(t.Float, k)
-        dr.scatter_reduce(dr.ReduceOp.Add, out, values, i_m)
-        return out
+        return dr.block_sum(values, self.n_bins)  # normal-major rows: deterministic, no atomics
 
     def energy_map(self, normals: np.ndarray) -> np.ndarray:
         """Energy at many unit normals at once from the binned triples, in blocks."""
