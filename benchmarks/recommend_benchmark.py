@@ -211,7 +211,7 @@ def main() -> None:
     lines += ["", "## Throughput", "", "| what | million samples per second |", "|---|---|"]
     lines += [f"| {what} | {rate:.1f} |" for what, rate in thr]
     lines += ["", "The per-evaluation figure counts every (point, light, view) lobe term (exp, dot product, "
-              "scatter-add to its pair, per-view reductions). The binned energy map evaluates the same objective for "
+              "fixed-order block sums per pair and per view). The binned energy map evaluates the same objective for "
               "many normals from the triples binned by their mirror orientation h, which is why it runs far above "
               "the ray-casting rate: DESIGN.md §4's observation that one pass over the triples gives every orientation.", ""]
     Path(args.out).write_text("\n".join(lines))
