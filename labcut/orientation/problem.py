@@ -235,23 +235,28 @@ def build_problem(
             continue
         pair_of_t = np.repeat(np.arange(q0, q1), reps)
         offs = np.arange(reps.sum()) - np.repeat(np.cumsum(reps) - reps, reps)
-        light_of_t = lit_l[np.repeat(starts[c_pi - p0], reps) + offs]
-        point_of_t = pi[pair_of_t]
-        view_of_t = pv[pair_of_t]
+        lit_of_t = np.repeat(starts[c_pi - p0], reps) + offs  # index into this chunk's lit (point, light)
 
-        n_t = n_sh[point_of_t]
-        wl = L[light_of_t]
-        wo = V[view_of_t]
-        a = _internal(wl, n_t, eta)
-        b = _internal(wo, n_t, eta)
+        # per (point, light) and per (point, view) first, then gathered per triple
+        n_lit = n_sh[lit_i]
+        wl = L[lit_l]
+        a_lit = _internal(wl, n_lit, eta)
+        cos_li_lit = _dot(wl, n_lit)
+        w_lit = E[lit_l] * (1.0 - fresnel_dielectric(cos_li_lit, eta)) * cos_li_lit  # E T_i (n·l)
+        n_pair = n_sh[c_pi]
+        wo = V[pv[q0:q1]]
+        b_pair = _internal(wo, n_pair, eta)
+        t_o_pair = 1.0 - fresnel_dielectric(_dot(wo, n_pair), eta)
+
+        local = pair_of_t - q0
+        a = a_lit[lit_of_t]
+        b = b_pair[local]
         hsum = a + b
         h = hsum / np.sqrt(_dot(hsum, hsum))[:, None]
         cos_l = np.clip(_dot(a, h), 1e-6, 1.0)
-        cos_li = _dot(wl, n_t)
-        t_i = 1.0 - fresnel_dielectric(cos_li, eta)
-        t_o = 1.0 - fresnel_dielectric(_dot(wo, n_t), eta)
         r_y = np.interp(cos_l, table_c, table_r)
-        c = E[light_of_t] * t_i * t_o * r_y * cos_li / (4.0 * cos_l * np.maximum(_dot(a, n_t), _dot(b, n_t)) * eta * eta) / l_ref
+        n_t = n_pair[local]
+        c = w_lit[lit_of_t] * t_o_pair[local] * r_y / (4.0 * cos_l * np.maximum(_dot(a, n_t), _dot(b, n_t)) * eta * eta) / l_ref
         h = np.where(h[:, 2:3] < 0.0, -h, h)  # axial: fold into the upper hemisphere
         finite = np.isfinite(c) & np.all(np.isfinite(h), axis=1)
         c_parts.append(np.where(finite, c, 0.0).astype(np.float32))
