@@ -8,10 +8,12 @@ only once the writer has finished without error. A failure leaves no partial fil
 from __future__ import annotations
 
 import contextlib
+import json
 import os
 import tempfile
 from collections.abc import Iterator
 from pathlib import Path
+from typing import Any
 
 from .errors import ParameterError
 
@@ -48,3 +50,14 @@ def atomic_output(path: str | os.PathLike[str], suffixes: tuple[str, ...] | None
     finally:
         if tmp.exists():
             tmp.unlink()
+
+
+def read_json(path: str | os.PathLike[str], what: str) -> Any:
+    """Parse a JSON file; a missing or unreadable file is a one-line :class:`ParameterError`
+    that names ``what`` the file was meant to be (e.g. "material file")."""
+    try:
+        return json.loads(Path(path).read_text())
+    except FileNotFoundError:
+        raise ParameterError(f"{what} {str(path)!r} does not exist") from None
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise ParameterError(f"{what} {str(path)!r} is not readable JSON ({str(exc).splitlines()[0]})") from None

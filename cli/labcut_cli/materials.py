@@ -7,7 +7,6 @@ default the blue-green :class:`labcut.Labradorite`; the layer options
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 from typing import Annotated, Any, Optional
 
@@ -46,12 +45,9 @@ def build_material(
         raise ParameterError(f"give only one of {', '.join(given)}")
     changes = {k: v for k, v in overrides.items() if v is not None}
     if material_file is not None:
-        try:
-            data = json.loads(Path(material_file).read_text())
-        except FileNotFoundError:
-            raise ParameterError(f"material file {str(material_file)!r} does not exist") from None
-        except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
-            raise ParameterError(f"material file {str(material_file)!r} is not readable JSON ({exc})") from None
+        from labcut.fileio import read_json
+
+        data = read_json(material_file, "material file")
         if isinstance(data, dict) and "material" in data and isinstance(data["material"], dict):
             data = data["material"]
         if not isinstance(data, dict):

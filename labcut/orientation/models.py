@@ -8,7 +8,6 @@ often the stone is seen from that direction (normalised to sum 1).
 
 from __future__ import annotations
 
-import json
 import math
 from dataclasses import dataclass
 from pathlib import Path
@@ -188,12 +187,9 @@ def _quality(q: str) -> str:
 
 
 def _from_json(path: Path, cls: type) -> Any:
-    try:
-        data = json.loads(path.read_text())
-    except FileNotFoundError:
-        raise ParameterError(f"{path} does not exist") from None
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise ParameterError(f"{path} is not readable JSON ({exc})") from None
+    from ..fileio import read_json
+
+    data = read_json(path, f"{cls.__name__.lower()[:-1]} file")
     if isinstance(data, list):
         data = {"directions": data}
     if not isinstance(data, dict) or "directions" not in data:

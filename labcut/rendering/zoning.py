@@ -35,7 +35,6 @@ from __future__ import annotations
 
 import dataclasses
 import functools
-import json
 import math
 from dataclasses import dataclass
 from pathlib import Path
@@ -362,13 +361,9 @@ class Zoning:
     @classmethod
     def load(cls, path: str | Path, base: Labradorite | None = None) -> Zoning:
         """:meth:`from_dict` of a JSON file (bad files are a :class:`ParameterError`)."""
-        try:
-            data = json.loads(Path(path).read_text())
-        except FileNotFoundError:
-            raise ParameterError(f"zoning file {str(path)!r} does not exist") from None
-        except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
-            raise ParameterError(f"zoning file {str(path)!r} is not readable JSON ({str(exc).splitlines()[0]})") from None
-        return cls.from_dict(data, base)
+        from ..fileio import read_json
+
+        return cls.from_dict(read_json(path, "zoning file"), base)
 
     # ------------------------------------------------------------------ the LUT
     @property
