@@ -158,6 +158,14 @@ def _define_class() -> type:
             self.m_flags = self.m_components[0] | self.m_components[1] | self.m_components[2]
             if self.zoning is not None:
                 self.m_flags = self.m_flags | mi.BSDFFlags.SpatiallyVarying
+            # Kernel constants as opaque values: another material (or spread) reuses the
+            # compiled kernel instead of baking new literals into a new one.
+            self._eta = dr.opaque(mi.Float, self.eta)
+            self._kappa = dr.opaque(mi.Float, self.kappa)
+            self._q_norm = dr.opaque(mi.Float, self.q_norm)
+            self._one_minus_exp_k = dr.opaque(mi.Float, self.one_minus_exp_k)
+            self._schiller_weight = dr.opaque(mi.Float, float(self.schiller_weight))
+            self._albedo = dr.opaque(mi.Float, float(self.material.body_albedo))
 
         # ------------------------------------------------------------------ set-up
         def _build_tables(self) -> None:
@@ -198,13 +206,13 @@ def _define_class() -> type:
 
         def _internal(self, w: Any) -> Any:
             """Internal direction (pointing up) that refracts into the external direction ``w``."""
-            inv = 1.0 / self.eta
+            inv = 1.0 / self._eta
             t = mi.Vector3f(w.x * inv, w.y * inv, 0.0)
             return mi.Vector3f(t.x, t.y, dr.safe_sqrt(1.0 - dr.squared_norm(t)))
 
         def _external(self, b: Any) -> tuple[Any, Any]:
             """External direction of the internal direction ``b``, and whether it escapes (no TIR)."""
-            tx, ty = b.x * self.eta, b.y * self.eta
+            tx, ty = b.x * self._eta, b.y * self._eta
             s2 = tx * tx + ty * ty
             return mi.Vector3f(tx, ty, dr.safe_sqrt(1.0 - s2)), (s2 < 1.0) & (b.z > 0.0)
 
@@ -213,14 +221,14 @@ def _define_class() -> type:
 
         def _q(self, cos_hm: Any) -> Any:
             """Axial vMF density of lamella orientation at |h·m| = ``cos_hm`` (per steradian)."""
-            return self.q_norm * dr.exp(self.kappa * (dr.abs(cos_hm) - 1.0))
+            return self._q_norm * dr.exp(self._kappa * (dr.abs(cos_hm) - 1.0))
 
         def _weights(self, ctx: Any, cos_i: Any) -> tuple[Any, Any, Any, Any]:
             """Selection probabilities of (surface, schiller, body) and the Fresnel term."""
-            f_i = mi.fresnel(cos_i, self.eta)[0]
+            f_i = mi.fresnel(cos_i, self._eta)[0]
             w_spec = f_i if (self.use_surface and ctx.is_enabled(mi.BSDFFlags.DeltaReflection, 0)) else mi.Float(0.0)
-            w_sch = (1.0 - f_i) * self.schiller_weight if (self.use_schiller and ctx.is_enabled(mi.BSDFFlags.GlossyReflection, 1)) else mi.Float(0.0)
-            w_body = (1.0 - f_i) * self.material.body_albedo if (self.use_body and ctx.is_enabled(mi.BSDFFlags.DiffuseReflection, 2)) else mi.Float(0.0)
+            w_sch = (1.0 - f_i) * self._schiller_weight if (self.use_schiller and ctx.is_enabled(mi.BSDFFlags.GlossyReflection, 1)) else mi.Float(0.0)
+            w_body = (1.0 - f_i) * self._albedo if (self.use_body and ctx.is_enabled(mi.BSDFFlags.DiffuseReflection, 2)) else mi.Float(0.0)
             total = w_spec + w_sch + w_body
             inv = dr.select(total > 0.0, dr.rcp(total), 0.0)
             return w_spec * inv, w_sch * inv, w_body * inv, f_i
@@ -234,21 +242,21 @@ def _define_class() -> type:
             cos_l = dr.dot(a, h)
             m = self._lamella_local(si)
             q = self._q(dr.dot(h, m))
-            t_i = 1.0 - mi.fresnel(mi.Frame3f.cos_theta(wi), self.eta)[0]
-            t_o = 1.0 - mi.fresnel(mi.Frame3f.cos_theta(wo), self.eta)[0]
+            t_i = 1.0 - mi.fresnel(mi.Frame3f.cos_theta(wi), self._eta)[0]
+            t_o = 1.0 - mi.fresnel(mi.Frame3f.cos_theta(wo), self._eta)[0]
             cos_o = mi.Frame3f.cos_theta(wo)
             denom = 4.0 * cos_l * dr.maximum(a.z, b.z)
             shape = q / dr.maximum(denom, 1e-12)
             r = self._lamella_reflectance(si, cos_l)
-            value = r * (t_i * t_o * shape * cos_o / (self.eta * self.eta))
-            pdf = q * cos_o / dr.maximum(4.0 * cos_l * self.eta * self.eta * b.z, 1e-12)
+            value = r * (t_i * t_o * shape * cos_o / (self._eta * self._eta))
+            pdf = q * cos_o / dr.maximum(4.0 * cos_l * self._eta * self._eta * b.z, 1e-12)
             return value, pdf
 
         def _body_terms(self, si: Any, wo: Any) -> tuple[Any, Any]:
             cos_i = mi.Frame3f.cos_theta(si.wi)
             cos_o = mi.Frame3f.cos_theta(wo)
-            t = (1.0 - mi.fresnel(cos_i, self.eta)[0]) * (1.0 - mi.fresnel(cos_o, self.eta)[0])
-            value = self.material.body_albedo * dr.inv_pi * t * cos_o
+            t = (1.0 - mi.fresnel(cos_i, self._eta)[0]) * (1.0 - mi.fresnel(cos_o, self._eta)[0])
+            value = self._albedo * dr.inv_pi * t * cos_o
             return value, mi.warp.square_to_cosine_hemisphere_pdf(wo)
 
         def _to_spectrum(self, value: Any) -> Any:
@@ -262,7 +270,7 @@ def _define_class() -> type:
                 return mi.Spectrum(f_i)
             wi_hat = wo if ctx.mode == mi.TransportMode.Radiance else si.wi
             wo_hat = si.wi if ctx.mode == mi.TransportMode.Radiance else wo
-            eta = mi.Complex2f(self.eta, 0.0)
+            eta = mi.Complex2f(self._eta, 0.0)
             value = mi.Spectrum(mi.mueller.specular_reflection(mi.Frame3f.cos_theta(wo_hat), eta))
             n = mi.Vector3f(0.0, 0.0, 1.0)
             s_in = dr.normalize(dr.cross(n, -wo_hat))
@@ -287,8 +295,8 @@ def _define_class() -> type:
             # schiller: h from the axial vMF around m, mirror a, refract out
             m = self._lamella_local(si)
             m = dr.select(dr.dot(m, self._internal(si.wi)) < 0.0, -m, m)
-            k = self.kappa
-            w = dr.clip(1.0 + dr.log(1.0 - sample2.x * self.one_minus_exp_k) / k, 0.0, 1.0)
+            k = self._kappa
+            w = dr.clip(1.0 + dr.log(1.0 - sample2.x * self._one_minus_exp_k) / k, 0.0, 1.0)
             sin_w = dr.safe_sqrt(1.0 - w * w)
             phi = dr.two_pi * sample2.y
             sp, cp = dr.sincos(phi)
