@@ -190,6 +190,17 @@ def reflectance_rgb(material: Any, cos_theta: Any, illuminant: str = "D65") -> n
     return xyz_to_linear_srgb(reflectance_to_xyz(spectra, illuminant))
 
 
+LUMINANCE_TABLE_SIZE = 1024
+
+
+@functools.lru_cache(maxsize=16)
+def luminance_table(material: Any) -> tuple[np.ndarray, np.ndarray]:
+    """(cos θ grid over [0, 1], luminance reflectance R_Y) of a material, computed once and
+    shared by the mono BSDF, its sampling weight and the flash estimators."""
+    c = np.linspace(0.0, 1.0, LUMINANCE_TABLE_SIZE)
+    return c, reflectance_luminance(material, c)
+
+
 def reflectance_luminance(material: Any, cos_theta: Any, illuminant: str = "D65") -> np.ndarray:
     """Luminance Y (...) of ``material``'s reflectance: the mono variants' table."""
     c = np.asarray(cos_theta, dtype=np.float64)

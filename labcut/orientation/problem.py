@@ -25,18 +25,17 @@ face's horizon or hidden by another part contribute nothing).
 
 from __future__ import annotations
 
-import functools
 import math
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
+from ..colour import luminance_table
 from ..errors import MeshError, ParameterError
 from ..physics.material import Labradorite
 from .models import Lights, Views
 
-TABLE_SIZE = 1024
 QUALITY_POINTS = {"draft": 3000, "standard": 8000, "high": 24000}
 
 
@@ -61,28 +60,12 @@ def _internal(w: np.ndarray, n: np.ndarray, eta: float) -> np.ndarray:
     return tangent + n * np.sqrt(np.clip(1.0 - _dot(tangent, tangent), 0.0, None))[:, None]
 
 
-@functools.lru_cache(maxsize=16)
-def luminance_table(material: Labradorite) -> tuple[np.ndarray, np.ndarray]:
-    """(cos θ grid, luminance reflectance R_Y) of a material: the mono BSDF's table, cached."""
-    from ..colour import reflectance_luminance
-
-    c = np.linspace(0.0, 1.0, TABLE_SIZE)
-    return c, reflectance_luminance(material, c)
-
-
-def vmf_kappa(spread_deg: float) -> float:
-    s = math.radians(spread_deg)
-    return 1.0 / (s * s)
-
-
 def reference_radiance(material: Labradorite, total_irradiance: float) -> float:
     """L_ref (DESIGN.md §4): flat polished face, lamellae parallel, lit and viewed along its
     normal by one light of irradiance ``total_irradiance``: ``E T(0)² R_Y(1) q(1) / (4 η²)``."""
     eta = material.n_surface
-    kappa = vmf_kappa(material.spread_deg)
-    q_norm = kappa / (2.0 * math.pi * -math.expm1(-kappa))
     t0 = 1.0 - float(fresnel_dielectric(np.array(1.0), eta))
-    return total_irradiance * t0 * t0 * float(luminance_table(material)[1][-1]) * q_norm / (4.0 * eta * eta)
+    return total_irradiance * t0 * t0 * float(luminance_table(material)[1][-1]) * material.lobe_norm / (4.0 * eta * eta)
 
 
 @dataclass
@@ -95,7 +78,6 @@ class FlashProblem:
     pair_view: np.ndarray  # (P,) view index of each pair
     pair_weight: np.ndarray  # (P,) projected-area weight, sums to 1 within each view
     view_weight: np.ndarray  # (V,) normalised view weights
-    view_has_area: np.ndarray  # (V,) bool: some surface faces the view
     kappa: float
     q_norm: float
     tau: float
@@ -209,8 +191,6 @@ def build_problem(
     pair_weight = proj / np.where(per_view[pv] > 0, per_view[pv], 1.0)
 
     table_c, table_r = luminance_table(material)
-    kappa = vmf_kappa(material.spread_deg)
-    q_norm = kappa / (2.0 * math.pi * -math.expm1(-kappa))
     l_ref = reference_radiance(material, float(E.sum()))
     if not l_ref > 0:
         raise ParameterError("the material reflects nothing at normal incidence: no flash can be scored")
@@ -280,9 +260,8 @@ def build_problem(
         pair_view=pv.astype(np.int64),
         pair_weight=pair_weight,
         view_weight=wv,
-        view_has_area=per_view > 0,
-        kappa=kappa,
-        q_norm=q_norm,
+        kappa=material.lobe_kappa,
+        q_norm=material.lobe_norm,
         tau=float(tau),
         material=material,
         lights=lights,

@@ -106,7 +106,6 @@ class Scorer:
         p = problem
         self.h = t.Array3f(p.h[:, 0], p.h[:, 1], p.h[:, 2])
         self.c = t.Float(p.c)
-        self.alpha = t.Float(p.alpha())
         # Deterministic segment sums: every pair's triples (and every view's pairs) are
         # gathered into fixed-width padded rows and summed with block_sum, so results do
         # not depend on the order in which threads add (atomic scatter-adds would).

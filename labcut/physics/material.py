@@ -170,6 +170,20 @@ class Labradorite:
 
     # ------------------------------------------------------------------ physics
     @property
+    def lobe_kappa(self) -> float:
+        """Concentration κ = 1/spread² (radians) of the axial von Mises-Fisher lobe of lamella
+        orientations; for large κ a 2D Gaussian of standard deviation ``spread_deg`` per axis."""
+        s = math.radians(self.spread_deg)
+        return 1.0 / (s * s)
+
+    @property
+    def lobe_norm(self) -> float:
+        """Density of the lobe at its centre, q(1) = κ / (2π (1 - e^{-κ})) per steradian
+        (normalised over the hemisphere of orientations)."""
+        k = self.lobe_kappa
+        return k / (2.0 * math.pi * -math.expm1(-k))
+
+    @property
     def period_nm(self) -> float:
         """Lamella period d_a + d_b in nm."""
         return self.d_a + self.d_b

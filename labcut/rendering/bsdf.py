@@ -55,12 +55,13 @@ import drjit as dr
 import mitsuba as mi
 import numpy as np
 
+from ..colour import LUMINANCE_TABLE_SIZE
 from ..errors import ParameterError
 from ..physics.lamella import stack_reflectance
 from ..physics.material import Labradorite
 
 PLUGIN_NAME = "labradorite"
-TABLE_SIZE = 1024  # entries over cos θ in [0, 1] for the RGB / mono tables
+TABLE_SIZE = LUMINANCE_TABLE_SIZE  # entries over cos θ in [0, 1] for the RGB / mono tables
 
 _MATERIAL_KEYS = ("n_a", "n_b", "d_a", "d_b", "sigma_a", "sigma_b", "pairs", "spread_deg", "body_albedo", "n_surface")
 
@@ -72,16 +73,6 @@ def material_from_props(props: Any) -> Labradorite:
         if key in props:
             params[key] = props[key]
     return Labradorite(**params)
-
-
-def vmf_kappa(spread_deg: float) -> float:
-    """Concentration of the axial vMF lobe whose angular standard deviation is ``spread_deg``.
-
-    For large κ the vMF is a 2D Gaussian in the tangent plane with per-axis
-    standard deviation 1/√κ (radians).
-    """
-    s = math.radians(spread_deg)
-    return 1.0 / (s * s)
 
 
 def _normal_from_props(props: Any) -> tuple[float, float, float]:
@@ -134,10 +125,10 @@ def _define_class() -> type:
             self.normal = mi.Vector3f(*_normal_from_props(props))
             dr.make_opaque(self.normal)  # a value, not a literal: a new normal must not recompile the kernel
             self.eta = float(self.material.n_surface)
-            self.kappa = vmf_kappa(self.material.spread_deg)
+            self.kappa = self.material.lobe_kappa
             # density normalisation of the axial vMF over the hemisphere around m
             self.one_minus_exp_k = -math.expm1(-self.kappa)
-            self.q_norm = self.kappa / (2.0 * math.pi * self.one_minus_exp_k)
+            self.q_norm = self.material.lobe_norm
             self.use_surface = bool(props.get("surface", True))
             self.use_schiller = bool(props.get("schiller", True))
             self.use_body = bool(props.get("body", True)) and self.material.body_albedo > 0.0
@@ -170,14 +161,13 @@ def _define_class() -> type:
         # ------------------------------------------------------------------ set-up
         def _build_tables(self) -> None:
             """Per-material lookup tables (RGB / mono) and the lobe-selection weight."""
-            from ..colour import reflectance_luminance, reflectance_rgb
+            from ..colour import luminance_table, reflectance_rgb
 
             if self.zoning is not None:  # the zoning's own tables; sampling weight averaged over x
                 self.schiller_weight = self.zoning.weight
                 self.table = None
                 return
-            c = np.linspace(0.0, 1.0, TABLE_SIZE)
-            lum = reflectance_luminance(self.material, c)
+            c, lum = luminance_table(self.material)
             # schiller sampling weight: mean luminance reflectance over the angles light meets
             self.schiller_weight = float(max(np.mean(lum[TABLE_SIZE // 2 :]), 0.02))
             self.table = None
