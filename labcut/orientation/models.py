@@ -11,7 +11,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 
@@ -96,29 +96,40 @@ def _validated(directions: Any, weights: Any, what: str, allow_below: bool) -> t
     return d, w
 
 
-@dataclass(frozen=True)
-class Lights:
-    """Distant lights: unit ``directions`` towards each light and their ``weights`` (irradiance).
-
-    Lights below the horizon are allowed (they light only faces that see them).
-    """
+@dataclass(frozen=True, eq=False)  # arrays: compare by identity
+class _DirectionSet:
+    """Validated unit directions with non-negative weights (shared by :class:`Lights` and :class:`Views`)."""
 
     directions: np.ndarray
     weights: np.ndarray
     name: str = "custom"
 
+    _what: ClassVar[str] = "directions"
+    _allow_below: ClassVar[bool] = True
+    _normalise_weights: ClassVar[bool] = False
+
     def __init__(self, directions: Any, weights: Any = None, name: str = "custom") -> None:
-        d, w = _validated(directions, weights, "lights", allow_below=True)
+        d, w = _validated(directions, weights, self._what, allow_below=self._allow_below)
         object.__setattr__(self, "directions", d)
-        object.__setattr__(self, "weights", w)
+        object.__setattr__(self, "weights", w / w.sum() if self._normalise_weights else w)
         object.__setattr__(self, "name", name)
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"name": self.name, "directions": self.directions.tolist(), "weights": self.weights.tolist()}
+
+
+@dataclass(frozen=True, init=False, eq=False)
+class Lights(_DirectionSet):
+    """Distant lights: unit ``directions`` towards each light and their ``weights`` (irradiance).
+
+    Lights below the horizon are allowed (they light only faces that see them).
+    """
+
+    _what: ClassVar[str] = "lights"
 
     @property
     def total_irradiance(self) -> float:
         return float(self.weights.sum())
-
-    def to_dict(self) -> dict[str, Any]:
-        return {"name": self.name, "directions": self.directions.tolist(), "weights": self.weights.tolist()}
 
     @classmethod
     def preset(cls, name: str, quality: str = "standard") -> Lights:
@@ -141,22 +152,13 @@ class Lights:
         raise ParameterError(f"unknown lighting {name!r}; choose one of overhead, ceiling, spot, sky, or a JSON file")
 
 
-@dataclass(frozen=True)
-class Views:
+@dataclass(frozen=True, init=False, eq=False)
+class Views(_DirectionSet):
     """Viewing directions (towards the viewer) and how often each is used (normalised weights)."""
 
-    directions: np.ndarray
-    weights: np.ndarray
-    name: str = "custom"
-
-    def __init__(self, directions: Any, weights: Any = None, name: str = "custom") -> None:
-        d, w = _validated(directions, weights, "views", allow_below=False)
-        object.__setattr__(self, "directions", d)
-        object.__setattr__(self, "weights", w / w.sum())
-        object.__setattr__(self, "name", name)
-
-    def to_dict(self) -> dict[str, Any]:
-        return {"name": self.name, "directions": self.directions.tolist(), "weights": self.weights.tolist()}
+    _what: ClassVar[str] = "views"
+    _allow_below: ClassVar[bool] = False
+    _normalise_weights: ClassVar[bool] = True
 
     @classmethod
     def preset(cls, name: str, quality: str = "standard") -> Views:
