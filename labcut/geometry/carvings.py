@@ -14,16 +14,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import ParameterError
-
-
-def _positive(name: str, value: float) -> float:
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        raise ParameterError(f"{name} must be a number of mm, got {value!r}") from None
-    if not math.isfinite(v) or v <= 0:
-        raise ParameterError(f"{name} must be a positive finite number of mm, got {value!r}")
-    return v
+from .outlines import check_size
 
 
 def to_trimesh(man: Any, kind: str, **meta: Any):
@@ -57,7 +48,7 @@ def slab(length: float = 20.0, width: float = 20.0, thickness: float = 3.0):
     """A rectangular plate ``length`` x ``width`` x ``thickness`` mm (a polished slab or tile)."""
     import manifold3d as m3
 
-    L, W, T = _positive("length", length), _positive("width", width), _positive("thickness", thickness)
+    L, W, T = check_size("length", length), check_size("width", width), check_size("thickness", thickness)
     return to_trimesh(m3.Manifold.cube([L, W, T]), "slab", length_mm=L, width_mm=W, thickness_mm=T)
 
 
@@ -65,7 +56,7 @@ def cube(size: float = 10.0):
     """A cube of edge ``size`` mm."""
     import manifold3d as m3
 
-    s = _positive("size", size)
+    s = check_size("size", size)
     return to_trimesh(m3.Manifold.cube([s, s, s]), "cube", size_mm=s)
 
 
@@ -73,7 +64,7 @@ def sphere(diameter: float = 10.0, segments: int = 160):
     """A sphere (a polished bead) of ``diameter`` mm with ``segments`` around its equator."""
     import manifold3d as m3
 
-    d = _positive("diameter", diameter)
+    d = check_size("diameter", diameter)
     if int(segments) < 8:
         raise ParameterError(f"segments must be at least 8, got {segments}")
     return to_trimesh(m3.Manifold.sphere(d / 2, int(segments)), "sphere", diameter_mm=d)
@@ -110,7 +101,7 @@ def step_cut(
     """
     import manifold3d as m3
 
-    L, W = _positive("length", length), _positive("width", width)
+    L, W = check_size("length", length), check_size("width", width)
     if W > L:
         raise ParameterError("a step cut needs length >= width")
     g = float(girdle)
@@ -190,7 +181,7 @@ def biplane(span: float = 30.0, segments: int = 64):
     """
     import manifold3d as m3
 
-    k = _positive("span", span) / 30.0
+    k = check_size("span", span) / 30.0
     seg = int(segments)
     if seg < 12:
         raise ParameterError(f"segments must be at least 12, got {segments}")

@@ -38,7 +38,8 @@ CUSHION_EXPONENT = 3.0
 _DENSE = 4096  # samples per quarter of a smooth outline before resampling
 
 
-def _check_size(name: str, value: float) -> float:
+def check_size(name: str, value: float) -> float:
+    """A stone dimension in mm: finite, positive, between MIN_SIZE_MM and MAX_SIZE_MM."""
     try:
         v = float(value)
     except (TypeError, ValueError):
@@ -205,8 +206,8 @@ def make_outline(
     if not isinstance(name, str) or name.lower() not in OUTLINES:
         raise ParameterError(f"unknown outline {name!r}; use one of {', '.join(OUTLINES)} or an (N, 2) array of points")
     name = name.lower()
-    L = _check_size("length", length)
-    W = _check_size("width", width)
+    L = check_size("length", length)
+    W = check_size("width", width)
     a, b = L / 2.0, W / 2.0
     if name == "round":
         if abs(L - W) > 1e-9 * max(L, W):
