@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from labcut.backend import set_variant
+from mitsuba_helpers import surface_interaction
 
 
 def _use(mode: str = "rgb", polarized: bool = False) -> None:
@@ -17,14 +18,7 @@ def _use(mode: str = "rgb", polarized: bool = False) -> None:
     import labcut.rendering.bsdf  # noqa: F401  (registers for the variant)
 
 
-def _si(n: int, wi) -> mi.SurfaceInteraction3f:
-    si = dr.zeros(mi.SurfaceInteraction3f, n)
-    si.wi = wi
-    si.sh_frame = mi.Frame3f(mi.Vector3f(0.0, 0.0, 1.0))
-    si.n = mi.Vector3f(0.0, 0.0, 1.0)
-    if mi.is_spectral:
-        si.wavelengths = mi.UnpolarizedSpectrum(450.0, 500.0, 550.0, 600.0)
-    return si
+_si = surface_interaction
 
 
 def _bsdf(**params):

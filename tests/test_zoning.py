@@ -13,6 +13,7 @@ import pytest
 import labcut
 from labcut import Labradorite, ParameterError
 from labcut.backend import set_variant
+from mitsuba_helpers import surface_interaction
 from labcut.colour import dominant_wavelength, tables
 from labcut.rendering.zoning import ZONED_KEYS, Zoning, equalise, fbm
 
@@ -100,15 +101,7 @@ def _use(mode: str) -> None:
     import labcut.rendering.bsdf  # noqa: F401
 
 
-def _si(n: int, wi, p) -> mi.SurfaceInteraction3f:
-    si = dr.zeros(mi.SurfaceInteraction3f, n)
-    si.wi = wi
-    si.p = p
-    si.sh_frame = mi.Frame3f(mi.Vector3f(0.0, 0.0, 1.0))
-    si.n = mi.Vector3f(0.0, 0.0, 1.0)
-    if mi.is_spectral:
-        si.wavelengths = mi.UnpolarizedSpectrum(450.0, 500.0, 550.0, 600.0)
-    return si
+_si = surface_interaction
 
 
 def _zoned(zoning: Zoning, **params):
