@@ -58,19 +58,20 @@ def optimizer_efficiency() -> list[tuple]:
     import numpy as np
 
     import labcut
-    from labcut.orientation.models import Lights, Views
     from labcut.orientation.optimize import Constraint, run_optimizer
     from labcut.orientation.problem import build_problem
     from labcut.orientation.scoring import Scorer
 
     rows = []
     lab = labcut.Labradorite.preset("blue")
-    cases = [("oval cabochon, spot lamp, rocking", "oval-16x12-low.ply", "spot", "rocking"),
-             ("biplane, overhead lamp, face-up", "carving-biplane.ply", "overhead", "face-up"),
-             ("biplane, spot lamp, pendant", "carving-biplane.ply", "spot", "pendant")]
-    for label, mesh_name, light, view in cases:
+    from labcut.scene import resolve_scene
+
+    cases = [("oval cabochon, bench scenario, spot lamp", "oval-16x12-low.ply", "bench", "spot", None),
+             ("biplane, overhead lamp, face-up", "carving-biplane.ply", None, "overhead", "face-up"),
+             ("biplane, pendant scenario", "carving-biplane.ply", "pendant", None, None)]
+    for label, mesh_name, scenario, light, view in cases:
         mesh = labcut.load_mesh(ROOT / "meshes" / mesh_name)
-        problem = build_problem(mesh, lab, Lights.preset(light), Views.preset(view))
+        problem = build_problem(mesh, lab, settings=resolve_scene(scenario, light, view).settings())
         for method in ("grid", "nlopt", "gradient"):
             scorer = Scorer(problem)
             t = time.perf_counter()
@@ -91,14 +92,15 @@ def accuracy_vs_time() -> list[tuple]:
 
     rows = []
     lab = labcut.Labradorite.preset("blue")
-    for label, mesh_name, light, view in (("oval cabochon, spot lamp, rocking", "oval-16x12-low.ply", "spot", "rocking"),
-                                          ("biplane, overhead lamp, rocking", "carving-biplane.ply", "overhead", "rocking")):
+    for label, mesh_name, scenario, light in (("oval cabochon, bench scenario, spot lamp", "oval-16x12-low.ply", "bench", "spot"),
+                                              ("biplane, bench scenario", "carving-biplane.ply", "bench", None)):
         mesh = labcut.load_mesh(ROOT / "meshes" / mesh_name)
         results = {}
         for quality in ("draft", "standard", "high"):
-            labcut.recommend_orientation(mesh, lab, lighting=light, viewing=view, quality=quality, seed=1)  # warm up
+            labcut.recommend_orientation(mesh, lab, lighting=light, scenario=scenario, quality=quality, seed=1)  # warm up
             t = time.perf_counter()
-            results[quality] = (labcut.recommend_orientation(mesh, lab, lighting=light, viewing=view, quality=quality), time.perf_counter() - t)
+            rec = labcut.recommend_orientation(mesh, lab, lighting=light, scenario=scenario, quality=quality)
+            results[quality] = (rec, time.perf_counter() - t)
         ref = results["high"][0]
         for quality, (rec, dt) in results.items():
             angle = float(np.degrees(np.arccos(min(1.0, abs(float(rec.normal @ ref.normal))))))
@@ -112,8 +114,8 @@ def throughput() -> list[tuple]:
     import numpy as np
 
     import labcut
-    from labcut.orientation.models import Lights, Views
     from labcut.orientation.problem import build_problem
+    from labcut.scene import Lights, Views
     from labcut.orientation.scoring import Scorer
     from labcut.rendering.scene import to_mitsuba_mesh
 

@@ -22,6 +22,7 @@ import mitsuba as mi
 import numpy as np
 
 from labcut.rendering.api import build_scene
+from labcut.scene import resolve_scene
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -29,7 +30,7 @@ ROOT = Path(__file__).resolve().parents[1]
 def gradient_vs_fd(mode: str, lobes: tuple[str, ...], spp: int = 256, h: float = 0.01) -> tuple[float, float]:
     cab = labcut.load_mesh(ROOT / "meshes" / "oval-16x12-low.ply")
     lab = labcut.Labradorite.preset("green", spread_deg=6.0)
-    scene, _ = build_scene(cab, lab, [0.12, -0.05, 1.0], "sky", "face-up", 48, mode, lobes=lobes, integrator="prb")
+    scene, _ = build_scene(cab, lab, [0.12, -0.05, 1.0], resolve_scene(lighting="sky").main_setting(), "face-up", 48, mode, lobes=lobes, integrator="prb")
     params = mi.traverse(scene)
     key = next(k for k in params.keys() if k.endswith("normal") and "bsdf" in k)
     m0 = np.array([params[key].x[0], params[key].y[0], params[key].z[0]], dtype=np.float64)

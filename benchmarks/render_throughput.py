@@ -20,7 +20,8 @@ import drjit as dr
 import mitsuba as mi
 
 from labcut.rendering.api import build_scene
-from labcut.rendering.scene import View, camera, lighting_preset, to_mitsuba_mesh
+from labcut.rendering.scene import CameraView, camera, emitters, to_mitsuba_mesh
+from labcut.scene import Lights, resolve_scene
 
 ROOT = Path(__file__).resolve().parents[1]
 RES, SPP = 512, 32
@@ -47,16 +48,16 @@ def main() -> None:
     lab = labcut.Labradorite.preset("blue")
     rows = []
     for mode in ("rgb", "spectral"):
-        scene, plan = build_scene(mesh, lab, (0, 0, 1), "overhead", "face-up", RES, mode)
+        scene, plan = build_scene(mesh, lab, (0, 0, 1), resolve_scene(lighting="overhead").main_setting(), "face-up", RES, mode)
         ours = _time(scene)
         for name, bsdf in (("roughdielectric", {"type": "roughdielectric", "alpha": 0.1}),
                            ("roughconductor", {"type": "roughconductor", "alpha": 0.1})):
             d = {
                 "type": "scene",
                 "integrator": {"type": "direct"},
-                "sensor": camera(mesh, View("face-up", 0.0), RES),
+                "sensor": camera(mesh, CameraView("face-up", (0.0, 0.0, 1.0)), RES),
                 "stone": to_mitsuba_mesh(mesh, mi.load_dict(bsdf)),
-                **lighting_preset("overhead").emitters(),
+                **emitters(Lights.preset("overhead")),
             }
             ref = _time(mi.load_dict(d))
             rows.append((plan.variant, name, ours, ref, ref / ours))

@@ -13,7 +13,6 @@ import argparse
 from pathlib import Path
 
 import labcut
-from labcut.orientation.models import Lights
 from labcut.plots.scoremap import plot_score_map
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -28,13 +27,12 @@ def main() -> None:
 
     mesh = labcut.load_mesh(ROOT / "meshes" / "carving-biplane.ply")
     material = labcut.Labradorite.preset("blue")
-    lamp = Lights.preset("overhead")
-    rec = labcut.recommend_orientation(mesh, material, lighting=lamp, viewing="rocking", objective="balanced")
+    rec = labcut.recommend_orientation(mesh, material, scenario="bench", objective="balanced")
     print(f"{rec.description}; keep within ±{rec.tolerance_deg:.1f}° for 90 % of the score")
     print(f"flash area {rec.metrics.flash_area:.0%}, intensity {rec.metrics.flash_intensity:.2f}, coverage {rec.metrics.coverage:.0%}")
     for r in rec.runners_up:
         print(f"  also good: {r['description']} ({r['relative_score']:.0%} of the best)")
-    labcut.render(mesh, material, rec.normal, lighting=lamp, view="tilted", spp=64, resolution=384,
+    labcut.render(mesh, material, rec.normal, scenario=rec.scenario, view=(30.0, 270.0), spp=64, resolution=384,
                   output=out / "carving-recommended.png")
     plot_score_map(rec, out / "carving-score-map.png")
     print(f"render and score map in {out}/")

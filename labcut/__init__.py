@@ -8,7 +8,8 @@ Public API (DESIGN.md §5; these names are a contract)::
     mesh = labcut.load_mesh("stone.stl")
     cab = labcut.cabochon(outline="oval", length=16, width=12, dome="low")
 
-Heavy modules (Mitsuba, Dr.Jit, trimesh, manifold3d) load on first use.
+Importing labcut registers the ``labradorite`` BSDF with Mitsuba (every JIT variant);
+the other heavy modules (trimesh, manifold3d, the optimiser) load on first use.
 """
 
 from __future__ import annotations
@@ -31,6 +32,11 @@ from .errors import (  # noqa: E402
 
 __version__ = "0.1.0"
 
+# A plugin package: after ``import labcut`` the ``labradorite`` BSDF is registered with
+# Mitsuba for the current JIT variant and again on every variant change, so
+# ``mi.set_variant(...)`` then ``mi.load_dict({"type": "labradorite"})`` works in either order.
+from .rendering import bsdf as _bsdf  # noqa: E402,F401
+
 # name -> "module:attribute", resolved on first access
 _LAZY = {
     "Labradorite": "labcut.physics.material:Labradorite",
@@ -42,8 +48,10 @@ _LAZY = {
     "recommend_orientation": "labcut.orientation.recommend:recommend_orientation",
     "evaluate_orientation": "labcut.orientation.recommend:evaluate_orientation",
     "Recommendation": "labcut.orientation.recommend:Recommendation",
-    "Lights": "labcut.orientation.models:Lights",
-    "Views": "labcut.orientation.models:Views",
+    "Lights": "labcut.scene.sets:Lights",
+    "Views": "labcut.scene.sets:Views",
+    "Scenario": "labcut.scene.scenario:Scenario",
+    "scene": "labcut.scene",
     "RenderResult": "labcut.rendering.api:RenderResult",
 }
 

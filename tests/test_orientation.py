@@ -89,8 +89,9 @@ def test_estimators_agree_on_the_best_normal(oval):
 @pytest.fixture(scope="module")
 def problems(oval, biplane):
     out = {}
-    for name, mesh, lighting in (("oval", oval, "spot"), ("biplane", biplane, "overhead"), ("oval-ceiling", oval, "ceiling")):
-        out[name] = build_problem(mesh, LAB, Lights.preset(lighting, "draft"), Views.preset("rocking", "draft"), "draft")
+    for name, mesh, lighting in (("oval", oval, "spot"), ("biplane", biplane, "spot"), ("oval-ceiling", oval, "ceiling")):
+        scene = labcut.scene.resolve_scene("bench", lighting=lighting, quality="draft")
+        out[name] = build_problem(mesh, LAB, quality="draft", settings=scene.settings())
     return out
 
 
@@ -142,7 +143,7 @@ def test_constraints_are_respected(oval):
 @pytest.mark.parametrize("objective", ["energy", "area", "balanced"])
 def test_deterministic_for_a_seed(biplane, objective):
     # bit-identical: segment sums use fixed-order block sums, never thread-ordered atomics
-    runs = [labcut.recommend_orientation(biplane, LAB, viewing="rocking", objective=objective, quality="draft", seed=3) for _ in range(3)]
+    runs = [labcut.recommend_orientation(biplane, LAB, scenario="bench", objective=objective, quality="draft", seed=3) for _ in range(3)]
     for b in runs[1:]:
         assert np.array_equal(runs[0].normal, b.normal) and runs[0].score == b.score
         assert runs[0].tolerance_deg == b.tolerance_deg and runs[0].metrics.to_dict() == b.metrics.to_dict()

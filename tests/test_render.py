@@ -12,7 +12,7 @@ import pytest
 import labcut
 from labcut import Labradorite, ParameterError
 from labcut.rendering.api import build_scene, plan_render
-from labcut.rendering.scene import lighting_preset
+from labcut.scene import Lights, resolve_scene
 
 MESHES = Path(__file__).resolve().parents[1] / "meshes"
 
@@ -29,7 +29,7 @@ def slab():
 
 def test_plan_simulates_only_what_is_needed(cab):
     carving = labcut.load_mesh(MESHES / "carving-biplane.ply")
-    light = lighting_preset("overhead")
+    light = Lights.preset("overhead")
     plan = plan_render(cab, light)
     assert plan.variant.endswith("_ad_rgb") and plan.integrator == "direct" and plan.convex
     assert plan_render(cab, light, mode="spectral").variant.endswith("_ad_spectral")
@@ -44,7 +44,7 @@ def test_gradient_wrt_lamella_normal_matches_finite_differences(cab, mode):
     lab = Labradorite.preset("green", spread_deg=6.0)
     # The delta surface lobe does not depend on the normal and is left out: prb's
     # relative_grad would credit radiance it sampled to the glossy lobe (see build_scene).
-    scene, _ = build_scene(cab, lab, [0.12, -0.05, 1.0], "sky", "face-up", 48, mode, lobes=("schiller", "body"), integrator="prb")
+    scene, _ = build_scene(cab, lab, [0.12, -0.05, 1.0], resolve_scene(lighting="sky").main_setting(), "face-up", 48, mode, lobes=("schiller", "body"), integrator="prb")
     params = mi.traverse(scene)
     key = next(k for k in params.keys() if k.endswith("normal") and "bsdf" in k)
     m0 = np.array([params[key].x[0], params[key].y[0], params[key].z[0]], dtype=np.float64)
@@ -159,7 +159,7 @@ def test_progress_is_reported(cab):
 
 def test_carving_renders_without_nan():
     carving = labcut.load_mesh(MESHES / "carving-biplane.ply")
-    r = labcut.render(carving, Labradorite.preset("blue"), (0.3, 0.2, 1.0), resolution=32, spp=4, view="tilted")
+    r = labcut.render(carving, Labradorite.preset("blue"), (0.3, 0.2, 1.0), resolution=32, spp=4, view=(30.0, 270.0))
     assert np.all(np.isfinite(r.image)) and r.image.max() > 0
 
 

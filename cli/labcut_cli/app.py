@@ -20,6 +20,7 @@ from . import spectrum  # noqa: F401  (registers its command)
 from . import geometry  # noqa: F401  (registers cabochon, inspect)
 from . import recommend  # noqa: F401  (registers recommend-orientation, evaluate-orientation)
 from . import render  # noqa: F401  (registers render)
+from . import scenes  # noqa: F401  (registers scenarios)
 from .root import app, err_console
 
 

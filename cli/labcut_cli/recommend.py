@@ -10,10 +10,9 @@ import typer
 from rich.table import Table
 
 from . import materials as m
+from . import scene_options as so
 from .root import all_or_nothing, app, console, parse_vector, write_json
 
-Lighting = Annotated[str, typer.Option(help="overhead, ceiling, spot, sky, or a JSON file of directions/weights.")]
-Viewing = Annotated[str, typer.Option(help="face-up, rocking, pendant, or a JSON file of directions/weights.")]
 Quality = Annotated[str, typer.Option(help="draft, standard or high.")]
 
 
@@ -33,6 +32,11 @@ def _metrics_table(title: str, metrics, score_name: str | None = None, score: fl
     return table
 
 
+def _scene_label(scene) -> str:
+    """``scenario 'ring' (ceiling, above)``: what a result was computed under."""
+    return f"scenario {scene.name!r}: {scene.lights.name} light, {scene.views.name} viewers"
+
+
 @app.command("recommend-orientation")
 def recommend_orientation(
     mesh_path: Annotated[Path, typer.Argument(metavar="MESH", help="Stone mesh (mm, +Z face-up).")],
@@ -41,8 +45,9 @@ def recommend_orientation(
     an: m.Anorthite = None,
     material_file: m.MaterialFile = None,
     spread: m.SPREAD = None,
-    lighting: Lighting = "overhead",
-    viewing: Viewing = "face-up",
+    scenario: so.Scenario = None,
+    lighting: so.Lighting = None,
+    viewing: so.Viewing = None,
     objective: Annotated[str, typer.Option(help="energy, area, intensity or balanced.")] = "energy",
     quality: Quality = "standard",
     optimizer: Annotated[str, typer.Option(help="nlopt, gradient or grid.")] = "nlopt",
@@ -58,7 +63,6 @@ def recommend_orientation(
     import labcut
     from labcut.errors import ParameterError
     from labcut.fileio import check_output_path
-    from labcut.orientation.models import lights_from, views_from
     from labcut.orientation.optimize import OPTIMIZERS, Constraint
     from labcut.orientation.scoring import OBJECTIVES
 
@@ -77,19 +81,18 @@ def recommend_orientation(
         raise ParameterError(f"--optimizer must be one of {', '.join(OPTIMIZERS)}, got {optimizer!r}")
     axis = parse_vector(tilt_axis, "--tilt-axis") if tilt_axis else None
     Constraint(max_tilt, axis)
-    lights_from(lighting, quality if quality in ("draft", "standard", "high") else "standard")
-    views_from(viewing, quality if quality in ("draft", "standard", "high") else "standard")
+    scene = so.resolve(scenario, lighting, viewing, quality)
     material = m.build_material(preset, peak, an, material_file, spread_deg=spread)
     mesh = labcut.load_mesh(mesh_path)
 
     with progress_bar("recommending", "%") as update:
         rec = labcut.recommend_orientation(
-            mesh, material, lighting=lighting, viewing=viewing, objective=objective, quality=quality,
+            mesh, material, scenario=scene, objective=objective, quality=quality,
             optimizer=optimizer, max_tilt=max_tilt, tilt_axis=axis, seed=seed,
             progress=lambda stage, fraction: update(int(round(100 * fraction)), 100),
         )
         if render_path is not None:
-            result = labcut.render(mesh, material, rec.normal, lighting=lights_from(lighting, quality), spp=spp, resolution=512,
+            result = labcut.render(mesh, material, rec.normal, scenario=rec.scenario, spp=spp, resolution=512,
                                    progress=lambda d, t: update(int(d * 100 / t), 100))
     data = rec.to_dict()
     with all_or_nothing() as written:
@@ -100,7 +103,7 @@ def recommend_orientation(
         if map_path is not None:
             from labcut.plots.scoremap import plot_score_map
 
-            plot_score_map(rec, map_path, title=f"{mesh_path.name}: {objective} under {lighting}, viewed {viewing}")
+            plot_score_map(rec, map_path, title=f"{mesh_path.name}: {objective}, {_scene_label(scene)}")
             written.append(Path(map_path))
         if json_path == "-":
             typer.echo(json.dumps(data, indent=2, allow_nan=False))
@@ -108,7 +111,7 @@ def recommend_orientation(
         if json_path is not None:
             write_json(json_path, data)
 
-    console.print(f"[bold]Recommendation for {mesh_path.name}[/]: {rec.description}.")
+    console.print(f"[bold]Recommendation for {mesh_path.name}[/] ({_scene_label(scene)}): {rec.description}.")
     ax = rec.tolerance_by_axis
     console.print(
         f"Keep within [bold]±{rec.tolerance_deg:.1f}°[/] of it in any direction to keep 90 % of the {objective} score "
@@ -144,8 +147,9 @@ def evaluate_orientation(
     an: m.Anorthite = None,
     material_file: m.MaterialFile = None,
     spread: m.SPREAD = None,
-    lighting: Lighting = "overhead",
-    viewing: Viewing = "face-up",
+    scenario: so.Scenario = None,
+    lighting: so.Lighting = None,
+    viewing: so.Viewing = None,
     quality: Quality = "standard",
     json_path: Annotated[Optional[str], typer.Option("--json", help="Write the metrics as JSON ('-' for stdout).")] = None,
 ) -> None:
@@ -158,12 +162,14 @@ def evaluate_orientation(
         check_output_path(json_path, (".json",))
     m_vec = normalize_normal(parse_vector(normal, "--normal"))
     material = m.build_material(preset, peak, an, material_file, spread_deg=spread)
+    scene = so.resolve(scenario, lighting, viewing, quality)
     mesh = labcut.load_mesh(mesh_path)
-    metrics = labcut.evaluate_orientation(mesh, m_vec, material, lighting=lighting, viewing=viewing, quality=quality)
-    data = {"normal": m_vec.tolist(), **metrics.to_dict()}
+    metrics = labcut.evaluate_orientation(mesh, m_vec, material, scenario=scene, quality=quality)
+    data = {"normal": m_vec.tolist(), "scenario": scene.to_dict(), **metrics.to_dict()}
     if json_path == "-":
         typer.echo(json.dumps(data, indent=2))
         return
     if json_path is not None:
         write_json(json_path, data)
-    console.print(_metrics_table(f"Flash of {mesh_path.name} with lamella normal ({', '.join(f'{float(x):.3f}' for x in m_vec)})", metrics))
+    console.print(_metrics_table(f"Flash of {mesh_path.name} with lamella normal ({', '.join(f'{float(x):.3f}' for x in m_vec)}), "
+                                 f"{_scene_label(scene)}", metrics))

@@ -8,6 +8,7 @@ from typing import Annotated, Optional
 import typer
 
 from . import materials as m
+from . import scene_options as so
 from .root import app, console, parse_vector, write_json
 
 
@@ -24,8 +25,10 @@ def render(
     sigma_b: m.SB = None,
     pairs: m.Pairs = None,
     spread: m.SPREAD = None,
-    lighting: Annotated[str, typer.Option(help="overhead, sky, studio, or an .exr/.hdr environment map.")] = "overhead",
-    view: Annotated[str, typer.Option(help="face-up, tilted, side, orbit, or TILT,AZIMUTH in degrees.")] = "face-up",
+    scenario: so.Scenario = None,
+    lighting: so.Lighting = None,
+    viewing: so.Viewing = None,
+    view: Annotated[str, typer.Option(help="Camera: main (the scenario's main viewer), face-up, orbit, or TILT,AZIMUTH in degrees from the face.")] = "main",
     spp: Annotated[int, typer.Option(help="Samples per pixel.", min=1)] = 64,
     resolution: Annotated[int, typer.Option(help="Image width and height in pixels.", min=8, max=8192)] = 512,
     mode: Annotated[str, typer.Option(help="Colour transport: rgb, spectral or mono.")] = "rgb",
@@ -37,6 +40,7 @@ def render(
 ) -> None:
     """Render MESH cut from labradorite with its lamella plane normal to --normal.
 
+    Shows the stone as the scenario's main viewer sees it, under the scenario's lights.
     Simulates only what the request needs: RGB unless --mode spectral/mono, polarized
     only with --polarizer, direct lighting for convex stones, a path tracer for carvings.
     """
@@ -69,7 +73,7 @@ def render(
         view_spec = parse_vector(view, "--view", length=2)  # type: ignore[assignment]
     from labcut.backend import variant_name
     from labcut.rendering.api import normalize_normal
-    from labcut.rendering.scene import lighting_preset, view_presets
+    from labcut.rendering.scene import camera_views
 
     normalize_normal(lamella)  # validate everything before the long work starts
     import math
@@ -80,14 +84,14 @@ def render(
         raise ParameterError(f"--polarizer must be a finite angle in degrees, got {polarizer}")
     if exposure is not None and not (math.isfinite(exposure) and exposure > 0):
         raise ParameterError(f"--exposure must be a finite number > 0, got {exposure}")
-    lighting_preset(lighting)
-    view_presets(view_spec)
+    scene = so.resolve(scenario, lighting, viewing)
+    camera_views(view_spec, scene.main_setting())
     variant_name(mode, polarizer is not None and mode != "rgb")
     mesh = labcut.load_mesh(mesh_path)
     lobes = ("schiller",) if schiller_only else ("surface", "schiller", "body")
     with progress_bar("rendering", "samples/pixel") as update:
         result = labcut.render(
-            mesh, material, lamella, lighting=lighting, view=view_spec, spp=spp, resolution=resolution,
+            mesh, material, lamella, scenario=scene, view=view_spec, spp=spp, resolution=resolution,
             mode=mode, polarizer_deg=polarizer, lobes=lobes, progress=update, zoning=zoning_spec,
         )
     result.save(output, exposure)
@@ -96,6 +100,7 @@ def render(
         "mesh": str(mesh_path),
         "normal": [float(x) for x in normalize_normal(lamella)],
         "material": material.to_dict(),
+        "scenario": result.scenario,
         "plan": result.plan.to_dict(),
         "spp": result.spp,
         "resolution": resolution,

@@ -1,7 +1,8 @@
 """The flash problem of one cut: (point, light, view) triples and their lamella-independent weights.
 
 For a surface point ``x`` (smooth shading normal ``n``), a light ``l`` and a view
-``v`` the schiller radiance is (the BSDF of :mod:`labcut.rendering.bsdf`)::
+``v`` the schiller radiance is (the BSDF's lobe, one implementation in
+:mod:`labcut.physics.schiller`)::
 
     L_s(x, v; m) = Σ_l E_l T_i T_o R_Y(|a·h|) (n·l) / (4 |a·h| max(a·n, b·n) η²) · q(h·m)
 
@@ -11,7 +12,7 @@ For a surface point ``x`` (smooth shading normal ``n``), a light ``l`` and a vie
 ``m``, so one pass builds, per triple, ``h_t`` and ``c_t`` (the factor in front of
 ``q``, divided by ``L_ref``); any orientation is then scored by summing
 ``c_t q(h_t·m)``, and the whole hemisphere at once by binning ``h_t``
-(:mod:`labcut.orientation.scoremap`).
+(:meth:`labcut.orientation.scoring.Scorer.energy_map`).
 
 ``L_ref`` (DESIGN.md §4) is ``L_s`` of a flat polished face with the lamellae
 parallel to it, lit and viewed along its normal by one light carrying the total
@@ -33,31 +34,45 @@ import numpy as np
 
 from ..colour import luminance_table
 from ..errors import MeshError, ParameterError
+from ..physics import schiller as lobe
 from ..physics.material import Labradorite
-from .models import Lights, Views
+from ..physics.ops import NUMPY
+from ..scene import Lights, Setting, Views
 
 QUALITY_POINTS = {"draft": 3000, "standard": 8000, "high": 24000}
 
 
 def fresnel_dielectric(cos_i: np.ndarray, eta: float) -> np.ndarray:
-    """Unpolarised Fresnel reflectance from outside (index 1) into index ``eta``."""
-    c = np.clip(cos_i, 0.0, 1.0)
-    s2t = (1.0 - c * c) / (eta * eta)
-    ct = np.sqrt(np.clip(1.0 - s2t, 0.0, None))
-    rs = (c - eta * ct) / (c + eta * ct)
-    rp = (eta * c - ct) / (eta * c + ct)
-    return 0.5 * (rs * rs + rp * rp)
+    """Unpolarised Fresnel reflectance from outside (index 1) into index ``eta`` (numpy)."""
+    return lobe.fresnel_reflectance(np.asarray(cos_i, dtype=np.float64), eta, NUMPY)
 
 
-def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    return np.einsum("ij,ij->i", a, b)
+def light_terms(n: np.ndarray, l: np.ndarray, irradiance: np.ndarray, eta: float) -> tuple[np.ndarray, np.ndarray]:
+    """Per (point, light): the internal direction ``a`` and ``E T(n·l) (n·l)``."""
+    cos_nl = NUMPY.dot(l, n)
+    return lobe.internal_direction(l, n, eta, NUMPY), irradiance * lobe.transmission(cos_nl, eta) * cos_nl
 
 
-def _internal(w: np.ndarray, n: np.ndarray, eta: float) -> np.ndarray:
-    """Internal direction (pointing out of the surface) that refracts into external ``w``."""
-    cos = _dot(w, n)[:, None]
-    tangent = (w - cos * n) / eta
-    return tangent + n * np.sqrt(np.clip(1.0 - _dot(tangent, tangent), 0.0, None))[:, None]
+def view_terms(n: np.ndarray, v: np.ndarray, eta: float) -> tuple[np.ndarray, np.ndarray]:
+    """Per (point, view): the internal direction ``b`` and ``T(n·v)``."""
+    return lobe.internal_direction(v, n, eta, NUMPY), lobe.transmission(NUMPY.dot(v, n), eta)
+
+
+def triple_terms(a: np.ndarray, e_t_l: np.ndarray, b: np.ndarray, t_v: np.ndarray, n: np.ndarray, eta: float,
+                 table: tuple[np.ndarray, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+    """Per triple: the lamella orientation ``h`` (unit, not folded) and the factor ``w`` in front of
+    the lobe, ``L_s = w · q(h·m)``: the BSDF's ``f_s`` (:mod:`labcut.physics.schiller`) times E (n·l)."""
+    h, cos_l, max_ab = lobe.mirror_terms(a, b, n, NUMPY)
+    r_y = np.interp(np.clip(cos_l, 0.0, 1.0), table[0], table[1])
+    return h, lobe.schiller_factor(e_t_l, t_v, cos_l, max_ab, eta, NUMPY) * r_y
+
+
+def schiller_weights(n: np.ndarray, l: np.ndarray, v: np.ndarray, irradiance: np.ndarray, eta: float,
+                     table: tuple[np.ndarray, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`triple_terms` straight from (T, 3) shading normals, light and view directions."""
+    a, e_t_l = light_terms(n, l, irradiance, eta)
+    b, t_v = view_terms(n, v, eta)
+    return triple_terms(a, e_t_l, b, t_v, n, eta, table)
 
 
 def reference_radiance(material: Labradorite, total_irradiance: float) -> float:
@@ -128,16 +143,31 @@ def _visibility(mesh: Any, origins: np.ndarray, normals: np.ndarray, dirs: np.nd
 def build_problem(
     mesh: Any,
     material: Labradorite,
-    lights: Lights,
-    views: Views,
+    lights: Lights | None = None,
+    views: Views | None = None,
     quality: str = "standard",
     tau: float = 0.1,
     seed: int = 0,
     n_points: int | None = None,
+    *,
+    settings: list[Setting] | None = None,
 ) -> FlashProblem:
-    """Sample the surface and build every (point, light, view) triple (see the module docstring)."""
+    """Sample the surface and build every (point, light, view) triple (see the module docstring).
+
+    Give either ``lights`` and ``views`` (mesh frame, one still pose) or ``settings``: the
+    poses of a scenario (:meth:`labcut.Scenario.settings`), each with its own lights and
+    views in the mesh frame and a weight. A light of one pose is only ever paired with the
+    views of the same pose; the problem's views are all poses' views, weighted by
+    pose weight x view weight.
+    """
     import trimesh
 
+    if settings is None:
+        if lights is None or views is None:
+            raise ParameterError("build_problem needs lights and views, or settings")
+        settings = [Setting(lights, views, 1.0, np.eye(3))]
+    if not settings:
+        raise ParameterError("build_problem needs at least one setting")
     if quality not in QUALITY_POINTS:
         raise ParameterError(f"quality must be one of {', '.join(QUALITY_POINTS)}, got {quality!r}")
     if not (isinstance(seed, int | np.integer) and 0 <= int(seed) < 2**63):
@@ -158,8 +188,8 @@ def build_problem(
     prob = np.where(ok, area_faces, 0.0)
     face_idx = rng.choice(len(area_faces), size=count, p=prob / prob.sum())
     r1, r2 = rng.random(count), rng.random(count)
-    s = np.sqrt(r1)
-    bary = np.stack([1 - s, s * (1 - r2), s * r2], axis=1)
+    sq = np.sqrt(r1)
+    bary = np.stack([1 - sq, sq * (1 - r2), sq * r2], axis=1)
     tri = split.triangles[face_idx]
     points = np.einsum("ij,ijk->ik", bary, tri)
     n_geo = split.face_normals[face_idx]
@@ -173,10 +203,59 @@ def build_problem(
 
         convex = bool(is_convex_mesh(mesh))
 
-    L, E = lights.directions, lights.weights
-    V, wv = views.directions, views.weights
-    eta = material.n_surface
+    table = luminance_table(material)
+    total_irradiance = [float(st.lights.weights.sum()) for st in settings]
+    l_ref = reference_radiance(material, 1.0)
+    if not l_ref > 0:
+        raise ParameterError("the material reflects nothing at normal incidence: no flash can be scored")
+    pose_w = np.array([float(st.weight) for st in settings])
+    pose_w = pose_w / pose_w.sum()
 
+    h_parts, c_parts, pair_parts, pv_parts, pw_parts, vw_parts = [], [], [], [], [], []
+    pair_offset = view_offset = 0
+    for k, st in enumerate(settings):
+        # each pose's lights are normalised to total irradiance 1: L_ref is per unit irradiance
+        h_k, c_k, pair_k, pi, pv, pw = _setting_triples(
+            st.lights.directions, st.lights.weights / total_irradiance[k], st.views.directions,
+            points, n_geo, n_sh, mesh, convex, material.n_surface, table, l_ref, count,
+        )
+        h_parts += h_k
+        c_parts += c_k
+        pair_parts += [p + pair_offset for p in pair_k]
+        pv_parts.append(pv + view_offset)
+        pw_parts.append(pw)
+        vw_parts.append(pose_w[k] * st.views.weights)
+        pair_offset += len(pi)
+        view_offset += len(st.views.weights)
+    if not c_parts or not any(float(part.sum()) > 0.0 for part in c_parts):
+        raise ParameterError(
+            "no light reaches a part of the stone that a viewer sees: check that the lights are above "
+            "the surfaces the views look at (+Z is face-up)"
+        )
+    h, c, pair_of_t = np.concatenate(h_parts), np.concatenate(c_parts), np.concatenate(pair_parts)
+    view_weight = np.concatenate(vw_parts)
+    return FlashProblem(
+        h=h,
+        c=c,
+        pair=pair_of_t,
+        pair_view=np.concatenate(pv_parts).astype(np.int64),
+        pair_weight=np.concatenate(pw_parts),
+        view_weight=view_weight / view_weight.sum(),
+        kappa=material.lobe_kappa,
+        q_norm=material.lobe_norm,
+        tau=float(tau),
+        material=material,
+        lights=settings[0].lights,
+        views=settings[0].views,
+        convex=convex,
+        n_points=count,
+        info={"l_ref": l_ref, "pairs": int(pair_offset), "triples": int(c.size), "poses": len(settings)},
+    )
+
+
+def _setting_triples(L, E, V, points, n_geo, n_sh, mesh, convex, eta, table, l_ref, count):
+    """Triples of one pose: per chunk lists of h, c, pair index; and per pair its point,
+    view and projected-area weight (summing to 1 within each view)."""
     # facing and visibility: point x view, point x light
     face_v = (n_geo @ V.T > 1e-6) & (n_sh @ V.T > 1e-6)
     lit = (n_geo @ L.T > 1e-6) & (n_sh @ L.T > 1e-6) & (E[None, :] > 0)
@@ -189,11 +268,6 @@ def build_problem(
     proj = np.einsum("ij,ij->i", n_geo[pi], V[pv])
     per_view = np.bincount(pv, weights=proj, minlength=len(V))
     pair_weight = proj / np.where(per_view[pv] > 0, per_view[pv], 1.0)
-
-    table_c, table_r = luminance_table(material)
-    l_ref = reference_radiance(material, float(E.sum()))
-    if not l_ref > 0:
-        raise ParameterError("the material reflects nothing at normal incidence: no flash can be scored")
 
     # triples: each pair x the lights its point sees; built in chunks of points and
     # stored in float32 (20 bytes a triple) so high quality stays within memory
@@ -217,56 +291,16 @@ def build_problem(
         offs = np.arange(reps.sum()) - np.repeat(np.cumsum(reps) - reps, reps)
         lit_of_t = np.repeat(starts[c_pi - p0], reps) + offs  # index into this chunk's lit (point, light)
 
-        # per (point, light) and per (point, view) first, then gathered per triple
-        n_lit = n_sh[lit_i]
-        wl = L[lit_l]
-        a_lit = _internal(wl, n_lit, eta)
-        cos_li_lit = _dot(wl, n_lit)
-        w_lit = E[lit_l] * (1.0 - fresnel_dielectric(cos_li_lit, eta)) * cos_li_lit  # E T_i (n·l)
+        # refraction and Fresnel per (point, light) and per (point, view), then gathered per triple
+        a_lit, etl_lit = light_terms(n_sh[lit_i], L[lit_l], E[lit_l], eta)
         n_pair = n_sh[c_pi]
-        wo = V[pv[q0:q1]]
-        b_pair = _internal(wo, n_pair, eta)
-        t_o_pair = 1.0 - fresnel_dielectric(_dot(wo, n_pair), eta)
-
+        b_pair, t_v_pair = view_terms(n_pair, V[pv[q0:q1]], eta)
         local = pair_of_t - q0
-        a = a_lit[lit_of_t]
-        b = b_pair[local]
-        hsum = a + b
-        h = hsum / np.sqrt(_dot(hsum, hsum))[:, None]
-        cos_l = np.clip(_dot(a, h), 1e-6, 1.0)
-        r_y = np.interp(cos_l, table_c, table_r)
-        n_t = n_pair[local]
-        c = w_lit[lit_of_t] * t_o_pair[local] * r_y / (4.0 * cos_l * np.maximum(_dot(a, n_t), _dot(b, n_t)) * eta * eta) / l_ref
+        h, w = triple_terms(a_lit[lit_of_t], etl_lit[lit_of_t], b_pair[local], t_v_pair[local], n_pair[local], eta, table)
+        c = w / l_ref
         h = np.where(h[:, 2:3] < 0.0, -h, h)  # axial: fold into the upper hemisphere
         finite = np.isfinite(c) & np.all(np.isfinite(h), axis=1)
         c_parts.append(np.where(finite, c, 0.0).astype(np.float32))
         h_parts.append(np.where(finite[:, None], h, np.array([0.0, 0.0, 1.0])).astype(np.float32))
         pair_parts.append(pair_of_t.astype(np.int32))
-    if not c_parts or not any(float(part.sum()) > 0.0 for part in c_parts):
-        raise ParameterError(
-            "no light reaches a part of the stone that a viewer sees: check that the lights are above "
-            "the surfaces the views look at (+Z is face-up)"
-        )
-    if c_parts:
-        h, c, pair_of_t = np.concatenate(h_parts), np.concatenate(c_parts), np.concatenate(pair_parts)
-    else:  # nothing lit and seen: an all-dark problem, scored 0 everywhere
-        h, c, pair_of_t = np.array([[0.0, 0.0, 1.0]], np.float32), np.zeros(1, np.float32), np.zeros(1, np.int32)
-        if len(pi) == 0:
-            pi, pv, pair_weight = np.zeros(1, np.int64), np.zeros(1, np.int64), np.zeros(1)
-    return FlashProblem(
-        h=h,
-        c=c,
-        pair=pair_of_t,
-        pair_view=pv.astype(np.int64),
-        pair_weight=pair_weight,
-        view_weight=wv,
-        kappa=material.lobe_kappa,
-        q_norm=material.lobe_norm,
-        tau=float(tau),
-        material=material,
-        lights=lights,
-        views=views,
-        convex=convex,
-        n_points=count,
-        info={"l_ref": l_ref, "pairs": int(len(pi)), "triples": int(c.size)},
-    )
+    return h_parts, c_parts, pair_parts, pi, pv, pair_weight

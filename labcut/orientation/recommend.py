@@ -12,7 +12,7 @@ import numpy as np
 
 from ..errors import ParameterError
 from ..physics.material import Labradorite
-from .models import Lights, Views, lights_from, views_from
+from ..scene import Lights, Scenario, Views, resolve_scene
 from .optimize import OPTIMIZERS, Constraint, hemisphere_grid, run_optimizer, score_map, tolerance_deg
 from .problem import build_problem
 from .scoring import OBJECTIVES, FlashMetrics, Scorer
@@ -68,6 +68,7 @@ class Recommendation:
     evaluations: int
     seconds: float
     settings: dict[str, Any] = field(default_factory=dict)
+    scenario: Scenario | None = None  # the scenario it was found under (renders use it)
 
     @property
     def description(self) -> str:
@@ -105,24 +106,23 @@ def _check_material(material: Any) -> Labradorite:
     return material
 
 
-def _setup(mesh, material, lighting, viewing, objective, quality, tau, seed, max_tilt, tilt_axis):
+def _setup(mesh, material, scenario, lighting, viewing, objective, quality, tau, seed, max_tilt, tilt_axis):
     if objective not in OBJECTIVES:
         raise ParameterError(f"objective must be one of {', '.join(OBJECTIVES)}, got {objective!r}")
     if quality not in MAP_SPACING_DEG:
         raise ParameterError(f"quality must be one of draft, standard, high, got {quality!r}")
     material = _check_material(material)
-    lights = lights_from(lighting, quality)
-    views = views_from(viewing, quality)
+    scene = resolve_scene(scenario, lighting, viewing, quality)
     constraint = Constraint(float(max_tilt), tilt_axis)
-    problem = build_problem(mesh, material, lights, views, quality, tau, seed)
-    return material, lights, views, constraint, Scorer(problem, objective)
+    problem = build_problem(mesh, material, quality=quality, tau=tau, seed=seed, settings=scene.settings())
+    return material, scene, constraint, Scorer(problem, objective)
 
 
 def recommend_orientation(
     mesh: Any,
     material: Labradorite | str | None = None,
-    lighting: str | Lights = "overhead",
-    viewing: str | Views = "face-up",
+    lighting: str | Lights | None = None,
+    viewing: str | Views | None = None,
     objective: str = "energy",
     quality: str = "standard",
     optimizer: str = "nlopt",
@@ -131,6 +131,8 @@ def recommend_orientation(
     tau: float = 0.1,
     seed: int = 0,
     progress: Callable[[str, float], None] | None = None,
+    *,
+    scenario: str | Scenario | None = None,
 ) -> Recommendation:
     """Find the lamella normal (mesh frame) that maximises the flash objective.
 
@@ -138,8 +140,14 @@ def recommend_orientation(
     ----------
     mesh: a ``trimesh.Trimesh`` in mm, +Z face-up (``labcut.load_mesh`` / ``labcut.cabochon``).
     material: :class:`~labcut.Labradorite` or a preset name (default blue-green labradorite).
-    lighting: ``overhead`` | ``ceiling`` | ``spot`` | ``sky`` | a JSON file | :class:`~labcut.Lights`.
-    viewing: ``face-up`` | ``rocking`` | ``pendant`` | a JSON file | :class:`~labcut.Views`.
+    scenario: how the stone is lit, worn and seen: ``bench`` (default) | ``ring`` | ``pendant`` |
+        ``brooch`` | ``display`` | ``outdoor`` | a scenario JSON file | :class:`~labcut.Scenario`
+        (docs/scenarios.md).
+    lighting: replaces the scenario's lights (world frame): a preset of
+        :data:`labcut.scene.LIGHTING`, a JSON file, an .exr/.hdr map or :class:`~labcut.Lights`.
+    viewing: replaces the scenario's viewers: a preset of :data:`labcut.scene.VIEWING`, a JSON
+        file or :class:`~labcut.Views`. With ``lighting``/``viewing`` but no ``scenario`` the
+        stone lies still and face-up (``overhead``/``face-up`` fill in the one not given).
     objective: ``energy`` | ``area`` | ``intensity`` | ``balanced`` (DESIGN.md §4).
     quality: ``draft`` | ``standard`` | ``high``: surface samples, light/view directions, map spacing.
     optimizer: ``nlopt`` (DIRECT-L + L-BFGS with Dr.Jit gradients) | ``gradient`` (Dr.Jit
@@ -158,7 +166,7 @@ def recommend_orientation(
     start = time.perf_counter()
     report = progress or (lambda stage, fraction: None)
     report("sampling the surface", 0.0)
-    material, lights, views, constraint, scorer = _setup(mesh, material, lighting, viewing, objective, quality, tau, seed, max_tilt, tilt_axis)
+    material, scene, constraint, scorer = _setup(mesh, material, scenario, lighting, viewing, objective, quality, tau, seed, max_tilt, tilt_axis)
     report("optimising", 0.3)
     best = run_optimizer(optimizer, scorer, constraint, quality)
     normal = _upper(best.normal)
@@ -183,11 +191,13 @@ def recommend_orientation(
         tolerance_deg=float(tol), tolerance_by_axis=by_axis, runners_up=runners, map_normals=map_normals, map_scores=map_scores,
         optimizer=optimizer, evaluations=scorer.evaluations, seconds=time.perf_counter() - start,
         settings={
-            "material": material.to_dict(), "lighting": lights.name, "viewing": views.name, "quality": quality,
+            "material": material.to_dict(), "scenario": scene.to_dict(), "lighting": scene.lights.name,
+            "viewing": scene.views.name, "quality": quality,
             "max_tilt_deg": constraint.max_tilt_deg, "tilt_axis": constraint.tilt_axis, "tau": tau, "seed": seed,
             "convex": scorer.problem.convex, "surface_samples": scorer.problem.n_points,
-            "triples": scorer.problem.n_triples, "lights": int(len(lights.weights)), "views": int(len(views.weights)),
+            "triples": scorer.problem.n_triples, "lights": len(scene.lights), "views": len(scene.views),
         },
+        scenario=scene,
     )
 
 
@@ -215,7 +225,7 @@ def _runners_up(scorer: Scorer, constraint: Constraint, normals: np.ndarray, sco
         n = normals[i]
         if any(_axial_angle(n, t) < RUNNER_UP_SEPARATION_DEG for t in taken):
             continue
-        near = np.array([_axial_angle(n, m) for m in normals]) < 1.5 * MAP_SPACING_DEG.get("standard", 2.0)
+        near = np.degrees(np.arccos(np.clip(np.abs(normals @ n), 0.0, 1.0))) < 1.5 * MAP_SPACING_DEG.get("standard", 2.0)
         if np.any(scores[near] > scores[i]):  # not a local maximum
             continue
         polished, value = _polish_grid(scorer, n, constraint, 2.0, 0.25)
@@ -233,15 +243,18 @@ def evaluate_orientation(
     mesh: Any,
     normal: Any,
     material: Labradorite | str | None = None,
-    lighting: str | Lights = "overhead",
-    viewing: str | Views = "face-up",
+    lighting: str | Lights | None = None,
+    viewing: str | Views | None = None,
     quality: str = "standard",
     tau: float = 0.1,
     seed: int = 0,
+    *,
+    scenario: str | Scenario | None = None,
 ) -> FlashMetrics:
-    """Flash metrics (DESIGN.md §4) of a given lamella normal (mesh frame, axial)."""
+    """Flash metrics (DESIGN.md §4) of a given lamella normal (mesh frame, axial) under a
+    scenario (default ``bench``; ``lighting``/``viewing`` as in :func:`recommend_orientation`)."""
     from ..rendering.api import normalize_normal
 
     m = normalize_normal(normal)
-    *_, scorer = _setup(mesh, material, lighting, viewing, "energy", quality, tau, seed, 90.0, None)
+    *_, scorer = _setup(mesh, material, scenario, lighting, viewing, "energy", quality, tau, seed, 90.0, None)
     return scorer.metrics(m)

@@ -16,8 +16,9 @@ from typing import Any
 
 import numpy as np
 
+from ..errors import ParameterError
 from ..physics.material import Labradorite
-from .models import Lights, Views
+from ..scene import Lights, Setting, Views
 from .problem import reference_radiance
 from .scoring import COVERAGE_AREA, FlashMetrics
 
@@ -26,51 +27,60 @@ def render_metrics(
     mesh: Any,
     material: Labradorite,
     normal: Any,
-    lights: Lights,
-    views: Views,
+    lights: Lights | None = None,
+    views: Views | None = None,
     tau: float = 0.1,
     resolution: int = 160,
     spp: int = 16,
     seed: int = 0,
+    *,
+    settings: list[Setting] | None = None,
 ) -> FlashMetrics:
-    """Flash metrics of ``normal`` from rendered images, one per view."""
+    """Flash metrics of ``normal`` from rendered images, one per view and pose.
+
+    ``lights``/``views`` (mesh frame, one still pose) or ``settings`` (a scenario's poses,
+    as :func:`~labcut.orientation.problem.build_problem` takes them)."""
     import mitsuba as mi
 
     from ..backend import set_variant
     from ..rendering import bsdf as _bsdf  # noqa: F401
     from ..rendering.api import bsdf_dict, normalize_normal
-    from ..rendering.scene import View, camera, to_mitsuba_mesh
+    from ..rendering.scene import CameraView, camera, emitters, to_mitsuba_mesh
 
+    if settings is None:
+        if lights is None or views is None:
+            raise ParameterError("render_metrics needs lights and views, or settings")
+        settings = [Setting(lights, views, 1.0, np.eye(3))]
     m = normalize_normal(normal)
     set_variant("mono")
-    emitters = {}
-    for i, (d, e) in enumerate(zip(lights.directions, lights.weights)):
-        if e > 0:
-            emitters[f"light_{i}"] = {"type": "directional", "direction": [-float(x) for x in d], "irradiance": float(e)}
-    l_ref = reference_radiance(material, float(lights.weights.sum()))
+    l_ref = reference_radiance(material, 1.0)
     stone = to_mitsuba_mesh(mesh, mi.load_dict(bsdf_dict(material, m, ("schiller",))))
-    area_v, energy_v, intensity_v = [], [], []
-    for d in views.directions:
-        tilt = math.degrees(math.acos(max(-1.0, min(1.0, float(d[2])))))
-        az = math.degrees(math.atan2(float(d[1]), float(d[0])))
-        sensor = camera(mesh, View("v", tilt, az), resolution)
-        sensor["film"]["pixel_format"] = "luminance_alpha"
-        sensor["film"]["rfilter"] = {"type": "box"}
-        scene = mi.load_dict({"type": "scene", "integrator": {"type": "direct"}, "sensor": sensor, "stone": stone, **emitters})
-        img = np.array(mi.render(scene, spp=spp, seed=seed), dtype=np.float64)
-        value, alpha = img[..., 0], img[..., 1]
-        cover = alpha > 1e-3
-        w = alpha[cover]
-        ratio = value[cover] / w / l_ref
-        flash = ratio >= tau
-        total = float(w.sum())
-        a = float((w * flash).sum()) / total if total > 0 else 0.0
-        e = float((w * ratio).sum()) / total if total > 0 else 0.0
-        i = float((w * ratio * flash).sum()) / float((w * flash).sum()) if a > 0 else 0.0
-        area_v.append(a)
-        energy_v.append(e)
-        intensity_v.append(i)
-    wv = views.weights
+    area_v, energy_v, intensity_v, weight_v = [], [], [], []
+    pose_total = sum(float(st.weight) for st in settings)
+    for st in settings:
+        # lights at unit total irradiance, no ambient: L / L_ref as in the sample estimator
+        lamps = emitters(st.lights, total_irradiance=1.0, ambient=0.0)
+        for d, wv in zip(st.views.directions, st.views.weights):
+            weight_v.append(float(st.weight) / pose_total * float(wv))
+            sensor = camera(mesh, CameraView("v", tuple(d), tuple(st.up())), resolution)
+            sensor["film"]["pixel_format"] = "luminance_alpha"
+            sensor["film"]["rfilter"] = {"type": "box"}
+            scene = mi.load_dict({"type": "scene", "integrator": {"type": "direct"}, "sensor": sensor, "stone": stone, **lamps})
+            img = np.array(mi.render(scene, spp=spp, seed=seed), dtype=np.float64)
+            value, alpha = img[..., 0], img[..., 1]
+            cover = alpha > 1e-3
+            w = alpha[cover]
+            ratio = value[cover] / w / l_ref
+            flash = ratio >= tau
+            total = float(w.sum())
+            a = float((w * flash).sum()) / total if total > 0 else 0.0
+            e = float((w * ratio).sum()) / total if total > 0 else 0.0
+            i = float((w * ratio * flash).sum()) / float((w * flash).sum()) if a > 0 else 0.0
+            area_v.append(a)
+            energy_v.append(e)
+            intensity_v.append(i)
+    wv = np.array(weight_v)
+    wv = wv / wv.sum()
     area, energy, intensity = float(wv @ area_v), float(wv @ energy_v), float(wv @ intensity_v)
     return FlashMetrics(
         flash_area=area, flash_intensity=intensity, flash_energy=energy,

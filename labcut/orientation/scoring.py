@@ -28,6 +28,8 @@ from typing import Any
 import numpy as np
 
 from ..errors import ParameterError
+from ..physics.ops import drjit_ops
+from ..physics.schiller import lobe_density
 from .problem import FlashProblem
 
 OBJECTIVES = ("energy", "area", "intensity", "balanced")
@@ -164,8 +166,7 @@ class Scorer:
         return t.Array3f(2.0 * u * inv, 2.0 * v * inv, (1.0 - r2) * inv)
 
     def _q(self, h: Any, m: Any) -> Any:
-        dr = self.dr
-        return self.q_norm * dr.exp(self.kappa * (dr.abs(dr.dot(h, m)) - 1.0))
+        return lobe_density(self.dr.dot(h, m), self.kappa, self.q_norm, drjit_ops())
 
     def _segment_sum(self, values: Any, rows: tuple[Any, Any, int]) -> Any:
         dr, t = self.dr, self.t

@@ -30,6 +30,16 @@ def _identity(x: Any) -> Any:
     return x
 
 
+def _np_dot(a: Any, b: Any) -> Any:
+    """Dot product over the last axis ((..., 3) arrays)."""
+    return np.einsum("...i,...i->...", a, b)
+
+
+def _np_scale(v: Any, s: Any) -> Any:
+    """A (..., 3) vector times a (...) scalar."""
+    return v * np.asarray(s)[..., None]
+
+
 NUMPY = SimpleNamespace(
     name="numpy",
     wide=_identity,
@@ -46,6 +56,8 @@ NUMPY = SimpleNamespace(
     maximum=np.maximum,
     minimum=np.minimum,
     select=np.where,
+    dot=_np_dot,
+    scale=_np_scale,
     tiny=1e-300,
 )
 
@@ -93,6 +105,8 @@ def _drjit_ops() -> SimpleNamespace:
             maximum=dr.maximum,
             minimum=dr.minimum,
             select=dr.select,
+            dot=dr.dot,
+            scale=lambda v, s: v * s,
             tiny=1e-30,
         )
     return _DRJIT
@@ -106,3 +120,8 @@ def is_drjit(x: Any) -> bool:
 def ops_for(*args: Any) -> SimpleNamespace:
     """Dr.Jit ops if any argument is a Dr.Jit array, else numpy ops."""
     return _drjit_ops() if any(is_drjit(a) for a in args) else NUMPY
+
+
+def drjit_ops() -> SimpleNamespace:
+    """The Dr.Jit ops namespace (for code that always runs inside a Dr.Jit kernel)."""
+    return _drjit_ops()

@@ -1,6 +1,6 @@
 """Rendering with Mitsuba 3: the ``labradorite`` BSDF plugin, scenes, and :func:`render`."""
 
 from .api import RenderPlan, RenderResult, build_scene, plan_render, render
-from .scene import Lighting, View, lighting_preset, view_presets
+from .scene import CameraView, camera_views, emitters
 
-__all__ = ["Lighting", "RenderPlan", "RenderResult", "View", "build_scene", "lighting_preset", "plan_render", "render", "view_presets"]
+__all__ = ["CameraView", "RenderPlan", "RenderResult", "build_scene", "camera_views", "emitters", "plan_render", "render"]

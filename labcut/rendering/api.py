@@ -28,7 +28,8 @@ import numpy as np
 from ..errors import ParameterError
 from ..physics.material import Labradorite
 from .images import save_image
-from .scene import Lighting, View, camera, check_envmap, lighting_preset, to_mitsuba_mesh, view_presets
+from ..scene import Scenario, Setting, resolve_scene
+from .scene import CameraView, camera, camera_views, emitters, to_mitsuba_mesh
 
 log = logging.getLogger("labcut.render")
 
@@ -60,6 +61,7 @@ class RenderResult:
     spp: int
     seconds: float
     views: list[str] = field(default_factory=list)
+    scenario: dict[str, Any] = field(default_factory=dict)
 
     @property
     def samples_per_second(self) -> float:
@@ -99,13 +101,15 @@ def _is_convex(mesh: Any) -> bool:
 
 def plan_render(
     mesh: Any,
-    lighting: Lighting,
+    lighting: Any = None,
     mode: str = "rgb",
     polarizer_deg: float | None = None,
     lobes: Sequence[str] = LOBES,
     max_depth: int | None = None,
 ) -> RenderPlan:
-    """Choose variant, integrator and depth for a request (see the module docstring)."""
+    """Choose variant, integrator and depth for a request (see the module docstring).
+
+    ``lighting``: the :class:`~labcut.Lights` (mesh frame) the render uses, for the record."""
     from ..backend import variant_name
 
     lobes = tuple(lobes)
@@ -129,6 +133,11 @@ def plan_render(
         reasons.append("non-convex stone: path tracing, 3 bounces, for light reflected between parts")
     if lobes != LOBES:
         reasons.append(f"lobes: {', '.join(lobes)} only")
+    if lighting is not None:
+        parts = [f"{lighting.n_lamps} lamp direction(s) as distant lights"] if lighting.n_lamps else []
+        if lighting.environment is not None:
+            parts.append(f"environment map {lighting.environment.name!r} (the map the optimiser samples)")
+        reasons.append(f"lights ({lighting.name}): {' and '.join(parts)}")
     return RenderPlan(variant, integrator, depth, lobes, convex, polarizer_deg, tuple(reasons))
 
 
@@ -152,8 +161,8 @@ def build_scene(
     mesh: Any,
     material: Labradorite,
     lamella_normal: Any,
-    lighting: str | Lighting = "overhead",
-    view: str | View | tuple[float, float] = "face-up",
+    setting: Setting | None = None,
+    view: Any = "main",
     resolution: int = 512,
     mode: str = "rgb",
     polarizer_deg: float | None = None,
@@ -164,9 +173,12 @@ def build_scene(
     *,
     zoning: Any = None,
 ) -> tuple[Any, RenderPlan]:
-    """The Mitsuba scene for one view (selects the plan's variant). Returns (scene, plan).
+    """The Mitsuba scene for one camera (selects the plan's variant). Returns (scene, plan).
 
-    ``integrator`` overrides the plan's (e.g. ``"prb"`` for gradients). For
+    ``setting``: the lights and main view in the mesh frame (a scenario's
+    :meth:`~labcut.Scenario.main_setting`; default: the ``bench`` scenario's rest pose).
+    ``view``: a :class:`~labcut.rendering.scene.CameraView` or what :func:`camera_views` takes
+    (a single camera). ``integrator`` overrides the plan's (e.g. ``"prb"`` for gradients). For
     gradients leave the delta ``surface`` lobe out (``lobes=("schiller", "body")``):
     it does not depend on the lamella normal, and prb's ``relative_grad`` of the
     re-evaluated BSDF would credit radiance reached through the delta lobe to
@@ -187,19 +199,18 @@ def build_scene(
     normal = normalize_normal(lamella_normal)
     if not (isinstance(resolution, int | np.integer) and 8 <= int(resolution) <= 8192):
         raise ParameterError(f"resolution must be a whole number of pixels in [8, 8192], got {resolution!r}")
-    light = lighting_preset(lighting)
-    views = view_presets(view)
-    if len(views) != 1:
+    if setting is None:
+        setting = resolve_scene().main_setting()
+    cams = camera_views(view, setting)
+    if len(cams) != 1:
         raise ParameterError("build_scene takes a single view; render() handles 'orbit'")
-    plan = plan_render(mesh, light, mode, polarizer_deg, lobes, max_depth)
+    plan = plan_render(mesh, setting.lights, mode, polarizer_deg, lobes, max_depth)
     baked = None
     if zone is not None:
         baked = zone.bake(mesh.bounds)
         label = f" ({zone.name})" if zone.name else ""
         plan = replace(plan, reasons=plan.reasons + (f"colour zoning{label}: {len(zone.materials)} parameter sets, {zone.mode} transitions",))
     mi.set_variant(plan.variant)
-    if light.envmap is not None:
-        check_envmap(light.envmap)
     bsdf = mi.load_dict(bsdf_dict(material, normal, plan.lobes, zoning=baked))
     name = integrator or plan.integrator
     integ: dict[str, Any] = {"type": name, "max_depth": plan.max_depth} if name != "direct" else {"type": "direct"}
@@ -210,9 +221,9 @@ def build_scene(
     scene_dict: dict[str, Any] = {
         "type": "scene",
         "integrator": integ,
-        "sensor": camera(mesh, views[0], int(resolution), perspective),
+        "sensor": camera(mesh, cams[0], int(resolution), perspective),
         "stone": to_mitsuba_mesh(mesh, bsdf),
-        **light.emitters(),
+        **emitters(setting.lights),
     }
     return mi.load_dict(scene_dict), plan
 
@@ -232,8 +243,10 @@ def render(
     material: Labradorite,
     lamella_normal: Any = (0.0, 0.0, 1.0),
     *,
-    lighting: str | Lighting = "overhead",
-    view: str | View | tuple[float, float] = "face-up",
+    scenario: str | Scenario | None = None,
+    lighting: Any = None,
+    viewing: Any = None,
+    view: str | CameraView | tuple[float, float] = "main",
     spp: int = 64,
     resolution: int = 512,
     mode: str = "rgb",
@@ -250,8 +263,13 @@ def render(
 
     Parameters
     ----------
-    lighting: ``overhead`` | ``sky`` | ``studio`` | an .exr/.hdr environment map | :class:`Lighting`.
-    view: ``face-up`` | ``tilted`` | ``side`` | ``orbit`` (8 views tiled 4 x 2) | (tilt°, azimuth°).
+    scenario: how the stone is lit, worn and seen (default ``bench``): a name, a JSON file or a
+        :class:`~labcut.Scenario`. The render shows its rest pose under its own lights.
+    lighting, viewing: replace the scenario's lights / viewers, as in
+        :func:`labcut.recommend_orientation` (presets of :data:`labcut.scene.LIGHTING` and
+        :data:`labcut.scene.VIEWING`, files, an .exr/.hdr map, ``Lights``/``Views``).
+    view: the camera: ``main`` (the scenario's main viewer) | ``face-up`` | ``orbit`` (8 views tiled
+        4 x 2) | (tilt°, azimuth°) in the mesh frame.
     spp: samples per pixel (>= 1); rendered in passes so ``progress(done, total)`` can report.
     mode: ``rgb`` | ``mono`` | ``spectral``; ``polarizer_deg`` renders polarized and returns the
         intensity through an ideal linear polarizer at that angle (0° = transmission axis along
@@ -281,7 +299,9 @@ def render(
         if not isinstance(material, Labradorite):
             raise ParameterError(f"material must be a labcut.Labradorite, got {type(material).__name__}")
         zoning = _resolve_zoning(zoning, material)  # validate (and build presets) once, before rendering
-    views = view_presets(view)
+    scenario_used = resolve_scene(scenario, lighting, viewing)
+    setting = scenario_used.main_setting()
+    views = camera_views(view, setting)
     total = int(spp) * len(views)
     per_pass = max(1, min(int(spp), 16))
     done = 0
@@ -290,7 +310,7 @@ def render(
     start = time.perf_counter()
     for v in views:
         scene, plan = build_scene(
-            mesh, material, lamella_normal, lighting, v, resolution, mode, polarizer_deg, lobes, max_depth, perspective,
+            mesh, material, lamella_normal, setting, v, resolution, mode, polarizer_deg, lobes, max_depth, perspective,
             zoning=zoning,
         )
         accum = None
@@ -321,7 +341,7 @@ def render(
         rows = [np.concatenate(tiles[i : i + 4], axis=1) for i in range(0, len(tiles), 4)]
         image = np.concatenate(rows, axis=0)
     log.info("render plan: %s", "; ".join(plan.reasons))
-    result = RenderResult(np.ascontiguousarray(image), plan, int(spp), seconds, [v.name for v in views])
+    result = RenderResult(np.ascontiguousarray(image), plan, int(spp), seconds, [v.name for v in views], scenario_used.to_dict())
     if output is not None:
         result.save(output)
     return result

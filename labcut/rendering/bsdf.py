@@ -18,7 +18,8 @@ and it is moved into the local shading frame per hit. It is axial: ``m`` and
 ``-m`` are the same orientation. All directions below are local, +Z the shading
 normal, pointing away from the surface.
 
-Schiller lobe. ``a`` and ``b`` are the internal directions (pointing up, into
+Schiller lobe (evaluated by :mod:`labcut.physics.schiller`, the one implementation the
+flash estimators share). ``a`` and ``b`` are the internal directions (pointing up, into
 the incident and exit half-spaces) that refract into ``wi`` and ``wo``: same
 azimuth, ``sin θ_a = sin θ_i / η``. The lamella orientation that mirrors ``a``
 into ``b`` is ``h = normalize(a + b)`` (DESIGN.md §4), and with ``q(h)`` the
@@ -57,8 +58,10 @@ import numpy as np
 
 from ..colour import LUMINANCE_TABLE_SIZE
 from ..errors import ParameterError
+from ..physics import schiller as lobe
 from ..physics.lamella import stack_reflectance
 from ..physics.material import Labradorite
+from ..physics.ops import drjit_ops
 
 PLUGIN_NAME = "labradorite"
 TABLE_SIZE = LUMINANCE_TABLE_SIZE  # entries over cos θ in [0, 1] for the RGB / mono tables
@@ -196,9 +199,7 @@ def _define_class() -> type:
 
         def _internal(self, w: Any) -> Any:
             """Internal direction (pointing up) that refracts into the external direction ``w``."""
-            inv = 1.0 / self._eta
-            t = mi.Vector3f(w.x * inv, w.y * inv, 0.0)
-            return mi.Vector3f(t.x, t.y, dr.safe_sqrt(1.0 - dr.squared_norm(t)))
+            return lobe.internal_direction(w, mi.Vector3f(0.0, 0.0, 1.0), self._eta, drjit_ops())
 
         def _external(self, b: Any) -> tuple[Any, Any]:
             """External direction of the internal direction ``b``, and whether it escapes (no TIR)."""
@@ -211,11 +212,11 @@ def _define_class() -> type:
 
         def _q(self, cos_hm: Any) -> Any:
             """Axial vMF density of lamella orientation at |h·m| = ``cos_hm`` (per steradian)."""
-            return self._q_norm * dr.exp(self._kappa * (dr.abs(cos_hm) - 1.0))
+            return lobe.lobe_density(cos_hm, self._kappa, self._q_norm, drjit_ops())
 
         def _weights(self, ctx: Any, cos_i: Any) -> tuple[Any, Any, Any, Any]:
             """Selection probabilities of (surface, schiller, body) and the Fresnel term."""
-            f_i = mi.fresnel(cos_i, self._eta)[0]
+            f_i = lobe.fresnel_reflectance(cos_i, self._eta, drjit_ops())
             w_spec = f_i if (self.use_surface and ctx.is_enabled(mi.BSDFFlags.DeltaReflection, 0)) else mi.Float(0.0)
             w_sch = (1.0 - f_i) * self._schiller_weight if (self.use_schiller and ctx.is_enabled(mi.BSDFFlags.GlossyReflection, 1)) else mi.Float(0.0)
             w_body = (1.0 - f_i) * self._albedo if (self.use_body and ctx.is_enabled(mi.BSDFFlags.DiffuseReflection, 2)) else mi.Float(0.0)
@@ -225,27 +226,24 @@ def _define_class() -> type:
 
         def _schiller_terms(self, si: Any, wo: Any) -> tuple[Any, Any]:
             """(f_s · cos θ_o as UnpolarizedSpectrum, pdf of the schiller lobe) for local wo."""
-            wi = si.wi
-            a = self._internal(wi)
-            b = self._internal(wo)
-            h = dr.normalize(a + b)
-            cos_l = dr.dot(a, h)
-            m = self._lamella_local(si)
-            q = self._q(dr.dot(h, m))
-            t_i = 1.0 - mi.fresnel(mi.Frame3f.cos_theta(wi), self._eta)[0]
-            t_o = 1.0 - mi.fresnel(mi.Frame3f.cos_theta(wo), self._eta)[0]
-            cos_o = mi.Frame3f.cos_theta(wo)
-            denom = 4.0 * cos_l * dr.maximum(a.z, b.z)
-            shape = q / dr.maximum(denom, 1e-12)
+            ops = drjit_ops()
+            n = mi.Vector3f(0.0, 0.0, 1.0)
+            cos_i, cos_o = mi.Frame3f.cos_theta(si.wi), mi.Frame3f.cos_theta(wo)
+            a, b, h, cos_l, max_ab = lobe.schiller_geometry(si.wi, wo, n, self._eta, ops)
+            q = self._q(dr.dot(h, self._lamella_local(si)))
+            t_i = lobe.transmission(cos_i, self._eta, ops)
+            t_o = lobe.transmission(cos_o, self._eta, ops)
+            factor = lobe.schiller_factor(t_i, t_o, cos_l, max_ab, self._eta, ops)
             r = self._lamella_reflectance(si, cos_l)
-            value = r * (t_i * t_o * shape * cos_o / (self._eta * self._eta))
-            pdf = q * cos_o / dr.maximum(4.0 * cos_l * self._eta * self._eta * b.z, 1e-12)
+            value = r * (factor * q * cos_o)
+            pdf = lobe.schiller_pdf(q, cos_l, b.z, cos_o, self._eta, ops)
             return value, pdf
 
         def _body_terms(self, si: Any, wo: Any) -> tuple[Any, Any]:
+            ops = drjit_ops()
             cos_i = mi.Frame3f.cos_theta(si.wi)
             cos_o = mi.Frame3f.cos_theta(wo)
-            t = (1.0 - mi.fresnel(cos_i, self._eta)[0]) * (1.0 - mi.fresnel(cos_o, self._eta)[0])
+            t = lobe.transmission(cos_i, self._eta, ops) * lobe.transmission(cos_o, self._eta, ops)
             value = self._albedo * dr.inv_pi * t * cos_o
             return value, mi.warp.square_to_cosine_hemisphere_pdf(wo)
 

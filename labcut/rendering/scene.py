@@ -1,144 +1,87 @@
-"""Scene pieces for rendering a stone: mesh conversion, lighting presets, cameras.
+"""Mitsuba pieces for rendering a stone: mesh conversion, emitters of a scene's lights, cameras.
 
-Frames and units: the mesh frame is the world frame (mm, +Z face-up, DESIGN.md
-§3). The *front* of the stone is -Y: a viewer at the front looks along +Y.
+Frames and units: renders are set up in the mesh frame (mm, +Z face-up, DESIGN.md
+§3); a :class:`~labcut.Scenario` has already turned its world-frame lights and
+viewers into that frame (:mod:`labcut.scene`). The *front* of the stone is -Y.
 Azimuths are measured from +X toward +Y, tilts from +Z.
 """
 
 from __future__ import annotations
 
 import math
-import os
 from dataclasses import dataclass
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from ..errors import ParameterError
+from ..scene.directions import FRONT_AZIMUTH_DEG, direction
 
-LIGHTING_PRESETS = ("overhead", "sky", "studio")
-VIEW_PRESETS = ("face-up", "tilted", "side", "orbit")
-FRONT_AZIMUTH_DEG = 270.0  # the front of the stone faces -Y
-
-
-def direction(tilt_deg: float, azimuth_deg: float) -> np.ndarray:
-    """Unit vector at ``tilt_deg`` from +Z and ``azimuth_deg`` from +X toward +Y."""
-    t, a = math.radians(tilt_deg), math.radians(azimuth_deg)
-    return np.array([math.sin(t) * math.cos(a), math.sin(t) * math.sin(a), math.cos(t)])
+RENDER_IRRADIANCE = 3.0  # total irradiance of a render's lights (linear units; exposure maps it)
+ROOM_AMBIENT = 0.02  # a dim room around lamps, so the body of the stone shows
 
 
 @dataclass(frozen=True)
-class Lighting:
-    """A lighting set-up: distant lights (direction towards the light, irradiance) and/or an environment.
-
-    ``ambient`` is a constant environment radiance (a diffuse sky of that value);
-    ``envmap`` an equirectangular EXR/HDR file. ``distant_only`` tells the
-    planner that direct lighting is exact for a convex stone.
-    """
+class CameraView:
+    """A camera direction (towards the camera) and the image's up vector, both in the mesh frame."""
 
     name: str
-    directions: tuple[tuple[float, float, float], ...] = ()
-    irradiance: tuple[float, ...] = ()
-    ambient: float = 0.0
-    envmap: str | None = None
-    envmap_scale: float = 1.0
+    direction: tuple[float, float, float]
+    up: tuple[float, float, float] = (0.0, 0.0, 1.0)
 
-    @property
-    def distant_only(self) -> bool:
-        return self.envmap is None and self.ambient == 0.0
 
-    def emitters(self) -> dict[str, Any]:
-        out: dict[str, Any] = {}
-        for i, (d, e) in enumerate(zip(self.directions, self.irradiance)):
+def emitters(lights: Any, total_irradiance: float = RENDER_IRRADIANCE, ambient: float = ROOM_AMBIENT) -> dict[str, Any]:
+    """Mitsuba emitters of a :class:`~labcut.Lights` in the mesh frame: its lamps as directional
+    lights, its environment map (if any) as an ``envmap`` emitter with the same rotation, scaled
+    together so that the lights' total irradiance is ``total_irradiance``. Without a map a dim
+    constant ``ambient`` room is added. Emitters are sampled in proportion to their power."""
+    w = np.asarray(lights.weights, dtype=np.float64)
+    scale = total_irradiance / float(w.sum())
+    out: dict[str, Any] = {}
+    for i, (d, e) in enumerate(zip(lights.lamp_directions, lights.lamp_weights)):
+        if e > 0:
             out[f"light_{i}"] = {
                 "type": "directional",
                 "direction": [-float(x) for x in d],  # Mitsuba: direction of travel
-                "irradiance": {"type": "rgb", "value": [float(e)] * 3},
+                "irradiance": {"type": "rgb", "value": [float(e) * scale] * 3},
+                "sampling_weight": float(e) * scale,
             }
-        if self.envmap is not None:
-            out["environment"] = {"type": "envmap", "filename": self.envmap, "scale": self.envmap_scale}
-        elif self.ambient > 0.0:
-            out["environment"] = {"type": "constant", "radiance": {"type": "rgb", "value": [self.ambient] * 3}}
-        return out
+    env = lights.environment
+    if env is not None:
+        out["environment"] = env.emitter(scale)
+        out["environment"]["sampling_weight"] = float(w[lights.n_lamps :].sum()) * scale
+    elif ambient > 0.0:
+        out["environment"] = {"type": "constant", "radiance": {"type": "rgb", "value": [ambient] * 3},
+                              "sampling_weight": ambient * 2.0 * math.pi}
+    return out
 
 
-def lighting_from_lights(lights: Any, total_irradiance: float = 3.0, ambient: float = 0.02) -> Lighting:
-    """Render lighting of an orientation :class:`~labcut.Lights` model: one directional
-    light per direction, irradiances scaled to ``total_irradiance``, plus a dim room."""
-    w = np.asarray(lights.weights, dtype=np.float64)
-    keep = w > 0
-    scale = total_irradiance / float(w[keep].sum())
-    return Lighting(
-        str(lights.name),
-        tuple(tuple(float(x) for x in d) for d in np.asarray(lights.directions)[keep]),
-        tuple(float(x) * scale for x in w[keep]),
-        ambient=ambient,
-    )
+def camera_views(spec: Any, main: Any) -> list[CameraView]:
+    """Cameras of a render request (mesh frame).
 
-
-def lighting_preset(spec: Any) -> Lighting:
-    """``overhead`` | ``sky`` | ``studio`` | an EXR/HDR environment map | a :class:`~labcut.Lights` model.
-
-    ``overhead`` is the same bench lamp as the orientation model's (a disc of 8° straight
-    above the stone) in a dim room, so renders show what recommendations optimise.
+    ``spec``: ``main`` (the scenario's main viewer) | ``face-up`` (straight at the face) |
+    ``orbit`` (8 views 35° off the face, every 45° from the front) | (tilt°, azimuth°) from the
+    face (+Z) and +X toward +Y. ``main`` is a :class:`~labcut.scene.Setting` (its main view and up).
     """
-    if isinstance(spec, Lighting):
-        return spec
-    if type(spec).__name__ == "Lights":
-        return lighting_from_lights(spec)
-    key = str(spec).strip()
-    if key == "overhead":
-        from ..orientation.models import Lights
-
-        return lighting_from_lights(Lights.preset("overhead", "draft"), 3.0, 0.02)
-    if key == "sky":
-        return Lighting("sky", ambient=0.6)
-    if key == "studio":
-        key_light = direction(25.0, FRONT_AZIMUTH_DEG + 30.0)
-        fill = direction(50.0, FRONT_AZIMUTH_DEG - 60.0)
-        rim = direction(60.0, 90.0)
-        return Lighting("studio", (tuple(key_light), tuple(fill), tuple(rim)), (2.5, 0.8, 1.2), ambient=0.02)
-    path = Path(key)
-    if path.suffix.lower() in (".exr", ".hdr"):
-        if not path.is_file():
-            raise ParameterError(f"environment map {key!r} does not exist")
-        return Lighting(f"envmap:{path.name}", envmap=str(path.resolve()))
-    raise ParameterError(f"unknown lighting {key!r}; choose one of {', '.join(LIGHTING_PRESETS)} or an .exr/.hdr file")
-
-
-@dataclass(frozen=True)
-class View:
-    """A camera direction (towards the viewer) by tilt from +Z and azimuth; orthographic or perspective."""
-
-    name: str
-    tilt_deg: float
-    azimuth_deg: float = FRONT_AZIMUTH_DEG
-
-    @property
-    def direction(self) -> np.ndarray:
-        return direction(self.tilt_deg, self.azimuth_deg)
-
-
-def view_presets(spec: str | View | tuple[float, float]) -> list[View]:
-    """``face-up`` | ``tilted`` (30° toward the front) | ``side`` | ``orbit`` (8 views) | (tilt, azimuth)."""
-    if isinstance(spec, View):
+    up = tuple(float(x) for x in main.up())
+    if isinstance(spec, CameraView):
         return [spec]
     if isinstance(spec, tuple | list) and len(spec) == 2:
         tilt, az = (float(x) for x in spec)
         if not (math.isfinite(tilt) and math.isfinite(az)) or not 0.0 <= tilt <= 90.0:
             raise ParameterError(f"view tilt must lie in [0, 90] degrees, got {tilt}")
-        return [View(f"tilt {tilt:g}° az {az:g}°", tilt, az)]
-    key = str(spec).strip()
+        return [CameraView(f"tilt {tilt:g}° az {az:g}°", tuple(direction(tilt, az)), up)]
+    key = str(spec).strip().lower()
+    if key == "main":
+        return [CameraView(f"{main.views.name} (main view)", tuple(float(x) for x in main.views.main), up)]
     if key == "face-up":
-        return [View("face-up", 0.0)]
-    if key == "tilted":
-        return [View("tilted", 30.0)]
-    if key == "side":
-        return [View("side", 80.0)]
+        return [CameraView("face-up", (0.0, 0.0, 1.0), up)]
     if key == "orbit":
-        return [View(f"orbit {az:.0f}°", 35.0, FRONT_AZIMUTH_DEG + az) for az in np.arange(0.0, 360.0, 45.0)]
-    raise ParameterError(f"unknown view {key!r}; choose one of {', '.join(VIEW_PRESETS)} or 'TILT,AZIMUTH'")
+        return [CameraView(f"orbit {az:.0f}°", tuple(direction(35.0, FRONT_AZIMUTH_DEG + az)), up) for az in np.arange(0.0, 360.0, 45.0)]
+    raise ParameterError(f"unknown view {spec!r}; choose one of {', '.join(VIEW_CHOICES)} or 'TILT,AZIMUTH'")
+
+
+VIEW_CHOICES = ("main", "face-up", "orbit")
 
 
 def to_mitsuba_mesh(mesh: Any, bsdf: Any, smooth_angle_deg: float = 30.0) -> Any:
@@ -165,15 +108,19 @@ def to_mitsuba_mesh(mesh: Any, bsdf: Any, smooth_angle_deg: float = 30.0) -> Any
     return m
 
 
-def camera(mesh: Any, view: View, resolution: int, perspective: bool = False, fov_deg: float = 25.0) -> dict[str, Any]:
-    """A sensor dict looking at the mesh's bounding sphere from ``view.direction``."""
+def camera(mesh: Any, view: CameraView, resolution: int, perspective: bool = False, fov_deg: float = 25.0) -> dict[str, Any]:
+    """A sensor dict looking at the mesh's bounding sphere from ``view.direction`` (mesh frame),
+    the image's top towards ``view.up``; clip planes from the bounds, so any size renders."""
     import mitsuba as mi
 
     lo, hi = np.asarray(mesh.bounds[0]), np.asarray(mesh.bounds[1])
     centre = 0.5 * (lo + hi)
-    radius = 0.5 * float(np.linalg.norm(hi - lo))
-    d = view.direction
-    up = np.array([0.0, 1.0, 0.0]) if abs(d[2]) > 0.9 else np.array([0.0, 0.0, 1.0])
+    radius = max(0.5 * float(np.linalg.norm(hi - lo)), 1e-6)
+    d = np.asarray(view.direction, dtype=np.float64)
+    d = d / np.linalg.norm(d)
+    up = np.asarray(view.up, dtype=np.float64)
+    if abs(float(d @ up)) > 0.9 * float(np.linalg.norm(up)):  # looking along up: the back (+Y) is up
+        up = np.array([0.0, 1.0, 0.0]) if abs(d[1]) < 0.9 else np.array([0.0, 0.0, 1.0])
     film = {
         "type": "hdrfilm",
         "width": int(resolution),
@@ -187,6 +134,8 @@ def camera(mesh: Any, view: View, resolution: int, perspective: bool = False, fo
         return {
             "type": "perspective",
             "fov": fov_deg,
+            "near_clip": max(distance - 2.0 * radius, distance * 1e-3),
+            "far_clip": distance + 2.0 * radius,
             "to_world": mi.ScalarTransform4f().look_at(origin=origin.tolist(), target=centre.tolist(), up=up.tolist()),
             "film": film,
         }
@@ -194,17 +143,9 @@ def camera(mesh: Any, view: View, resolution: int, perspective: bool = False, fo
     scale = radius * 1.08
     return {
         "type": "orthographic",
+        "near_clip": radius,
+        "far_clip": radius * 8.0,
         "to_world": mi.ScalarTransform4f().look_at(origin=origin.tolist(), target=centre.tolist(), up=up.tolist())
         @ mi.ScalarTransform4f().scale([scale, scale, 1.0]),
         "film": film,
     }
-
-
-def check_envmap(path: str | os.PathLike[str]) -> None:
-    """Refuse an environment map Mitsuba cannot read, with a one-line message."""
-    import mitsuba as mi
-
-    try:
-        mi.Bitmap(str(path))
-    except Exception as exc:  # Mitsuba raises RuntimeError with a long message
-        raise ParameterError(f"cannot read environment map {str(path)!r}: {str(exc).splitlines()[0][:160]}") from None

@@ -1,0 +1,36 @@
+"""The scene: lights, viewers and wear scenarios, one vocabulary for every command.
+
+This layer sits below rendering and orientation; both take a :class:`Scenario`
+(or the lights and views of one) and work in the mesh frame it produces.
+
+* :class:`Lights`, :class:`Views`: weighted distant directions; presets by name in
+  :data:`LIGHTING` and :data:`VIEWING`; lamps of finite size; environment maps
+  (:meth:`Lights.from_envmap`).
+* :class:`Scenario`: the stone's pose in a world with +Z up, lights and viewers
+  in that world, a rocking motion; presets by name in :data:`SCENARIOS`.
+"""
+
+from .directions import FRONT_AZIMUTH_DEG, direction, tilt_azimuth
+from .envmap import Environment, studio_environment
+from .presets import LIGHTING, VIEWING
+from .scenario import SCENARIOS, Scenario, Setting, resolve_scene, scenario_from
+from .sets import Lights, Views, lights_from, views_from
+
+__all__ = [
+    "FRONT_AZIMUTH_DEG",
+    "LIGHTING",
+    "SCENARIOS",
+    "VIEWING",
+    "Environment",
+    "Lights",
+    "Scenario",
+    "Setting",
+    "Views",
+    "direction",
+    "lights_from",
+    "resolve_scene",
+    "scenario_from",
+    "studio_environment",
+    "tilt_azimuth",
+    "views_from",
+]

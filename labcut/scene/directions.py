@@ -1,0 +1,101 @@
+"""Directions, rotations and deterministic direction sets on the sphere.
+
+Frames (DESIGN.md §3): the *world* frame of a scenario has +Z up; the *mesh* frame
+has +Z face-up and the front of the stone at -Y. Directions are unit vectors
+pointing *towards* a light or a viewer. Tilts are measured from +Z, azimuths from
++X toward +Y, in degrees.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from ..errors import ParameterError
+
+FRONT_AZIMUTH_DEG = 270.0
+"""Azimuth of the front of the stone (-Y), where a viewer usually stands."""
+
+GOLDEN_ANGLE = math.pi * (3.0 - math.sqrt(5.0))
+
+
+def direction(tilt_deg: float, azimuth_deg: float) -> np.ndarray:
+    """Unit vector at ``tilt_deg`` from +Z and ``azimuth_deg`` from +X toward +Y."""
+    t, a = math.radians(tilt_deg), math.radians(azimuth_deg)
+    return np.array([math.sin(t) * math.cos(a), math.sin(t) * math.sin(a), math.cos(t)])
+
+
+def tilt_azimuth(d: Any) -> tuple[float, float]:
+    """(tilt from +Z, azimuth from +X toward +Y in [0, 360)) of a direction, degrees."""
+    v = np.asarray(d, dtype=np.float64)
+    v = v / np.linalg.norm(v)
+    tilt = math.degrees(math.acos(max(-1.0, min(1.0, float(v[2])))))
+    az = math.degrees(math.atan2(float(v[1]), float(v[0]))) % 360.0 if 1e-9 < tilt < 180.0 - 1e-9 else 0.0
+    return tilt, az
+
+
+def frame_to(axis: Any) -> np.ndarray:
+    """A rotation (3 x 3, columns x, y, z) whose third column is the unit vector ``axis``."""
+    z = np.asarray(axis, dtype=np.float64)
+    z = z / np.linalg.norm(z)
+    helper = np.array([1.0, 0.0, 0.0]) if abs(z[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    x = np.cross(helper, z)
+    x /= np.linalg.norm(x)
+    return np.stack([x, np.cross(z, x), z], axis=1)
+
+
+def spherical_cap(centre: Any, half_angle_deg: float, n: int) -> np.ndarray:
+    """``n`` directions filling the cap of ``half_angle_deg`` around ``centre`` with equal solid
+    angle each (Fibonacci spiral; deterministic). ``n == 1`` gives the centre itself."""
+    c = np.asarray(centre, dtype=np.float64)
+    c = c / np.linalg.norm(c)
+    if n == 1:
+        return c[None, :]
+    i = np.arange(n) + 0.5
+    cos_max = math.cos(math.radians(half_angle_deg))
+    z = 1.0 - (1.0 - cos_max) * i / n
+    r = np.sqrt(np.clip(1.0 - z * z, 0.0, None))
+    phi = i * GOLDEN_ANGLE
+    local = np.stack([r * np.cos(phi), r * np.sin(phi), z], axis=1)
+    return local @ frame_to(c).T
+
+
+def rotation(axis: Any, angle_deg: float) -> np.ndarray:
+    """The rotation matrix about unit ``axis`` by ``angle_deg`` (right hand), 3 x 3."""
+    k = np.asarray(axis, dtype=np.float64)
+    k = k / np.linalg.norm(k)
+    t = math.radians(angle_deg)
+    kx = np.array([[0.0, -k[2], k[1]], [k[2], 0.0, -k[0]], [-k[1], k[0], 0.0]])
+    return np.eye(3) + math.sin(t) * kx + (1.0 - math.cos(t)) * (kx @ kx)
+
+
+def check_rotation(value: Any, what: str = "pose") -> np.ndarray:
+    """A validated 3 x 3 rotation matrix (finite, orthonormal to 1e-6, determinant +1)."""
+    try:
+        r = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ParameterError(f"{what} must be a 3 x 3 rotation matrix of numbers") from None
+    if r.shape != (3, 3):
+        raise ParameterError(f"{what} must be a 3 x 3 rotation matrix, got shape {list(r.shape)}")
+    if not np.all(np.isfinite(r)):
+        raise ParameterError(f"{what} must be finite (it holds NaN or infinity)")
+    if not np.allclose(r @ r.T, np.eye(3), atol=1e-6) or abs(float(np.linalg.det(r)) - 1.0) > 1e-6:
+        raise ParameterError(f"{what} is not a rotation (its rows must be orthonormal with determinant +1)")
+    return r
+
+
+def unit_vector(value: Any, what: str) -> np.ndarray:
+    """A validated unit vector from three finite numbers (not all zero)."""
+    try:
+        v = np.asarray(value, dtype=np.float64).reshape(3)
+    except (TypeError, ValueError):
+        raise ParameterError(f"{what} must be three numbers [x, y, z]") from None
+    if not np.all(np.isfinite(v)):
+        raise ParameterError(f"{what} must be finite, got {v.tolist()}")
+    scale = float(np.max(np.abs(v)))
+    if scale == 0.0:
+        raise ParameterError(f"{what} must not be the zero vector")
+    v = v / scale
+    return v / np.linalg.norm(v)
