@@ -203,11 +203,30 @@ def optimize_nlopt(scorer: Scorer, constraint: Constraint, global_evals: int = 2
         opt.optimize([0.0, 0.0])
     except Exception:  # nlopt's own stop conditions: keep the best point seen
         pass
-    u0, v0 = best[0]
-    u, v, value = _local_lbfgs(scorer, u0, v0, constraint)
-    if value < best[1]:
-        (u, v), value = best[0], best[1]
+    # DIRECT's few hundred samples can miss a peak narrower than its cells (a lobe of a few
+    # degrees): L-BFGS also starts from the best distinct cells of a coarse energy map (one
+    # batched kernel), and the best polished point wins
+    starts = [best[0]] + [normal_to_stereo(n) for n in _map_seeds(scorer, constraint, 4.0, 3)]
+    result = (best[0], best[1])
+    for u0, v0 in starts:
+        u, v, value = _local_lbfgs(scorer, u0, v0, constraint)
+        if value > result[1]:
+            result = ((u, v), value)
+    (u, v), value = result
     return OptimumResult(stereo_to_normal(u, v), value, scorer.evaluations - start, "nlopt")
+
+
+def _map_seeds(scorer: Scorer, constraint: Constraint, spacing_deg: float, count: int, separation_deg: float = 8.0) -> list[np.ndarray]:
+    """The best ``count`` cells of an energy map at ``spacing_deg``, at least ``separation_deg`` apart."""
+    coarse = hemisphere_grid(spacing_deg, constraint)
+    values = scorer.energy_map(coarse)
+    seeds: list[np.ndarray] = []
+    for i in np.argsort(values)[::-1]:
+        if len(seeds) >= count or values[i] <= 0:
+            break
+        if all(abs(float(coarse[i] @ s)) < math.cos(math.radians(separation_deg)) for s in seeds):
+            seeds.append(coarse[i])
+    return seeds
 
 
 def optimize_gradient(scorer: Scorer, constraint: Constraint, starts: int = 12, iterations: int = 60, seed: int = 0) -> OptimumResult:
@@ -219,14 +238,7 @@ def optimize_gradient(scorer: Scorer, constraint: Constraint, starts: int = 12, 
     inits = hemisphere_grid(max(2.0, math.degrees(math.sqrt(2 * math.pi * (1 - math.cos(math.radians(constraint.max_tilt_deg))) / starts))), constraint)
     inits = inits[np.linspace(0, len(inits) - 1, min(starts, len(inits))).astype(int)]
     # plus the best distinct cells of a coarse (6°) energy map: one batched evaluation
-    coarse = hemisphere_grid(6.0, constraint)
-    values = scorer.energy_map(coarse)
-    seeds: list[np.ndarray] = []
-    for i in np.argsort(values)[::-1]:
-        if len(seeds) >= max(4, starts // 2) or values[i] <= 0:
-            break
-        if all(abs(float(coarse[i] @ s)) < math.cos(math.radians(8.0)) for s in seeds):
-            seeds.append(coarse[i])
+    seeds = _map_seeds(scorer, constraint, 6.0, max(4, starts // 2))
     if seeds:
         inits = np.vstack([np.array(seeds), inits])
     best_uv, best_value = (0.0, 0.0), -np.inf
