@@ -217,3 +217,30 @@ def test_hard_cases_stay_finite_with_finite_gradients(mode, params):
     value = bsdf.eval(ctx, _si(n, wi), wo)
     dr.backward(dr.sum(mi.unpolarized_spectrum(value), axis=None))
     assert np.all(np.isfinite(np.array(dr.grad(params_["normal"]))))
+
+
+@pytest.mark.parametrize("spread", [1.0, 2.0])
+def test_schiller_albedo_of_parallel_lamellae_is_exact(spread):
+    """Lamellae parallel to the surface, light at normal incidence, a narrow lobe: all schiller
+    light leaves near the normal, so its albedo tends to T(0)² R(1) (energy balance through both
+    surfaces and the stack; wider lobes lose some to oblique exits, by design).
+    Integrated by an independent quadrature (uniform grid in solid angle), not by the BSDF's sampling."""
+    from labcut import Labradorite
+    from labcut.colour import luminance_table
+
+    _use("mono")
+    lab = Labradorite.preset("green", spread_deg=spread)
+    params = {k: v for k, v in lab.to_dict().items() if k != "name"}
+    bsdf = _bsdf(normal=[0.0, 0.0, 1.0], surface=False, body=False, **params)
+    cap = math.radians(10.0 * spread)  # the lobe, refracted out, lies well inside this cap
+    n_mu, n_phi = 1500, 256
+    mu = 1.0 - (np.arange(n_mu) + 0.5) / n_mu * (1.0 - math.cos(cap))
+    phi = (np.arange(n_phi) + 0.5) / n_phi * 2.0 * math.pi
+    mu_g, phi_g = np.meshgrid(mu, phi, indexing="ij")
+    s = np.sqrt(1.0 - mu_g**2)
+    wo = mi.Vector3f((s * np.cos(phi_g)).ravel(), (s * np.sin(phi_g)).ravel(), mu_g.ravel())
+    value = np.array(bsdf.eval(mi.BSDFContext(), _si(n_mu * n_phi, mi.Vector3f(0.0, 0.0, 1.0)), wo)).ravel()
+    albedo = float(value.sum()) * (2.0 * math.pi * (1.0 - math.cos(cap))) / (n_mu * n_phi)
+    t0 = 1.0 - ((lab.n_surface - 1.0) / (lab.n_surface + 1.0)) ** 2
+    expected = t0 * t0 * float(luminance_table(lab)[1][-1])
+    assert albedo == pytest.approx(expected, rel=0.02)

@@ -247,3 +247,23 @@ def test_binned_energy_is_accurate_for_narrow_lobes(oval):
 def test_balanced_score_is_zero_where_nothing_flashes(problems):
     scorer = Scorer(problems["oval"], "balanced")
     assert scorer.score(np.array([1.0, 0.0, 0.05])) == 0.0
+
+
+def test_tolerance_is_where_the_score_falls_to_90_percent(oval):
+    """At the stated tolerance the worst direction keeps 90 % of the score; well inside it every
+    direction keeps more (an independent ring of 64 directions, not the search's 16)."""
+    rec = labcut.recommend_orientation(oval, LAB, lighting="spot", viewing="face-up", quality="draft")
+    scorer = Scorer(build_problem(oval, LAB, Lights.preset("spot", "draft"), Views.preset("face-up", "draft"), "draft"))
+    best = rec.normal
+    e1 = np.cross(best, [1.0, 0.0, 0.0])
+    e1 /= np.linalg.norm(e1)
+    e2 = np.cross(best, e1)
+
+    def worst(angle_deg: float) -> float:
+        t = math.radians(angle_deg)
+        ring = [best * math.cos(t) + (math.cos(p) * e1 + math.sin(p) * e2) * math.sin(t) for p in np.linspace(0, 2 * math.pi, 64, endpoint=False)]
+        return float(np.min(scorer.scores(np.array(ring)))) / rec.score
+
+    assert worst(rec.tolerance_deg) == pytest.approx(0.9, abs=0.025)
+    assert worst(0.8 * rec.tolerance_deg) > 0.9
+    assert worst(1.25 * rec.tolerance_deg) < 0.9

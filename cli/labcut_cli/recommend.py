@@ -99,7 +99,8 @@ def recommend_orientation(
         if render_path is not None:
             result.save(render_path)
             written.append(Path(render_path))
-            data["render"] = {"path": str(render_path), "plan": result.plan.to_dict()}
+            data["render"] = {"path": str(render_path), "plan": result.plan.to_dict(), "scenario": result.scenario,
+                              "views": result.views}
         if map_path is not None:
             from labcut.plots.scoremap import plot_score_map
 

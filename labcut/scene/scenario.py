@@ -78,7 +78,7 @@ class Scenario:
             raise ParameterError(f"scenario {self.name!r} needs labcut.Lights and labcut.Views")
         check_quality(self.quality)
         main = self.pose.T @ self.views.main
-        if main[2] <= 0.0:
+        if main[2] <= 1e-3:
             raise ParameterError(f"scenario {self.name!r}: the main viewer does not see the face of the stone")
 
     # ------------------------------------------------------------------ construction
@@ -165,6 +165,12 @@ def _number(value: Any, what: str) -> float:
     return float(value)
 
 
+def _count(value: Any, what: str) -> int:
+    if isinstance(value, bool) or not isinstance(value, int) or not 1 <= value <= 100_000:
+        raise ParameterError(f"{what} must be a whole number in [1, 100000], got {value!r}")
+    return int(value)
+
+
 def _pose(value: Any, tilt_back: Any, source: str) -> np.ndarray:
     tilt = _number(tilt_back, f"{source}: tilt_back_deg")
     if isinstance(value, str):
@@ -198,10 +204,14 @@ def _lighting(value: Any, quality: str, source: str, base: Path | None) -> Light
             if "preset" in part:
                 lights = lights_from(str(part["preset"]), quality)
             elif "envmap" in part:
-                lights = Lights.from_envmap(_path(str(part["envmap"]), base), int(part.get("n", 256)))
+                from .presets import ENV_SAMPLES
+
+                lights = Lights.from_envmap(_path(str(part["envmap"]), base), _count(part.get("n", ENV_SAMPLES[quality]), f"{source}: n"))
             elif "lamp" in part:
+                from .presets import LAMP_SAMPLES
+
                 lights = Lights.lamp(part["lamp"], _number(part.get("radius_deg", 0.0), f"{source}: radius_deg"), 1.0,
-                                     int(part.get("n", 13)))
+                                     _count(part.get("n", LAMP_SAMPLES[quality]), f"{source}: n"))
             else:
                 raise ParameterError(f"{source}: each lighting part needs 'preset', 'envmap' or 'lamp'")
             parts.append((lights, share))
