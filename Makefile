@@ -29,10 +29,12 @@ setup: llvm $(STAMP)
 demo: setup
 	@mkdir -p $(OUT)
 	$(BIN)/labcut spectrum --preset blue --plot $(OUT)/spectrum-blue.png --json $(OUT)/spectrum-blue.json
-	$(BIN)/labcut recommend-orientation meshes/oval-16x12-low.ply --preset blue --lighting overhead --viewing face-up \
-		--json $(OUT)/oval-recommendation.json --render $(OUT)/oval-recommended.png --map $(OUT)/oval-score-map.png
-	$(BIN)/labcut recommend-orientation meshes/carving-biplane.ply --preset blue --lighting overhead --viewing rocking \
-		--json $(OUT)/biplane-recommendation.json --render $(OUT)/biplane-recommended.png --map $(OUT)/biplane-score-map.png
+	$(BIN)/labcut recommend-orientation meshes/oval-16x12-low.ply --preset blue --scenario bench \
+		--json $(OUT)/oval-bench.json --render $(OUT)/oval-bench.png --map $(OUT)/oval-bench-map.png
+	$(BIN)/labcut recommend-orientation meshes/oval-16x12-low.ply --preset blue --scenario pendant \
+		--json $(OUT)/oval-pendant.json --render $(OUT)/oval-pendant.png --map $(OUT)/oval-pendant-map.png
+	$(BIN)/labcut recommend-orientation meshes/carving-biplane.ply --preset blue --scenario bench \
+		--json $(OUT)/biplane-bench.json --render $(OUT)/biplane-bench.png --map $(OUT)/biplane-bench-map.png
 	@echo "demo outputs in $(OUT)/"
 
 test: setup

@@ -23,3 +23,15 @@ def test_recommend_carving_example(tmp_path):
                           capture_output=True, text=True, timeout=600, cwd=ROOT)
     assert proc.returncode == 0, proc.stderr[-2000:]
     assert (tmp_path / "carving-recommended.png").exists() and (tmp_path / "carving-score-map.png").exists()
+
+
+def test_scenario_gallery_writes_every_scenario(tmp_path):
+    proc = subprocess.run([sys.executable, str(ROOT / "examples" / "scenario_gallery.py"), "--quick", "--out", str(tmp_path)],
+                          capture_output=True, text=True, timeout=600, cwd=ROOT)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    text = (tmp_path / "scenarios.md").read_text()
+    from labcut.scene import SCENARIOS
+
+    for name in SCENARIOS.names():
+        assert f"### `{name}`" in text
+        assert (tmp_path / "images" / f"scenario-{name}.png").exists() and (tmp_path / "images" / f"scenario-{name}-diagram.png").exists()

@@ -210,6 +210,7 @@ def test_pendant_tilts_the_lamellae_towards_the_top_edge(oval):
     assert 5.0 <= rec.tilt_deg <= 30.0, rec.tilt_deg
     assert rec.normal[1] > 0 and abs(rec.azimuth_deg - 90.0) < 30.0, rec.azimuth_deg  # towards +Y
     assert rec.settings["scenario"]["name"] == "pendant"
+    assert "towards the top (+Y, the bail end)" in rec.description  # named as the pendant is worn
 
 
 @pytest.mark.parametrize("scenario", ["ring", "bench"])

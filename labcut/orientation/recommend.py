@@ -29,12 +29,20 @@ def tilt_azimuth(normal: np.ndarray) -> tuple[float, float]:
     return tilt, az
 
 
-def describe(normal: np.ndarray) -> str:
-    """The orientation in a cutter's words: tilt of the lamella plane towards a side of the stone."""
+FACE_UP_SIDES = ["right (+X)", "back-right", "back (+Y)", "back-left", "left (-X)", "front-left", "front (-Y)", "front-right"]
+UPRIGHT_SIDES = ["right (+X)", "top-right", "top (+Y, the bail end)", "top-left", "left (-X)", "bottom-left", "bottom (-Y)", "bottom-right"]
+
+
+def describe(normal: np.ndarray, scenario: Scenario | None = None) -> str:
+    """The orientation in a cutter's words: tilt of the lamella plane towards a side of the stone.
+
+    Sides are named as the stone is worn: front/back for a stone lying face-up, top/bottom
+    for one worn upright (pendant, brooch: the mesh's +Y end is up)."""
     tilt, az = tilt_azimuth(normal)
     if tilt < 0.5:
         return "keep the lamella plane parallel to the base (face-up)"
-    sides = ["right (+X)", "back-right", "back (+Y)", "back-left", "left (-X)", "front-left", "front (-Y)", "front-right"]
+    upright = scenario is not None and float((scenario.pose @ np.array([0.0, 1.0, 0.0]))[2]) > 0.7
+    sides = UPRIGHT_SIDES if upright else FACE_UP_SIDES
     side = sides[int(((az + 22.5) % 360.0) // 45.0)]
     return f"tilt the lamella plane {tilt:.0f}° towards the {side} of the stone (azimuth {az:.0f}°)"
 
@@ -72,7 +80,7 @@ class Recommendation:
 
     @property
     def description(self) -> str:
-        return describe(self.normal)
+        return describe(self.normal, self.scenario)
 
     def to_dict(self) -> dict[str, Any]:
         """Plain JSON: everything but the full score map (``map`` holds it as tilt/azimuth/score lists)."""
@@ -181,7 +189,7 @@ def recommend_orientation(
         normal = _upper(normal)
     report("tolerance and runners-up", 0.8)
     tol = tolerance_deg(scorer.scores, normal, score, constraint) if score > 0 else 0.0
-    runners = _runners_up(scorer, constraint, map_normals, map_scores, normal, score)
+    runners = _runners_up(scorer, constraint, map_normals, map_scores, normal, score, scenario=scene)
     by_axis = axis_tolerances(scorer, normal, score, constraint) if score > 0 else {"front_back_deg": 0.0, "left_right_deg": 0.0}
     metrics = scorer.metrics(normal)
     tilt, az = tilt_azimuth(normal)
@@ -213,7 +221,7 @@ def axis_tolerances(scorer: Scorer, best: np.ndarray, best_score: float, constra
     return out
 
 
-def _runners_up(scorer: Scorer, constraint: Constraint, normals: np.ndarray, scores: np.ndarray, best: np.ndarray, best_score: float, count: int = 3) -> list[dict[str, Any]]:
+def _runners_up(scorer: Scorer, constraint: Constraint, normals: np.ndarray, scores: np.ndarray, best: np.ndarray, best_score: float, count: int = 3, scenario: Scenario | None = None) -> list[dict[str, Any]]:
     """Distinct local maxima of the map: >= 12° from better ones, >= 30 % of the best score."""
     from .optimize import _polish_grid
 
@@ -235,7 +243,7 @@ def _runners_up(scorer: Scorer, constraint: Constraint, normals: np.ndarray, sco
         taken.append(polished)
         tilt, az = tilt_azimuth(polished)
         out.append({"normal": [float(x) for x in polished], "tilt_deg": tilt, "azimuth_deg": az, "score": float(value),
-                    "relative_score": float(value / best_score) if best_score > 0 else 0.0, "description": describe(polished)})
+                    "relative_score": float(value / best_score) if best_score > 0 else 0.0, "description": describe(polished, scenario)})
     return out
 
 
