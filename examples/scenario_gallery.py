@@ -23,7 +23,7 @@ import numpy as np
 import labcut
 from labcut.backend import device
 from labcut.fileio import atomic_output
-from labcut.scene import SCENARIOS, Scenario
+from labcut.scene import LIGHTING, SCENARIOS, VIEWING, Scenario
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -109,6 +109,9 @@ def main() -> None:
         print(f"{entry.name}: {rec.description} ({seconds:.1f} s)")
     text = TEMPLATE.format(
         table="\n".join(rows),
+        scenario_table="\n".join(f"| `{e.name}` | {e.summary} |" for e in SCENARIOS.entries()),
+        lighting_table="\n".join(f"| `{e.name}` | {e.summary} |" for e in LIGHTING.entries()),
+        viewing_table="\n".join(f"| `{e.name}` | {e.summary} |" for e in VIEWING.entries()),
         sections="\n".join(sections),
         quality=quality,
         spp=spp,
@@ -128,7 +131,12 @@ How a stone is lit, worn and seen decides which lamella orientation flashes. A
 the API (`scenario=`): `labcut.Scenario.preset("pendant")`,
 `labcut.recommend_orientation(mesh, scenario="ring")`,
 `labcut.render(mesh, lab, normal, scenario="bench")`. `labcut scenarios` lists
-them with the lighting and viewing presets.
+them with the lighting and viewing presets (the tables below are written from the
+same registries).
+
+| scenario | what it means |
+|---|---|
+{scenario_table}
 
 ## Frames
 
@@ -154,9 +162,18 @@ shows, with world up as the image's up.
 world); given without `--scenario`, they describe a still, face-up stone, as in
 labcut's first release. With nothing given, the scenario is `bench`.
 
-## Lighting presets
+## Lighting and viewing presets
 
-Each has total irradiance 1, so presets mix by share. Lamps of finite size are
+| lighting | what it means |
+|---|---|
+{lighting_table}
+
+| viewing | what it means |
+|---|---|
+{viewing_table}
+
+Directions are given in the scenario's world (+Z up, the viewer's side at -Y).
+Each lighting preset has total irradiance 1, so presets mix by share. Lamps of finite size are
 discs sampled by equal-solid-angle directions; distributed light (`ceiling`,
 `sky`, `studio`) is an environment map built in code, importance-sampled into
 weighted directions for the optimiser, and the same map lights the render
