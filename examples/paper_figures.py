@@ -112,7 +112,7 @@ def fig06_lut(s: Settings, out: Path) -> None:
         from labcut.physics.lamella import stack_reflectance
 
         for d_a, d_b, s_a, s_b, pairs in params:
-            r = stack_reflectance(tables().wavelengths, 1.0, shared["n_a"], shared["n_b"], d_a, d_b, s_a, s_b, pairs)
+            r = stack_reflectance(tables().wavelengths, 1.0, shared["n_a"], shared["n_b"], d_a, d_b, s_a, s_b, pairs, shared["n_surface"])
             colours.append(colour_of_spectrum(r).srgb)
         bar = np.array(colours)[None].repeat(12, axis=0)
         ax = axes[0, col]

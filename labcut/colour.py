@@ -179,14 +179,15 @@ def flash_colour(material: Any, cos_theta: float = 1.0, illuminant: str = "D65")
     return colour_of_spectrum(material.reflectance(tables().wavelengths, cos_theta), illuminant)
 
 
-def reflectance_rgb(material: Any, cos_theta: Any, illuminant: str = "D65") -> np.ndarray:
-    """Linear sRGB reflectance (..., 3) of ``material`` at an array of internal cosines.
+def reflectance_rgb(material: Any, cos_theta: Any, illuminant: str = "D65", polarization: str | None = None) -> np.ndarray:
+    """Linear sRGB reflectance (..., 3) of ``material`` at an array of internal cosines
+    (unpolarised, or ``'s'`` / ``'p'``).
 
     The table the RGB variants of the BSDF look up: ``R(λ, cos θ)`` integrated
     against the CIE curves once per material, never per ray.
     """
     c = np.asarray(cos_theta, dtype=np.float64)
-    spectra = material.reflectance(tables().wavelengths, c[..., None])
+    spectra = material.reflectance(tables().wavelengths, c[..., None], polarization)
     return xyz_to_linear_srgb(reflectance_to_xyz(spectra, illuminant))
 
 
@@ -201,8 +202,8 @@ def luminance_table(material: Any) -> tuple[np.ndarray, np.ndarray]:
     return c, reflectance_luminance(material, c)
 
 
-def reflectance_luminance(material: Any, cos_theta: Any, illuminant: str = "D65") -> np.ndarray:
-    """Luminance Y (...) of ``material``'s reflectance: the mono variants' table."""
+def reflectance_luminance(material: Any, cos_theta: Any, illuminant: str = "D65", polarization: str | None = None) -> np.ndarray:
+    """Luminance Y (...) of ``material``'s reflectance (unpolarised, or ``'s'`` / ``'p'``): the mono variants' table."""
     c = np.asarray(cos_theta, dtype=np.float64)
-    spectra = material.reflectance(tables().wavelengths, c[..., None])
+    spectra = material.reflectance(tables().wavelengths, c[..., None], polarization)
     return reflectance_to_xyz(spectra, illuminant)[..., 1]

@@ -1,6 +1,16 @@
 """Lamella physics of labradorite: stack reflectance and the material model."""
 
-from .lamella import bragg_wavelength, interface_reflectance, lamella_intensity, saturate, stack_reflectance
+from .lamella import (
+    bragg_wavelength,
+    interface_amplitudes,
+    interface_reflectance,
+    lamella_intensity,
+    phase_wavenumbers,
+    saturate,
+    saturate_random,
+    stack_reflectance,
+    stack_reflectance_sp,
+)
 from .material import AN_RANGE, PERIOD_RANGE_NM, Labradorite
 
 __all__ = [
@@ -8,8 +18,12 @@ __all__ = [
     "PERIOD_RANGE_NM",
     "Labradorite",
     "bragg_wavelength",
+    "interface_amplitudes",
     "interface_reflectance",
     "lamella_intensity",
+    "phase_wavenumbers",
     "saturate",
+    "saturate_random",
     "stack_reflectance",
+    "stack_reflectance_sp",
 ]

@@ -8,13 +8,17 @@ branching; :class:`labcut.Labradorite` validates parameters before calling them.
 Frames and units
 ----------------
 * ``wavelength_nm``: vacuum wavelength in nm.
-* ``cos_theta``: cosine of the angle between the ray inside the stone and the
-  lamella NORMAL. The lamella orientation is axial, so ``|cos_theta|`` is used.
-  Both phases see the same angle: their indices differ by 0.45 %, so refraction
-  between them moves the angle by < 0.3° up to θ ≈ 49°, 1° at 75°, and the Bragg
-  wavelength by 0.3 % at 60°; near grazing the weak-reflection (kinematic) model
-  itself fails (docs/physics.md, "One angle for both phases").
+* ``cos_theta``: cosine of the angle between the ray inside the stone (the bulk, index
+  ``n_surface``) and the lamella NORMAL. The lamella orientation is axial, so
+  ``|cos_theta|`` is used. Each phase refracts by Snell's law
+  (:func:`phase_wavenumbers`); :func:`lamella_intensity` without ``n_surface`` keeps the
+  printed one-angle form (docs/physics.md §3).
 * thicknesses ``d_x`` and their standard deviations ``sigma_x`` in nm.
+
+The stack reflectance (:func:`stack_reflectance_sp`): per polarisation, the kinematic
+``x = 2 N r² I`` with the interface amplitude ``r_s`` or ``r_p`` at the phases' angles,
+saturated by the random-medium law ``1 - <T>`` (:func:`saturate_random`), or by the
+dynamical ``tanh²`` for the phase-coherent part of a nearly perfect stack.
 
 The intensity per lamella pair, ``I = <|V|^2> / (2 N r^2)``, is (DESIGN.md §2)::
 
@@ -22,7 +26,7 @@ The intensity per lamella pair, ``I = <|V|^2> / (2 N r^2)``, is (DESIGN.md §2):
         / [(1 - ab)² + 4ab sin²((φa + φb)/2)]
 
 with ``a = exp(-α_a)``, ``α_x = (p_x σ_x)²/2``, ``φ_x = p_x d_x`` and
-``p_x = 4π n_x cos(θ)/λ``. Evaluated as printed it cancels catastrophically when
+``p_x = 4π q_x/λ``, ``q_x = n_x cos θ_x``. Evaluated as printed it cancels catastrophically when
 ``σ → 0`` and at grazing incidence. Writing ``cos φ = 1 - 2 sin²(φ/2)`` and using
 ``(1 - a²b²) - a(1 - b²) - b(1 - a²) = (1 - a)(1 - b)(1 - ab)`` gives a sum of
 non-negative terms::
@@ -49,19 +53,72 @@ def _one_minus_exp(ops: Any, x: Any) -> Any:
     return -ops.expm1(-x)
 
 
-def _bragg_sine(ops: Any, wavelength_nm: Any, cos_theta: Any, n_a: Any, n_b: Any, d_a: Any, d_b: Any) -> Any:
+def _bragg_sine(ops: Any, wavelength_nm: Any, q_a_wide: Any, q_b_wide: Any, d_a: Any, d_b: Any) -> Any:
     """sin((φa + φb)/2), the Bragg term, with the phase reduced modulo 2π in float64.
 
     Near a Bragg peak of a nearly perfect, thick stack the intensity I (and
     R_kin) has a peak only ~1e-6 wide in relative phase, about ten float32 units;
     R saturates there, but its band edges still lose accuracy (5.5e-5 in R
     with the phase in float32 against 2.8e-7, docs/physics-accuracy.md). The
-    phase in units of 2π, ``t = 2 cos θ (n_a d_a + n_b d_b)/λ``, is therefore
-    formed and reduced to ``t - round(t)`` in float64 (a no-op for numpy).
+    phase in units of 2π, ``t = 2 (q_a d_a + q_b d_b)/λ``, is therefore formed
+    and reduced to ``t - round(t)`` in float64 (a no-op for numpy); ``q_x`` come in
+    float64 too.
     """
-    t = (2.0 * (n_a * d_a + n_b * d_b)) * ops.wide(ops.abs(cos_theta)) / ops.wide(wavelength_nm)
+    t = (2.0 * (q_a_wide * d_a + q_b_wide * d_b)) / ops.wide(wavelength_nm)
     frac = ops.narrow(t - ops.round(t))
     return ops.sin(math.pi * frac)
+
+
+def phase_wavenumbers(cos_theta: Any, n_a: Any, n_b: Any, n_surface: Any = None, ops: Any = None) -> tuple[Any, Any]:
+    """``q_x = n_x cos θ_x`` of both phases for a ray at ``cos_theta`` to the lamella normal in
+    the bulk stone (index ``n_surface``), in the ops' wide precision (float64).
+
+    With ``n_surface`` (Snell in each phase): the tangential invariant
+    ``κ² = n_surface² (1 - cos²θ)`` is conserved and ``q_x = √(n_x² - κ²)``; κ² is
+    clamped just below ``min(n_a, n_b)²``, so beyond the critical angle of the
+    lower-index phase (θ > 85.4° for 1.555 in 1.56) the wave keeps a tiny real q and
+    the interfaces reflect totally (r → ±1, R → 1), as the evanescent wave does.
+    Without it (``None``): one angle in both phases, ``q_x = n_x |cos θ|`` (DESIGN.md §2's
+    printed form, used by :func:`lamella_intensity`'s Monte Carlo check).
+    """
+    ops = ops or ops_for(cos_theta, n_a, n_b, n_surface)
+    c = ops.wide(ops.abs(cos_theta))
+    if n_surface is None:
+        return n_a * c, n_b * c
+    kappa2 = n_surface * n_surface * ((1.0 - c) * (1.0 + c))
+    kappa2 = ops.minimum(kappa2, ops.minimum(n_a * n_a, n_b * n_b) * (1.0 - 1e-6))
+    return ops.sqrt(n_a * n_a - kappa2), ops.sqrt(n_b * n_b - kappa2)
+
+
+def _intensity_q(ops: Any, wavelength_nm: Any, q_a_w: Any, q_b_w: Any, d_a: Any, d_b: Any, sigma_a: Any, sigma_b: Any,
+                 pairs: Any) -> tuple[Any, Any]:
+    """(I, α_a + α_b of the thickness jitter alone) from the phases' wavenumbers (wide)."""
+    q_a, q_b = ops.narrow(q_a_w), ops.narrow(q_b_w)
+    k = FOUR_PI / wavelength_nm
+    p_a = k * q_a
+    p_b = k * q_b
+    phi_a = p_a * d_a
+    phi_b = p_b * d_b
+    alpha_a = 0.5 * (p_a * sigma_a) ** 2
+    alpha_b = 0.5 * (p_b * sigma_b) ** 2
+    jitter = alpha_a + alpha_b
+    if pairs is not None:  # finite-stack coherence, see lamella_intensity
+        inv_pi2_n = 1.0 / (math.pi * math.pi * pairs)
+        alpha_a = alpha_a + phi_a * phi_a * inv_pi2_n
+        alpha_b = alpha_b + phi_b * phi_b * inv_pi2_n
+    a = ops.exp(-alpha_a)
+    b = ops.exp(-alpha_b)
+    one_a = _one_minus_exp(ops, alpha_a)  # 1 - a
+    one_b = _one_minus_exp(ops, alpha_b)  # 1 - b
+    one_ab = _one_minus_exp(ops, alpha_a + alpha_b)  # 1 - ab
+    one_a2 = _one_minus_exp(ops, 2.0 * alpha_a)  # 1 - a²
+    one_b2 = _one_minus_exp(ops, 2.0 * alpha_b)  # 1 - b²
+    s_a = ops.sin(0.5 * phi_a)
+    s_b = ops.sin(0.5 * phi_b)
+    s_m = _bragg_sine(ops, wavelength_nm, q_a_w, q_b_w, d_a, d_b)
+    numerator = one_a * one_b * one_ab + 2.0 * a * one_b2 * s_a * s_a + 2.0 * b * one_a2 * s_b * s_b
+    denominator = one_ab * one_ab + 4.0 * a * b * s_m * s_m
+    return numerator / ops.maximum(denominator, ops.tiny), jitter
 
 
 def lamella_intensity(
@@ -75,6 +132,7 @@ def lamella_intensity(
     sigma_b: Any,
     *,
     pairs: Any = None,
+    n_surface: Any = None,
 ) -> Any:
     """Intensity per lamella pair ``I = <|V|²>/(2 N r²)`` of a random two-phase stack.
 
@@ -96,61 +154,100 @@ def lamella_intensity(
         coherent sum of the 2N interface amplitudes, and ``R = tanh²(2Nr)``,
         the dynamical result. Like the real damping it vanishes at grazing
         incidence. Negligible whenever ``σ`` is not tiny.
+    n_surface:
+        Index of the bulk stone in which ``cos_theta`` is measured: the phases then
+        use Snell's law each (:func:`phase_wavenumbers`). ``None``: one angle in both.
 
     Returns
     -------
-    I >= 0, finite; 0 at grazing incidence. Unitless.
+    I >= 0, finite; 0 at grazing incidence (one angle). Unitless.
     """
     ops = ops_for(wavelength_nm, cos_theta, n_a, n_b, d_a, d_b, sigma_a, sigma_b, pairs)
-    k = FOUR_PI * ops.abs(cos_theta) / wavelength_nm
-    p_a = k * n_a
-    p_b = k * n_b
-    phi_a = p_a * d_a
-    phi_b = p_b * d_b
-    alpha_a = 0.5 * (p_a * sigma_a) ** 2
-    alpha_b = 0.5 * (p_b * sigma_b) ** 2
-    if pairs is not None:  # finite-stack coherence, see the docstring
-        inv_pi2_n = 1.0 / (math.pi * math.pi * pairs)
-        alpha_a = alpha_a + phi_a * phi_a * inv_pi2_n
-        alpha_b = alpha_b + phi_b * phi_b * inv_pi2_n
-    a = ops.exp(-alpha_a)
-    b = ops.exp(-alpha_b)
-    one_a = _one_minus_exp(ops, alpha_a)  # 1 - a
-    one_b = _one_minus_exp(ops, alpha_b)  # 1 - b
-    one_ab = _one_minus_exp(ops, alpha_a + alpha_b)  # 1 - ab
-    one_a2 = _one_minus_exp(ops, 2.0 * alpha_a)  # 1 - a²
-    one_b2 = _one_minus_exp(ops, 2.0 * alpha_b)  # 1 - b²
-    s_a = ops.sin(0.5 * phi_a)
-    s_b = ops.sin(0.5 * phi_b)
-    s_m = _bragg_sine(ops, wavelength_nm, cos_theta, n_a, n_b, d_a, d_b)
-    numerator = one_a * one_b * one_ab + 2.0 * a * one_b2 * s_a * s_a + 2.0 * b * one_a2 * s_b * s_b
-    denominator = one_ab * one_ab + 4.0 * a * b * s_m * s_m
-    return numerator / ops.maximum(denominator, ops.tiny)
+    q_a, q_b = phase_wavenumbers(cos_theta, n_a, n_b, n_surface, ops)
+    return _intensity_q(ops, wavelength_nm, q_a, q_b, d_a, d_b, sigma_a, sigma_b, pairs)[0]
 
 
 def interface_reflectance(n_a: Any, n_b: Any) -> Any:
-    """Power reflectance ``r²`` of one a|b interface (unpolarised).
+    """Power reflectance ``r²`` of one a|b interface at normal incidence (s = p):
+    ``((n_b - n_a)/(n_a + n_b))²`` (5.0e-6 for 1.555 | 1.562). At other angles see
+    :func:`interface_amplitudes`."""
+    r = (n_a - n_b) / (n_a + n_b)
+    return r * r
 
-    With one angle in both phases the s and p amplitudes are ``(n_a - n_b)/(n_a + n_b)``
-    and its negative at every angle, so their mean square is angle-independent:
-    ``r² = ((n_b - n_a)/(n_a + n_b))²`` (5.0e-6 for 1.555 | 1.562).
-    """
-    r_s = (n_a - n_b) / (n_a + n_b)
-    r_p = (n_b - n_a) / (n_b + n_a)
-    return 0.5 * (r_s * r_s + r_p * r_p)
+
+def interface_amplitudes(q_a: Any, q_b: Any, n_a: Any, n_b: Any) -> tuple[Any, Any]:
+    """Fresnel amplitudes ``(r_s, r_p)`` of the a|b interface from the phases' ``q_x = n_x cos θ_x``:
+    ``r_s = (q_a - q_b)/(q_a + q_b)``, ``r_p = (n_b² q_a - n_a² q_b)/(n_b² q_a + n_a² q_b)``
+    (Mitsuba's sign convention: at normal incidence ``r_p = -r_s``; ``r_p`` vanishes at the
+    phases' Brewster angle, ~45° here)."""
+    r_s = (q_a - q_b) / (q_a + q_b)
+    nb2_qa, na2_qb = n_b * n_b * q_a, n_a * n_a * q_b
+    return r_s, (nb2_qa - na2_qb) / (nb2_qa + na2_qb)
 
 
 def saturate(r_kin: Any) -> Any:
-    """Map a kinematic reflectance ``R_kin >= 0`` into [0, 1]: ``tanh²(√R_kin)``.
-
-    ``R ≈ R_kin`` for ``R_kin << 1`` (kinematic theory) and exactly ``tanh²(2Nr)``
-    at the Bragg peak of a perfect stack (dynamical theory). For strongly
-    disordered, highly reflecting stacks it reads high: an incoherent stack has
-    ``R_kin/(1 + R_kin)`` (0.0571 vs 0.0582 at N = 6000; docs/physics.md).
-    """
+    """The dynamical (coherent) limit ``tanh²(√x)`` of a kinematic reflectance ``x >= 0``:
+    exact at the Bragg peak of a perfect stack, ``tanh²(2Nr)``."""
     ops = ops_for(r_kin)
     t = ops.tanh(ops.safe_sqrt(r_kin))
     return t * t
+
+
+def saturate_random(x: Any) -> Any:
+    """Ensemble-mean reflectance ``R = 1 - <T>`` of a random 1D medium of kinematic
+    reflectance ``x`` (= L/ℓ, length over the backscattering mean free path).
+
+    The exact ``<T>`` of a weakly disordered 1D medium (Gertsenshtein & Vasil'ev 1959;
+    Abrikosov 1981) goes from ``1 - x`` to ``∝ x^{-3/2} e^{-x/4}``; here it is the closed form
+    ``<T> = e^{-x/4} / √(1 + 1.5 x + 0.2325 x² + 0.02848 x³)``, whose coefficients were
+    fitted to that law and are checked against transfer-matrix ensemble means of
+    labradorite stacks (docs/physics-accuracy.md). Evaluated as
+    ``-expm1(-(x/4 + ½ log1p(1.5x + 0.2325x² + 0.02848x³)))``: no cancellation at small x
+    (R ≈ x), 1 for x → ∞, finite for every x >= 0 (x = inf gives 1).
+    """
+    ops = ops_for(x)
+    poly = x * (1.5 + x * (0.2325 + 0.02848 * x))
+    return -ops.expm1(-(0.25 * x + 0.5 * ops.log1p(poly)))
+
+
+def stack_reflectance_sp(
+    wavelength_nm: Any,
+    cos_theta: Any,
+    n_a: Any,
+    n_b: Any,
+    d_a: Any,
+    d_b: Any,
+    sigma_a: Any,
+    sigma_b: Any,
+    pairs: Any,
+    n_surface: Any,
+) -> tuple[Any, Any, Any]:
+    """``(R_s, R_p, sign)`` of a stack of ``pairs`` lamella pairs, each in [0, 1].
+
+    ``cos_theta`` is the cosine of the angle between the ray and the lamella normal in
+    the bulk stone of index ``n_surface``. Each phase refracts by Snell's law
+    (:func:`phase_wavenumbers`); the kinematic reflectance of each polarisation is
+    ``x = 2 N r² I`` with its own interface amplitude (:func:`interface_amplitudes`) and
+    the intensity per pair ``I`` of those phases; each is saturated separately:
+    ``R = w tanh²(√x) + (1 - w) F(x)``, ``F`` the random-medium law
+    (:func:`saturate_random`) and ``w = e^{-N(α_a + α_b)}`` the part of the stack that the
+    thickness jitter leaves phase-coherent (1 for a perfect stack: the dynamical
+    ``tanh²(2Nr)``; 0 for any real labradorite, σ of a few nm and N in the thousands).
+    ``sign`` is the sign of ``r_s r_p`` (-1 below the phases' Brewster angle): the
+    handedness term of the schiller's Mueller matrix.
+    """
+    ops = ops_for(wavelength_nm, cos_theta, n_a, n_b, d_a, d_b, sigma_a, sigma_b, pairs, n_surface)
+    q_a, q_b = phase_wavenumbers(cos_theta, n_a, n_b, n_surface, ops)
+    intensity, jitter = _intensity_q(ops, wavelength_nm, q_a, q_b, d_a, d_b, sigma_a, sigma_b, pairs)
+    r_s, r_p = interface_amplitudes(ops.narrow(q_a), ops.narrow(q_b), n_a, n_b)
+    w = ops.exp(-pairs * jitter)
+    two_n_i = 2.0 * pairs * intensity
+    out = []
+    for r in (r_s, r_p):
+        x = two_n_i * (r * r)
+        out.append(w * saturate(x) + (1.0 - w) * saturate_random(x))
+    sign = ops.select(r_s * r_p < 0.0, -1.0, 1.0)
+    return out[0], out[1], sign
 
 
 def stack_reflectance(
@@ -163,16 +260,20 @@ def stack_reflectance(
     sigma_a: Any,
     sigma_b: Any,
     pairs: Any,
+    n_surface: Any,
+    polarization: str | None = None,
 ) -> Any:
-    """Reflectance in [0, 1] of a stack of ``pairs`` lamella pairs (unpolarised).
-
-    ``R = tanh²(√R_kin)``, ``R_kin = 2 N r² I(λ, θ)``, with ``r²`` the interface
-    reflectance of :func:`interface_reflectance` and ``I`` from
-    :func:`lamella_intensity`. Arguments as there.
-    """
-    intensity = lamella_intensity(wavelength_nm, cos_theta, n_a, n_b, d_a, d_b, sigma_a, sigma_b, pairs=pairs)
-    r2 = interface_reflectance(n_a, n_b)
-    return saturate(2.0 * pairs * r2 * intensity)
+    """Reflectance in [0, 1] of a stack of ``pairs`` lamella pairs: unpolarised
+    ``(R_s + R_p)/2`` (``polarization=None``), or ``R_s`` / ``R_p`` (``'s'`` / ``'p'``).
+    Arguments and model as :func:`stack_reflectance_sp`."""
+    r_s, r_p, _ = stack_reflectance_sp(wavelength_nm, cos_theta, n_a, n_b, d_a, d_b, sigma_a, sigma_b, pairs, n_surface)
+    if polarization is None:
+        return 0.5 * (r_s + r_p)
+    if polarization == "s":
+        return r_s
+    if polarization == "p":
+        return r_p
+    raise ValueError(f"polarization must be None, 's' or 'p', got {polarization!r}")
 
 
 def bragg_wavelength(cos_theta: Any, n_a: Any, n_b: Any, d_a: Any, d_b: Any, order: int = 1) -> Any:

@@ -195,23 +195,38 @@ class Labradorite:
         )
 
     def intensity(self, wavelength_nm: Any, cos_theta: Any) -> Any:
-        """Intensity per pair ``I`` of :func:`labcut.physics.lamella_intensity`, finite stack."""
+        """Intensity per pair ``I`` of :func:`labcut.physics.lamella_intensity`, finite stack, Snell
+        in each phase (``cos_theta`` measured in the bulk stone, index ``n_surface``)."""
         wl, c = self._coerce(wavelength_nm, cos_theta)
         return lamella.lamella_intensity(
             wl, c, self.n_a, self.n_b, self.d_a, self.d_b, self.sigma_a, self.sigma_b,
-            pairs=self.pairs,
+            pairs=self.pairs, n_surface=self.n_surface,
         )
 
-    def reflectance(self, wavelength_nm: Any, cos_theta: Any) -> Any:
-        """Stack reflectance R in [0, 1] at vacuum wavelength (nm) and internal cos(angle to lamella normal).
+    def reflectance(self, wavelength_nm: Any, cos_theta: Any, polarization: str | None = None) -> Any:
+        """Stack reflectance R in [0, 1] at vacuum wavelength (nm) and ``cos_theta``.
 
+        ``cos_theta`` is the cosine of the angle between the ray in the bulk stone (index
+        ``n_surface``) and the lamella normal (axial: its sign does not matter).
+        ``polarization``: ``None`` (unpolarised, the mean of s and p), ``'s'`` or ``'p'``
+        (electric field perpendicular to / in the plane of incidence on the lamellae).
         numpy inputs broadcast and give float64 arrays (validated: wavelength > 0,
         |cos_theta| <= 1, no NaN); Dr.Jit inputs (inside Mitsuba kernels) give
         Dr.Jit arrays through the same expression, unvalidated.
         """
+        if polarization not in (None, "s", "p"):
+            raise ParameterError(f"polarization must be None (unpolarised), 's' or 'p', got {polarization!r}")
         wl, c = self._coerce(wavelength_nm, cos_theta)
         return lamella.stack_reflectance(
-            wl, c, self.n_a, self.n_b, self.d_a, self.d_b, self.sigma_a, self.sigma_b, self.pairs
+            wl, c, self.n_a, self.n_b, self.d_a, self.d_b, self.sigma_a, self.sigma_b, self.pairs, self.n_surface,
+            polarization,
+        )
+
+    def reflectance_sp(self, wavelength_nm: Any, cos_theta: Any) -> tuple[Any, Any, Any]:
+        """``(R_s, R_p, sign of r_s r_p)`` in one evaluation (:func:`labcut.physics.lamella.stack_reflectance_sp`)."""
+        wl, c = self._coerce(wavelength_nm, cos_theta)
+        return lamella.stack_reflectance_sp(
+            wl, c, self.n_a, self.n_b, self.d_a, self.d_b, self.sigma_a, self.sigma_b, self.pairs, self.n_surface
         )
 
     def peak_wavelength(self, cos_theta: float = 1.0) -> float:

@@ -5,9 +5,10 @@ The lamella physics in :mod:`labcut.physics.lamella` is written once against an
 The API and the tests call it with numpy arrays, the Mitsuba BSDF with Dr.Jit
 arrays inside a traced kernel, so the same expression serves both.
 
-Dr.Jit has no ``expm1``: :func:`_dr_expm1` uses Kahan's trick
-``(u - 1) * x / log(u)`` with ``u = exp(x)``, which is accurate to a few ulp for
-small ``x``; all its branches are kept finite so reverse-mode AD sees no NaN.
+Dr.Jit has no ``expm1`` or ``log1p``: they use Kahan's tricks
+``(u - 1) * x / log(u)`` with ``u = exp(x)`` and ``x log(u) / (u - 1)`` with
+``u = 1 + x``, accurate to a few ulp for small ``x``; all branches are kept
+finite so reverse-mode AD sees no NaN.
 
 ``wide``/``narrow`` move a value to float64 and back (identity for numpy): the
 Bragg phase, whose peak in I is only ~10 float32 units wide for a nearly perfect
@@ -47,6 +48,7 @@ NUMPY = SimpleNamespace(
     round=np.round,
     exp=np.exp,
     expm1=np.expm1,
+    log1p=np.log1p,
     sin=np.sin,
     cos=np.cos,
     tanh=np.tanh,
@@ -78,6 +80,13 @@ def _drjit_ops() -> SimpleNamespace:
             kahan = um1 * x / dr.select(small, 1.0, log_u)
             return dr.select(small, x, dr.select(big, um1, kahan))
 
+        def log1p(x: Any) -> Any:
+            """log(1 + x) for x >= 0, accurate for small x (Kahan: x log(u)/(u - 1), u = 1 + x)."""
+            u = 1.0 + x
+            um1 = u - 1.0
+            small = um1 == 0.0
+            return dr.select(small, x, dr.log(u) * x / dr.select(small, 1.0, um1))
+
         def wide(x: Any) -> Any:
             """Float64 copy of a Dr.Jit float array (same backend, AD kept)."""
             if not dr.is_array_v(x):
@@ -96,6 +105,7 @@ def _drjit_ops() -> SimpleNamespace:
             round=dr.round,
             exp=dr.exp,
             expm1=expm1,
+            log1p=log1p,
             sin=dr.sin,
             cos=dr.cos,
             tanh=dr.tanh,

@@ -59,7 +59,7 @@ import numpy as np
 from ..colour import LUMINANCE_TABLE_SIZE
 from ..errors import ParameterError
 from ..physics import schiller as lobe
-from ..physics.lamella import stack_reflectance
+from ..physics.lamella import interface_amplitudes, phase_wavenumbers, stack_reflectance, stack_reflectance_sp
 from ..physics.material import Labradorite
 from ..physics.ops import drjit_ops
 
@@ -174,12 +174,18 @@ def _define_class() -> type:
             # schiller sampling weight: mean luminance reflectance over the angles light meets
             self.schiller_weight = float(max(np.mean(lum[TABLE_SIZE // 2 :]), 0.02))
             self.table = None
+            self.table_sp = None
             if not self._spectral:
                 if mi.is_rgb:
                     data = np.clip(reflectance_rgb(self.material, c), 0.0, None).astype(np.float32)
                 else:
                     data = lum[:, None].astype(np.float32)
                 self.table = mi.Texture1f(mi.TensorXf(data))
+                if mi.is_polarized:  # mono polarized: luminance of R_s and R_p
+                    from ..colour import reflectance_luminance
+
+                    sp = np.stack([reflectance_luminance(self.material, c, polarization=pol) for pol in ("s", "p")], axis=1)
+                    self.table_sp = mi.Texture1f(mi.TensorXf(np.clip(sp, 0.0, None).astype(np.float32)))
 
         # ------------------------------------------------------------------ helpers
         def _lamella_reflectance(self, si: Any, cos_l: Any) -> Any:
@@ -188,7 +194,7 @@ def _define_class() -> type:
                 return self.zoning.reflectance(si, cos_l)
             if self._spectral:
                 m = self.material
-                r = stack_reflectance(si.wavelengths, cos_l, m.n_a, m.n_b, m.d_a, m.d_b, m.sigma_a, m.sigma_b, m.pairs)
+                r = stack_reflectance(si.wavelengths, cos_l, m.n_a, m.n_b, m.d_a, m.d_b, m.sigma_a, m.sigma_b, m.pairs, m.n_surface)
                 return mi.UnpolarizedSpectrum(r)
             # texel i sits at (i + 0.5)/N: map cos θ in [0, 1] onto the texel centres
             coord = (dr.clip(cos_l, 0.0, 1.0) * (TABLE_SIZE - 1) + 0.5) * (1.0 / TABLE_SIZE)
@@ -226,6 +232,11 @@ def _define_class() -> type:
 
         def _schiller_terms(self, si: Any, wo: Any) -> tuple[Any, Any]:
             """(f_s · cos θ_o as UnpolarizedSpectrum, pdf of the schiller lobe) for local wo."""
+            value, pdf, _ = self._schiller_parts(si, wo)
+            return value, pdf
+
+        def _schiller_parts(self, si: Any, wo: Any) -> tuple[Any, Any, Any]:
+            """(unpolarised value, pdf, (geometric weight without R, cos θ_l, h)) of the schiller lobe."""
             ops = drjit_ops()
             n = mi.Vector3f(0.0, 0.0, 1.0)
             cos_i, cos_o = mi.Frame3f.cos_theta(si.wi), mi.Frame3f.cos_theta(wo)
@@ -235,9 +246,50 @@ def _define_class() -> type:
             t_o = lobe.transmission(cos_o, self._eta, ops)
             factor = lobe.schiller_factor(t_i, t_o, cos_l, max_ab, self._eta, ops)
             r = self._lamella_reflectance(si, cos_l)
-            value = r * (factor * q * cos_o)
+            geom = factor * q * cos_o
             pdf = lobe.schiller_pdf(q, cos_l, b.z, cos_o, self._eta, ops)
-            return value, pdf
+            return r * geom, pdf, (geom, cos_l, h)
+
+        def _schiller_mueller(self, ctx: Any, si: Any, wo: Any, geom: Any, cos_l: Any, h: Any) -> Any:
+            """The schiller as a Mueller matrix (polarized variants): the stack's R_s and R_p in the
+            plane of incidence on the lamellae (a diattenuator; the handedness flips like a mirror's
+            where r_s r_p < 0), rotated into the Stokes bases of the two directions as Mitsuba's
+            microfacet conductors do with the microfacet normal, here the lamella orientation h.
+            The small rotation of the plane of polarisation by the two refractions at the polished
+            surface, and the polarisation of its transmissions, are left out."""
+            m = self.material
+            if self._spectral:
+                r_s, r_p, sign = stack_reflectance_sp(si.wavelengths, cos_l, m.n_a, m.n_b, m.d_a, m.d_b, m.sigma_a,
+                                                      m.sigma_b, m.pairs, m.n_surface)
+                r_s, r_p = mi.UnpolarizedSpectrum(r_s), mi.UnpolarizedSpectrum(r_p)
+            else:  # mono polarized: luminance tables of R_s and R_p
+                coord = (dr.clip(cos_l, 0.0, 1.0) * (TABLE_SIZE - 1) + 0.5) * (1.0 / TABLE_SIZE)
+                values = self.table_sp.eval(mi.Point1f(coord))
+                r_s, r_p = mi.UnpolarizedSpectrum(values[0]), mi.UnpolarizedSpectrum(values[1])
+                q_a, q_b = phase_wavenumbers(cos_l, m.n_a, m.n_b, m.n_surface, drjit_ops())
+                rs_amp, rp_amp = interface_amplitudes(mi.Float(q_a), mi.Float(q_b), m.n_a, m.n_b)
+                sign = dr.select(rs_amp * rp_amp < 0.0, -1.0, 1.0)
+            retard = mi.mueller.linear_retarder(mi.UnpolarizedSpectrum(dr.select(sign < 0.0, dr.pi, 0.0)))
+            mueller = retard @ mi.mueller.diattenuator(r_s, r_p)
+            wi_hat = wo if ctx.mode == mi.TransportMode.Radiance else si.wi
+            wo_hat = si.wi if ctx.mode == mi.TransportMode.Radiance else wo
+            s_in = dr.cross(h, -wo_hat)
+            s_out = dr.cross(h, wi_hat)
+            degenerate = (dr.squared_norm(s_in) < 1e-12) | (dr.squared_norm(s_out) < 1e-12)
+            s_in = dr.select(degenerate, mi.Frame3f(-wo_hat).s, dr.normalize(s_in))
+            s_out = dr.select(degenerate, mi.Frame3f(wi_hat).s, dr.normalize(s_out))
+            mueller = mi.mueller.rotate_mueller_basis(
+                mueller, -wo_hat, s_in, mi.mueller.stokes_basis(-wo_hat), wi_hat, s_out, mi.mueller.stokes_basis(wi_hat)
+            )
+            return mueller * geom
+
+        def _lobe_sum(self, ctx: Any, si: Any, wo: Any, sch: Any, body_value: Any, use_sch: Any, use_body: Any) -> Any:
+            """Schiller plus body as a ``mi.Spectrum``: in polarized variants the schiller is its
+            Mueller matrix (a zoned stone's schiller, and the body, are depolarised)."""
+            value, _, (geom, cos_l, h) = sch
+            if not mi.is_polarized or self.zoning is not None:
+                return self._to_spectrum(value * use_sch + body_value * use_body)
+            return self._schiller_mueller(ctx, si, wo, geom * use_sch, cos_l, h) + self._to_spectrum(body_value * use_body)
 
         def _body_terms(self, si: Any, wo: Any) -> tuple[Any, Any]:
             ops = drjit_ops()
@@ -310,11 +362,11 @@ def _define_class() -> type:
             active &= mi.Frame3f.cos_theta(bs.wo) > 0.0
 
             # non-delta: value / pdf of the mixture (as plastic.cpp does)
-            sch_val, sch_pdf = self._schiller_terms(si, bs.wo)
+            sch = self._schiller_parts(si, bs.wo)
             body_val, body_pdf = self._body_terms(si, bs.wo)
-            pdf_mix = p_sch * sch_pdf + p_body * body_pdf
+            pdf_mix = p_sch * sch[1] + p_body * body_pdf
             bs.pdf = dr.select(pick_spec, p_spec, pdf_mix)
-            value_mix = self._to_spectrum(sch_val * dr.select(p_sch > 0.0, 1.0, 0.0) + body_val * dr.select(p_body > 0.0, 1.0, 0.0))
+            value_mix = self._lobe_sum(ctx, si, bs.wo, sch, body_val, dr.select(p_sch > 0.0, 1.0, 0.0), dr.select(p_body > 0.0, 1.0, 0.0))
             weight_mix = value_mix * dr.select(pdf_mix > 0.0, dr.rcp(pdf_mix), 0.0)
             weight_spec = self._surface_weight(ctx, si, bs.wo, f_i) * dr.select(p_spec > 0.0, dr.rcp(p_spec), 0.0)
             weight = dr.select(pick_spec, weight_spec, weight_mix)
@@ -339,18 +391,21 @@ def _define_class() -> type:
             p_spec, p_sch, p_body, _ = self._weights(ctx, cos_i)
             use_sch = self.use_schiller and ctx.is_enabled(mi.BSDFFlags.GlossyReflection, 1)
             use_body = self.use_body and ctx.is_enabled(mi.BSDFFlags.DiffuseReflection, 2)
-            value = mi.UnpolarizedSpectrum(0.0)
             pdf = mi.Float(0.0)
+            sch = None
+            body_value = mi.UnpolarizedSpectrum(0.0)
             if use_sch:
-                v, p = self._schiller_terms(si, wo)
-                value += v
-                pdf += p_sch * p
+                sch = self._schiller_parts(si, wo)
+                pdf += p_sch * sch[1]
             if use_body:
-                v, p = self._body_terms(si, wo)
-                value += v
+                body_value, p = self._body_terms(si, wo)
                 pdf += p_body * p
+            if sch is None:
+                value = self._to_spectrum(body_value)
+            else:
+                value = self._lobe_sum(ctx, si, wo, sch, body_value, 1.0, 1.0)
             return (
-                dr.select(active, self._to_spectrum(value), 0.0),
+                dr.select(active, value, 0.0),
                 dr.select(active, pdf, 0.0),
             )
 
