@@ -21,9 +21,20 @@ class MeshError(LabcutError):
     """A mesh cannot be read, or is broken in a way that cannot be repaired."""
 
 
+class OutputError(LabcutError, OSError):
+    """An output file could not be written (disk full, permissions, a writer's I/O error); the
+    message names the user's path, and no partial file is left."""
+
+
 class BackendError(LabcutError):
     """The Dr.Jit / Mitsuba backend cannot run on this machine."""
 
 
 class LLVMVersionError(BackendError):
     """Dr.Jit's LLVM backend would abort: no libLLVM >= 17 is installed."""
+
+
+class LabcutWarning(UserWarning):
+    """Something that may make an answer wrong but is not an error: a mesh file that looked
+    upside down or Y-up and was turned, an up axis the shape contradicts. The CLI prints
+    these as ``warning:`` lines; they are also recorded in the result's JSON."""

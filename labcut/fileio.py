@@ -15,7 +15,7 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
-from .errors import ParameterError
+from .errors import LabcutError, OutputError, ParameterError
 
 
 def check_output_path(path: str | os.PathLike[str], suffixes: tuple[str, ...] | None = None) -> Path:
@@ -34,11 +34,18 @@ def check_output_path(path: str | os.PathLike[str], suffixes: tuple[str, ...] | 
 def atomic_output(path: str | os.PathLike[str], suffixes: tuple[str, ...] | None = None) -> Iterator[Path]:
     """Yield a temporary path with the target's suffix; move it onto ``path`` on success.
 
+    A writer that fails with an I/O error (``OSError``, or the ``RuntimeError`` Mitsuba raises)
+    becomes an :class:`~labcut.errors.OutputError` whose one-line message names ``path``, the
+    user's file, never the temporary one.
+
     >>> with atomic_output("plot.png") as tmp:
     ...     figure.savefig(tmp)
     """
     out = check_output_path(path, suffixes)
-    fd, tmp_name = tempfile.mkstemp(prefix=f".{out.stem}.", suffix=out.suffix, dir=out.parent or ".")
+    try:
+        fd, tmp_name = tempfile.mkstemp(prefix=f".{out.stem}.", suffix=out.suffix, dir=out.parent or ".")
+    except OSError as exc:
+        raise OutputError(f"cannot write {str(out)!r}: {exc.strerror or exc}") from None
     os.close(fd)
     tmp = Path(tmp_name)
     try:
@@ -47,6 +54,12 @@ def atomic_output(path: str | os.PathLike[str], suffixes: tuple[str, ...] | None
         os.umask(umask)
         os.chmod(tmp, 0o666 & ~umask)  # mkstemp makes 0600: give the file the usual permissions
         os.replace(tmp, out)
+    except LabcutError:
+        raise
+    except (OSError, RuntimeError) as exc:
+        detail = exc.strerror if isinstance(exc, OSError) and exc.strerror else str(exc)
+        detail = " ".join(detail.replace(str(tmp), str(out)).replace(tmp.name, out.name).split())
+        raise OutputError(f"cannot write {str(out)!r}: {detail}") from None
     finally:
         if tmp.exists():
             tmp.unlink()

@@ -9,7 +9,7 @@ import pytest
 import trimesh
 
 import labcut
-from labcut.errors import MeshError, ParameterError
+from labcut.errors import LabcutWarning, MeshError, ParameterError
 from labcut.geometry.cabochon import cabochon
 from labcut.geometry.inspect import carats, summarize
 from labcut.geometry.meshio import load_mesh, save_mesh
@@ -63,8 +63,14 @@ def test_gltf_text_format(tmp_path, cab):
     for name, data in files.items():
         (tmp_path / name).write_bytes(data)
     (path,) = [tmp_path / n for n in files if n.endswith(".gltf")]
-    m = load_mesh(path)
+    # trimesh wrote mm and +Z up, against the glTF specification (metres, +Y up): the size
+    # check refuses it as metres, and the shape (a flat base facing -Z) overrides the convention
+    with pytest.raises(ParameterError, match="--units mm"):
+        load_mesh(path)
+    with pytest.warns(LabcutWarning, match="Z-up"):
+        m = load_mesh(path, units="mm")
     assert m.volume == pytest.approx(cab.volume, rel=1e-5)
+    assert m.metadata["labcut"]["up_axis"] == "+Z" and np.allclose(m.bounds, cab.bounds, atol=1e-5)
 
 
 def test_units_and_recentre(tmp_path):

@@ -13,6 +13,7 @@ from typing import Annotated, Any, Optional
 import typer
 from rich.table import Table
 
+from . import meshes as mo
 from .root import app, console, write_json
 
 
@@ -67,7 +68,7 @@ def _read_outline_file(path: Path) -> Any:
     return np.array(rows)
 
 
-def _summary_table(summary: Any, title: str) -> Table:
+def _summary_table(summary: Any, title: str, load_report: dict[str, Any] | None = None) -> Table:
     table = Table(title=title, show_header=False, title_justify="left")
     table.add_column("quantity", style="bold")
     table.add_column("value")
@@ -81,9 +82,16 @@ def _summary_table(summary: Any, title: str) -> Table:
     table.add_row("watertight", "yes" if d["watertight"] else "no")
     table.add_row("outward winding", "yes" if d["winding_consistent"] else "no")
     table.add_row("convex", "yes" if d["convex"] else "no")
+    if load_report is not None:
+        source = {"given": "as given", "file": "declared by the file", "default": "the file does not say: mm"}
+        table.add_row("units", f"{load_report['units']} ({source.get(load_report['units_source'], load_report['units_source'])})")
+        table.add_row("face-up", f"the file's {load_report['up_axis']} ({load_report['up_axis_source']})")
+        table.add_row("bodies", str(load_report.get("bodies", 1)))
     table.add_row("repaired", "; ".join(d["repairs"]) if d["repairs"] else "nothing")
     if d["notes"]:
         table.add_row("notes", "; ".join(d["notes"]))
+    if load_report is not None and load_report.get("warnings"):
+        table.add_row("warnings", "; ".join(load_report["warnings"]))
     return table
 
 
@@ -166,7 +174,8 @@ def cabochon(
 @app.command("inspect")
 def inspect_mesh(
     mesh_path: Annotated[Path, typer.Argument(metavar="MESH", help="STL, OBJ, PLY, OFF, GLB/GLTF or 3MF file.")],
-    units: Annotated[str, typer.Option(help="Unit of the file: mm, cm, m, um, in, or mm per unit.")] = "mm",
+    units: mo.Units = "auto",
+    up_axis: mo.UpAxis = "auto",
     recentre: Annotated[bool, typer.Option(help="Centre on the Z axis with the base on z = 0.")] = True,
     repair: Annotated[bool, typer.Option(help="Repair what can be repaired (else any defect is an error).")] = True,
     json_path: Annotated[Optional[Path], typer.Option("--json", help="Also write the summary as JSON to this file ('-' for stdout).")] = None,
@@ -174,19 +183,16 @@ def inspect_mesh(
     """Validate a mesh and print its dimensions, volume, weight in carats, triangles, convexity and repairs."""
     from labcut.fileio import check_output_path
     from labcut.geometry.inspect import summarize
-    from labcut.geometry.meshio import load_mesh
 
     to_stdout = json_path is not None and str(json_path) == "-"
     if json_path is not None and not to_stdout:
         check_output_path(json_path, (".json",))
-    try:
-        unit_arg: str | float = float(units)
-    except ValueError:
-        unit_arg = units
-    mesh = load_mesh(mesh_path, units=unit_arg, recentre=recentre, repair=repair)
+    mo.check_mesh_options(units, up_axis)
+    mesh = mo.load(mesh_path, units, up_axis, recentre=recentre, repair=repair)
     summary = summarize(mesh, mesh_path.name)
     if not to_stdout:
-        console.print(_summary_table(summary, f"{mesh_path.name} (in mm)"))
+        info = mesh.metadata["labcut"]
+        console.print(_summary_table(summary, f"{mesh_path.name} (in mm)", info))
     if json_path is not None:
         data = summary.to_dict()
         data["load_report"] = mesh.metadata["labcut"]

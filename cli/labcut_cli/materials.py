@@ -17,7 +17,7 @@ from labcut.errors import ParameterError
 Preset = Annotated[Optional[str], typer.Option("--preset", "-p", help="Named material: blue, green, gold, red.", rich_help_panel="Material")]
 Peak = Annotated[Optional[float], typer.Option("--peak", help="Flash peak at normal incidence, nm.", rich_help_panel="Material")]
 Anorthite = Annotated[Optional[float], typer.Option("--an", help="Bulk anorthite content, mol % (Bøggild range 44-61).", rich_help_panel="Material")]
-MaterialFile = Annotated[Optional[Path], typer.Option("--material", help="Material JSON (as written by --json / Labradorite.to_dict).", rich_help_panel="Material")]
+MaterialFile = Annotated[Optional[Path], typer.Option("--material", help="Material JSON: Labradorite.to_dict, or any labcut --json output that holds one (spectrum, render, recommend-orientation).", rich_help_panel="Material")]
 Layer = lambda flag, text: Annotated[Optional[float], typer.Option(flag, help=text, rich_help_panel="Layer parameters")]  # noqa: E731
 DA = Layer("--d-a", "Mean thickness of phase a, nm.")
 DB = Layer("--d-b", "Mean thickness of phase b, nm.")
@@ -28,6 +28,25 @@ NB = Layer("--n-b", "Refractive index of phase b.")
 NS = Layer("--n-surface", "Bulk refractive index of the stone.")
 SPREAD = Layer("--spread", "Angular spread of the lamellae, degrees.")
 Pairs = Annotated[Optional[int], typer.Option("--pairs", help="Number of lamella pairs.", rich_help_panel="Layer parameters")]
+#: names of the layer options every material-taking command has, as build_material keywords
+LAYER_KEYS = ("d_a", "d_b", "sigma_a", "sigma_b", "n_a", "n_b", "n_surface", "pairs", "spread_deg")
+
+
+def material_block(data: Any, source: str) -> dict[str, Any]:
+    """The material parameters in a JSON document: a ``Labradorite.to_dict``, or labcut's own
+    outputs that carry one (``material`` of spectrum/render JSON, ``settings.material`` of a
+    recommendation). Booleans are refused where numbers belong (JSON ``true`` is not 1 pair)."""
+    if isinstance(data, dict):
+        if isinstance(data.get("material"), dict):
+            data = data["material"]
+        elif isinstance(data.get("settings"), dict) and isinstance(data["settings"].get("material"), dict):
+            data = data["settings"]["material"]
+    if not isinstance(data, dict):
+        raise ParameterError(f"material file {source!r} must hold a JSON object")
+    for key, value in data.items():
+        if isinstance(value, bool):
+            raise ParameterError(f"material file {source!r}: {key} must be a number, got {str(value).lower()}")
+    return data
 
 
 def build_material(
@@ -47,11 +66,7 @@ def build_material(
     if material_file is not None:
         from labcut.fileio import read_json
 
-        data = read_json(material_file, "material file")
-        if isinstance(data, dict) and "material" in data and isinstance(data["material"], dict):
-            data = data["material"]
-        if not isinstance(data, dict):
-            raise ParameterError(f"material file {str(material_file)!r} must hold a JSON object")
+        data = material_block(read_json(material_file, "material file"), str(material_file))
         return Labradorite.from_dict({**data, **changes})
     if preset is not None:
         return Labradorite.preset(preset, **changes)

@@ -1,30 +1,44 @@
-"""``labcut recommend-orientation`` and ``labcut evaluate-orientation``."""
+"""``labcut recommend-orientation`` and ``labcut evaluate-orientation``.
+
+The answer comes first: the recommendation is printed and its JSON and score map written
+before an optional render starts, so a failing or interrupted render leaves the answer in place.
+"""
 
 from __future__ import annotations
 
 import json
 from pathlib import Path
-from typing import Annotated, Optional
+from typing import Annotated, Any, Optional
 
 import typer
 from rich.table import Table
 
 from . import materials as m
+from . import meshes as mo
 from . import scene_options as so
-from .root import all_or_nothing, app, console, parse_vector, write_json
+from .root import all_or_nothing, app, console, err_console, parse_vector, write_json
 
 Quality = Annotated[str, typer.Option(help="draft, standard or high.")]
+Exposure = Annotated[str, typer.Option("--exposure", help="Exposure of the PNG: auto (from the image) or a multiplier > 0.")]
 
 
-def _metrics_table(title: str, metrics, score_name: str | None = None, score: float | None = None) -> Table:
+def _metrics_table(title: str, metrics) -> Table:
+    """Flash metrics whose labels say what the numbers are, and whose numbers add up."""
+    from labcut.orientation.recommend import energy_parts
+
+    in_flash, _ = energy_parts(metrics)
+    energy = round(metrics.flash_energy, 4)
+    shown_in = round(in_flash, 4)
     table = Table(title=title)
     table.add_column("metric")
     table.add_column("value", justify="right")
-    table.add_column("meaning")
+    table.add_column("meaning (each a mean over the viewing directions)")
     rows = [
-        ("flash area", f"{metrics.flash_area:.1%}", "share of the visible stone that flashes"),
-        ("flash intensity", f"{metrics.flash_intensity:.3f}", "mean brightness of the flash / a face-on flat flash"),
-        ("flash energy", f"{metrics.flash_energy:.4f}", "area x intensity"),
+        ("flash area", f"{metrics.flash_area:.1%}", "share of the visible stone that flashes (reaches the threshold)"),
+        ("flash intensity", f"{metrics.flash_intensity:.3f}", "mean brightness of the flashing part / a face-on flat flash"),
+        ("flash energy", f"{energy:.4f}",
+         f"mean brightness over all the visible stone = {shown_in:.4f} in the flashes (area x intensity, view by view) "
+         f"+ {energy - shown_in:.4f} fainter schiller below the threshold"),
         ("coverage", f"{metrics.coverage:.1%}", "share of viewing directions that see a flash (> 5 % area)"),
     ]
     for r in rows:
@@ -37,13 +51,72 @@ def _scene_label(scene) -> str:
     return f"scenario {scene.name!r}: {scene.lights.name} light, {scene.views.name} viewers"
 
 
+def _answer_table(rec, name: str, scene) -> Table:
+    """The recommendation: in words, as a cutter sets it up, as numbers, and how precise it must be."""
+    table = Table(show_header=False)
+    table.add_column("what", style="bold")
+    table.add_column("value")
+    ax = rec.tolerance_by_axis
+    shop = rec.workshop
+    table.add_row("orientation", rec.description)
+    table.add_row("when sawing or dopping", shop["text"])
+    table.add_row("tilt, azimuth", f"{rec.tilt_deg:.1f}° from the face-up axis (+Z); azimuth {rec.azimuth_deg:.0f}° "
+                                   "(from +X: 0° right, 90° back, 180° left, 270° front)")
+    table.add_row("tolerance", f"±{rec.tolerance_deg:.1f}° in any direction keeps 90 % of the {rec.objective} score "
+                               f"(±{ax['front_back_deg']:.1f}° front-to-back, ±{ax['left_right_deg']:.1f}° side-to-side)")
+    table.add_row("lamella normal", f"{rec.normal[0]:+.3f}, {rec.normal[1]:+.3f}, {rec.normal[2]:+.3f} (mesh frame)")
+    return table
+
+
+def parse_exposure(text: str) -> float | None:
+    """``auto`` -> None; a number -> that exposure multiplier (finite, > 0)."""
+    import math
+
+    from labcut.errors import ParameterError
+
+    key = text.strip().lower()
+    if key == "auto":
+        return None
+    try:
+        value = float(key)
+    except ValueError:
+        raise ParameterError(f"--exposure must be auto or a number > 0, got {text!r}") from None
+    if not (math.isfinite(value) and value > 0):
+        raise ParameterError(f"--exposure must be auto or a finite number > 0, got {text!r}")
+    return value
+
+
+def render_summary(result: Any, path: Path | str) -> dict[str, Any]:
+    """The JSON block of a render: where it went, its plan, its exposure, and whether it shows a flash."""
+    return {
+        "path": str(path), "plan": result.plan.to_dict(), "scenario": result.scenario, "views": result.views,
+        "spp": result.spp, "exposure": result.exposure, "exposure_mode": result.exposure_mode,
+        "flash_by_view": result.flash, "notes": result.notes,
+    }
+
+
+def print_render_notes(result: Any) -> None:
+    for note in result.notes:
+        console.print(f"note: {note}", highlight=False)
+
+
 @app.command("recommend-orientation")
 def recommend_orientation(
-    mesh_path: Annotated[Path, typer.Argument(metavar="MESH", help="Stone mesh (mm, +Z face-up).")],
+    mesh_path: Annotated[Path, typer.Argument(metavar="MESH", help="Stone mesh: STL, OBJ, PLY, OFF, GLB/GLTF, 3MF.")],
+    units: mo.Units = "auto",
+    up_axis: mo.UpAxis = "auto",
     preset: m.Preset = None,
     peak: m.Peak = None,
     an: m.Anorthite = None,
     material_file: m.MaterialFile = None,
+    d_a: m.DA = None,
+    d_b: m.DB = None,
+    sigma_a: m.SA = None,
+    sigma_b: m.SB = None,
+    n_a: m.NA = None,
+    n_b: m.NB = None,
+    n_surface: m.NS = None,
+    pairs: m.Pairs = None,
     spread: m.SPREAD = None,
     scenario: so.Scenario = None,
     lighting: so.Lighting = None,
@@ -55,11 +128,17 @@ def recommend_orientation(
     tilt_axis: Annotated[Optional[str], typer.Option("--tilt-axis", help="Only tilt about this horizontal axis X,Y,Z.")] = None,
     seed: Annotated[int, typer.Option(help="Seed of the surface sampling.", min=0)] = 0,
     json_path: Annotated[Optional[str], typer.Option("--json", help="Write the result as JSON ('-' for stdout).")] = None,
-    render_path: Annotated[Optional[Path], typer.Option("--render", help="Render the stone at the recommended orientation (.png/.exr).")] = None,
+    render_path: Annotated[Optional[Path], typer.Option("--render", help="Render the stone at the recommended orientation (.png/.exr), after the answer is written.")] = None,
     map_path: Annotated[Optional[Path], typer.Option("--map", help="Write a polar map of the score over the hemisphere (.png).")] = None,
     spp: Annotated[int, typer.Option(help="Samples per pixel of --render.", min=1)] = 64,
+    resolution: Annotated[int, typer.Option(help="Width and height of --render in pixels.", min=8, max=8192)] = 512,
+    exposure: Exposure = "auto",
 ) -> None:
-    """Find the lamella orientation that makes MESH flash most, and how precisely it must be cut."""
+    """Find the lamella orientation that makes MESH flash most, and how precisely it must be cut.
+
+    Angles: tilt from the face-up axis (+Z); azimuth from +X (the stone's right) towards +Y
+    (its back): 0° right, 90° back, 180° left, 270° front (-Y).
+    """
     import labcut
     from labcut.errors import ParameterError
     from labcut.fileio import check_output_path
@@ -79,11 +158,14 @@ def recommend_orientation(
         raise ParameterError(f"--objective must be one of {', '.join(OBJECTIVES)}, got {objective!r}")
     if optimizer not in OPTIMIZERS:
         raise ParameterError(f"--optimizer must be one of {', '.join(OPTIMIZERS)}, got {optimizer!r}")
+    exposure_value = parse_exposure(exposure)
     axis = parse_vector(tilt_axis, "--tilt-axis") if tilt_axis else None
     Constraint(max_tilt, axis)
     scene = so.resolve(scenario, lighting, viewing, quality)
-    material = m.build_material(preset, peak, an, material_file, spread_deg=spread)
-    mesh = labcut.load_mesh(mesh_path)
+    material = m.build_material(preset, peak, an, material_file, d_a=d_a, d_b=d_b, sigma_a=sigma_a, sigma_b=sigma_b,
+                                n_a=n_a, n_b=n_b, n_surface=n_surface, pairs=pairs, spread_deg=spread)
+    mo.check_mesh_options(units, up_axis)
+    mesh = mo.load(mesh_path, units, up_axis)
 
     with progress_bar("recommending", "%") as update:
         rec = labcut.recommend_orientation(
@@ -91,16 +173,13 @@ def recommend_orientation(
             optimizer=optimizer, max_tilt=max_tilt, tilt_axis=axis, seed=seed,
             progress=lambda stage, fraction: update(int(round(100 * fraction)), 100),
         )
-        if render_path is not None:
-            result = labcut.render(mesh, material, rec.normal, scenario=rec.scenario, spp=spp, resolution=512,
-                                   progress=lambda d, t: update(int(d * 100 / t), 100))
     data = rec.to_dict()
+    data["mesh"]["path"] = str(mesh_path)
+    if render_path is not None:
+        data["render"] = {"path": str(render_path), "status": "pending: rendered after the answer was written"}
+
+    # 1. the answer: JSON, score map, table (all or nothing among themselves)
     with all_or_nothing() as written:
-        if render_path is not None:
-            result.save(render_path)
-            written.append(Path(render_path))
-            data["render"] = {"path": str(render_path), "plan": result.plan.to_dict(), "scenario": result.scenario,
-                              "views": result.views}
         if map_path is not None:
             from labcut.plots.scoremap import plot_score_map
 
@@ -108,45 +187,74 @@ def recommend_orientation(
             written.append(Path(map_path))
         if json_path == "-":
             typer.echo(json.dumps(data, indent=2, allow_nan=False))
-            return
-        if json_path is not None:
+        elif json_path is not None:
             write_json(json_path, data)
+            written.append(Path(json_path))
+    quiet = json_path == "-"
+    if not quiet:
+        mo.print_provenance(mesh, mesh_path.name)
+        console.print(f"[bold]Recommendation for {mesh_path.name}[/] ({_scene_label(scene)}): {rec.description}.")
+        console.print(_answer_table(rec, mesh_path.name, scene))
+        console.print(_metrics_table("Flash at the recommended orientation", rec.metrics))
+        if rec.metrics.flash_area == 0.0:
+            console.print(
+                f"No part of the stone reaches the flash threshold ({rec.settings['tau']:g} x a face-on flash under one lamp "
+                "of the same total light): diffuse lighting spreads the schiller thin. The energy score still ranks orientations."
+            )
+        if rec.runners_up:
+            table = Table(title="Other good orientations (distinct optima)")
+            for col in ("#", "orientation", f"{objective} vs best"):
+                table.add_column(col)
+            for i, r in enumerate(rec.runners_up, start=2):
+                table.add_row(str(i), r["description"], f"{r['relative_score']:.0%}")
+            console.print(table)
+        console.print(f"{rec.optimizer}: {rec.evaluations} evaluations, {rec.seconds:.2f} s; "
+                      f"{rec.settings['triples']} (point, light, view) triples")
+        for label, path in (("JSON", json_path), ("score map", map_path)):
+            if path is not None:
+                console.print(f"{label} written to {path}")
 
-    console.print(f"[bold]Recommendation for {mesh_path.name}[/] ({_scene_label(scene)}): {rec.description}.")
-    ax = rec.tolerance_by_axis
-    console.print(
-        f"Keep within [bold]±{rec.tolerance_deg:.1f}°[/] of it in any direction to keep 90 % of the {objective} score "
-        f"(±{ax['front_back_deg']:.1f}° front-to-back, ±{ax['left_right_deg']:.1f}° side-to-side; "
-        f"normal {rec.normal[0]:+.3f}, {rec.normal[1]:+.3f}, {rec.normal[2]:+.3f} in the mesh frame)."
-    )
-    console.print(_metrics_table("Flash at the recommended orientation", rec.metrics))
-    if rec.metrics.flash_area == 0.0:
-        console.print(
-            f"No part of the stone reaches the flash threshold ({rec.settings['tau']:g} x a face-on flash under one lamp "
-            "of the same total light): diffuse lighting spreads the schiller thin. The energy score still ranks orientations."
-        )
-    if rec.runners_up:
-        table = Table(title="Other good orientations (distinct optima)")
-        for col in ("#", "orientation", f"{objective} vs best"):
-            table.add_column(col)
-        for i, r in enumerate(rec.runners_up, start=2):
-            table.add_row(str(i), r["description"], f"{r['relative_score']:.0%}")
-        console.print(table)
-    console.print(f"{rec.optimizer}: {rec.evaluations} evaluations, {rec.seconds:.2f} s; "
-                  f"{rec.settings['triples']} (point, light, view) triples")
-    for label, path in (("JSON", json_path), ("render", render_path), ("score map", map_path)):
-        if path is not None:
-            console.print(f"{label} written to {path}")
+    # 2. the optional render: a failure or Ctrl-C leaves the answer above in place
+    if render_path is None:
+        return
+    try:
+        with progress_bar("rendering", "samples/pixel") as update:
+            result = labcut.render(mesh, material, rec.normal, scenario=rec.scenario, spp=spp, resolution=resolution,
+                                   progress=update)
+        with all_or_nothing() as written:
+            result.save(render_path, exposure_value)
+            written.append(Path(render_path))
+            if json_path not in (None, "-"):
+                data["render"] = render_summary(result, render_path)
+                write_json(json_path, data)
+    except BaseException:
+        kept = f" in {json_path}" if json_path not in (None, "-") else ""
+        err_console.print(f"note: the recommendation above stands{kept}; the render {render_path} was not written",
+                          highlight=False, soft_wrap=True)
+        raise
+    if not quiet:
+        print_render_notes(result)
+        console.print(f"render written to {render_path} (exposure {result.exposure:.3g}, {result.exposure_mode})")
 
 
 @app.command("evaluate-orientation")
 def evaluate_orientation(
-    mesh_path: Annotated[Path, typer.Argument(metavar="MESH", help="Stone mesh (mm, +Z face-up).")],
-    normal: Annotated[str, typer.Option("--normal", "-n", help="Lamella normal X,Y,Z in the mesh frame.")] = "0,0,1",
+    mesh_path: Annotated[Path, typer.Argument(metavar="MESH", help="Stone mesh: STL, OBJ, PLY, OFF, GLB/GLTF, 3MF.")],
+    normal: Annotated[str, typer.Option("--normal", "-n", help="Lamella normal X,Y,Z in the mesh frame (+Z face-up, -Y front).")] = "0,0,1",
+    units: mo.Units = "auto",
+    up_axis: mo.UpAxis = "auto",
     preset: m.Preset = None,
     peak: m.Peak = None,
     an: m.Anorthite = None,
     material_file: m.MaterialFile = None,
+    d_a: m.DA = None,
+    d_b: m.DB = None,
+    sigma_a: m.SA = None,
+    sigma_b: m.SB = None,
+    n_a: m.NA = None,
+    n_b: m.NB = None,
+    n_surface: m.NS = None,
+    pairs: m.Pairs = None,
     spread: m.SPREAD = None,
     scenario: so.Scenario = None,
     lighting: so.Lighting = None,
@@ -157,20 +265,26 @@ def evaluate_orientation(
     """Flash metrics of MESH cut with its lamella plane normal to --normal."""
     import labcut
     from labcut.fileio import check_output_path
+    from labcut.orientation.recommend import METRIC_DEFINITIONS, FRAME, mesh_provenance, metrics_dict
     from labcut.rendering.api import normalize_normal
 
     if json_path not in (None, "-"):
         check_output_path(json_path, (".json",))
     m_vec = normalize_normal(parse_vector(normal, "--normal"))
-    material = m.build_material(preset, peak, an, material_file, spread_deg=spread)
+    material = m.build_material(preset, peak, an, material_file, d_a=d_a, d_b=d_b, sigma_a=sigma_a, sigma_b=sigma_b,
+                                n_a=n_a, n_b=n_b, n_surface=n_surface, pairs=pairs, spread_deg=spread)
     scene = so.resolve(scenario, lighting, viewing, quality)
-    mesh = labcut.load_mesh(mesh_path)
+    mo.check_mesh_options(units, up_axis)
+    mesh = mo.load(mesh_path, units, up_axis)
     metrics = labcut.evaluate_orientation(mesh, m_vec, material, scenario=scene, quality=quality)
-    data = {"normal": m_vec.tolist(), "scenario": scene.to_dict(), **metrics.to_dict()}
+    provenance = {**mesh_provenance(mesh), "path": str(mesh_path)}
+    data = {"normal": m_vec.tolist(), "frame": FRAME, "scenario": scene.to_dict(), "material": material.to_dict(),
+            "mesh": provenance, **metrics_dict(metrics), "metric_definitions": METRIC_DEFINITIONS}
     if json_path == "-":
-        typer.echo(json.dumps(data, indent=2))
+        typer.echo(json.dumps(data, indent=2, allow_nan=False))
         return
     if json_path is not None:
         write_json(json_path, data)
+    mo.print_provenance(mesh, mesh_path.name)
     console.print(_metrics_table(f"Flash of {mesh_path.name} with lamella normal ({', '.join(f'{float(x):.3f}' for x in m_vec)}), "
                                  f"{_scene_label(scene)}", metrics))

@@ -8,19 +8,28 @@ from typing import Annotated, Optional
 import typer
 
 from . import materials as m
+from . import meshes as mo
 from . import scene_options as so
-from .root import app, console, parse_vector, write_json
+from .recommend import Exposure, parse_exposure, print_render_notes
+from .root import all_or_nothing, app, console, parse_vector, write_json
 
 
 @app.command()
 def render(
-    mesh_path: Annotated[Path, typer.Argument(metavar="MESH", help="Stone mesh (mm, +Z face-up): STL, OBJ, PLY, OFF, GLB/GLTF, 3MF.")],
-    output: Annotated[Path, typer.Option("--output", "-o", help="Image file: .png (tonemapped) or .exr (linear HDR).")] = Path("render.png"),
-    normal: Annotated[str, typer.Option("--normal", "-n", help="Lamella normal X,Y,Z in the mesh frame (axial).")] = "0,0,1",
+    mesh_path: Annotated[Path, typer.Argument(metavar="MESH", help="Stone mesh: STL, OBJ, PLY, OFF, GLB/GLTF, 3MF.")],
+    output: Annotated[Path, typer.Option("--output", "-o", help="Image file to write (required): .png (tonemapped) or .exr (linear HDR).")],
+    normal: Annotated[str, typer.Option("--normal", "-n", help="Lamella normal X,Y,Z in the mesh frame (axial; +Z face-up, -Y front).")] = "0,0,1",
+    units: mo.Units = "auto",
+    up_axis: mo.UpAxis = "auto",
     preset: m.Preset = None,
     peak: m.Peak = None,
     an: m.Anorthite = None,
     material_file: m.MaterialFile = None,
+    d_a: m.DA = None,
+    d_b: m.DB = None,
+    n_a: m.NA = None,
+    n_b: m.NB = None,
+    n_surface: m.NS = None,
     sigma_a: m.SA = None,
     sigma_b: m.SB = None,
     pairs: m.Pairs = None,
@@ -35,7 +44,7 @@ def render(
     polarizer: Annotated[Optional[float], typer.Option(help="Look through a linear polarizer at this angle (degrees).")] = None,
     zoning: Annotated[Optional[str], typer.Option(help="Colour zones: smooth, sharp, or a zoning .json file (docs/zoning.md).")] = None,
     schiller_only: Annotated[bool, typer.Option("--schiller-only", help="Render only the schiller flash (no glare, no body).")] = False,
-    exposure: Annotated[Optional[float], typer.Option(help="Exposure multiplier for PNG output (default: automatic).")] = None,
+    exposure: Exposure = "auto",
     json_path: Annotated[Optional[str], typer.Option("--json", help="Write the render plan and timing as JSON ('-' for stdout).")] = None,
 ) -> None:
     """Render MESH cut from labradorite with its lamella plane normal to --normal.
@@ -55,7 +64,8 @@ def render(
     check_output_path(output, IMAGE_SUFFIXES)
     if json_path not in (None, "-"):
         check_output_path(json_path, (".json",))
-    material = m.build_material(preset, peak, an, material_file, sigma_a=sigma_a, sigma_b=sigma_b, pairs=pairs, spread_deg=spread)
+    material = m.build_material(preset, peak, an, material_file, d_a=d_a, d_b=d_b, sigma_a=sigma_a, sigma_b=sigma_b,
+                                n_a=n_a, n_b=n_b, n_surface=n_surface, pairs=pairs, spread_deg=spread)
     lamella = parse_vector(normal, "--normal")
     zoning_spec = None
     if zoning is not None:
@@ -82,22 +92,21 @@ def render(
 
     if polarizer is not None and not math.isfinite(polarizer):
         raise ParameterError(f"--polarizer must be a finite angle in degrees, got {polarizer}")
-    if exposure is not None and not (math.isfinite(exposure) and exposure > 0):
-        raise ParameterError(f"--exposure must be a finite number > 0, got {exposure}")
+    exposure_value = parse_exposure(exposure)
     scene = so.resolve(scenario, lighting, viewing)
     camera_views(view_spec, scene.main_setting())
     variant_name(mode, polarizer is not None and mode != "rgb")
-    mesh = labcut.load_mesh(mesh_path)
+    mo.check_mesh_options(units, up_axis)
+    mesh = mo.load(mesh_path, units, up_axis)
     lobes = ("schiller",) if schiller_only else ("surface", "schiller", "body")
     with progress_bar("rendering", "samples/pixel") as update:
         result = labcut.render(
             mesh, material, lamella, scenario=scene, view=view_spec, spp=spp, resolution=resolution,
-            mode=mode, polarizer_deg=polarizer, lobes=lobes, progress=update, zoning=zoning_spec,
+            mode=mode, polarizer_deg=polarizer, lobes=lobes, progress=update, zoning=zoning_spec, exposure=exposure_value,
         )
-    result.save(output, exposure)
     summary = {
         "output": str(output),
-        "mesh": str(mesh_path),
+        "mesh": {**result.mesh, "path": str(mesh_path)},
         "normal": [float(x) for x in normalize_normal(lamella)],
         "material": material.to_dict(),
         "scenario": result.scenario,
@@ -107,13 +116,25 @@ def render(
         "seconds": result.seconds,
         "samples_per_second": result.samples_per_second,
         "views": result.views,
+        "exposure": result.exposure if output.suffix.lower() == ".png" else None,
+        "exposure_mode": result.exposure_mode if output.suffix.lower() == ".png" else "linear (EXR: no exposure applied)",
+        "flash_by_view": result.flash,
+        "notes": result.notes,
     }
     if zoning_spec is not None:
         summary["zoning"] = zoning_spec.to_dict()
-    if json_path == "-":
-        typer.echo(json.dumps(summary, indent=2))
-        return
-    if json_path is not None:
-        write_json(json_path, summary)
+    with all_or_nothing() as written:
+        result.save(output)
+        written.append(Path(output))
+        if json_path == "-":
+            typer.echo(json.dumps(summary, indent=2))
+            return
+        if json_path is not None:
+            write_json(json_path, summary)
+    mo.print_provenance(mesh, mesh_path.name)
     console.print(f"[bold]{output}[/]: {'; '.join(result.plan.reasons)}")
-    console.print(f"{result.spp} spp at {resolution}², {result.seconds:.1f} s ({result.samples_per_second / 1e6:.2f} Msamples/s)")
+    print_render_notes(result)
+    exposure_text = (f"exposure {result.exposure:.3g} ({result.exposure_mode})" if output.suffix.lower() == ".png"
+                     else "linear HDR, no exposure")
+    console.print(f"{result.spp} spp at {resolution}², {result.seconds:.1f} s ({result.samples_per_second / 1e6:.2f} Msamples/s); "
+                  f"{exposure_text}")

@@ -95,10 +95,15 @@ def _dome_height(name: str, dome: Any, width: float, kind: str, table: float = 0
             "a hemisphere" if kind == "spherical" else "the stone's width"
         )
         raise ParameterError(
-            f"{name} {h:g} mm is higher than allowed for a {kind} profile on this stone "
+            f"{name} {h:g} mm is higher than allowed for {_article(kind)} {kind} profile on this stone "
             f"({limit:.4g} mm: {why}{' with this buff-top table' if table else ''})"
         )
     return min(h, limit)
+
+
+def _article(word: str) -> str:
+    """``"an"`` before a vowel sound (an oval), else ``"a"`` (a pear)."""
+    return "an" if word[:1].lower() in "aeiou" else "a"
 
 
 def _outline_points(outline: Any, length: Any, width: Any, corner_radius: Any, n: int) -> tuple[np.ndarray, str]:
@@ -114,10 +119,10 @@ def _outline_points(outline: Any, length: Any, width: Any, corner_radius: Any, n
         if length is None and name == "round" and width is not None:
             length = width
         if length is None:
-            raise ParameterError(f"a {name} cabochon needs its length in mm")
+            raise ParameterError(f"{_article(name)} {name} cabochon needs its length in mm")
         if width is None:
             if name != "round":
-                raise ParameterError(f"a {name} cabochon needs its width in mm")
+                raise ParameterError(f"{_article(name)} {name} cabochon needs its width in mm")
             width = length
         if corner_radius is not None and name != "rectangle":
             raise ParameterError("corner_radius applies only to the rectangle outline")

@@ -1,8 +1,12 @@
-"""Mesh intake and export: read, validate, repair, convert units, re-centre.
+"""Mesh intake and export: read, validate, repair, convert units, find the face-up side, re-centre.
 
 :func:`load_mesh` reads STL, OBJ, PLY, OFF, GLB/GLTF and 3MF through trimesh and
 returns a validated :class:`trimesh.Trimesh` in mm, in the labcut frame (DESIGN.md
-§3: +Z face-up, base on z = 0). A mesh labcut accepts is
+§3: +Z face-up, base on z = 0). Units come from the caller, else from the file
+(glTF is metres by specification, 3MF declares its unit), else mm; a stone must then
+measure 0.5-500 mm across. The face-up side comes from the caller, else from the shape
+(a flat base, a table, a dome: :mod:`labcut.geometry.orient`), else from the format's
+convention (+Y for glTF, +Z otherwise). A mesh labcut accepts is
 
 * non-empty, with finite vertex coordinates;
 * free of degenerate triangles (repeated or collinear vertices);
@@ -27,6 +31,7 @@ import math
 import os
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -47,7 +52,10 @@ READ_FORMATS = {
 WRITE_FORMATS = (".ply", ".stl", ".obj", ".off", ".glb", ".3mf")
 
 #: length of one file unit in mm
-UNITS = {"mm": 1.0, "cm": 10.0, "m": 1000.0, "um": 1e-3, "in": 25.4}
+UNITS = {"mm": 1.0, "cm": 10.0, "m": 1000.0, "um": 1e-3, "in": 25.4, "ft": 304.8}
+
+#: a stone's largest size must lie in this range (mm) once converted: outside it, the units are wrong
+STONE_SIZE_MM = (0.5, 500.0)
 
 #: largest share of the surface that hole patches may make up
 MAX_PATCH_FRACTION = 0.2
@@ -64,10 +72,19 @@ class MeshReport:
         source: the file read.
         format: the file type (``"stl"``, ``"ply"``, ...).
         units: the file's unit (``"mm"``, ``"in"``, ... or ``"x<factor>"``).
+        units_source: where the unit came from: ``"given"``, ``"file"`` (glTF is metres by
+            specification, 3MF declares its unit) or ``"default"`` (the file does not say: mm).
         scale_to_mm: factor applied to the file's coordinates.
-        translation_mm: offset added after scaling (re-centring), or zeros.
+        up_axis: the file's axis that became labcut's +Z (face-up): ``"+Z"`` ... ``"-X"``.
+        up_axis_source: ``"given"``, ``"shape: <what the shape showed>"`` or
+            ``"convention: <why>"`` (the shape does not say; the format's convention holds).
+        rotation: 3 x 3 rotation applied to the file's coordinates (p' = R p), before re-centring.
+        translation_mm: offset added after scaling and rotating (re-centring), or zeros.
+        dimensions_mm: bounding-box extents along X, Y, Z of the returned mesh.
         repairs: one sentence per repair made to the geometry or topology.
         notes: other things worth knowing (coincident vertices merged, ...).
+        warnings: things that may make the answer wrong (the file looked upside down or
+            Y-up and was turned; a given up axis disagrees with the shape).
         convex: the solid equals its convex hull (to :data:`CONVEX_RTOL`).
         watertight: always True for a returned mesh.
         triangles, vertices: counts of the returned mesh.
@@ -81,6 +98,12 @@ class MeshReport:
     translation_mm: list[float] = field(default_factory=lambda: [0.0, 0.0, 0.0])
     repairs: list[str] = field(default_factory=list)
     notes: list[str] = field(default_factory=list)
+    warnings: list[str] = field(default_factory=list)
+    units_source: str = "given"
+    up_axis: str = "+Z"
+    up_axis_source: str = "given"
+    rotation: list[list[float]] = field(default_factory=lambda: np.eye(3).tolist())
+    dimensions_mm: list[float] = field(default_factory=lambda: [0.0, 0.0, 0.0])
     convex: bool = False
     watertight: bool = True
     triangles: int = 0
@@ -101,17 +124,26 @@ def _one_line(text: object, limit: int = 200) -> str:
 def is_convex_mesh(mesh: Any, rtol: float = CONVEX_RTOL) -> bool:
     """True when a closed mesh is convex: its volume equals that of its convex hull.
 
-    The hull is computed by manifold3d (QuickHull, double precision). A mesh of
-    several bodies is never convex.
+    The hull volume is the smaller of manifold3d's and Qhull's (scipy): a hull can only be
+    overestimated by a hull program that mishandles many coplanar or collinear points (the
+    densified edges of a polygonal outline made manifold3d's QuickHull 0.03 % too large),
+    so the flag no longer depends on float32 rounding in a saved file. A mesh of several
+    bodies is never convex.
     """
     import manifold3d as m3
 
     v = np.ascontiguousarray(np.asarray(mesh.vertices, dtype=np.float64))
-    if len(v) < 4:
+    if len(v) < 4 or not np.all(np.isfinite(v)):
         return False
     vol = abs(_signed_volume(v, np.asarray(mesh.faces)))
-    hull = m3.Manifold.hull_points(v)
-    hv = float(hull.volume())
+    volumes = [float(m3.Manifold.hull_points(v).volume())]
+    try:
+        from scipy.spatial import ConvexHull
+
+        volumes.append(float(ConvexHull(v).volume))
+    except Exception:  # noqa: BLE001 - Qhull refuses flat input: manifold3d's value stands
+        pass
+    hv = min(x for x in volumes if x > 0) if any(x > 0 for x in volumes) else 0.0
     if hv <= 0:
         return False
     return (hv - vol) <= rtol * hv
@@ -229,7 +261,14 @@ def _check_stl(path: Path) -> None:
         )
 
 
-def _read(path: Path, fmt: str) -> tuple[np.ndarray, np.ndarray]:
+#: what a file format says about its length unit
+DECLARED_UNITS = {"glb": "m", "gltf": "m"}  # glTF 2.0: "the units for all linear distances are meters"
+#: 3MF ``<model unit="...">`` values (3MF core specification §3.4; millimeter by default)
+THREEMF_UNITS = {"micron": "um", "millimeter": "mm", "centimeter": "cm", "inch": "in", "foot": "ft", "meter": "m"}
+
+
+def _read(path: Path, fmt: str) -> tuple[np.ndarray, np.ndarray, str | None]:
+    """Vertices, faces and the unit the file declares (None when the format does not say)."""
     import trimesh
 
     if fmt == "stl":
@@ -256,7 +295,13 @@ def _read(path: Path, fmt: str) -> tuple[np.ndarray, np.ndarray]:
     f = np.asarray(loaded.faces, dtype=np.int64)
     if v.ndim != 2 or v.shape[1] != 3 or len(v) == 0 or f.ndim != 2 or len(f) == 0:
         raise MeshError(f"{path.name} contains no triangles")
-    return v, f
+    declared = DECLARED_UNITS.get(fmt)
+    if fmt == "3mf":
+        unit = str(getattr(loaded, "units", None) or loaded.metadata.get("units") or "millimeter").strip().lower()
+        declared = THREEMF_UNITS.get(unit.rstrip("s"), THREEMF_UNITS.get(unit))
+        if declared is None:
+            raise MeshError(f"{path.name} declares the unit {unit!r}, which is not a 3MF unit ({', '.join(THREEMF_UNITS)})")
+    return v, f, declared
 
 
 def _units_scale(units: str | float) -> tuple[str, float]:
@@ -266,6 +311,8 @@ def _units_scale(units: str | float) -> tuple[str, float]:
             key = "um"
         if key in ("inch", "inches"):
             key = "in"
+        key = {"millimeter": "mm", "millimeters": "mm", "centimeter": "cm", "centimeters": "cm", "meter": "m",
+               "meters": "m", "metre": "m", "metres": "m", "foot": "ft", "feet": "ft"}.get(key, key)
         if key not in UNITS:
             raise ParameterError(f"unknown units {units!r}; use one of {', '.join(UNITS)} or a number of mm per unit")
         return key, UNITS[key]
@@ -440,34 +487,57 @@ def validate_arrays(
 
 def load_mesh(
     path: str | os.PathLike[str],
-    units: str | float = "mm",
+    units: str | float = "auto",
+    up_axis: str = "auto",
     recentre: bool = True,
     repair: bool = True,
+    progress: Callable[[str, float], None] | None = None,
 ):
-    """Read, validate and repair a stone mesh; return a ``trimesh.Trimesh`` in mm.
+    """Read, validate and repair a stone mesh; return a ``trimesh.Trimesh`` in mm, +Z face-up.
 
     Args:
         path: an STL, OBJ, PLY, OFF, GLB/GLTF or 3MF file. Multi-object files
             (GLB scenes, 3MF) are flattened into one mesh.
-        units: the file's length unit, ``"mm"`` (default), ``"cm"``, ``"m"``,
-            ``"um"``, ``"in"``, or a number of mm per file unit; coordinates are
-            converted to mm.
+        units: the file's length unit: ``"auto"`` (default: what the file declares, glTF/GLB
+            metres by specification, 3MF its ``unit`` attribute; mm for formats that do not
+            say), ``"mm"``, ``"cm"``, ``"m"``, ``"um"``, ``"in"``, ``"ft"``, or a number of mm
+            per file unit. A given unit overrides the file's (with a note). The converted
+            stone must measure 0.5-500 mm across (:data:`STONE_SIZE_MM`): anything else is a
+            unit mistake and a :class:`~labcut.errors.ParameterError` that names ``--units``.
+        up_axis: the file's axis that is face-up: ``"auto"`` (default: read from the shape,
+            a flat base or a table or a dome, see :mod:`labcut.geometry.orient`; else the
+            format's convention, +Y for glTF and +Z otherwise), or ``"+Z"``, ``"-Z"``, ``"+Y"``,
+            ``"-Y"``, ``"+X"``, ``"-X"``. The mesh is rotated so that axis becomes +Z; a file
+            that looks upside down or Y-up, or a given axis the shape contradicts, adds a
+            warning (``metadata["labcut"]["warnings"]`` and a :class:`~labcut.errors.LabcutWarning`).
         recentre: translate so the bounding box is centred on the Z axis and
-            its bottom (the base) lies on z = 0. The file's +Z stays face-up.
+            its bottom (the base) lies on z = 0.
         repair: repair what can be repaired (default); False makes every defect
             an error.
+        progress: optional ``callback(stage, fraction)`` for long loads (reading,
+            validating, convexity, orienting).
 
     Returns:
         The validated mesh; ``mesh.metadata["labcut"]`` is a
-        :meth:`MeshReport.to_dict` (``repairs``, ``notes``, ``convex``, ...).
+        :meth:`MeshReport.to_dict` (``units``, ``up_axis``, ``rotation``, ``repairs``,
+        ``notes``, ``warnings``, ``convex``, ``bodies``, ...).
 
     Raises:
         MeshError: missing, empty, unreadable or irreparable file.
-        ParameterError: bad ``units``.
+        ParameterError: bad ``units`` or ``up_axis``, or a stone outside 0.5-500 mm.
     """
+    import warnings as _warnings
+
     import trimesh
 
-    unit_name, factor = _units_scale(units)
+    from ..errors import LabcutWarning
+    from .orient import check_up_axis, describe_up, detect_up_axis, up_rotation
+
+    report_stage = progress or (lambda stage, fraction: None)
+    units_given = not (isinstance(units, str) and units.strip().lower() == "auto")
+    if units_given:
+        unit_name, factor = _units_scale(units)
+    up_key = check_up_axis(up_axis)
     p = Path(path)
     if not p.exists():
         raise MeshError(f"mesh file {str(path)!r} does not exist")
@@ -480,9 +550,54 @@ def load_mesh(
         )
     if p.stat().st_size == 0:
         raise MeshError(f"{p.name} is empty (0 bytes)")
-    v, f = _read(p, fmt)
-    v, f, repairs, notes, bodies = validate_arrays(v, f, name=p.name, repair=repair)
-    v = v * factor
+    report_stage(f"reading {p.name}", 0.0)
+    v, f, declared = _read(p, fmt)
+    notes: list[str] = []
+    warns: list[str] = []
+    if units_given:
+        units_source = "given"
+        if declared is not None and declared != unit_name:
+            notes.append(f"read in {unit_name} as asked, although the file declares {declared}")
+    elif declared is not None:
+        unit_name, factor = declared, UNITS[declared]
+        units_source = "file"
+        if fmt in ("glb", "gltf"):
+            notes.append("read in metres: glTF lengths are metres by specification")
+    else:
+        unit_name, factor = "mm", 1.0
+        units_source = "default"
+    report_stage("validating and repairing", 0.2)
+    v, f, repairs, more_notes, bodies = validate_arrays(v, f, name=p.name, repair=repair)
+    notes.extend(more_notes)
+    _check_size(v, factor, unit_name, units_source, p.name, fmt)
+    report_stage("checking convexity", 0.6)
+    mesh = trimesh.Trimesh(vertices=v, faces=f, process=False)
+    convex = is_convex_mesh(mesh)
+
+    report_stage("finding the face-up side", 0.8)
+    convention = "+Y" if fmt in ("glb", "gltf") else "+Z"
+    guess = detect_up_axis(v, f, convex)
+    if up_key == "auto":
+        if guess.axis is not None:
+            up, up_source = guess.axis, f"shape: {guess.reason}"
+            if up != convention:
+                warns.append(
+                    f"{p.name} looks {describe_up(up)}, from {guess.reason}: turned so that its {up} side is face-up; "
+                    f"pass --up-axis {convention} (up_axis={convention!r}) to keep the file's orientation"
+                )
+        else:
+            up = convention
+            why = "glTF is Y-up by specification" if convention == "+Y" else "the file's +Z"
+            up_source = f"convention: {why} (the shape does not say: {guess.reason})"
+    else:
+        up, up_source = up_key, "given"
+        if guess.axis is not None and guess.axis != up_key:
+            warns.append(
+                f"{p.name}: you gave up axis {up_key}, but its shape says {guess.axis} is face-up ({guess.reason}); "
+                f"--up-axis auto (up_axis='auto') would use {guess.axis}"
+            )
+    rot = up_rotation(up)
+    v = (v @ rot.T) * factor
     shift = np.zeros(3)
     if recentre:
         lo, hi = v.min(axis=0), v.max(axis=0)
@@ -499,21 +614,97 @@ def load_mesh(
         translation_mm=[float(x) for x in shift],
         repairs=repairs,
         notes=notes,
-        convex=is_convex_mesh(mesh),
+        warnings=warns,
+        units_source=units_source,
+        up_axis=up,
+        up_axis_source=up_source,
+        rotation=rot.tolist(),
+        dimensions_mm=[float(x) for x in np.ptp(v, axis=0)],
+        convex=convex,
         watertight=True,
         triangles=len(f),
         vertices=len(v),
         bodies=bodies,
     )
     mesh.metadata["labcut"] = {"kind": "loaded", **report.to_dict()}
+    for w in warns:
+        _warnings.warn(w, LabcutWarning, stacklevel=2)
+    report_stage("loaded", 1.0)
     return mesh
 
 
-def save_mesh(mesh: Any, path: str | os.PathLike[str]) -> Path:
-    """Write ``mesh`` (mm) to ``path``, format by suffix, atomically.
+def _check_size(v: np.ndarray, factor: float, unit_name: str, units_source: str, name: str, fmt: str) -> None:
+    """Refuse a stone whose largest size in mm lies outside :data:`STONE_SIZE_MM`: wrong units."""
+    size_file = float(np.ptp(v, axis=0).max())
+    size = size_file * factor
+    lo, hi = STONE_SIZE_MM
+    if lo <= size <= hi:
+        return
+    why = {"given": "as given", "file": "glTF is metres by specification" if fmt in ("glb", "gltf") else "as the file declares",
+           "default": "the default: the file does not say"}[units_source]
+    fits = [u for u, k in UNITS.items() if 2.0 <= size_file * k <= 200.0 and u != unit_name]
+    hint = f"if the file is in {fits[0]}, pass --units {fits[0]} (units={fits[0]!r})" if fits else "give its unit with --units (units=)"
+    raise ParameterError(
+        f"{name} is {_mm(size)} mm across read in {unit_name} ({why}), outside the {lo:g}-{hi:g} mm of a stone; {hint}"
+    )
 
-    ``.ply`` and ``.stl`` are binary; ``.glb`` is binary glTF; ``.obj``, ``.off``
-    are text; ``.3mf`` is a zipped XML model in millimetres.
+
+def provenance(mesh: Any) -> dict[str, Any]:
+    """Where a mesh came from and what was done to it (path, units, up axis, repairs, bodies), from
+    ``mesh.metadata["labcut"]`` (:func:`labcut.load_mesh`, :func:`labcut.cabochon`); plain JSON."""
+    info = dict((getattr(mesh, "metadata", None) or {}).get("labcut", {}) or {})
+    keys = ("kind", "source", "format", "units", "units_source", "scale_to_mm", "up_axis", "up_axis_source", "rotation",
+            "repairs", "notes", "warnings", "bodies", "convex", "triangles")
+    out: dict[str, Any] = {k: info[k] for k in keys if k in info}
+    out.setdefault("kind", "given")  # built or loaded by the caller, not by labcut
+    out.setdefault("units", "mm")
+    out.setdefault("repairs", [])
+    out.setdefault("bodies", int(info.get("bodies", 1)))
+    out["dimensions_mm"] = [float(x) for x in np.ptp(np.asarray(mesh.vertices, dtype=np.float64), axis=0)]
+    out["triangles"] = int(len(mesh.faces))
+    return out
+
+
+def _mm(x: float) -> str:
+    """A length in mm for a message: 16000, 16.5, 0.016."""
+    return f"{x:.0f}" if x >= 100 else f"{x:.3g}"
+
+
+def validate_mesh(mesh: Any, name: str = "mesh") -> None:
+    """Check a mesh given to the API directly (not through :func:`load_mesh`): a non-empty
+    ``trimesh.Trimesh`` with finite vertices, closed (watertight), consistently wound, enclosing a
+    positive volume (outward normals). Raises :class:`MeshError` with a one-line message that
+    says how to fix it. Any size is accepted (mm)."""
+    import trimesh
+
+    if not isinstance(mesh, trimesh.Trimesh):
+        raise MeshError(f"{name} must be a trimesh.Trimesh (labcut.load_mesh or labcut.cabochon), got {type(mesh).__name__}")
+    v = np.asarray(mesh.vertices)
+    f = np.asarray(mesh.faces)
+    if len(v) == 0 or len(f) == 0:
+        raise MeshError(f"{name} is empty: it has no triangles")
+    if not np.all(np.isfinite(v)):
+        bad = int((~np.all(np.isfinite(v), axis=1)).sum())
+        raise MeshError(f"{name} has {bad} non-finite (NaN or inf) vertices; load it with labcut.load_mesh, which repairs them")
+    if f.min() < 0 or f.max() >= len(v):
+        raise MeshError(f"{name} has faces that refer to missing vertices")
+    if not mesh.is_watertight:
+        raise MeshError(f"{name} is not closed (watertight): an open shell has no inside; load it with labcut.load_mesh, which closes holes")
+    if not mesh.is_winding_consistent:
+        raise MeshError(f"{name} has inconsistently wound faces; load it with labcut.load_mesh, which repairs them")
+    volume = float(mesh.volume)
+    if not volume > 0:
+        raise MeshError(f"{name} encloses no positive volume (normals point inward, or it is flat); load it with labcut.load_mesh")
+
+
+def save_mesh(mesh: Any, path: str | os.PathLike[str]) -> Path:
+    """Write ``mesh`` (mm, labcut frame) to ``path``, format by suffix, atomically.
+
+    ``.ply`` and ``.stl`` are binary, in mm, +Z face-up; ``.obj``, ``.off`` are text, in mm,
+    +Z face-up; ``.3mf`` is a zipped XML model that declares millimetres. ``.glb`` is binary
+    glTF as the glTF specification has it, so other tools see the stone at its true size and
+    right side up: metres, +Y up, the front of the stone facing +Z (labcut's -Y), i.e.
+    ``(x, y, z) mm -> (x, z, -y) / 1000 m``; :func:`load_mesh` turns it back.
     """
     from ..fileio import atomic_output
 
@@ -524,6 +715,12 @@ def save_mesh(mesh: Any, path: str | os.PathLike[str]) -> Path:
     with atomic_output(out, WRITE_FORMATS + tuple(s.upper() for s in WRITE_FORMATS)) as tmp:
         plain = mesh.copy()
         plain.metadata = {}
+        if suffix == ".glb":
+            from .orient import up_rotation
+
+            to_gltf = np.eye(4)
+            to_gltf[:3, :3] = up_rotation("+Y").T * 1e-3  # inverse of the +Y-up intake, mm -> m
+            plain.apply_transform(to_gltf)
         data = plain.export(file_type=suffix[1:])
         if isinstance(data, str):
             data = data.encode()

@@ -219,7 +219,7 @@ def make_outline(
         dense, keys = _superellipse_dense(a, b, CUSHION_EXPONENT)
     elif name in ("pear", "marquise"):
         if L < W * (1 - 1e-12):
-            raise ParameterError(f"a {name} outline needs length >= width (it points along the length), got {L:g} x {W:g} mm")
+            raise ParameterError(f"{'an' if name[:1] in 'aeiou' else 'a'} {name} outline needs length >= width (it points along the length), got {L:g} x {W:g} mm")
         dense, keys = (_pear_dense if name == "pear" else _marquise_dense)(a, b)
     else:  # rectangle
         r = 0.15 * min(L, W) if corner_radius is None else corner_radius

@@ -14,11 +14,55 @@ from ..errors import ParameterError
 from ..physics.material import Labradorite
 from ..scene import Lights, Scenario, Views, resolve_scene
 from .optimize import OPTIMIZERS, Constraint, hemisphere_grid, run_optimizer, score_map, tolerance_deg
+from ..geometry.meshio import provenance as mesh_provenance
 from .problem import build_problem
 from .scoring import OBJECTIVES, FlashMetrics, Scorer
 
 MAP_SPACING_DEG = {"draft": 4.0, "standard": 3.0, "high": 1.5}
 RUNNER_UP_SEPARATION_DEG = 12.0
+#: share of the best score the tolerances keep ("as good")
+KEEP = 0.9
+
+#: how to read a recommendation's numbers (written into its JSON as ``frame``)
+FRAME = {
+    "normal": "unit lamella normal in the mesh frame (axial: n and -n are the same; reported with z >= 0)",
+    "axes": "+Z face-up; -Y the front of the stone, +Y its back (for a stone worn upright, pendant or brooch: "
+            "+Y the top, the bail end); +X its right as seen from the front",
+    "tilt_deg": "angle of the lamella normal from +Z (0: lamellae parallel to the base)",
+    "azimuth_deg": "direction the lamella normal leans, from +X (right) towards +Y (back), in [0, 360): "
+                   "0 right, 90 back (top), 180 left, 270 front (bottom)",
+}
+
+#: the flash metrics, as the table and the JSON state them (DESIGN.md §4, docs/orientation.md)
+METRIC_DEFINITIONS = {
+    "flash_area": "share of the visible stone (projected area) whose schiller reaches tau x L_ref; mean over views",
+    "flash_intensity": "mean L_s / L_ref over the flashing part of a view (0 where none flashes); mean over views",
+    "flash_energy": "mean L_s / L_ref over the whole visible stone; mean over views. "
+                    "= energy_in_flash + energy_below_threshold",
+    "energy_in_flash": "sum over views of weight x flash_area x flash_intensity: the energy of the flashing parts",
+    "energy_below_threshold": "the energy of the faint schiller below tau x L_ref",
+    "coverage": "weight of the views whose flash_area exceeds 0.05",
+    "balanced": "sqrt(flash_area x flash_intensity) of the aggregates",
+}
+
+
+def energy_parts(metrics: FlashMetrics) -> tuple[float, float]:
+    """``(energy_in_flash, energy_below_threshold)`` of some metrics; they add up to ``flash_energy``.
+
+    Per view, the energy (mean ``L_s/L_ref`` over the visible stone) is the flashing part's
+    ``area x intensity`` plus the faint schiller below the threshold; the aggregates are
+    view-weighted means, so ``flash_area x flash_intensity`` of the aggregates is neither."""
+    pv = metrics.per_view
+    w = np.asarray(pv["weight"], dtype=np.float64)
+    in_flash = float(w @ (np.asarray(pv["flash_area"]) * np.asarray(pv["flash_intensity"])))
+    in_flash = min(in_flash, metrics.flash_energy)
+    return in_flash, metrics.flash_energy - in_flash
+
+
+def metrics_dict(metrics: FlashMetrics) -> dict[str, Any]:
+    """Plain JSON of flash metrics with the energy split into its flashing and faint parts."""
+    in_flash, below = energy_parts(metrics)
+    return {**metrics.to_dict(), "energy_in_flash": in_flash, "energy_below_threshold": below}
 
 
 def tilt_azimuth(normal: np.ndarray) -> tuple[float, float]:
@@ -33,18 +77,59 @@ FACE_UP_SIDES = ["right (+X)", "back-right", "back (+Y)", "back-left", "left (-X
 UPRIGHT_SIDES = ["right (+X)", "top-right", "top (+Y, the bail end)", "top-left", "left (-X)", "bottom-left", "bottom (-Y)", "bottom-right"]
 
 
-def describe(normal: np.ndarray, scenario: Scenario | None = None) -> str:
+def _upright(scenario: Scenario | None) -> bool:
+    return scenario is not None and float((scenario.pose @ np.array([0.0, 1.0, 0.0]))[2]) > 0.7
+
+
+def side_name(azimuth_deg: float, scenario: Scenario | None = None) -> str:
+    """The side of the stone at an azimuth (degrees from +X towards +Y), named as the stone is worn."""
+    sides = UPRIGHT_SIDES if _upright(scenario) else FACE_UP_SIDES
+    return sides[int(((azimuth_deg + 22.5) % 360.0) // 45.0)]
+
+
+def describe(normal: np.ndarray, scenario: Scenario | None = None, parallel_within_deg: float | None = None) -> str:
     """The orientation in a cutter's words: tilt of the lamella plane towards a side of the stone.
 
     Sides are named as the stone is worn: front/back for a stone lying face-up, top/bottom
-    for one worn upright (pendant, brooch: the mesh's +Y end is up)."""
+    for one worn upright (pendant, brooch: the mesh's +Y end is up). ``parallel_within_deg``:
+    the lamellae parallel to the base score as well as the optimum (within :data:`KEEP`) and
+    any tilt up to this many degrees does too: the answer is then "parallel to the base"."""
     tilt, az = tilt_azimuth(normal)
+    if parallel_within_deg is not None:
+        return f"keep the lamella plane parallel to the base (any tilt within ±{parallel_within_deg:.1f}° is as good)"
     if tilt < 0.5:
         return "keep the lamella plane parallel to the base (face-up)"
-    upright = scenario is not None and float((scenario.pose @ np.array([0.0, 1.0, 0.0]))[2]) > 0.7
-    sides = UPRIGHT_SIDES if upright else FACE_UP_SIDES
-    side = sides[int(((az + 22.5) % 360.0) // 45.0)]
+    side = side_name(az, scenario)
     return f"tilt the lamella plane {tilt:.0f}° towards the {side} of the stone (azimuth {az:.0f}°)"
+
+
+def workshop(normal: np.ndarray, mesh: Any, scenario: Scenario | None = None, parallel: bool = False) -> dict[str, Any]:
+    """The orientation as a cutter sets it up when sawing or dopping, relative to the flash plane.
+
+    Under the lamp the cutter finds the flash plane (the lamella plane: the rough flashes
+    straight back at the eye when it lies level) and then cuts the stone's base, or sets it on
+    the dop, at an angle to that plane. With the lamella normal tilted ``θ`` towards the side
+    at azimuth ``φ`` (mesh frame), the base must rise towards that side: raise the stone's
+    ``φ`` edge by ``θ`` above the flash plane, i.e. ``span x tan θ`` mm over the stone's span
+    ``span`` (mm) measured along ``φ``. Returns a plain-JSON dict (degrees, mm)."""
+    tilt, az = tilt_azimuth(normal)
+    if parallel or tilt < 0.5:
+        return {
+            "raise_edge": None, "raise_deg": 0.0, "raise_mm": 0.0, "span_mm": None, "edge_azimuth_deg": None,
+            "text": "saw and dop with the base parallel to the flash plane found under the lamp",
+        }
+    u = np.array([math.cos(math.radians(az)), math.sin(math.radians(az)), 0.0])
+    v = np.asarray(mesh.vertices, dtype=np.float64)
+    span = float(np.ptp(v @ u))
+    rise = span * math.tan(math.radians(tilt))
+    side = side_name(az, scenario)
+    short, detail = side.split(" (")[0], side[len(side.split(" (")[0]):]
+    opposite = side_name(az + 180.0, scenario).split(" (")[0]
+    return {
+        "raise_edge": side, "raise_deg": tilt, "raise_mm": rise, "span_mm": span, "edge_azimuth_deg": az,
+        "text": (f"level the flash plane found under the lamp, then saw or dop with the {short} edge{detail} of the stone "
+                 f"raised {tilt:.1f}° above it: {rise:.2f} mm over the {span:.1f} mm from its {opposite} edge to its {short} edge"),
+    }
 
 
 def _axial_angle(a: np.ndarray, b: np.ndarray) -> float:
@@ -77,10 +162,17 @@ class Recommendation:
     seconds: float
     settings: dict[str, Any] = field(default_factory=dict)
     scenario: Scenario | None = None  # the scenario it was found under (renders use it)
+    #: degrees of tilt from the base that keep 90 % of the best score, when the base itself
+    #: does (the answer is then "parallel to the base"); None otherwise
+    parallel_within_deg: float | None = None
+    #: the cutter's set-up: which edge to raise above the flash plane, degrees and mm (:func:`workshop`)
+    workshop: dict[str, Any] = field(default_factory=dict)
+    #: the mesh's provenance (:func:`mesh_provenance`): path, units, up axis, repairs, bodies
+    mesh: dict[str, Any] = field(default_factory=dict)
 
     @property
     def description(self) -> str:
-        return describe(self.normal, self.scenario)
+        return describe(self.normal, self.scenario, self.parallel_within_deg)
 
     def to_dict(self) -> dict[str, Any]:
         """Plain JSON: everything but the full score map (``map`` holds it as tilt/azimuth/score lists)."""
@@ -90,9 +182,15 @@ class Recommendation:
             "tilt_deg": self.tilt_deg,
             "azimuth_deg": self.azimuth_deg,
             "description": self.description,
+            "parallel_to_base": self.parallel_within_deg is not None,
+            "parallel_within_deg": self.parallel_within_deg,
+            "workshop": self.workshop,
+            "frame": FRAME,
             "objective": self.objective,
             "score": self.score,
-            "metrics": self.metrics.to_dict(),
+            "metrics": metrics_dict(self.metrics),
+            "metric_definitions": METRIC_DEFINITIONS,
+            "mesh": self.mesh,
             "tolerance_deg": self.tolerance_deg,
             "tolerance_by_axis": self.tolerance_by_axis,
             "runners_up": self.runners_up,
@@ -119,6 +217,9 @@ def _setup(mesh, material, scenario, lighting, viewing, objective, quality, tau,
         raise ParameterError(f"objective must be one of {', '.join(OBJECTIVES)}, got {objective!r}")
     if quality not in MAP_SPACING_DEG:
         raise ParameterError(f"quality must be one of draft, standard, high, got {quality!r}")
+    from ..geometry.meshio import validate_mesh
+
+    validate_mesh(mesh)
     material = _check_material(material)
     scene = resolve_scene(scenario, lighting, viewing, quality)
     constraint = Constraint(float(max_tilt), tilt_axis)
@@ -187,17 +288,28 @@ def recommend_orientation(
 
         normal, score = _polish_grid(scorer, map_normals[int(np.argmax(map_scores))], constraint, MAP_SPACING_DEG[quality], 0.1)
         normal = _upper(normal)
+    if not score > 0.0:
+        _no_flash(objective, scene, tau)
     report("tolerance and runners-up", 0.8)
-    tol = tolerance_deg(scorer.scores, normal, score, constraint) if score > 0 else 0.0
+    tol = tolerance_deg(scorer.scores, normal, score, constraint, keep=KEEP)
     runners = _runners_up(scorer, constraint, map_normals, map_scores, normal, score, scenario=scene)
-    by_axis = axis_tolerances(scorer, normal, score, constraint) if score > 0 else {"front_back_deg": 0.0, "left_right_deg": 0.0}
+    by_axis = axis_tolerances(scorer, normal, score, constraint)
     metrics = scorer.metrics(normal)
     tilt, az = tilt_azimuth(normal)
+    # lamellae parallel to the base score as well as the optimum: that is the instruction
+    pole = np.array([0.0, 0.0, 1.0])
+    parallel = None
+    if tilt >= 0.5 and scorer.score(pole) >= KEEP * score:
+        parallel = float(tolerance_deg(scorer.scores, pole, score, constraint, keep=KEEP))
+    elif tilt < 0.5:
+        parallel = float(tol)
     report("done", 1.0)
     return Recommendation(
         normal=normal, tilt_deg=tilt, azimuth_deg=az, score=float(score), objective=objective, metrics=metrics,
         tolerance_deg=float(tol), tolerance_by_axis=by_axis, runners_up=runners, map_normals=map_normals, map_scores=map_scores,
         optimizer=optimizer, evaluations=scorer.evaluations, seconds=time.perf_counter() - start,
+        parallel_within_deg=parallel, workshop=workshop(normal, mesh, scene, parallel=parallel is not None),
+        mesh=mesh_provenance(mesh),
         settings={
             "material": material.to_dict(), "scenario": scene.to_dict(), "lighting": scene.lights.name,
             "viewing": scene.views.name, "quality": quality,
@@ -206,6 +318,20 @@ def recommend_orientation(
             "triples": scorer.problem.n_triples, "lights": len(scene.lights), "views": len(scene.views),
         },
         scenario=scene,
+    )
+
+
+def _no_flash(objective: str, scene: Scenario, tau: float) -> None:
+    """No orientation scores above zero: under ``area``/``intensity``/``balanced`` that means no
+    point of the stone reaches the flash threshold anywhere (diffuse light spreads the schiller
+    thin), and a "best" orientation would be meaningless."""
+    if objective == "energy":  # pragma: no cover - build_problem refuses a scene where no light reaches a viewer
+        raise ParameterError(f"no light of scenario {scene.name!r} reaches a part of the stone its viewers see")
+    raise ParameterError(
+        f"under scenario {scene.name!r} ({scene.lights.name} light, {scene.views.name} viewers) no point of the stone reaches "
+        f"the flash threshold (tau = {tau:g} x a face-on flash) at any lamella orientation, so the {objective!r} objective "
+        "is 0 everywhere and cannot rank them; use --objective energy (objective='energy'), which ranks the faint "
+        "schiller, or a more directed light"
     )
 
 

@@ -54,7 +54,15 @@ class RenderPlan:
 
 @dataclass
 class RenderResult:
-    """A rendered image (linear RGB, float32, H x W x 3) and how it was made."""
+    """A rendered image (linear RGB, float32, H x W x 3) and how it was made.
+
+    ``exposure``: the multiplier a PNG of it is tonemapped with, one for the whole image (the
+    tiles of an orbit share it): automatic (:func:`~labcut.rendering.images.auto_exposure`) unless
+    given (``exposure_mode`` ``"auto"`` / ``"given"``). ``flash``: per view, its name, the flash
+    area the estimator finds there (share of the visible stone at or above the flash threshold;
+    None where the view sees the stone edge-on) and whether there is any. ``notes``: what a
+    viewer of the image should know (e.g. "no flash from this view"). ``mesh``: the mesh's
+    provenance (:func:`labcut.geometry.meshio.provenance`)."""
 
     image: np.ndarray
     plan: RenderPlan
@@ -62,6 +70,11 @@ class RenderResult:
     seconds: float
     views: list[str] = field(default_factory=list)
     scenario: dict[str, Any] = field(default_factory=dict)
+    exposure: float = 1.0
+    exposure_mode: str = "auto"
+    flash: list[dict[str, Any]] = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)
+    mesh: dict[str, Any] = field(default_factory=dict)
 
     @property
     def samples_per_second(self) -> float:
@@ -69,8 +82,17 @@ class RenderResult:
         return h * w * self.spp / max(self.seconds, 1e-9)
 
     def save(self, path: str | Path, exposure: float | None = None) -> Path:
-        """PNG (tonemapped, sRGB) or EXR (linear HDR) by suffix; written atomically."""
-        return save_image(self.image, path, exposure)
+        """PNG (tonemapped, sRGB) or EXR (linear HDR) by suffix; written atomically.
+
+        ``exposure`` replaces the result's (and is recorded as given); a PNG records the
+        exposure it used in its ``labcut:exposure`` text field."""
+        if exposure is not None:
+            from .images import tonemap
+
+            tonemap(np.zeros((1, 1, 3)), exposure)  # validates
+            self.exposure, self.exposure_mode = float(exposure), "given"
+        meta = {"views": self.views, "flash": self.flash, "plan": "; ".join(self.plan.reasons)}
+        return save_image(self.image, path, self.exposure, metadata=meta, exposure_mode=self.exposure_mode)
 
 
 def normalize_normal(normal: Any) -> np.ndarray:
@@ -258,6 +280,8 @@ def render(
     output: str | Path | None = None,
     progress: Callable[[int, int], None] | None = None,
     zoning: Any = None,
+    exposure: float | None = None,
+    check_flash: bool = True,
 ) -> RenderResult:
     """Render ``mesh`` (mm, +Z face-up) cut from ``material`` with lamellae normal to ``lamella_normal``.
 
@@ -278,15 +302,32 @@ def render(
     zoning: ``None`` | ``"smooth"`` | ``"sharp"`` | a :class:`~labcut.rendering.zoning.Zoning`:
         colour zones, lamella parameters blended through the stone by a noise field
         (paper §3.2.2; docs/zoning.md). Presets are built on ``material``.
+    exposure: the PNG exposure multiplier (> 0); None (default) picks one automatically from the
+        whole image, so the tiles of an orbit share one exposure. Recorded on the result and in
+        the PNG.
+    check_flash: estimate, per camera, whether any part of the stone flashes from there (the
+        surface-sample estimator at draft quality, the material without zoning); a view with
+        none gets a note (:attr:`RenderResult.notes`): an auto-exposed image of glare and body
+        colour looks like a stone, not like a stone that does not flash.
 
     Returns a :class:`RenderResult` whose ``image`` is linear RGB float32 and ``plan`` says
     what was simulated.
+
+    Raises :class:`~labcut.errors.MeshError` for a mesh that is not a closed, finite solid
+    (:func:`labcut.geometry.meshio.validate_mesh`) and :class:`~labcut.errors.ParameterError`
+    for bad parameters.
     """
     import drjit as dr
     import mitsuba as mi
 
+    from ..geometry.meshio import provenance, validate_mesh
+    from .images import auto_exposure, tonemap
+
+    validate_mesh(mesh)
     if not (isinstance(spp, int | np.integer) and spp >= 1):
         raise ParameterError(f"spp must be a whole number >= 1, got {spp!r}")
+    if exposure is not None:
+        tonemap(np.zeros((1, 1, 3)), exposure)  # validates: finite and > 0
     if polarizer_deg is not None and not (isinstance(polarizer_deg, int | float) and math.isfinite(polarizer_deg)):
         raise ParameterError(f"polarizer angle must be a finite number of degrees, got {polarizer_deg!r}")
     if output is not None:
@@ -341,7 +382,50 @@ def render(
         rows = [np.concatenate(tiles[i : i + 4], axis=1) for i in range(0, len(tiles), 4)]
         image = np.concatenate(rows, axis=0)
     log.info("render plan: %s", "; ".join(plan.reasons))
-    result = RenderResult(np.ascontiguousarray(image), plan, int(spp), seconds, [v.name for v in views], scenario_used.to_dict())
+    image = np.ascontiguousarray(image)
+    result = RenderResult(
+        image, plan, int(spp), seconds, [v.name for v in views], scenario_used.to_dict(),
+        exposure=float(exposure) if exposure is not None else auto_exposure(np.clip(np.nan_to_num(image), 0.0, None)),
+        exposure_mode="given" if exposure is not None else "auto",
+        mesh=provenance(mesh),
+    )
+    if check_flash:
+        result.flash, result.notes = flash_by_view(mesh, material, lamella_normal, setting, views)
     if output is not None:
         result.save(output)
     return result
+
+
+def flash_by_view(mesh: Any, material: Labradorite, lamella_normal: Any, setting: Setting,
+                  cameras: Sequence[CameraView]) -> tuple[list[dict[str, Any]], list[str]]:
+    """Does the stone flash from each camera? The surface-sample estimator (draft quality) under
+    the render's lights, one view per camera (mesh frame). Returns per camera ``{"view", "flash_area",
+    "flash"}`` (None for a camera that sees the face edge-on or from behind) and the notes to show."""
+    from ..orientation.problem import build_problem
+    from ..orientation.scoring import Scorer
+    from ..scene import Views
+
+    normal = normalize_normal(lamella_normal)
+    dirs = np.array([c.direction for c in cameras], dtype=np.float64)
+    dirs /= np.linalg.norm(dirs, axis=1, keepdims=True)
+    usable = np.flatnonzero(dirs[:, 2] > 1e-3)
+    areas: list[float | None] = [None] * len(cameras)
+    if len(usable):
+        try:
+            problem = build_problem(mesh, material, quality="draft",
+                                    settings=[Setting(setting.lights, Views(dirs[usable]), 1.0, setting.pose)])
+            per_view = Scorer(problem).metrics(normal).per_view["flash_area"]
+        except ParameterError:  # no light reaches what any camera sees
+            per_view = [0.0] * len(usable)
+        for i, a in zip(usable, per_view):
+            areas[int(i)] = float(a)
+    flash = [{"view": c.name, "flash_area": a, "flash": None if a is None else a > 0.0} for c, a in zip(cameras, areas)]
+    dark = [f["view"] for f in flash if f["flash"] is False]
+    notes = []
+    if dark:
+        where = "this view" if len(cameras) == 1 else f"{len(dark)} of {len(cameras)} views ({', '.join(dark)})"
+        notes.append(
+            f"the stone shows no flash from {where}: no part of it reaches the flash threshold there, so what the "
+            "image shows is surface glare and the grey body (a PNG's automatic exposure brightens them)"
+        )
+    return flash, notes

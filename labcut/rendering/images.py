@@ -1,4 +1,10 @@
-"""Writing rendered images: tonemapped PNG for people, linear EXR for programs."""
+"""Writing rendered images: tonemapped PNG for people, linear EXR for programs.
+
+A PNG records the exposure it was tonemapped with (a ``labcut:exposure`` text chunk, with
+``labcut:exposure_mode`` = ``auto`` or ``given`` and any other ``labcut:*`` fields the caller
+passes), so two PNGs can be compared honestly; :func:`shared_exposure` gives a series of
+images (orbit tiles, a comparison) one exposure.
+"""
 
 from __future__ import annotations
 
@@ -22,6 +28,24 @@ def auto_exposure(image: np.ndarray, percentile: float = 99.5, target: float = 2
     return float(target / max(np.percentile(lit, percentile), 1e-6))
 
 
+def shared_exposure(images: list[np.ndarray] | tuple[np.ndarray, ...], percentile: float = 99.5, target: float = 2.0) -> float:
+    """One automatic exposure for a series of linear images, from all their lit pixels together:
+    tonemap each with it so that brightness differences between them are real."""
+    if not len(images):
+        raise ParameterError("shared_exposure needs at least one image")
+    flat = np.concatenate([np.asarray(im, dtype=np.float64).reshape(-1, np.asarray(im).shape[-1]) for im in images], axis=0)
+    return auto_exposure(np.clip(np.nan_to_num(flat), 0.0, None), percentile, target)
+
+
+def read_png_metadata(path: str | os.PathLike[str]) -> dict[str, str]:
+    """The ``labcut:*`` text fields of a PNG written by :func:`save_image` (key without the prefix)."""
+    from PIL import Image
+
+    with Image.open(path) as im:
+        text = dict(getattr(im, "text", {}) or {})
+    return {k.split(":", 1)[1]: v for k, v in text.items() if k.startswith("labcut:")}
+
+
 def tonemap(image: np.ndarray, exposure: float | None = None) -> np.ndarray:
     """Linear RGB -> display sRGB in [0, 1], hue-preserving.
 
@@ -40,8 +64,17 @@ def tonemap(image: np.ndarray, exposure: float | None = None) -> np.ndarray:
     return encode_srgb(x * scale)
 
 
-def save_image(image: np.ndarray, path: str | os.PathLike[str], exposure: float | None = None) -> Path:
-    """Write ``image`` (H, W, 3 linear) as tonemapped 8-bit PNG or float32 EXR, atomically."""
+def save_image(image: np.ndarray, path: str | os.PathLike[str], exposure: float | None = None,
+               metadata: dict[str, object] | None = None, exposure_mode: str | None = None) -> Path:
+    """Write ``image`` (H, W, 3 linear) as tonemapped 8-bit PNG or float32 EXR, atomically.
+
+    ``exposure``: the PNG's exposure multiplier (None: automatic, :func:`auto_exposure`). The PNG
+    records it as ``labcut:exposure`` (and ``labcut:exposure_mode``), plus ``metadata`` as
+    ``labcut:<key>`` text (non-strings as JSON). ``exposure_mode`` overrides the recorded mode
+    (a caller that computed the automatic exposure itself passes ``"auto"``). An EXR is linear:
+    no exposure is applied."""
+    import json
+
     import mitsuba as mi
 
     out = Path(path)
@@ -52,6 +85,17 @@ def save_image(image: np.ndarray, path: str | os.PathLike[str], exposure: float 
         if suffix == ".exr":
             mi.Bitmap(np.ascontiguousarray(image, dtype=np.float32), mi.Bitmap.PixelFormat.RGB).write(str(tmp))
         else:
-            ldr = np.ascontiguousarray(np.round(tonemap(image, exposure) * 255.0).astype(np.uint8))
-            mi.Bitmap(ldr, mi.Bitmap.PixelFormat.RGB).write(str(tmp))
+            from PIL import Image, PngImagePlugin
+
+            x = np.clip(np.nan_to_num(np.asarray(image, dtype=np.float64)), 0.0, None)
+            mode = exposure_mode or ("auto" if exposure is None else "given")
+            used = auto_exposure(x) if exposure is None else exposure
+            ldr = np.ascontiguousarray(np.round(tonemap(x, used) * 255.0).astype(np.uint8))
+            info = PngImagePlugin.PngInfo()
+            info.add_text("Software", "labcut")
+            info.add_text("labcut:exposure", repr(float(used)))
+            info.add_text("labcut:exposure_mode", mode)
+            for key, value in (metadata or {}).items():
+                info.add_text(f"labcut:{key}", value if isinstance(value, str) else json.dumps(value, allow_nan=False))
+            Image.fromarray(ldr, "RGB").save(tmp, format="PNG", pnginfo=info)
     return out

@@ -1,0 +1,99 @@
+"""Mesh options shared by every command that reads a mesh (``--units``, ``--up-axis``) and the
+loader that reports what it did: warnings on stderr, repairs with the answer, progress for long loads.
+"""
+
+from __future__ import annotations
+
+import warnings
+from pathlib import Path
+from typing import Annotated, Any
+
+import typer
+
+from .root import console, err_console
+
+Units = Annotated[
+    str,
+    typer.Option(
+        "--units",
+        help="Length unit of the mesh file: auto (what the file declares: glTF is metres, 3MF says; else mm), "
+             "mm, cm, m, um, in, ft, or a number of mm per file unit.",
+        rich_help_panel="Mesh",
+    ),
+]
+UpAxis = Annotated[
+    str,
+    typer.Option(
+        "--up-axis",
+        help="The file's face-up axis: auto (read from a flat base, a table or a dome; else +Z, +Y for glTF), "
+             "+Z, -Z, +Y, -Y, +X or -X.",
+        rich_help_panel="Mesh",
+    ),
+]
+
+#: files at least this large get a progress bar while they load (bytes)
+PROGRESS_BYTES = 2_000_000
+
+
+def check_mesh_options(units: str, up_axis: str) -> tuple[str | float, str]:
+    """Validate ``--units`` and ``--up-axis`` before any work; returns them as ``load_mesh`` takes them."""
+    from labcut.geometry.meshio import _units_scale
+    from labcut.geometry.orient import check_up_axis
+
+    unit_arg: str | float = units.strip()
+    try:
+        unit_arg = float(units)
+    except ValueError:
+        pass
+    if not (isinstance(unit_arg, str) and unit_arg.lower() == "auto"):
+        _units_scale(unit_arg)  # a bad unit is an error now, not after the mesh is read
+    return unit_arg, check_up_axis(up_axis)
+
+
+def load(mesh_path: Path, units: str = "auto", up_axis: str = "auto", **kwargs: Any) -> Any:
+    """``labcut.load_mesh`` for a command: its warnings as ``warning:`` lines on stderr, a
+    progress bar (stderr) for large files."""
+    from labcut.errors import LabcutWarning
+    from labcut.geometry.meshio import load_mesh
+
+    unit_arg, up = check_mesh_options(units, up_axis)
+    big = Path(mesh_path).is_file() and Path(mesh_path).stat().st_size >= PROGRESS_BYTES
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", LabcutWarning)
+        if big:
+            from .progress import progress_bar
+
+            with progress_bar(f"loading {Path(mesh_path).name}", "%") as update:
+                mesh = load_mesh(mesh_path, units=unit_arg, up_axis=up,
+                                 progress=lambda stage, fraction: update(int(round(100 * fraction)), 100), **kwargs)
+        else:
+            mesh = load_mesh(mesh_path, units=unit_arg, up_axis=up, **kwargs)
+    for w in caught:
+        if issubclass(w.category, LabcutWarning):
+            print_warning(str(w.message))
+    return mesh
+
+
+def print_warning(message: str) -> None:
+    """One ``warning:`` line on stderr."""
+    from rich.markup import escape
+
+    err_console.print(f"[bold yellow]warning:[/] {escape(message)}", highlight=False, soft_wrap=True)
+
+
+def print_provenance(mesh: Any, name: str) -> None:
+    """What loading changed, for people: units and up axis when they were not the plain defaults,
+    and every repair."""
+    info = mesh.metadata.get("labcut", {})
+    parts = []
+    if info.get("units_source") == "file":
+        parts.append(f"read in {info['units']} as the file declares")
+    if info.get("up_axis", "+Z") != "+Z":
+        parts.append(f"turned so that the file's {info['up_axis']} side is face-up ({info.get('up_axis_source', '')})")
+    if parts:
+        console.print(f"{name}: {'; '.join(parts)}.", highlight=False)
+    repairs = info.get("repairs") or []
+    if repairs:
+        console.print(f"{name} was repaired on loading: {'; '.join(repairs)}.", highlight=False)
+    if int(info.get("bodies", 1)) > 1:
+        console.print(f"{name} holds {info['bodies']} separate bodies, scored and rendered together.", highlight=False)
