@@ -67,3 +67,48 @@ def ensemble_mean(wavelength_nm, theta_deg: float, lab, pol: str, realisations: 
     else:
         r = stack_reflectance(wavelength_nm, theta_deg, *args, pol=pol, realisations=realisations, seed=seed)
     return r.mean(axis=0), r.std(axis=0) / math.sqrt(realisations)
+
+
+def smooth3(x: np.ndarray) -> np.ndarray:
+    """3-point moving average (edges: 2-point), the same for model and exact curves."""
+    x = np.asarray(x, dtype=np.float64)
+    out = np.convolve(x, np.ones(3) / 3.0, mode="same")
+    out[0], out[-1] = 0.5 * (x[0] + x[1]), 0.5 * (x[-2] + x[-1])
+    return out
+
+
+def peak_position(wl: np.ndarray, r: np.ndarray, level: float = 0.9) -> float:
+    """Centroid (nm) of the part of a smoothed spectrum within ``level`` of its maximum: robust to
+    the flat tops of saturated peaks and to the ensemble's noise."""
+    s = smooth3(r)
+    i = int(np.argmax(s))
+    lo = i
+    while lo > 0 and s[lo - 1] >= level * s[i]:
+        lo -= 1
+    hi = i
+    while hi < len(s) - 1 and s[hi + 1] >= level * s[i]:
+        hi += 1
+    w = s[lo : hi + 1]
+    return float((wl[lo : hi + 1] * w).sum() / w.sum())
+
+
+def compare(model: np.ndarray, exact: np.ndarray, se: np.ndarray, wl: np.ndarray) -> dict:
+    """How a model spectrum compares with an exact ensemble mean (and its standard error):
+    peak heights of the 3-point smoothed curves (noise of the smoothed exact peak ≈ SE/√3),
+    peak positions (:func:`peak_position`), integrals, and the worst pointwise difference and
+    its excess over 3 SE. The definitions the tests and the report share."""
+    sm, se_ = smooth3(model), smooth3(exact)
+    i = int(np.argmax(se_))
+    peak_se = float(se[max(i - 1, 0) : i + 2].mean()) / math.sqrt(3.0)
+    diff = np.abs(model - exact)
+    return {
+        "exact_peak": float(se_[i]),
+        "model_peak": float(sm.max()),
+        "peak": float(sm.max() / se_[i]) if se_[i] > 0 else float("nan"),
+        "peak_se": peak_se,
+        "position_nm": peak_position(wl, model) - peak_position(wl, exact),
+        "integral": float(model.sum() / exact.sum()) if exact.sum() > 0 else float("nan"),
+        "integral_se": float(np.sqrt((se**2).sum()) / exact.sum()) if exact.sum() > 0 else float("nan"),
+        "pointwise": float(diff.max()),
+        "excess": float(np.max(diff - 3.0 * se)),
+    }
