@@ -1,0 +1,93 @@
+"""The layers hold: no module imports a layer above its own (docs/architecture.md).
+
+    errors → backend, fileio → physics, colour → geometry, scene
+           → rendering, orientation, plots → reports → batch → the CLI (labcut_cli)
+
+A module may import its own layer and any below. Imports are read from the source
+(every ``import`` and ``from ... import``, including those inside functions), so a lazy
+import cannot hide a cycle. ``labcut/__init__.py`` is the facade and exempt.
+"""
+
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+PACKAGE = ROOT / "labcut"
+
+LAYERS: list[tuple[str, ...]] = [
+    ("labcut.errors",),
+    ("labcut.backend", "labcut.fileio"),
+    ("labcut.physics", "labcut.colour"),
+    ("labcut.geometry", "labcut.scene"),
+    ("labcut.rendering", "labcut.orientation", "labcut.plots"),
+    ("labcut.reports",),
+    ("labcut.batch",),
+]
+
+
+def layer_of(module: str) -> int | None:
+    for k, names in enumerate(LAYERS):
+        if any(module == n or module.startswith(n + ".") for n in names):
+            return k
+    return None
+
+
+def module_name(path: Path) -> str:
+    rel = path.relative_to(ROOT).with_suffix("")
+    parts = list(rel.parts)
+    if parts[-1] == "__init__":
+        parts = parts[:-1]
+    return ".".join(parts)
+
+
+def imports(path: Path) -> list[tuple[str, int]]:
+    """(absolute module name, line) of every import in a source file."""
+    tree = ast.parse(path.read_text(), str(path))
+    name = module_name(path)
+    package = name if path.name == "__init__.py" else name.rpartition(".")[0]
+    out = []
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            out += [(alias.name, node.lineno) for alias in node.names]
+        elif isinstance(node, ast.ImportFrom):
+            if node.level:
+                base = package.split(".")
+                base = base[: len(base) - (node.level - 1)]
+                target = ".".join(base + ([node.module] if node.module else []))
+            else:
+                target = node.module or ""
+            out.append((target, node.lineno))
+            for alias in node.names:  # "from . import bsdf" names a submodule
+                out.append((f"{target}.{alias.name}", node.lineno))
+    return out
+
+
+SOURCES = sorted(p for p in PACKAGE.rglob("*.py") if p != PACKAGE / "__init__.py")
+
+
+@pytest.mark.parametrize("path", SOURCES, ids=lambda p: str(p.relative_to(ROOT)))
+def test_no_import_runs_up_the_layers(path):
+    own = layer_of(module_name(path))
+    assert own is not None, f"{module_name(path)} is in no layer: add it to LAYERS (and docs/architecture.md)"
+    for target, line in imports(path):
+        if target.startswith("labcut_cli"):
+            pytest.fail(f"{path.relative_to(ROOT)}:{line} imports the CLI ({target})")
+        k = layer_of(target)
+        if k is not None and k > own:
+            pytest.fail(f"{path.relative_to(ROOT)}:{line} imports {target} (layer {k}) from layer {own}")
+
+
+def test_the_checker_sees_a_violation(tmp_path):
+    """The contract test itself can fail: a physics module importing rendering is caught."""
+    fake = PACKAGE / "physics" / "_layer_probe.py"
+    assert not fake.exists()
+    try:
+        fake.write_text("from ..rendering import api\n")
+        found = [t for t, _ in imports(fake) if (layer_of(t) or 0) > layer_of("labcut.physics")]
+        assert found
+    finally:
+        fake.unlink()
