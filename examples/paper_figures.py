@@ -109,10 +109,10 @@ def fig06_lut(s: Settings, out: Path) -> None:
         params = z.parameters(xs)
         shared = z.shared
         colours = []
-        from labcut.physics.lamella import stack_reflectance
+        from labcut.physics.lamella import Stack, stack_reflectance
 
         for d_a, d_b, s_a, s_b, pairs in params:
-            r = stack_reflectance(tables().wavelengths, 1.0, shared["n_a"], shared["n_b"], d_a, d_b, s_a, s_b, pairs, shared["n_surface"])
+            r = stack_reflectance(tables().wavelengths, 1.0, Stack(shared["n_a"], shared["n_b"], d_a, d_b, s_a, s_b, pairs, shared["n_surface"]))
             colours.append(colour_of_spectrum(r).srgb)
         bar = np.array(colours)[None].repeat(12, axis=0)
         ax = axes[0, col]

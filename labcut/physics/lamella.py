@@ -43,9 +43,31 @@ from __future__ import annotations
 import math
 from typing import Any
 
+from typing import NamedTuple
+
 from .ops import ops_for
 
 FOUR_PI = 4.0 * math.pi
+
+
+class Stack(NamedTuple):
+    """The optical parameters of a lamella stack, travelling as one value.
+
+    Fields are floats (numpy, the API) or Dr.Jit arrays (per-texel parameters of colour
+    zoning, inside kernels): indices ``n_a``, ``n_b`` of the two phases and ``n_surface``
+    of the bulk stone; mean thicknesses ``d_a``, ``d_b`` and their standard deviations
+    ``sigma_a``, ``sigma_b`` (nm); ``pairs``, the number of lamella pairs N.
+    :attr:`labcut.Labradorite.stack` gives a material's.
+    """
+
+    n_a: Any
+    n_b: Any
+    d_a: Any
+    d_b: Any
+    sigma_a: Any
+    sigma_b: Any
+    pairs: Any
+    n_surface: Any
 
 
 def _one_minus_exp(ops: Any, x: Any) -> Any:
@@ -210,19 +232,8 @@ def saturate_random(x: Any) -> Any:
     return -ops.expm1(-(0.25 * x + 0.5 * ops.log1p(poly)))
 
 
-def stack_reflectance_sp(
-    wavelength_nm: Any,
-    cos_theta: Any,
-    n_a: Any,
-    n_b: Any,
-    d_a: Any,
-    d_b: Any,
-    sigma_a: Any,
-    sigma_b: Any,
-    pairs: Any,
-    n_surface: Any,
-) -> tuple[Any, Any, Any]:
-    """``(R_s, R_p, sign)`` of a stack of ``pairs`` lamella pairs, each in [0, 1].
+def stack_reflectance_sp(wavelength_nm: Any, cos_theta: Any, stack: Stack) -> tuple[Any, Any, Any]:
+    """``(R_s, R_p, sign)`` of a :class:`Stack` of ``pairs`` lamella pairs, each in [0, 1].
 
     ``cos_theta`` is the cosine of the angle between the ray and the lamella normal in
     the bulk stone of index ``n_surface``. Each phase refracts by Snell's law
@@ -236,7 +247,8 @@ def stack_reflectance_sp(
     ``sign`` is the sign of ``r_s r_p`` (-1 below the phases' Brewster angle): the
     handedness term of the schiller's Mueller matrix.
     """
-    ops = ops_for(wavelength_nm, cos_theta, n_a, n_b, d_a, d_b, sigma_a, sigma_b, pairs, n_surface)
+    n_a, n_b, d_a, d_b, sigma_a, sigma_b, pairs, n_surface = stack
+    ops = ops_for(wavelength_nm, cos_theta, *stack)
     q_a, q_b = phase_wavenumbers(cos_theta, n_a, n_b, n_surface, ops)
     intensity, jitter = _intensity_q(ops, wavelength_nm, q_a, q_b, d_a, d_b, sigma_a, sigma_b, pairs)
     r_s, r_p = interface_amplitudes(ops.narrow(q_a), ops.narrow(q_b), n_a, n_b)
@@ -250,23 +262,11 @@ def stack_reflectance_sp(
     return out[0], out[1], sign
 
 
-def stack_reflectance(
-    wavelength_nm: Any,
-    cos_theta: Any,
-    n_a: Any,
-    n_b: Any,
-    d_a: Any,
-    d_b: Any,
-    sigma_a: Any,
-    sigma_b: Any,
-    pairs: Any,
-    n_surface: Any,
-    polarization: str | None = None,
-) -> Any:
-    """Reflectance in [0, 1] of a stack of ``pairs`` lamella pairs: unpolarised
+def stack_reflectance(wavelength_nm: Any, cos_theta: Any, stack: Stack, polarization: str | None = None) -> Any:
+    """Reflectance in [0, 1] of a :class:`Stack`: unpolarised
     ``(R_s + R_p)/2`` (``polarization=None``), or ``R_s`` / ``R_p`` (``'s'`` / ``'p'``).
     Arguments and model as :func:`stack_reflectance_sp`."""
-    r_s, r_p, _ = stack_reflectance_sp(wavelength_nm, cos_theta, n_a, n_b, d_a, d_b, sigma_a, sigma_b, pairs, n_surface)
+    r_s, r_p, _ = stack_reflectance_sp(wavelength_nm, cos_theta, stack)
     if polarization is None:
         return 0.5 * (r_s + r_p)
     if polarization == "s":

@@ -170,6 +170,11 @@ class Labradorite:
 
     # ------------------------------------------------------------------ physics
     @property
+    def stack(self) -> lamella.Stack:
+        """The stack's optical parameters as one value (:class:`labcut.physics.lamella.Stack`)."""
+        return lamella.Stack(self.n_a, self.n_b, self.d_a, self.d_b, self.sigma_a, self.sigma_b, self.pairs, self.n_surface)
+
+    @property
     def lobe_kappa(self) -> float:
         """Concentration κ = 1/spread² (radians) of the axial von Mises-Fisher lobe of lamella
         orientations; for large κ a 2D Gaussian of standard deviation ``spread_deg`` per axis."""
@@ -217,17 +222,12 @@ class Labradorite:
         if polarization not in (None, "s", "p"):
             raise ParameterError(f"polarization must be None (unpolarised), 's' or 'p', got {polarization!r}")
         wl, c = self._coerce(wavelength_nm, cos_theta)
-        return lamella.stack_reflectance(
-            wl, c, self.n_a, self.n_b, self.d_a, self.d_b, self.sigma_a, self.sigma_b, self.pairs, self.n_surface,
-            polarization,
-        )
+        return lamella.stack_reflectance(wl, c, self.stack, polarization)
 
     def reflectance_sp(self, wavelength_nm: Any, cos_theta: Any) -> tuple[Any, Any, Any]:
         """``(R_s, R_p, sign of r_s r_p)`` in one evaluation (:func:`labcut.physics.lamella.stack_reflectance_sp`)."""
         wl, c = self._coerce(wavelength_nm, cos_theta)
-        return lamella.stack_reflectance_sp(
-            wl, c, self.n_a, self.n_b, self.d_a, self.d_b, self.sigma_a, self.sigma_b, self.pairs, self.n_surface
-        )
+        return lamella.stack_reflectance_sp(wl, c, self.stack)
 
     def peak_wavelength(self, cos_theta: float = 1.0) -> float:
         """Wavelength (nm) of the first-order reflectance peak at ``cos_theta``.

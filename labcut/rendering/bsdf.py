@@ -49,6 +49,7 @@ and the BSDF is flagged ``SpatiallyVarying``.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from typing import Any
 
@@ -66,7 +67,8 @@ from ..physics.ops import drjit_ops
 PLUGIN_NAME = "labradorite"
 TABLE_SIZE = LUMINANCE_TABLE_SIZE  # entries over cos θ in [0, 1] for the RGB / mono tables
 
-_MATERIAL_KEYS = ("n_a", "n_b", "d_a", "d_b", "sigma_a", "sigma_b", "pairs", "spread_deg", "body_albedo", "n_surface")
+# the plugin's material properties are the Labradorite fields themselves (no hand-kept list)
+_MATERIAL_KEYS = tuple(f.name for f in dataclasses.fields(Labradorite) if f.name != "name")
 
 
 def material_from_props(props: Any) -> Labradorite:
@@ -125,6 +127,7 @@ def _define_class() -> type:
         def __init__(self, props: Any) -> None:
             mi.BSDF.__init__(self, props)
             self.material = material_from_props(props)
+            self.stack = self.material.stack
             self.normal = mi.Vector3f(*_normal_from_props(props))
             dr.make_opaque(self.normal)  # a value, not a literal: a new normal must not recompile the kernel
             self.eta = float(self.material.n_surface)
@@ -193,8 +196,7 @@ def _define_class() -> type:
             if self.zoning is not None:
                 return self.zoning.reflectance(si, cos_l)
             if self._spectral:
-                m = self.material
-                r = stack_reflectance(si.wavelengths, cos_l, m.n_a, m.n_b, m.d_a, m.d_b, m.sigma_a, m.sigma_b, m.pairs, m.n_surface)
+                r = stack_reflectance(si.wavelengths, cos_l, self.stack)
                 return mi.UnpolarizedSpectrum(r)
             # texel i sits at (i + 0.5)/N: map cos θ in [0, 1] onto the texel centres
             coord = (dr.clip(cos_l, 0.0, 1.0) * (TABLE_SIZE - 1) + 0.5) * (1.0 / TABLE_SIZE)
@@ -259,8 +261,7 @@ def _define_class() -> type:
             surface, and the polarisation of its transmissions, are left out."""
             m = self.material
             if self._spectral:
-                r_s, r_p, sign = stack_reflectance_sp(si.wavelengths, cos_l, m.n_a, m.n_b, m.d_a, m.d_b, m.sigma_a,
-                                                      m.sigma_b, m.pairs, m.n_surface)
+                r_s, r_p, sign = stack_reflectance_sp(si.wavelengths, cos_l, self.stack)
                 r_s, r_p = mi.UnpolarizedSpectrum(r_s), mi.UnpolarizedSpectrum(r_p)
             else:  # mono polarized: luminance tables of R_s and R_p
                 coord = (dr.clip(cos_l, 0.0, 1.0) * (TABLE_SIZE - 1) + 0.5) * (1.0 / TABLE_SIZE)

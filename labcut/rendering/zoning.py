@@ -43,7 +43,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import ParameterError
-from ..physics.lamella import stack_reflectance
+from ..physics.lamella import Stack, stack_reflectance
 from ..physics.material import Labradorite
 
 #: Parameters a zoning blends between its sets.
@@ -497,7 +497,7 @@ def _reflectance_rows(path: np.ndarray, shared: dict[str, Any], cos: np.ndarray,
     out = []
     for row in uniq:
         d_a, d_b, s_a, s_b, pairs = row
-        spectra = stack_reflectance(wl[None, :], cos[:, None], shared["n_a"], shared["n_b"], d_a, d_b, s_a, s_b, pairs, shared["n_surface"])
+        spectra = stack_reflectance(wl[None, :], cos[:, None], Stack(shared["n_a"], shared["n_b"], d_a, d_b, s_a, s_b, pairs, shared["n_surface"]))
         xyz = reflectance_to_xyz(spectra)
         out.append(xyz[:, 1:2] if luminance else np.clip(xyz_to_linear_srgb(xyz), 0.0, None))
     return np.stack(out)[np.asarray(inverse).ravel()]
@@ -585,7 +585,7 @@ class ZoningKernel:
         if self.spectral:
             d_a, d_b, s_a, s_b, pairs = self.table.eval(mi.Point1f(ux))
             s = self.shared
-            r = stack_reflectance(si.wavelengths, cos_l, s["n_a"], s["n_b"], d_a, d_b, s_a, s_b, dr.maximum(pairs, 1.0), s["n_surface"])
+            r = stack_reflectance(si.wavelengths, cos_l, Stack(s["n_a"], s["n_b"], d_a, d_b, s_a, s_b, dr.maximum(pairs, 1.0), s["n_surface"]))
             return mi.UnpolarizedSpectrum(r)
         c = float(COS_SIZE)
         uc = (dr.clip(cos_l, 0.0, 1.0) * (c - 1.0) + 0.5) / c
