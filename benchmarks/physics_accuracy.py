@@ -721,17 +721,8 @@ def first_wave_reflectance(lab: Labradorite, wl, c):
 
 
 def compare_to_ensemble(model: np.ndarray, exact: np.ndarray, se: np.ndarray, wl: np.ndarray) -> dict:
-    """Peak ratio, peak shift (nm), integral ratio, worst |model - exact| and its excess over 3 SE."""
-    i, j = int(np.argmax(exact)), int(np.argmax(model))
-    diff = np.abs(model - exact)
-    return {
-        "peak": float(model[j] / exact[i]) if exact[i] > 0 else float("nan"),
-        "position_nm": float(wl[j] - wl[i]),
-        "integral": float(model.sum() / exact.sum()) if exact.sum() > 0 else float("nan"),
-        "pointwise": float(diff.max()),
-        "excess": float(np.max(diff - 3.0 * se)),
-        "exact_peak": float(exact[i]),
-    }
+    """benchmarks/tmm.py's comparison (the definitions the tests use)."""
+    return tmm.compare(np.asarray(model, dtype=np.float64), exact, se, wl)
 
 
 def section_exact_ensemble(quick: bool) -> tuple[str, dict]:
@@ -760,6 +751,8 @@ def section_exact_ensemble(quick: bool) -> tuple[str, dict]:
             cells.append(f"{m['exact_peak']:.3f}: {m['peak']:.3f}, {m['position_nm']:+.0f}, {m['integral']:.3f}, "
                          f"{m['pointwise']:.3f} ({max(m['excess'], 0.0):.3f})")
             worst["peak"] = max(worst["peak"], abs(m["peak"] - 1.0))
+            worst["peak_beyond_noise"] = max(worst.get("peak_beyond_noise", 0.0),
+                                             max(abs(m["model_peak"] - m["exact_peak"]) - 3 * m["peak_se"], 0.0) / m["exact_peak"])
             worst["integral"] = max(worst["integral"], abs(m["integral"] - 1.0))
             worst["position_nm"] = max(worst["position_nm"], abs(m["position_nm"]))
             worst["excess"] = max(worst["excess"], m["excess"])
@@ -783,7 +776,10 @@ position within {TOLERANCES['position_nm']:g} nm, pointwise within {TOLERANCES['
 tests/tmm_reference.py (characteristic matrices) checks the recursion on known answers.
 
 Each cell: exact peak R: model peak / exact peak, peak shift nm, model integral / exact
-integral, worst |model − exact| (its excess over 3 SE). "x / y": the exact and model maxima
+integral, worst |model − exact| (its excess over 3 SE). Peaks are those of the 3-point
+smoothed curves and positions the centroids of their top 10 % (benchmarks/tmm.py `compare`,
+the definitions the tests use; the noise of a smoothed exact peak is about SE/√3, a few
+per cent where R is small, and the tests allow 3 of it). "x / y": the exact and model maxima
 where p all but vanishes (the phases' Brewster angle, ≈ 45°).
 
 """
@@ -976,7 +972,7 @@ The physics is described in [physics.md](physics.md).
 | default material (σ = 16 nm, N = 6000): peak R, peak − Bragg | {beh['default_peak_R']:.3f}, {beh['default_shift']:+.2f} nm |
 | `reflectance` speed, numpy float64 | {tim['numpy_per_s'] / 1e6:.2f} M evaluations/s |
 | `reflectance` speed, Dr.Jit LLVM float32 | {tim['drjit_per_s'] / 1e6:.1f} M evaluations/s ({tim['cost_ratio']:.2f}x the first-wave model's kernel time) |
-| against exact ensemble means ({ens['realisations']} stacks; every preset, 0-70°, s, p, unpolarised) | worst peak {100 * ens['worst']['peak']:.1f} %, integral {100 * ens['worst']['integral']:.1f} %, peak position {ens['worst']['position_nm']:.0f} nm, pointwise excess over 3 SE {max(ens['worst']['excess'], 0):.3f} |
+| against exact ensemble means ({ens['realisations']} stacks; every preset, 0-70°, s, p, unpolarised) | worst peak {100 * ens['worst']['peak']:.1f} % ({100 * ens['worst'].get('peak_beyond_noise', 0):.1f} % beyond 3 SE), integral {100 * ens['worst']['integral']:.1f} %, peak position {ens['worst']['position_nm']:.0f} nm, pointwise excess over 3 SE {max(ens['worst']['excess'], 0):.3f} |
 
 """
     report = "\n".join([head, mc_text, f32_text, beh_text, tim_text, ens_text, ang_text])
