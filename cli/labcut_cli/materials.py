@@ -68,10 +68,15 @@ def build_material(
 
         data = material_block(read_json(material_file, "material file"), str(material_file))
         return Labradorite.from_dict({**data, **changes})
+    # a preset, peak or An content sets the lamella thicknesses; explicit --d-a/--d-b go on top
+    # (the peak then moves), the other layer options are inputs to that fit
+    on_top = {k: changes.pop(k) for k in ("d_a", "d_b") if k in changes}
     if preset is not None:
-        return Labradorite.preset(preset, **changes)
-    if peak is not None:
-        return Labradorite.from_peak_wavelength(peak, **changes)
-    if an is not None:
-        return Labradorite.from_anorthite(an, **changes)
-    return Labradorite(**changes)
+        base = Labradorite.preset(preset, **changes)
+    elif peak is not None:
+        base = Labradorite.from_peak_wavelength(peak, **changes)
+    elif an is not None:
+        base = Labradorite.from_anorthite(an, **changes)
+    else:
+        return Labradorite(**changes, **on_top)
+    return base.replace(**on_top) if on_top else base

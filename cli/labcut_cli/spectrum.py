@@ -10,7 +10,7 @@ import typer
 from rich.table import Table
 
 from . import materials as m
-from .root import app, console, write_json
+from .root import all_or_nothing, app, console, write_json
 
 
 def _fmt(x: float, spec: str) -> str:
@@ -32,14 +32,15 @@ def spectrum(
     n_surface: m.NS = None,
     pairs: m.Pairs = None,
     angles: Annotated[str, typer.Option(help="Internal angles to the lamella normal, degrees, comma-separated.")] = "0,15,30,45",
-    plot: Annotated[Optional[Path], typer.Option("--plot", "-o", help="Write the reflectance plot to this PNG.")] = Path("spectrum.png"),
-    no_plot: Annotated[bool, typer.Option("--no-plot", help="Do not write a plot.")] = False,
+    plot: Annotated[Optional[Path], typer.Option("--plot", "-o", help="Write the reflectance plot to this PNG (none unless asked).")] = None,
+    no_plot: Annotated[bool, typer.Option("--no-plot", help="Do not write a plot, even with --plot.")] = False,
     json_path: Annotated[Optional[str], typer.Option("--json", help="Write the table as JSON to this file ('-' for stdout).")] = None,
 ) -> None:
     """Peak wavelength, peak reflectance and flash colour of a material at several angles.
 
     Angles are inside the stone, between the ray and the lamella normal: 0° is the
-    face-on flash, tilting moves the peak to shorter wavelengths (Bragg's law).
+    face-on flash, tilting moves the peak to shorter wavelengths (Bragg's law). Writes
+    files only when asked: --plot/-o FILE.png, --json FILE.
     """
     import json
 
@@ -81,15 +82,19 @@ def spectrum(
                 f"[on {r['hex']}]      [/] {r['hex']}",
             )
         console.print(table)
-    if json_path not in (None, "-"):
-        write_json(json_path, _finite(result))
-        console.print(f"table written to {json_path}")
-    if plot is not None and not no_plot:
-        from labcut.plots.spectrum import plot_spectrum
+    with all_or_nothing() as written:
+        if json_path not in (None, "-"):
+            write_json(json_path, _finite(result))
+            written.append(Path(json_path))
+        if plot is not None and not no_plot:
+            from labcut.plots.spectrum import plot_spectrum
 
-        plot_spectrum(material, angle_list, plot)
-        if json_path != "-":
-            console.print(f"plot written to {plot}")
+            plot_spectrum(material, angle_list, plot)
+            written.append(Path(plot))
+    if json_path not in (None, "-"):
+        console.print(f"table written to {json_path}")
+    if plot is not None and not no_plot and json_path != "-":
+        console.print(f"plot written to {plot}")
 
 
 def _finite(obj):  # JSON has no NaN: write null

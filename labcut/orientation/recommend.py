@@ -110,8 +110,9 @@ def workshop(normal: np.ndarray, mesh: Any, scenario: Scenario | None = None, pa
     straight back at the eye when it lies level) and then cuts the stone's base, or sets it on
     the dop, at an angle to that plane. With the lamella normal tilted ``θ`` towards the side
     at azimuth ``φ`` (mesh frame), the base must rise towards that side: raise the stone's
-    ``φ`` edge by ``θ`` above the flash plane, i.e. ``span x tan θ`` mm over the stone's span
-    ``span`` (mm) measured along ``φ``. Returns a plain-JSON dict (degrees, mm)."""
+    ``φ`` edge by ``θ`` above the flash plane, i.e. by ``span x sin θ`` mm, ``span`` being the
+    stone's extent (mm) along ``φ`` measured on its base (the base is the hypotenuse). Returns a
+    plain-JSON dict (degrees, mm)."""
     tilt, az = tilt_azimuth(normal)
     if parallel or tilt < 0.5:
         return {
@@ -121,7 +122,7 @@ def workshop(normal: np.ndarray, mesh: Any, scenario: Scenario | None = None, pa
     u = np.array([math.cos(math.radians(az)), math.sin(math.radians(az)), 0.0])
     v = np.asarray(mesh.vertices, dtype=np.float64)
     span = float(np.ptp(v @ u))
-    rise = span * math.tan(math.radians(tilt))
+    rise = span * math.sin(math.radians(tilt))
     side = side_name(az, scenario)
     short, detail = side.split(" (")[0], side[len(side.split(" (")[0]):]
     opposite = side_name(az + 180.0, scenario).split(" (")[0]
