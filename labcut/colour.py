@@ -179,16 +179,31 @@ def flash_colour(material: Any, cos_theta: float = 1.0, illuminant: str = "D65")
     return colour_of_spectrum(material.reflectance(tables().wavelengths, cos_theta), illuminant)
 
 
+def stack_table(stack: Any, cos_theta: Any, kind: str = "rgb", illuminant: str = "D65",
+                polarization: str | None = None) -> np.ndarray:
+    """The one reflectance-table builder: ``R(λ, cos θ)`` of a lamella
+    :class:`~labcut.physics.lamella.Stack` integrated against the CIE curves under
+    ``illuminant``, as linear sRGB (``kind="rgb"``, shape (..., 3)) or luminance
+    (``kind="mono"``, shape (..., 1)) at an array of internal cosines. The RGB and mono
+    BSDF tables, the flash estimators' luminance table and colour zoning's per-row tables
+    are all built here, once per material, never per ray.
+    """
+    from .physics.lamella import stack_reflectance
+
+    c = np.asarray(cos_theta, dtype=np.float64)
+    spectra = stack_reflectance(tables().wavelengths, c[..., None], stack, polarization)
+    xyz = reflectance_to_xyz(spectra, illuminant)
+    if kind == "mono":
+        return xyz[..., 1:2]
+    if kind == "rgb":
+        return xyz_to_linear_srgb(xyz)
+    raise ParameterError(f"table kind must be 'rgb' or 'mono', got {kind!r}")
+
+
 def reflectance_rgb(material: Any, cos_theta: Any, illuminant: str = "D65", polarization: str | None = None) -> np.ndarray:
     """Linear sRGB reflectance (..., 3) of ``material`` at an array of internal cosines
-    (unpolarised, or ``'s'`` / ``'p'``).
-
-    The table the RGB variants of the BSDF look up: ``R(λ, cos θ)`` integrated
-    against the CIE curves once per material, never per ray.
-    """
-    c = np.asarray(cos_theta, dtype=np.float64)
-    spectra = material.reflectance(tables().wavelengths, c[..., None], polarization)
-    return xyz_to_linear_srgb(reflectance_to_xyz(spectra, illuminant))
+    (unpolarised, or ``'s'`` / ``'p'``): :func:`stack_table` of its stack."""
+    return stack_table(material.stack, cos_theta, "rgb", illuminant, polarization)
 
 
 LUMINANCE_TABLE_SIZE = 1024
@@ -204,6 +219,4 @@ def luminance_table(material: Any) -> tuple[np.ndarray, np.ndarray]:
 
 def reflectance_luminance(material: Any, cos_theta: Any, illuminant: str = "D65", polarization: str | None = None) -> np.ndarray:
     """Luminance Y (...) of ``material``'s reflectance (unpolarised, or ``'s'`` / ``'p'``): the mono variants' table."""
-    c = np.asarray(cos_theta, dtype=np.float64)
-    spectra = material.reflectance(tables().wavelengths, c[..., None], polarization)
-    return reflectance_to_xyz(spectra, illuminant)[..., 1]
+    return stack_table(material.stack, cos_theta, "mono", illuminant, polarization)[..., 0]

@@ -15,7 +15,8 @@ from labcut import Labradorite, ParameterError
 from labcut.backend import set_variant
 from mitsuba_helpers import surface_interaction
 from labcut.colour import dominant_wavelength, tables
-from labcut.rendering.zoning import ZONED_KEYS, Zoning, equalise, fbm
+from labcut.rendering.noise import equalise, fbm
+from labcut.rendering.zoning import ZONED_KEYS, Zoning
 
 MESHES = Path(__file__).resolve().parents[1] / "meshes"
 BOX = [[-10.0, -10.0, 0.0], [10.0, 10.0, 3.0]]

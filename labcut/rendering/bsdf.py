@@ -141,7 +141,8 @@ def _define_class() -> type:
             self._spectral = bool(mi.is_spectral)
             self.zoning = None
             if "zoning_grid" in props:
-                from .zoning import SHARED_KEYS, ZoningKernel
+                from .zoning import SHARED_KEYS
+                from .zoning_kernel import ZoningKernel
 
                 self.zoning = ZoningKernel(props, {k: getattr(self.material, k) for k in SHARED_KEYS})
             self._build_tables()

@@ -28,7 +28,8 @@ In the kernel (:mod:`labcut.rendering.bsdf`) the grid is a trilinear
 from a 1D texture over ``x`` and evaluate :func:`labcut.physics.stack_reflectance`
 with them at ``si.wavelengths``; RGB and mono variants read a 2D table of linear
 sRGB (or luminance) reflectance over (``x``, cos θ), integrated against the CIE
-curves once per render from the same parameter path. docs/zoning.md has the details.
+curves once per render from the same parameter path (:mod:`labcut.rendering.zoning_kernel`;
+the noise is :mod:`labcut.rendering.noise`). docs/zoning.md has the details.
 """
 
 from __future__ import annotations
@@ -43,8 +44,8 @@ from typing import Any
 import numpy as np
 
 from ..errors import ParameterError
-from ..physics.lamella import Stack, stack_reflectance
 from ..physics.material import Labradorite
+from .noise import equalise, fbm
 
 #: Parameters a zoning blends between its sets.
 ZONED_KEYS = ("d_a", "d_b", "sigma_a", "sigma_b", "pairs")
@@ -56,70 +57,6 @@ PRESETS = ("smooth", "sharp")
 PATH_SIZE = 128
 #: Entries over cos θ of the RGB / mono reflectance table.
 COS_SIZE = 256
-
-_LACUNARITY = 2.0
-_GAIN = 0.5
-
-
-# ---------------------------------------------------------------------- noise
-def _perlin_tables(seed: int) -> tuple[np.ndarray, np.ndarray]:
-    """Permutation (512) and 256 random unit gradients of one seed."""
-    rng = np.random.default_rng(np.random.SeedSequence([0x1AB0, int(seed)]))
-    perm = rng.permutation(256)
-    grads = rng.normal(size=(256, 3))
-    grads /= np.linalg.norm(grads, axis=1, keepdims=True)
-    return np.concatenate([perm, perm]).astype(np.int64), grads
-
-
-def perlin3(points: np.ndarray, perm: np.ndarray, grads: np.ndarray) -> np.ndarray:
-    """3D Perlin gradient noise (quintic fade, unit gradients) at ``points`` (N, 3), lattice spacing 1.
-
-    Zero at every lattice point; values lie within about +-1.
-    """
-    p = np.asarray(points, dtype=np.float64)
-    cell = np.floor(p)
-    f = p - cell
-    i = cell.astype(np.int64) & 255
-    fade = f * f * f * (f * (f * 6.0 - 15.0) + 10.0)
-    out = np.zeros(p.shape[0])
-    for dx in (0, 1):
-        wx = fade[:, 0] if dx else 1.0 - fade[:, 0]
-        hx = perm[i[:, 0] + dx]
-        for dy in (0, 1):
-            wy = fade[:, 1] if dy else 1.0 - fade[:, 1]
-            hy = perm[hx + i[:, 1] + dy]
-            for dz in (0, 1):
-                wz = fade[:, 2] if dz else 1.0 - fade[:, 2]
-                g = grads[perm[hy + i[:, 2] + dz]]
-                dot = g[:, 0] * (f[:, 0] - dx) + g[:, 1] * (f[:, 1] - dy) + g[:, 2] * (f[:, 2] - dz)
-                out += wx * wy * wz * dot
-    return out
-
-
-def fbm(points: np.ndarray, scale_mm: float, octaves: int, seed: int) -> np.ndarray:
-    """Fractal sum of Perlin noise at ``points`` (N, 3) in mm: lattice spacing ``scale_mm``,
-    each octave twice the frequency and half the amplitude of the one before, each with
-    its own random offset. Deterministic for a seed; not normalised."""
-    perm, grads = _perlin_tables(seed)
-    rng = np.random.default_rng(np.random.SeedSequence([0x0C7A, int(seed)]))
-    offsets = rng.uniform(0.0, 256.0, size=(int(octaves), 3))
-    p = np.asarray(points, dtype=np.float64) / float(scale_mm)
-    total = np.zeros(p.shape[0])
-    amp, freq = 1.0, 1.0
-    for o in range(int(octaves)):
-        total += amp * perlin3(p * freq + offsets[o], perm, grads)
-        amp *= _GAIN
-        freq *= _LACUNARITY
-    return total
-
-
-def equalise(values: np.ndarray) -> np.ndarray:
-    """Rank transform to [0, 1]: the smallest value -> 0, the largest -> 1, uniform in between."""
-    v = np.asarray(values, dtype=np.float64).ravel()
-    ranks = np.empty(v.size)
-    ranks[np.argsort(v, kind="stable")] = np.arange(v.size)
-    return (ranks / max(v.size - 1, 1)).reshape(np.shape(values))
-
 
 # ---------------------------------------------------------------------- helpers
 def _number(name: str, value: Any, low: float, high: float, *, integer: bool = False) -> Any:
@@ -485,111 +422,3 @@ def resolve(spec: Any, material: Labradorite) -> Zoning | None:
                 f"the zoning's sets have {key}={value:g} but the material has {mine[key]:g}; they must agree"
             )
     return spec
-
-
-# ---------------------------------------------------------------------- kernel side
-def _reflectance_rows(path: np.ndarray, shared: dict[str, Any], cos: np.ndarray, luminance: bool) -> np.ndarray:
-    """Linear sRGB (rows, C, 3) or luminance (rows, C, 1) reflectance along a parameter path."""
-    from ..colour import reflectance_to_xyz, tables, xyz_to_linear_srgb
-
-    wl = tables().wavelengths
-    uniq, inverse = np.unique(path.astype(np.float64), axis=0, return_inverse=True)
-    out = []
-    for row in uniq:
-        d_a, d_b, s_a, s_b, pairs = row
-        spectra = stack_reflectance(wl[None, :], cos[:, None], Stack(shared["n_a"], shared["n_b"], d_a, d_b, s_a, s_b, pairs, shared["n_surface"]))
-        xyz = reflectance_to_xyz(spectra)
-        out.append(xyz[:, 1:2] if luminance else np.clip(xyz_to_linear_srgb(xyz), 0.0, None))
-    return np.stack(out)[np.asarray(inverse).ravel()]
-
-
-@functools.lru_cache(maxsize=16)
-def _table_cached(path_bytes: bytes, rows: int, shared_items: tuple, kind: str) -> np.ndarray:
-    path = np.frombuffer(path_bytes, dtype=np.float32).reshape(rows, len(ZONED_KEYS))
-    cos = np.linspace(0.0, 1.0, COS_SIZE)
-    return _reflectance_rows(path, dict(shared_items), cos, kind == "mono").astype(np.float32)
-
-
-def reflectance_table(path: np.ndarray, shared: dict[str, Any], kind: str) -> np.ndarray:
-    """(rows, COS_SIZE, 3 or 1) float32 table of R over (x, cos θ) for ``kind`` ``rgb`` / ``mono`` (cached)."""
-    p = np.ascontiguousarray(path, dtype=np.float32)
-    return _table_cached(p.tobytes(), p.shape[0], tuple(sorted(shared.items())), kind)
-
-
-def schiller_weight(path: np.ndarray, shared: dict[str, Any]) -> float:
-    """Mean luminance reflectance over x and over cos θ in [0.5, 1]: the schiller lobe's sampling weight."""
-    rows = np.asarray(path)[:: max(1, len(path) // 16)]
-    lum = reflectance_table(rows, shared, "mono")[..., 0]
-    return float(max(np.mean(lum[:, COS_SIZE // 2 :]), 0.02))
-
-
-class ZoningKernel:
-    """The zoning inside a ``labradorite`` BSDF instance: textures and the lookup at a hit.
-
-    Built from the plugin properties ``zoning_grid`` (TensorXf, nz x ny x nx x 1, values of
-    x in [0, 1]), ``zoning_path`` (TensorXf, N x 5: ``d_a, d_b, sigma_a, sigma_b, pairs``
-    at ``x = i / (N - 1)``), ``zoning_lo`` and ``zoning_hi`` (the grid's box, world mm).
-    """
-
-    def __init__(self, props: Any, shared: dict[str, Any]) -> None:
-        import drjit as dr
-        import mitsuba as mi
-
-        grid = props["zoning_grid"]
-        path = props.get("zoning_path", None)
-        if path is None or "zoning_lo" not in props or "zoning_hi" not in props:
-            raise ParameterError("zoning needs zoning_grid, zoning_path, zoning_lo and zoning_hi together")
-        g = np.array(grid, dtype=np.float32)
-        p = np.array(path, dtype=np.float32)
-        if g.ndim != 4 or g.shape[3] != 1 or min(g.shape[:3]) < 2:
-            raise ParameterError(f"zoning_grid must be a (nz, ny, nx, 1) tensor, got shape {g.shape}")
-        if p.ndim != 2 or p.shape[1] != len(ZONED_KEYS) or p.shape[0] < 2:
-            raise ParameterError(f"zoning_path must be an (N, {len(ZONED_KEYS)}) tensor, got shape {p.shape}")
-        if not (np.all(np.isfinite(g)) and np.all(np.isfinite(p))):
-            raise ParameterError("zoning tensors must be finite")
-        if np.any(p[:, :2] <= 0) or np.any(p[:, 2:4] < 0) or np.any(p[:, 4] < 1):
-            raise ParameterError("zoning_path needs d > 0, sigma >= 0 and pairs >= 1")
-        lo = np.array([float(props["zoning_lo"][k]) for k in range(3)])
-        hi = np.array([float(props["zoning_hi"][k]) for k in range(3)])
-        if not (np.all(np.isfinite(lo)) and np.all(np.isfinite(hi)) and np.all(hi > lo)):
-            raise ParameterError("zoning_lo must lie below zoning_hi on every axis")
-        self.shared = dict(shared)
-        self.path = p
-        self.rows = p.shape[0]
-        self.lo = mi.ScalarPoint3f(*lo.tolist())
-        self.inv_ext = mi.ScalarVector3f(*(1.0 / (hi - lo)).tolist())
-        self.grid = mi.Texture3f(mi.TensorXf(g), use_accel=False, filter_mode=dr.FilterMode.Linear, wrap_mode=dr.WrapMode.Clamp)
-        self.spectral = bool(mi.is_spectral)
-        if self.spectral:
-            self.table = mi.Texture1f(mi.TensorXf(p), use_accel=False, filter_mode=dr.FilterMode.Linear, wrap_mode=dr.WrapMode.Clamp)
-        else:
-            data = reflectance_table(p, shared, "rgb" if mi.is_rgb else "mono")
-            self.table = mi.Texture2f(mi.TensorXf(data), use_accel=False, filter_mode=dr.FilterMode.Linear, wrap_mode=dr.WrapMode.Clamp)
-        self.weight = schiller_weight(p, shared)
-
-    def x_at(self, p: Any) -> Any:
-        """Noise value x in [0, 1] at world points ``p`` (trilinear)."""
-        import mitsuba as mi
-
-        u = (mi.Point3f(p) - self.lo) * self.inv_ext
-        return self.grid.eval(u)[0]
-
-    def reflectance(self, si: Any, cos_l: Any) -> Any:
-        """R at the hit ``si`` and internal cos θ ``cos_l`` as an UnpolarizedSpectrum."""
-        import drjit as dr
-        import mitsuba as mi
-
-        x = self.x_at(si.p)
-        n = float(self.rows)
-        ux = (x * (n - 1.0) + 0.5) / n  # row k sits at texel centre (k + 0.5) / n
-        if self.spectral:
-            d_a, d_b, s_a, s_b, pairs = self.table.eval(mi.Point1f(ux))
-            s = self.shared
-            r = stack_reflectance(si.wavelengths, cos_l, Stack(s["n_a"], s["n_b"], d_a, d_b, s_a, s_b, dr.maximum(pairs, 1.0), s["n_surface"]))
-            return mi.UnpolarizedSpectrum(r)
-        c = float(COS_SIZE)
-        uc = (dr.clip(cos_l, 0.0, 1.0) * (c - 1.0) + 0.5) / c
-        values = self.table.eval(mi.Point2f(uc, ux))
-        if len(values) == 1:
-            return mi.UnpolarizedSpectrum(values[0])
-        return mi.UnpolarizedSpectrum(values[0], values[1], values[2])
