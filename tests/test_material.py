@@ -97,3 +97,10 @@ def test_any_thickness_is_accepted_or_rejected_cleanly(d):
 def test_material_name_must_be_text():
     with pytest.raises(ParameterError, match="name"):
         Labradorite(name=[1, 2])
+
+
+@pytest.mark.parametrize("key", ["pairs", "d_a", "sigma_b", "spread_deg"])
+def test_booleans_are_not_numbers(key):
+    """{"pairs": true} in a material file is a mistake, not 1 pair."""
+    with pytest.raises(ParameterError, match="must be a number"):
+        Labradorite(**{key: True})

@@ -15,6 +15,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from ..errors import ParameterError
+from ..validation import check_number
 from . import lamella
 from .search import golden_section_max
 from .ops import is_drjit
@@ -31,16 +32,7 @@ _DEFAULT_PERIOD_NM = 155.0  # blue-green flash near 483 nm at normal incidence
 
 
 def _check_number(name: str, value: Any, low: float, high: float = math.inf, *, low_open: bool = False) -> float:
-    try:
-        x = float(value)
-    except (TypeError, ValueError):
-        raise ParameterError(f"{name} must be a number, got {value!r}") from None
-    if not math.isfinite(x):
-        raise ParameterError(f"{name} must be finite, got {value!r}")
-    if (x <= low if low_open else x < low) or x > high:
-        lo = "(" if low_open else "["
-        raise ParameterError(f"{name} must lie in {lo}{low:g}, {high:g}], got {x:g}")
-    return x
+    return check_number(value, name, low, high, low_open=low_open)
 
 
 @dataclass(frozen=True)

@@ -63,6 +63,7 @@ from ..physics import schiller as lobe
 from ..physics.lamella import interface_amplitudes, phase_wavenumbers, stack_reflectance, stack_reflectance_sp
 from ..physics.material import Labradorite
 from ..physics.ops import drjit_ops
+from ..validation import unit_vector
 
 PLUGIN_NAME = "labradorite"
 TABLE_SIZE = LUMINANCE_TABLE_SIZE  # entries over cos θ in [0, 1] for the RGB / mono tables
@@ -85,13 +86,10 @@ def _normal_from_props(props: Any) -> tuple[float, float, float]:
         return (0.0, 0.0, 1.0)
     value = props["normal"]
     try:
-        m = np.array([float(value[0]), float(value[1]), float(value[2])], dtype=np.float64)
+        m = [float(value[0]), float(value[1]), float(value[2])]
     except (TypeError, IndexError, ValueError):
         raise ParameterError("lamella normal must be three numbers") from None
-    norm = float(np.linalg.norm(m))
-    if not np.all(np.isfinite(m)) or norm < 1e-9:
-        raise ParameterError(f"lamella normal must be a finite, non-zero vector, got {m.tolist()}")
-    return tuple(float(x) for x in m / norm)
+    return tuple(float(x) for x in unit_vector(m, "lamella normal"))
 
 
 _CLASSES: dict[str, type] = {}

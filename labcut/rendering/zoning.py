@@ -44,6 +44,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import ParameterError
+from ..validation import check_number
 from ..physics.material import Labradorite
 from .noise import equalise, fbm
 
@@ -60,17 +61,7 @@ COS_SIZE = 256
 
 # ---------------------------------------------------------------------- helpers
 def _number(name: str, value: Any, low: float, high: float, *, integer: bool = False) -> Any:
-    try:
-        x = float(value)
-    except (TypeError, ValueError):
-        raise ParameterError(f"zoning {name} must be a number, got {value!r}") from None
-    if isinstance(value, bool) or not math.isfinite(x) or not low <= x <= high:
-        raise ParameterError(f"zoning {name} must lie in [{low:g}, {high:g}], got {value!r}")
-    if integer:
-        if x != int(x):
-            raise ParameterError(f"zoning {name} must be a whole number, got {value!r}")
-        return int(x)
-    return x
+    return check_number(value, f"zoning {name}", low, high, integer=integer)
 
 
 def _shared(material: Labradorite) -> dict[str, Any]:

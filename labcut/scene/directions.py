@@ -14,6 +14,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import ParameterError
+from ..validation import unit_vector as _unit_vector
 
 FRONT_AZIMUTH_DEG = 270.0
 """Azimuth of the front of the stone (-Y), where a viewer usually stands."""
@@ -88,14 +89,4 @@ def check_rotation(value: Any, what: str = "pose") -> np.ndarray:
 
 def unit_vector(value: Any, what: str) -> np.ndarray:
     """A validated unit vector from three finite numbers (not all zero)."""
-    try:
-        v = np.asarray(value, dtype=np.float64).reshape(3)
-    except (TypeError, ValueError):
-        raise ParameterError(f"{what} must be three numbers [x, y, z]") from None
-    if not np.all(np.isfinite(v)):
-        raise ParameterError(f"{what} must be finite, got {v.tolist()}")
-    scale = float(np.max(np.abs(v)))
-    if scale == 0.0:
-        raise ParameterError(f"{what} must not be the zero vector")
-    v = v / scale
-    return v / np.linalg.norm(v)
+    return _unit_vector(value, what)

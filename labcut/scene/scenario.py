@@ -25,6 +25,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import ParameterError
+from ..validation import check_number
 from .directions import check_rotation, rotation
 from .registry import Registry
 from .sets import Lights, Views, check_quality, lights_from, views_from
@@ -160,15 +161,11 @@ class Scenario:
 
 # ---------------------------------------------------------------------- JSON pieces
 def _number(value: Any, what: str) -> float:
-    if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
-        raise ParameterError(f"{what} must be a finite number, got {value!r}")
-    return float(value)
+    return check_number(value, what)
 
 
 def _count(value: Any, what: str) -> int:
-    if isinstance(value, bool) or not isinstance(value, int) or not 1 <= value <= 100_000:
-        raise ParameterError(f"{what} must be a whole number in [1, 100000], got {value!r}")
-    return int(value)
+    return check_number(value, what, 1, 100_000, integer=True)
 
 
 def _pose(value: Any, tilt_back: Any, source: str) -> np.ndarray:

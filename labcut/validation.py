@@ -1,0 +1,52 @@
+"""One home for checking numbers and vectors that come from users.
+
+Every check raises :class:`labcut.errors.ParameterError` with a one-line message that
+names the parameter, the allowed range and the value given. Booleans are refused
+where a number is expected (``{"pairs": true}`` is not 1).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from .errors import ParameterError
+
+
+def check_number(value: Any, name: str, low: float = -math.inf, high: float = math.inf, *,
+                 low_open: bool = False, integer: bool = False) -> Any:
+    """``value`` as a float (an int with ``integer=True``) in ``[low, high]`` (``(low, high]``
+    with ``low_open``); finite, not a bool."""
+    if isinstance(value, bool):
+        raise ParameterError(f"{name} must be a number, got {value!r}")
+    try:
+        x = float(value)
+    except (TypeError, ValueError):
+        raise ParameterError(f"{name} must be a number, got {value!r}") from None
+    if not math.isfinite(x):
+        raise ParameterError(f"{name} must be finite, got {value!r}")
+    if (x <= low if low_open else x < low) or x > high:
+        raise ParameterError(f"{name} must lie in {'(' if low_open else '['}{low:g}, {high:g}], got {x:g}")
+    if integer:
+        if x != int(x):
+            raise ParameterError(f"{name} must be a whole number, got {value!r}")
+        return int(x)
+    return x
+
+
+def unit_vector(value: Any, name: str) -> np.ndarray:
+    """A unit vector (float64, shape (3,)) from three finite numbers, not all zero; huge
+    components are scaled down before normalising so the norm cannot overflow."""
+    try:
+        v = np.asarray(value, dtype=np.float64).reshape(3)
+    except (TypeError, ValueError):
+        raise ParameterError(f"{name} must be three numbers [x, y, z], got {value!r}") from None
+    if not np.all(np.isfinite(v)):
+        raise ParameterError(f"{name} must be finite, got {v.tolist()}")
+    scale = float(np.max(np.abs(v)))
+    if scale == 0.0:
+        raise ParameterError(f"{name} must not be the zero vector")
+    v = v / scale
+    return v / np.linalg.norm(v)
