@@ -358,3 +358,24 @@ def test_schiller_albedo_of_a_narrow_lobe_matches_the_mirror_energy_balance(tilt
                                mi.Vector3f(d[:, 0], d[:, 1], d[:, 2]))).ravel()
     albedo = float(value.sum()) * (2.0 * math.pi * (1.0 - math.cos(cap))) / len(d)
     assert albedo == pytest.approx(expected, rel=0.02)
+
+
+def test_plugin_parameter_table_is_complete_and_documented():
+    """Every property the plugin reads is in PLUGIN_PARAMETERS and nothing else is; docs/plugin.md
+    is generated from that table and up to date."""
+    import re
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    from labcut.rendering import bsdf as plugin
+
+    root = Path(__file__).resolve().parents[1]
+    source = "".join((root / "labcut" / "rendering" / f).read_text() for f in ("bsdf.py", "zoning_kernel.py"))
+    read = set(re.findall(r'props\[\s*"(\w+)"\s*\]', source)) | set(re.findall(r'props\.get\(\s*"(\w+)"', source))
+    read |= set(re.findall(r'"(\w+)" (?:not )?in props', source)) | set(plugin._MATERIAL_KEYS)
+    table = {name for name, *_ in plugin.PLUGIN_PARAMETERS}
+    assert read == table, (read ^ table)
+    assert "Plugin parameters" in plugin.__doc__ and "`zoning_hi`" in plugin.__doc__
+    proc = subprocess.run([sys.executable, str(root / "tools" / "plugin_docs.py"), "--check"], capture_output=True, text=True)
+    assert proc.returncode == 0, proc.stdout + proc.stderr

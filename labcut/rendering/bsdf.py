@@ -92,6 +92,37 @@ def _normal_from_props(props: Any) -> tuple[float, float, float]:
     return tuple(float(x) for x in unit_vector(m, "lamella normal"))
 
 
+#: The plugin's properties, Mitsuba's ``pluginparameters`` way: (name, type, default, meaning).
+#: The module docstring's table and docs/plugin.md (``tools/plugin_docs.py``) are written from it.
+PLUGIN_PARAMETERS: tuple[tuple[str, str, str, str], ...] = (
+    ("normal", "vector", "(0, 0, 1)", "Lamella normal in the mesh (object) frame; axial (m and -m are the same). "
+     "Differentiable: exposed by `traverse` as `normal`."),
+    *(
+        (f.name, "float" if f.name != "pairs" else "integer", f"{f.default!r}",
+         f"`Labradorite.{f.name}` (validated as there; see docs/physics.md).")
+        for f in dataclasses.fields(Labradorite) if f.name != "name"
+    ),
+    ("surface", "boolean", "true", "Simulate the polished surface's Fresnel mirror (component 0)."),
+    ("schiller", "boolean", "true", "Simulate the schiller lobe (component 1)."),
+    ("body", "boolean", "true", "Simulate the grey body (component 2); off when `body_albedo` is 0."),
+    ("zoning_grid", "tensor", "(none)", "Colour zoning: baked noise values x in [0, 1], shape (nz, ny, nx, 1) "
+     "(docs/zoning.md); needs the three below."),
+    ("zoning_path", "tensor", "(none)", "Colour zoning: the parameter path, (N, 5) rows of d_a, d_b, sigma_a, "
+     "sigma_b, pairs at x = i / (N - 1)."),
+    ("zoning_lo", "point", "(none)", "Colour zoning: the grid box's low corner, mesh frame, mm."),
+    ("zoning_hi", "point", "(none)", "Colour zoning: the grid box's high corner, mesh frame, mm."),
+)
+
+
+def plugin_parameter_table() -> str:
+    """The plugin's properties as a markdown table (docs/plugin.md, the module docstring)."""
+    rows = ["| property | type | default | meaning |", "|---|---|---|---|"]
+    rows += [f"| `{n}` | {t} | {d} | {m} |" for n, t, d, m in PLUGIN_PARAMETERS]
+    return "\n".join(rows)
+
+
+__doc__ = (__doc__ or "") + "\nPlugin parameters\n-----------------\n\n" + plugin_parameter_table() + "\n"
+
 _CLASSES: dict[str, type] = {}
 
 
@@ -107,19 +138,10 @@ def bsdf_class() -> type:
 
 def _define_class() -> type:
     class LabradoriteBSDF(mi.BSDF):
-        """Mitsuba BSDF plugin ``labradorite`` (see the module docstring).
-
-        Properties: ``normal`` (lamella normal, mesh frame; default +Z), the
-        :class:`~labcut.physics.material.Labradorite` parameters by name
-        (``n_a``, ``n_b``, ``d_a``, ``d_b``, ``sigma_a``, ``sigma_b``, ``pairs``,
-        ``spread_deg``, ``body_albedo``, ``n_surface``), and the switches
-        ``surface``, ``schiller``, ``body`` (bool, default True) that leave a lobe
-        out entirely (its component still exists so indices stay 0/1/2).
-
-        Optional colour zoning: ``zoning_grid``, ``zoning_path``, ``zoning_lo``,
-        ``zoning_hi`` (see :class:`labcut.rendering.zoning.ZoningKernel`).
-
-        Differentiable parameter exposed by ``traverse``: ``normal``.
+        """Mitsuba BSDF plugin ``labradorite``: its properties are the table
+        :data:`PLUGIN_PARAMETERS` (the module docstring, docs/plugin.md). A switched-off
+        lobe keeps its component so indices stay 0/1/2. Differentiable parameter exposed
+        by ``traverse``: ``normal``.
         """
 
         def __init__(self, props: Any) -> None:
