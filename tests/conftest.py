@@ -33,3 +33,29 @@ def run_cli(*args: str, cwd: Path | None = None) -> subprocess.CompletedProcess[
 @pytest.fixture
 def cli():
     return run_cli
+
+
+@pytest.fixture
+def variant():
+    """Set a Mitsuba variant for one test, as Mitsuba's own conftest does: ``variant("spectral",
+    polarized=True)`` picks the CUDA or LLVM form (labcut.backend), skips the test when the
+    variant is missing on this machine, and restores the previous variant afterwards."""
+    import mitsuba as mi
+
+    from labcut.backend import set_variant, variant_name
+    from labcut.errors import BackendError
+
+    previous = mi.variant()
+
+    def use(mode: str = "rgb", polarized: bool = False) -> str:
+        name = variant_name(mode, polarized)
+        if name not in mi.variants():
+            pytest.skip(f"Mitsuba variant {name} is not available here")
+        try:
+            return set_variant(mode, polarized)
+        except BackendError as exc:  # pragma: no cover - a broken backend on this machine
+            pytest.skip(str(exc))
+
+    yield use
+    if previous is not None and mi.variant() != previous:
+        mi.set_variant(previous)

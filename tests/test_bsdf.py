@@ -9,13 +9,7 @@ import mitsuba as mi
 import numpy as np
 import pytest
 
-from labcut.backend import set_variant
 from mitsuba_helpers import surface_interaction
-
-
-def _use(mode: str = "rgb", polarized: bool = False) -> None:
-    set_variant(mode, polarized)
-    import labcut.rendering.bsdf  # noqa: F401  (registers for the variant)
 
 
 _si = surface_interaction
@@ -57,10 +51,10 @@ CHI2_CASES = [
 
 
 @pytest.mark.parametrize("component, normal, spread, wi", CHI2_CASES)
-def test_chi2_sampling_matches_pdf(component, normal, spread, wi):
+def test_chi2_sampling_matches_pdf(component, normal, spread, wi, variant):
     from mitsuba.chi2 import ChiSquareTest, SphericalDomain
 
-    _use("rgb")
+    variant("rgb")
     ctx = mi.BSDFContext()
     if component == "glossy":
         ctx.component = 1
@@ -78,10 +72,10 @@ def test_chi2_sampling_matches_pdf(component, normal, spread, wi):
 
 
 @pytest.mark.parametrize("mode, polarized", [("spectral", False), ("mono", False), ("spectral", True)])
-def test_chi2_in_other_variants(mode, polarized):
+def test_chi2_in_other_variants(mode, polarized, variant):
     from mitsuba.chi2 import ChiSquareTest, SphericalDomain
 
-    _use(mode, polarized)
+    variant(mode, polarized)
     ctx = mi.BSDFContext()
     ctx.type_mask = mi.BSDFFlags.GlossyReflection | mi.BSDFFlags.DiffuseReflection
     sf, pf = adapter({"normal": [0.2, 0.0, 1.0], "spread_deg": 6.0}, dr.normalize(mi.ScalarVector3f(0.3, 0.1, 0.95)), ctx)
@@ -99,8 +93,8 @@ def _directions(n: int, seed: int) -> np.ndarray:
 
 @pytest.mark.parametrize("mode", ["rgb", "spectral"])
 @pytest.mark.parametrize("normal, spread", [([0, 0, 1], 3.0), ([0.3, -0.2, 1.0], 6.0), ([1.0, 0.0, 0.2], 15.0)])
-def test_reciprocity(mode, normal, spread):
-    _use(mode)
+def test_reciprocity(mode, normal, spread, variant):
+    variant(mode)
     bsdf = _bsdf(normal=normal, spread_deg=spread)
     ctx = mi.BSDFContext()
     a, b = _directions(4000, 1), _directions(4000, 2)
@@ -127,8 +121,8 @@ def test_reciprocity(mode, normal, spread):
     ],
 )
 @pytest.mark.parametrize("mode", ["rgb", "spectral"])
-def test_albedo_at_most_one_for_every_incident_direction(params, mode):
-    _use(mode)
+def test_albedo_at_most_one_for_every_incident_direction(params, mode, variant):
+    variant(mode)
     bsdf = _bsdf(**params)
     ctx = mi.BSDFContext()
     n = 1 << 17
@@ -147,7 +141,7 @@ def test_albedo_at_most_one_for_every_incident_direction(params, mode):
 
 
 @pytest.mark.parametrize("theta_deg", [0.0, 20.0, 40.0, 60.0])
-def test_polarized_schiller_is_the_stacks_s_and_p(theta_deg):
+def test_polarized_schiller_is_the_stacks_s_and_p(theta_deg, variant):
     """Lamellae parallel to the surface, mirror geometry in the x-z plane: the schiller's Mueller
     matrix is a diattenuator of the stack's R_s and R_p at the internal angle (labcut.physics),
     handedness flipped like a mirror's below the phases' Brewster angle; its M00 is the
@@ -161,7 +155,7 @@ def test_polarized_schiller_is_the_stacks_s_and_p(theta_deg):
     wl = np.array([450.0, 500.0, 550.0, 600.0])
     r_s, r_p = lab.reflectance(wl, cos_l, "s"), lab.reflectance(wl, cos_l, "p")
 
-    _use("spectral", polarized=True)
+    variant("spectral", polarized=True)
     wi, wo = mi.Vector3f(math.sin(t), 0.0, math.cos(t)), mi.Vector3f(-math.sin(t), 0.0, math.cos(t))
     value = _bsdf(normal=[0, 0, 1], surface=False, body=False, **params).eval(mi.BSDFContext(), _si(1, wi), wo)
     m = np.array([[np.array(value[i, j]).ravel() for j in range(4)] for i in range(4)])  # (4, 4, wavelengths)
@@ -169,14 +163,14 @@ def test_polarized_schiller_is_the_stacks_s_and_p(theta_deg):
     assert np.allclose(np.hypot(m[2, 2], m[2, 3]) / m[0, 0], 2 * np.sqrt(r_s * r_p) / (r_s + r_p), rtol=2e-3, atol=1e-4)
     if theta_deg == 0.0:
         assert np.allclose(m[2, 2], -m[0, 0], rtol=1e-4)  # a mirror at normal incidence
-    _use("spectral")
+    variant("spectral")
     wi, wo = mi.Vector3f(math.sin(t), 0.0, math.cos(t)), mi.Vector3f(-math.sin(t), 0.0, math.cos(t))
     unpolarised = np.array(_bsdf(normal=[0, 0, 1], surface=False, body=False, **params).eval(mi.BSDFContext(), _si(1, wi), wo))
     assert np.allclose(m[0, 0], unpolarised.ravel(), rtol=1e-4)
 
 
-def test_polarized_surface_is_a_mueller_matrix_and_body_is_depolarised():
-    _use("spectral", polarized=True)
+def test_polarized_surface_is_a_mueller_matrix_and_body_is_depolarised(variant):
+    variant("spectral", polarized=True)
     ctx = mi.BSDFContext()
     wi = dr.normalize(mi.Vector3f(0.8, 0.0, 0.5))
     wo = dr.normalize(mi.Vector3f(-0.3, 0.4, 0.6))
@@ -189,20 +183,20 @@ def test_polarized_surface_is_a_mueller_matrix_and_body_is_depolarised():
 
 
 @pytest.mark.parametrize("normal", [[0, 0, 0], [float("nan"), 0, 1], [0, 0, float("inf")]])
-def test_bad_normal_is_a_clear_error(normal):
-    _use("rgb")
+def test_bad_normal_is_a_clear_error(normal, variant):
+    variant("rgb")
     with pytest.raises(Exception, match="lamella normal"):
         _bsdf(normal=normal)
 
 
-def test_bad_material_is_a_clear_error():
-    _use("rgb")
+def test_bad_material_is_a_clear_error(variant):
+    variant("rgb")
     with pytest.raises(Exception, match="d_a"):
         _bsdf(d_a=-10.0)
 
 
-def test_traverse_exposes_a_differentiable_normal():
-    _use("rgb")
+def test_traverse_exposes_a_differentiable_normal(variant):
+    variant("rgb")
     params = mi.traverse(_bsdf(normal=[0, 0.2, 1]))
     assert "normal" in params.keys()
     assert not params.flags("normal") & int(mi.ParamFlags.NonDifferentiable)
@@ -218,8 +212,8 @@ def test_traverse_exposes_a_differentiable_normal():
         {"normal": [0.0, 0.0, 1.0], "spread_deg": 2.0, "sigma_a": 0.0, "sigma_b": 0.0, "pairs": 100000},
     ],
 )
-def test_hard_cases_stay_finite_with_finite_gradients(mode, params):
-    _use(mode)
+def test_hard_cases_stay_finite_with_finite_gradients(mode, params, variant):
+    variant(mode)
     bsdf = _bsdf(**params)
     ctx = mi.BSDFContext()
     rng = np.random.default_rng(5)
@@ -248,7 +242,7 @@ def test_hard_cases_stay_finite_with_finite_gradients(mode, params):
 
 
 @pytest.mark.parametrize("spread", [1.0, 2.0])
-def test_schiller_albedo_of_parallel_lamellae_is_exact(spread):
+def test_schiller_albedo_of_parallel_lamellae_is_exact(spread, variant):
     """Lamellae parallel to the surface, light at normal incidence, a narrow lobe: all schiller
     light leaves near the normal, so its albedo tends to T(0)² R(1) (energy balance through both
     surfaces and the stack; wider lobes lose some to oblique exits, by design).
@@ -256,7 +250,7 @@ def test_schiller_albedo_of_parallel_lamellae_is_exact(spread):
     from labcut import Labradorite
     from labcut.colour import luminance_table
 
-    _use("mono")
+    variant("mono")
     lab = Labradorite.preset("green", spread_deg=spread)
     params = {k: v for k, v in lab.to_dict().items() if k != "name"}
     bsdf = _bsdf(normal=[0.0, 0.0, 1.0], surface=False, body=False, **params)
@@ -276,11 +270,11 @@ def test_schiller_albedo_of_parallel_lamellae_is_exact(spread):
 
 @pytest.mark.parametrize("mode", ["rgb", "mono", "spectral"])
 @pytest.mark.parametrize("seed", [0, 1, 2])
-def test_sample_weight_is_eval_over_pdf_and_eval_pdf_is_consistent(mode, seed):
+def test_sample_weight_is_eval_over_pdf_and_eval_pdf_is_consistent(mode, seed, variant):
     """The standard consistency check over random incident directions and lamella tilts up to
     60°: for every non-delta sample, weight == eval / pdf and pdf == pdf(wo); eval_pdf returns
     eval and pdf. (Changing max(a_z, b_z) to min in eval alone breaks this.)"""
-    _use(mode)
+    variant(mode)
     rng = np.random.default_rng(seed)
     tilt = math.radians(rng.uniform(0.0, 60.0))
     phi = rng.uniform(0, 2 * math.pi)
@@ -312,7 +306,7 @@ def test_sample_weight_is_eval_over_pdf_and_eval_pdf_is_consistent(mode, seed):
 
 
 @pytest.mark.parametrize("tilt_deg, incidence_deg", [(0.0, 0.0), (25.0, 30.0), (20.0, 10.0), (15.0, 45.0)])
-def test_schiller_albedo_of_a_narrow_lobe_matches_the_mirror_energy_balance(tilt_deg, incidence_deg):
+def test_schiller_albedo_of_a_narrow_lobe_matches_the_mirror_energy_balance(tilt_deg, incidence_deg, variant):
     """Independent of the lobe code: for a narrow lobe (1°) the schiller albedo is that of one
     tilted mirror, T_i T_o R(|a·m|) b_z / max(a_z, b_z) (docs/rendering.md), computed here from
     Snell's law, Fresnel and the mirror reflection alone, and integrated by quadrature over a
@@ -321,7 +315,7 @@ def test_schiller_albedo_of_a_narrow_lobe_matches_the_mirror_energy_balance(tilt
     from labcut import Labradorite
     from labcut.colour import luminance_table
 
-    _use("mono")
+    variant("mono")
     lab = Labradorite.preset("green", spread_deg=1.0)
     eta = lab.n_surface
     t, i = math.radians(tilt_deg), math.radians(incidence_deg)

@@ -12,7 +12,7 @@ import drjit as dr
 import mitsuba as mi
 import numpy as np
 import pytest
-from hypothesis import given
+from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import labcut
@@ -81,11 +81,9 @@ def _spot_map(target: np.ndarray, radius_deg: float = 1.5, width: int = 512, hei
 
 
 @pytest.mark.parametrize("pose", [np.eye(3), rotation([1.0, 0.0, 0.0], 90.0), rotation([0.3, -0.2, 1.0], 37.0)])
-def test_envmap_convention_matches_mitsuba(pose):
+def test_envmap_convention_matches_mitsuba(pose, variant):
     """The direction labcut samples from a map is the direction Mitsuba's envmap emitter shines from."""
-    from labcut.backend import set_variant
-
-    set_variant("rgb")
+    variant("rgb")
     target = direction(50.0, 200.0)
     env = _spot_map(target).rotated(pose)
     d, w = env.sample(64)
@@ -138,16 +136,16 @@ def test_envmap_with_one_bright_spot_recommends_like_that_single_light(oval, tmp
 
 
 # ---------------------------------------------------------------------- one schiller lobe
+@settings(suppress_health_check=[HealthCheck.function_scoped_fixture])  # the fixture only sets the variant
 @given(st.integers(0, 10_000))
-def test_bsdf_schiller_equals_the_estimators_c_times_q(seed):
+def test_bsdf_schiller_equals_the_estimators_c_times_q(seed, variant):
     """Pointwise: the BSDF's f_s (n·l) at random (light, view, lamella) triples equals the
     estimator's weight times the lobe, through the one lobe implementation."""
-    from labcut.backend import set_variant
     from labcut.colour import luminance_table
     from labcut.physics.schiller import lobe_density
     from mitsuba_helpers import surface_interaction
 
-    set_variant("mono")
+    variant("mono")
     rng = np.random.default_rng(seed)
     lab = Labradorite.preset("green", spread_deg=float(rng.uniform(2.0, 15.0)))
     k = 64

@@ -12,7 +12,6 @@ import pytest
 
 import labcut
 from labcut import Labradorite, ParameterError
-from labcut.backend import set_variant
 from mitsuba_helpers import surface_interaction
 from labcut.colour import dominant_wavelength, tables
 from labcut.rendering.noise import equalise, fbm
@@ -97,11 +96,6 @@ def test_presets_dict_round_trip_and_json(tmp_path):
 
 
 # ---------------------------------------------------------------------- kernel
-def _use(mode: str) -> None:
-    set_variant(mode, False)
-    import labcut.rendering.bsdf  # noqa: F401
-
-
 _si = surface_interaction
 
 
@@ -110,8 +104,8 @@ def _zoned(zoning: Zoning, **params):
 
 
 @pytest.mark.parametrize("mode", ["spectral", "rgb"])
-def test_kernel_looks_up_the_set_of_the_hit_point(mode):
-    _use(mode)
+def test_kernel_looks_up_the_set_of_the_hit_point(mode, variant):
+    variant(mode)
     z = Zoning([BLUE, GOLD], ranges=FIG6, scale_mm=4.0)
     baked = z.bake(BOX)
     rng = np.random.default_rng(1)
@@ -145,10 +139,10 @@ def test_kernel_looks_up_the_set_of_the_hit_point(mode):
 
 
 @pytest.mark.parametrize("mode", ["rgb", "spectral"])
-def test_chi2_with_zoning_at_a_fixed_point(mode):
+def test_chi2_with_zoning_at_a_fixed_point(mode, variant):
     from mitsuba.chi2 import ChiSquareTest, SphericalDomain
 
-    _use(mode)
+    variant(mode)
     z = Zoning.preset("smooth")
     props = {"normal": [0.2, 0.0, 1.0], "spread_deg": 6.0, **z.bake(BOX).props()}
     wi = dr.normalize(mi.ScalarVector3f(0.3, 0.1, 0.95))
