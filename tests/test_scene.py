@@ -136,7 +136,7 @@ def test_envmap_with_one_bright_spot_recommends_like_that_single_light(oval, tmp
 
 
 # ---------------------------------------------------------------------- one schiller lobe
-@settings(suppress_health_check=[HealthCheck.function_scoped_fixture])  # the fixture only sets the variant
+@settings(max_examples=25, suppress_health_check=[HealthCheck.function_scoped_fixture])  # the fixture only sets the variant
 @given(seed=st.integers(0, 10_000))
 def test_bsdf_schiller_equals_the_estimators_c_times_q(variant, seed):
     """Pointwise: the BSDF's f_s (n·l) at random (light, view, lamella) triples equals the
