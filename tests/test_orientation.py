@@ -283,3 +283,11 @@ def test_estimators_agree_at_a_strong_lamella_tilt_under_an_oblique_lamp():
     images = render_metrics(mesh, LAB, normal, lights, views, resolution=256, spp=16)
     assert images.flash_energy > 0.01
     assert abs(samples.flash_energy - images.flash_energy) <= 0.05 * images.flash_energy, (samples, images)
+
+
+def test_flash_metrics_have_short_reprs_for_notebooks(oval):
+    m = labcut.evaluate_orientation(oval, [0, 0, 1], LAB, quality="draft")
+    text = repr(m)
+    assert text.startswith("FlashMetrics(area=") and len(text) < 160
+    html = m._repr_html_()
+    assert html.startswith("<table>") and "flash energy" in html and f"{m.flash_energy:.4f}" in html

@@ -94,6 +94,18 @@ class FlashMetrics:
     def to_dict(self) -> dict[str, Any]:
         return asdict(self)
 
+    def __repr__(self) -> str:
+        return (f"FlashMetrics(area={self.flash_area:.1%}, intensity={self.flash_intensity:.3f}, "
+                f"energy={self.flash_energy:.4f}, coverage={self.coverage:.0%}, views={len(self.per_view.get('weight', []))})")
+
+    def _repr_html_(self) -> str:
+        """A small table for notebooks."""
+        rows = [("flash area", f"{self.flash_area:.1%}"), ("flash intensity", f"{self.flash_intensity:.3f}"),
+                ("flash energy", f"{self.flash_energy:.4f}"), ("coverage", f"{self.coverage:.0%}"),
+                ("balanced", f"{self.balanced:.4f}")]
+        body = "".join(f"<tr><td>{k}</td><td style='text-align:right'>{v}</td></tr>" for k, v in rows)
+        return f"<table><thead><tr><th>flash metric</th><th>value</th></tr></thead><tbody>{body}</tbody></table>"
+
 
 class Scorer:
     """Dr.Jit evaluation of flash metrics and objectives for one problem."""
