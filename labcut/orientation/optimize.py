@@ -206,7 +206,7 @@ def optimize_nlopt(scorer: Scorer, constraint: Constraint, global_evals: int = 2
     # DIRECT's few hundred samples can miss a peak narrower than its cells (a lobe of a few
     # degrees): L-BFGS also starts from the best distinct cells of a coarse energy map (one
     # batched kernel), and the best polished point wins
-    starts = [best[0]] + [normal_to_stereo(n) for n in _map_seeds(scorer, constraint, 4.0, 3)]
+    starts = [best[0]] + [normal_to_stereo(n) for n in _map_seeds(scorer, constraint, 6.0, 3)]
     result = (best[0], best[1])
     for u0, v0 in starts:
         u, v, value = _local_lbfgs(scorer, u0, v0, constraint)
