@@ -11,7 +11,6 @@ Mitsuba's ray tracing, the BSDF plugin and its tables.
 
 from __future__ import annotations
 
-import math
 from typing import Any
 
 import numpy as np
@@ -20,7 +19,7 @@ from ..errors import ParameterError
 from ..physics.material import Labradorite
 from ..scene import Lights, Setting, Views
 from .problem import reference_radiance
-from .scoring import COVERAGE_AREA, FlashMetrics
+from .scoring import FlashMetrics
 
 
 def render_metrics(
@@ -80,10 +79,4 @@ def render_metrics(
             energy_v.append(e)
             intensity_v.append(i)
     wv = np.array(weight_v)
-    wv = wv / wv.sum()
-    area, energy, intensity = float(wv @ area_v), float(wv @ energy_v), float(wv @ intensity_v)
-    return FlashMetrics(
-        flash_area=area, flash_intensity=intensity, flash_energy=energy,
-        coverage=float(wv @ (np.array(area_v) > COVERAGE_AREA)), balanced=math.sqrt(max(area * intensity, 0.0)),
-        per_view={"flash_area": area_v, "flash_intensity": intensity_v, "flash_energy": energy_v, "weight": wv.tolist()},
-    )
+    return FlashMetrics.from_views(area_v, intensity_v, energy_v, wv / wv.sum())

@@ -87,6 +87,19 @@ class FlashMetrics:
     balanced: float
     per_view: dict[str, list[float]]
 
+    @classmethod
+    def from_views(cls, area_v: Any, intensity_v: Any, energy_v: Any, weights: Any) -> FlashMetrics:
+        """Aggregate per-view flash area, intensity and energy with view weights (summing to 1):
+        the view-weighted means, coverage = weight of views whose area exceeds 5 %, and
+        balanced = sqrt(area x intensity) (DESIGN.md §4). One constructor for both estimators."""
+        a, i, e, w = (np.asarray(x, dtype=np.float64) for x in (area_v, intensity_v, energy_v, weights))
+        area, intensity, energy = float(w @ a), float(w @ i), float(w @ e)
+        return cls(
+            flash_area=area, flash_intensity=intensity, flash_energy=energy,
+            coverage=float(w @ (a > COVERAGE_AREA)), balanced=math.sqrt(max(area * intensity, 0.0)),
+            per_view={"flash_area": a.tolist(), "flash_intensity": i.tolist(), "flash_energy": e.tolist(), "weight": w.tolist()},
+        )
+
     def score(self, objective: str) -> float:
         return {"energy": self.flash_energy, "area": self.flash_area, "intensity": self.flash_intensity,
                 "balanced": self.balanced}[objective]
@@ -255,21 +268,7 @@ class Scorer:
         energy_v = np.bincount(p.pair_view, weights=p.pair_weight * radiance, minlength=V)
         inflash_v = np.bincount(p.pair_view, weights=p.pair_weight * radiance * flash, minlength=V)
         intensity_v = np.where(area_v > 1e-12, inflash_v / np.maximum(area_v, 1e-12), 0.0)
-        w = p.view_weight
-        area, intensity, energy = float(w @ area_v), float(w @ intensity_v), float(w @ energy_v)
-        return FlashMetrics(
-            flash_area=area,
-            flash_intensity=intensity,
-            flash_energy=energy,
-            coverage=float(w @ (area_v > COVERAGE_AREA)),
-            balanced=math.sqrt(max(area * intensity, 0.0)),
-            per_view={
-                "flash_area": area_v.tolist(),
-                "flash_intensity": intensity_v.tolist(),
-                "flash_energy": energy_v.tolist(),
-                "weight": w.tolist(),
-            },
-        )
+        return FlashMetrics.from_views(area_v, intensity_v, energy_v, p.view_weight)
 
     def _energy_many(self, m: Any) -> Any:
         """Energy at each of the normals ``m`` (Array3f of width k): Σ_b A_b q(h_b·m).
