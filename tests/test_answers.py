@@ -262,6 +262,8 @@ def test_render_needs_an_explicit_output(cli, tmp_path):
 
 
 def test_material_file_refuses_booleans(cli, tmp_path):
+    with pytest.raises(ParameterError, match="pairs"):
+        labcut.Labradorite.from_dict({"pairs": True})
     (tmp_path / "m.json").write_text(json.dumps({"pairs": True}))
     for cmd in (["spectrum"], ["evaluate-orientation", str(OVAL)]):
         proc = cli(*cmd, "--material", str(tmp_path / "m.json"))

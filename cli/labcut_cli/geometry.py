@@ -83,9 +83,9 @@ def _summary_table(summary: Any, title: str, load_report: dict[str, Any] | None 
     table.add_row("outward winding", "yes" if d["winding_consistent"] else "no")
     table.add_row("convex", "yes" if d["convex"] else "no")
     if load_report is not None:
-        source = {"given": "as given", "file": "declared by the file", "default": "the file does not say: mm"}
+        source = {"given": "as given", "file": "declared by the file", "default": "default: the file does not say"}
         table.add_row("units", f"{load_report['units']} ({source.get(load_report['units_source'], load_report['units_source'])})")
-        table.add_row("face-up", f"the file's {load_report['up_axis']} ({load_report['up_axis_source']})")
+        table.add_row("face-up", f"the file's {load_report['up_axis']} — {load_report['up_axis_source']}")
         table.add_row("bodies", str(load_report.get("bodies", 1)))
     table.add_row("repaired", "; ".join(d["repairs"]) if d["repairs"] else "nothing")
     if d["notes"]:

@@ -35,7 +35,7 @@ LAYER_KEYS = ("d_a", "d_b", "sigma_a", "sigma_b", "n_a", "n_b", "n_surface", "pa
 def material_block(data: Any, source: str) -> dict[str, Any]:
     """The material parameters in a JSON document: a ``Labradorite.to_dict``, or labcut's own
     outputs that carry one (``material`` of spectrum/render JSON, ``settings.material`` of a
-    recommendation). Booleans are refused where numbers belong (JSON ``true`` is not 1 pair)."""
+    recommendation). The values are validated by :class:`labcut.Labradorite` (JSON ``true`` is not 1 pair)."""
     if isinstance(data, dict):
         if isinstance(data.get("material"), dict):
             data = data["material"]
@@ -43,9 +43,6 @@ def material_block(data: Any, source: str) -> dict[str, Any]:
             data = data["settings"]["material"]
     if not isinstance(data, dict):
         raise ParameterError(f"material file {source!r} must hold a JSON object")
-    for key, value in data.items():
-        if isinstance(value, bool):
-            raise ParameterError(f"material file {source!r}: {key} must be a number, got {str(value).lower()}")
     return data
 
 

@@ -489,6 +489,7 @@ def load_mesh(
     path: str | os.PathLike[str],
     units: str | float = "auto",
     up_axis: str = "auto",
+    size: float | None = None,
     recentre: bool = True,
     repair: bool = True,
     progress: Callable[[str, float], None] | None = None,
@@ -497,7 +498,8 @@ def load_mesh(
 
     Args:
         path: an STL, OBJ, PLY, OFF, GLB/GLTF or 3MF file. Multi-object files
-            (GLB scenes, 3MF) are flattened into one mesh.
+            (GLB scenes, 3MF) are flattened into one mesh. A GemCad design (``.asc``,
+            ``.gem``) is cut into its stone by :func:`labcut.geometry.gemcad.load_design`.
         units: the file's length unit: ``"auto"`` (default: what the file declares, glTF/GLB
             metres by specification, 3MF its ``unit`` attribute; mm for formats that do not
             say), ``"mm"``, ``"cm"``, ``"m"``, ``"um"``, ``"in"``, ``"ft"``, or a number of mm
@@ -510,6 +512,9 @@ def load_mesh(
             ``"-Y"``, ``"+X"``, ``"-X"``. The mesh is rotated so that axis becomes +Z; a file
             that looks upside down or Y-up, or a given axis the shape contradicts, adds a
             warning (``metadata["labcut"]["warnings"]`` and a :class:`~labcut.errors.LabcutWarning`).
+        size: girdle width in mm (along X) of a dimensionless GemCad design; None: 10 mm
+            (:data:`labcut.geometry.gemcad.DEFAULT_SIZE_MM`). Designs take no ``units``;
+            meshes take no ``size``.
         recentre: translate so the bounding box is centred on the Z axis and
             its bottom (the base) lies on z = 0.
         repair: repair what can be repaired (default); False makes every defect
@@ -543,10 +548,21 @@ def load_mesh(
         raise MeshError(f"mesh file {str(path)!r} does not exist")
     if p.is_dir():
         raise MeshError(f"{str(path)!r} is a folder, not a mesh file")
+    if p.suffix.lower() in (".asc", ".gem"):  # a GemCad design: dimensionless, sized by its girdle width
+        from .gemcad import load_design
+
+        if units_given and factor != 1.0:
+            raise ParameterError(f"{p.name} is a GemCad design, which has no length unit: give its girdle width "
+                                 f"with --size MM (size=MM), not --units")
+        return load_design(p, size=size, up_axis=up_key, recentre=recentre, progress=progress)
+    if size is not None:
+        raise ParameterError(f"--size (size=) is the girdle width of a GemCad design (.asc, .gem); {p.name} is a mesh "
+                             f"with its own size: give its unit with --units")
     fmt = READ_FORMATS.get(p.suffix.lower())
     if fmt is None:
         raise MeshError(
             f"{p.name}: unsupported mesh format {p.suffix or '(no suffix)'!r}; use one of {', '.join(READ_FORMATS)}"
+            f", or a GemCad design (.asc, .gem)"
         )
     if p.stat().st_size == 0:
         raise MeshError(f"{p.name} is empty (0 bytes)")
@@ -587,8 +603,8 @@ def load_mesh(
                 )
         else:
             up = convention
-            why = "glTF is Y-up by specification" if convention == "+Y" else "the file's +Z"
-            up_source = f"convention: {why} (the shape does not say: {guess.reason})"
+            why = "glTF is Y-up by specification" if convention == "+Y" else "+Z, as the file has it"
+            up_source = f"convention: {why}; the shape does not say ({guess.reason})"
     else:
         up, up_source = up_key, "given"
         if guess.axis is not None and guess.axis != up_key:
@@ -688,6 +704,11 @@ def validate_mesh(mesh: Any, name: str = "mesh") -> None:
         raise MeshError(f"{name} has {bad} non-finite (NaN or inf) vertices; load it with labcut.load_mesh, which repairs them")
     if f.min() < 0 or f.max() >= len(v):
         raise MeshError(f"{name} has faces that refer to missing vertices")
+    proper = (f[:, 0] != f[:, 1]) & (f[:, 1] != f[:, 2]) & (f[:, 2] != f[:, 0])
+    if not proper.all():  # triangles that repeat a vertex bound nothing: judge the solid without them
+        if not proper.any():
+            raise MeshError(f"{name} has only degenerate triangles")
+        mesh = trimesh.Trimesh(vertices=v, faces=f[proper], process=False)
     if not mesh.is_watertight:
         raise MeshError(f"{name} is not closed (watertight): an open shell has no inside; load it with labcut.load_mesh, which closes holes")
     if not mesh.is_winding_consistent:
