@@ -183,6 +183,12 @@ def lamella_intensity(
     Returns
     -------
     I >= 0, finite; 0 at grazing incidence (one angle). Unitless.
+
+    Examples
+    --------
+    >>> from labcut.physics import lamella_intensity
+    >>> round(float(lamella_intensity(470.0, 1.0, 1.555, 1.562, 77.5, 77.5, 16.0, 16.0)), 4)
+    7.8209
     """
     ops = ops_for(wavelength_nm, cos_theta, n_a, n_b, d_a, d_b, sigma_a, sigma_b, pairs)
     q_a, q_b = phase_wavenumbers(cos_theta, n_a, n_b, n_surface, ops)

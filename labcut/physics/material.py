@@ -111,6 +111,12 @@ class Labradorite:
         reflectance (which the λ-dependence of the damping moves 1-2.5 nm above
         the Bragg estimate at σ = 16 nm) is at ``nm`` to 0.01 nm. Other
         parameters as in the constructor.
+        
+        Examples
+        --------
+        >>> import labcut
+        >>> round(labcut.Labradorite.from_peak_wavelength(470.0).peak_wavelength(), 1)
+        470.0
         """
         target = _check_number("peak wavelength (nm)", nm, 250.0, 2500.0)
         base = cls(**params)
@@ -134,6 +140,12 @@ class Labradorite:
         the Bøggild range quoted by the paper and of the period range that gives
         visible schiller (Miura 1978); the two phases get equal thickness. Outside
         44-61 % An labradorite shows no schiller: a :class:`ParameterError`.
+        
+        Examples
+        --------
+        >>> import labcut
+        >>> round(labcut.Labradorite.from_anorthite(52).peak_wavelength(), 1)
+        582.1
         """
         an = _check_number("anorthite content (An %)", an_percent, -math.inf)
         lo, hi = AN_RANGE
@@ -210,6 +222,15 @@ class Labradorite:
         numpy inputs broadcast and give float64 arrays (validated: wavelength > 0,
         |cos_theta| <= 1, no NaN); Dr.Jit inputs (inside Mitsuba kernels) give
         Dr.Jit arrays through the same expression, unvalidated.
+
+        Examples
+        --------
+        >>> import numpy as np, labcut
+        >>> lab = labcut.Labradorite.from_peak_wavelength(470.0)
+        >>> np.round(lab.reflectance([450, 470, 500], 1.0), 3)
+        array([0.293, 0.365, 0.235])
+        >>> round(float(lab.reflectance(470, 0.85, "s")), 3), round(float(lab.reflectance(470, 0.85, "p")), 3)
+        (0.128, 0.028)
         """
         if polarization not in (None, "s", "p"):
             raise ParameterError(f"polarization must be None (unpolarised), 's' or 'p', got {polarization!r}")
@@ -238,7 +259,7 @@ class Labradorite:
             return math.nan
         lo, hi = grid[max(i - 1, 0)], grid[min(i + 1, grid.size - 1)]
         # R is monotone in I: same peak, and no saturation plateau to confuse the search
-        return golden_section_max(lambda x: float(self.intensity(x, c)), lo, hi, 1e-4)
+        return float(golden_section_max(lambda x: float(self.intensity(x, c)), lo, hi, 1e-4))
 
     def peak_reflectance(self, cos_theta: float = 1.0) -> float:
         """Reflectance at the first-order peak, at ``cos_theta`` (NaN when there is none)."""

@@ -85,7 +85,17 @@ class Scenario:
     # ------------------------------------------------------------------ construction
     @classmethod
     def preset(cls, name: str, quality: str = "standard") -> Scenario:
-        """A named wear scenario: :data:`labcut.scene.SCENARIOS` lists them (docs/scenarios.md)."""
+        """A named wear scenario: :data:`labcut.scene.SCENARIOS` lists them (docs/scenarios.md).
+
+        Examples
+        --------
+        >>> import labcut
+        >>> pendant = labcut.Scenario.preset("pendant", "draft")
+        >>> pendant.lights.name, pendant.views.name
+        ('office', 'eye-level')
+        >>> pendant.main_setting().up().round(3).tolist()  # world up is the stone's +Y (bail) end
+        [0.0, 1.0, 0.0]
+        """
         return SCENARIOS.get(name).factory(check_quality(quality))
 
     @classmethod

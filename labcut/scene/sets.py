@@ -125,7 +125,15 @@ class Lights(DirectionSet):
     @classmethod
     def lamp(cls, direction: Any, radius_deg: float = 0.0, irradiance: float = 1.0, n: int = 1, name: str = "lamp") -> Lights:
         """A round lamp of angular radius ``radius_deg`` (a disc seen from the stone), sampled by
-        ``n`` equal-solid-angle directions; ``radius_deg = 0`` is a point (directional) light."""
+        ``n`` equal-solid-angle directions; ``radius_deg = 0`` is a point (directional) light.
+
+        Examples
+        --------
+        >>> import labcut
+        >>> lamp = labcut.Lights.lamp([0, 0, 1], radius_deg=8.0, irradiance=1.0, n=13)
+        >>> len(lamp), round(lamp.total_irradiance, 6)
+        (13, 1.0)
+        """
         d = unit_vector(direction, "lamp direction")
         if not (0.0 <= float(radius_deg) <= 60.0):
             raise ParameterError(f"lamp radius must lie in [0, 60] degrees, got {radius_deg!r}")
