@@ -25,8 +25,10 @@ _backend.check_llvm()
 from .errors import (  # noqa: E402
     BackendError,
     LabcutError,
+    LabcutWarning,
     LLVMVersionError,
     MeshError,
+    OutputError,
     ParameterError,
 )
 
@@ -74,8 +76,10 @@ def __dir__() -> list[str]:
 __all__ = [
     "BackendError",
     "LabcutError",
+    "LabcutWarning",
     "LLVMVersionError",
     "MeshError",
+    "OutputError",
     "ParameterError",
     *_LAZY,
 ]
