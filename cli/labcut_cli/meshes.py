@@ -1,4 +1,4 @@
-"""Mesh options shared by every command that reads a mesh (``--units``, ``--up-axis``) and the
+"""Mesh options shared by every command that reads a mesh (``--units``, ``--up-axis``, ``--size``) and the
 loader that reports what it did: warnings on stderr, repairs with the answer, progress for long loads.
 """
 
@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import warnings
 from pathlib import Path
-from typing import Annotated, Any
+from typing import Annotated, Any, Optional
 
 import typer
 
@@ -30,16 +30,29 @@ UpAxis = Annotated[
         rich_help_panel="Mesh",
     ),
 ]
+Size = Annotated[
+    Optional[float],
+    typer.Option(
+        "--size",
+        metavar="MM",
+        help="Girdle width in mm (along X) of a GemCad design (.asc, .gem), which has no unit of its own; "
+             "default 10. Meshes take --units instead.",
+        rich_help_panel="Mesh",
+    ),
+]
 
 #: files at least this large get a progress bar while they load (bytes)
 PROGRESS_BYTES = 2_000_000
 
 
-def check_mesh_options(units: str, up_axis: str) -> tuple[str | float, str]:
-    """Validate ``--units`` and ``--up-axis`` before any work; returns them as ``load_mesh`` takes them."""
+def check_mesh_options(units: str, up_axis: str, size: float | None = None) -> tuple[str | float, str]:
+    """Validate ``--units``, ``--up-axis`` (and ``--size``) before any work; returns units and up axis as
+    ``load_mesh`` takes them."""
+    from labcut.geometry.gemcad import _check_size
     from labcut.geometry.meshio import _units_scale
     from labcut.geometry.orient import check_up_axis
 
+    _check_size(size)
     unit_arg: str | float = units.strip()
     try:
         unit_arg = float(units)
@@ -50,13 +63,13 @@ def check_mesh_options(units: str, up_axis: str) -> tuple[str | float, str]:
     return unit_arg, check_up_axis(up_axis)
 
 
-def load(mesh_path: Path, units: str = "auto", up_axis: str = "auto", **kwargs: Any) -> Any:
+def load(mesh_path: Path, units: str = "auto", up_axis: str = "auto", size: float | None = None, **kwargs: Any) -> Any:
     """``labcut.load_mesh`` for a command: its warnings as ``warning:`` lines on stderr, a
-    progress bar (stderr) for large files."""
+    progress bar (stderr) for large files; ``size`` is a GemCad design's girdle width (mm)."""
     from labcut.errors import LabcutWarning
     from labcut.geometry.meshio import load_mesh
 
-    unit_arg, up = check_mesh_options(units, up_axis)
+    unit_arg, up = check_mesh_options(units, up_axis, size)
     big = Path(mesh_path).is_file() and Path(mesh_path).stat().st_size >= PROGRESS_BYTES
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", LabcutWarning)
@@ -64,10 +77,10 @@ def load(mesh_path: Path, units: str = "auto", up_axis: str = "auto", **kwargs: 
             from .progress import progress_bar
 
             with progress_bar(f"loading {Path(mesh_path).name}", "%") as update:
-                mesh = load_mesh(mesh_path, units=unit_arg, up_axis=up,
+                mesh = load_mesh(mesh_path, units=unit_arg, up_axis=up, size=size,
                                  progress=lambda stage, fraction: update(int(round(100 * fraction)), 100), **kwargs)
         else:
-            mesh = load_mesh(mesh_path, units=unit_arg, up_axis=up, **kwargs)
+            mesh = load_mesh(mesh_path, units=unit_arg, up_axis=up, size=size, **kwargs)
     for w in caught:
         if issubclass(w.category, LabcutWarning):
             print_warning(str(w.message))
@@ -85,6 +98,13 @@ def print_provenance(mesh: Any, name: str) -> None:
     """What loading changed, for people: units and up axis when they were not the plain defaults,
     and every repair."""
     info = mesh.metadata.get("labcut", {})
+    design = info.get("design")
+    if design:
+        sized = "as given" if design.get("size_source") == "given" else "the default; --size sets it"
+        ri = design.get("refractive_index")
+        made_for = f"; made for a refractive index of {ri:g}, the material's own index is used" if ri else ""
+        console.print(f"{name}: GemCad design {design['name']!r}, {design['facets']} facets in {design['tiers']} tiers, "
+                      f"girdle width {design['size_mm']:g} mm ({sized}){made_for}.", highlight=False)
     parts = []
     if info.get("units_source") == "file":
         parts.append(f"read in {info['units']} as the file declares")

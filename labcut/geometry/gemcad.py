@@ -274,7 +274,8 @@ def parse_asc(text: str, name: str = "design.asc", source: str = "") -> Design:
     for lineno, line in lines:
         where = f"{name}, line {lineno}"
         kind, rest = line[0], line[1:].strip()
-        words = rest.split()
+        spans = list(re.finditer(r"\S+", line[1:]))
+        words = [m.group() for m in spans]
         if line.lower().startswith("gemcad"):
             version = line
         elif kind == "g":
@@ -321,7 +322,7 @@ def parse_asc(text: str, name: str = "design.asc", source: str = "") -> Design:
                     facet_specs[-1] = (t, a_, d_, i_, words[k + 1])
                     k += 2
                 elif w == "G":
-                    tier.instructions = " ".join(words[k + 1:])
+                    tier.instructions = line[1 + spans[k].end():].strip()
                     break
                 else:
                     idx = _number(w)
@@ -456,9 +457,13 @@ def parse_gem(data: bytes, name: str = "design.gem", source: str = "") -> Design
             if angle == 0.0 and n[2] < 0:
                 angle = -0.0
         angle = round(angle, 6) if angle != 0 else angle
-        azimuth = math.degrees(math.atan2(n[1], n[0]))
-        index = location + (90.0 - azimuth) * gear / 360.0
-        index = round(index % abs(gear), 6) or float(abs(gear))
+        if abs(n[2]) > 1.0 - 1e-12:  # a table or culet has no direction: GemCad writes the gear as its index
+            index = float(gear)
+            azimuth = (90.0 - (index - location) * 360.0 / gear + 180.0) % 360.0 - 180.0
+        else:
+            azimuth = math.degrees(math.atan2(n[1], n[0]))
+            index = location + (90.0 - azimuth) * gear / 360.0
+            index = round(index % abs(gear), 6) or float(abs(gear))
         if not tiers or tiers[-1].number != tier_no:
             tiers.append(Tier(number=tier_no, angle_deg=angle, distance=round(distance, 9), instructions=instructions))
         elif instructions and not tiers[-1].instructions:
@@ -767,6 +772,17 @@ def load_design(
     _check_size(size)  # a bad size is an error before the file is read
     (progress or (lambda s, x: None))(f"reading {Path(path).name}", 0.0)
     return design_solid(read_design(path), size=size, up_axis=up_axis, recentre=recentre, progress=progress)
+
+
+#: the keys of a design's metadata that travel with every answer's ``mesh`` block (:func:`labcut.geometry.meshio.provenance`)
+PROVENANCE_KEYS = ("name", "format", "gear", "gear_location", "symmetry", "mirror", "refractive_index",
+                   "refractive_index_applied", "tiers", "facets", "facets_listed", "size_mm", "size_source",
+                   "length_to_width", "headers", "footnotes")
+
+
+def design_provenance(design: dict[str, Any]) -> dict[str, Any]:
+    """The compact part of ``metadata["labcut"]["design"]`` (:data:`PROVENANCE_KEYS`; no per-face lists)."""
+    return {k: design[k] for k in PROVENANCE_KEYS if k in design}
 
 
 def facet_names(mesh: Any) -> list[str]:

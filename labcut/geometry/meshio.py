@@ -678,6 +678,10 @@ def provenance(mesh: Any) -> dict[str, Any]:
     out.setdefault("bodies", int(info.get("bodies", 1)))
     out["dimensions_mm"] = [float(x) for x in np.ptp(np.asarray(mesh.vertices, dtype=np.float64), axis=0)]
     out["triangles"] = int(len(mesh.faces))
+    if isinstance(info.get("design"), dict):  # a GemCad design: what it is and how it was sized
+        from .gemcad import design_provenance
+
+        out["design"] = design_provenance(info["design"])
     return out
 
 
