@@ -616,16 +616,16 @@ def _check_size(size: Any) -> tuple[float, bool]:
     if size is None:
         return DEFAULT_SIZE_MM, False
     if isinstance(size, bool):
-        raise ParameterError(f"size must be a girdle width in mm, got {size!r}")
+        raise ParameterError(f"the girdle width (--size, size=) must be a number of mm, got {size!r}")
     try:
         s = float(size)
     except (TypeError, ValueError):
-        raise ParameterError(f"size must be a girdle width in mm, got {size!r}") from None
+        raise ParameterError(f"the girdle width (--size, size=) must be a number of mm, got {size!r}") from None
     from .meshio import STONE_SIZE_MM
 
     lo, hi = STONE_SIZE_MM
     if not math.isfinite(s) or not lo <= s <= hi:
-        raise ParameterError(f"size (the girdle width) must be {lo:g}-{hi:g} mm, got {size!r}")
+        raise ParameterError(f"the girdle width (--size, size=) must be {lo:g}-{hi:g} mm, got {size!r}")
     return s, True
 
 
