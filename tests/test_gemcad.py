@@ -467,8 +467,6 @@ def test_cli_recommend_on_a_design(tmp_path, capsys):
 
 
 # ----------------------------------------------------------------------------- rendering
-@pytest.mark.xfail(strict=True, reason="labcut/rendering/scene.py to_mitsuba_mesh smooth-shades facet junctions under 30 deg; "
-                                       "it should shade meshes with metadata['labcut']['faceted'] flat (issue 12, item 3)")
 def test_renderer_keeps_facets_flat(srb, variant):
     import mitsuba as mi
 

@@ -176,6 +176,7 @@ def inspect_mesh(
     mesh_path: Annotated[Path, typer.Argument(metavar="MESH", help="STL, OBJ, PLY, OFF, GLB/GLTF or 3MF file.")],
     units: mo.Units = "auto",
     up_axis: mo.UpAxis = "auto",
+    size: mo.Size = None,
     recentre: Annotated[bool, typer.Option(help="Centre on the Z axis with the base on z = 0.")] = True,
     repair: Annotated[bool, typer.Option(help="Repair what can be repaired (else any defect is an error).")] = True,
     json_path: Annotated[Optional[Path], typer.Option("--json", help="Also write the summary as JSON to this file ('-' for stdout).")] = None,
@@ -187,8 +188,8 @@ def inspect_mesh(
     to_stdout = json_path is not None and str(json_path) == "-"
     if json_path is not None and not to_stdout:
         check_output_path(json_path, (".json",))
-    mo.check_mesh_options(units, up_axis)
-    mesh = mo.load(mesh_path, units, up_axis, recentre=recentre, repair=repair)
+    mo.check_mesh_options(units, up_axis, size)
+    mesh = mo.load(mesh_path, units, up_axis, size=size, recentre=recentre, repair=repair)
     summary = summarize(mesh, mesh_path.name)
     if not to_stdout:
         info = mesh.metadata["labcut"]

@@ -105,6 +105,7 @@ def recommend_orientation(
     mesh_path: Annotated[Path, typer.Argument(metavar="MESH", help="Stone mesh: STL, OBJ, PLY, OFF, GLB/GLTF, 3MF.")],
     units: mo.Units = "auto",
     up_axis: mo.UpAxis = "auto",
+    size: mo.Size = None,
     preset: m.Preset = None,
     peak: m.Peak = None,
     an: m.Anorthite = None,
@@ -164,8 +165,8 @@ def recommend_orientation(
     scene = so.resolve(scenario, lighting, viewing, quality)
     material = m.build_material(preset, peak, an, material_file, d_a=d_a, d_b=d_b, sigma_a=sigma_a, sigma_b=sigma_b,
                                 n_a=n_a, n_b=n_b, n_surface=n_surface, pairs=pairs, spread_deg=spread)
-    mo.check_mesh_options(units, up_axis)
-    mesh = mo.load(mesh_path, units, up_axis)
+    mo.check_mesh_options(units, up_axis, size)
+    mesh = mo.load(mesh_path, units, up_axis, size=size)
 
     with progress_bar("recommending", "%") as update:
         rec = labcut.recommend_orientation(
@@ -243,6 +244,7 @@ def evaluate_orientation(
     normal: Annotated[str, typer.Option("--normal", "-n", help="Lamella normal X,Y,Z in the mesh frame (+Z face-up, -Y front).")] = "0,0,1",
     units: mo.Units = "auto",
     up_axis: mo.UpAxis = "auto",
+    size: mo.Size = None,
     preset: m.Preset = None,
     peak: m.Peak = None,
     an: m.Anorthite = None,
@@ -274,8 +276,8 @@ def evaluate_orientation(
     material = m.build_material(preset, peak, an, material_file, d_a=d_a, d_b=d_b, sigma_a=sigma_a, sigma_b=sigma_b,
                                 n_a=n_a, n_b=n_b, n_surface=n_surface, pairs=pairs, spread_deg=spread)
     scene = so.resolve(scenario, lighting, viewing, quality)
-    mo.check_mesh_options(units, up_axis)
-    mesh = mo.load(mesh_path, units, up_axis)
+    mo.check_mesh_options(units, up_axis, size)
+    mesh = mo.load(mesh_path, units, up_axis, size=size)
     metrics = labcut.evaluate_orientation(mesh, m_vec, material, scenario=scene, quality=quality)
     provenance = {**mesh_provenance(mesh), "path": str(mesh_path)}
     data = {"normal": m_vec.tolist(), "frame": FRAME, "scenario": scene.to_dict(), "material": material.to_dict(),

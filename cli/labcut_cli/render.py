@@ -21,6 +21,7 @@ def render(
     normal: Annotated[str, typer.Option("--normal", "-n", help="Lamella normal X,Y,Z in the mesh frame (axial; +Z face-up, -Y front).")] = "0,0,1",
     units: mo.Units = "auto",
     up_axis: mo.UpAxis = "auto",
+    size: mo.Size = None,
     preset: m.Preset = None,
     peak: m.Peak = None,
     an: m.Anorthite = None,
@@ -96,8 +97,8 @@ def render(
     scene = so.resolve(scenario, lighting, viewing)
     camera_views(view_spec, scene.main_setting())
     variant_name(mode, polarizer is not None and mode != "rgb")
-    mo.check_mesh_options(units, up_axis)
-    mesh = mo.load(mesh_path, units, up_axis)
+    mo.check_mesh_options(units, up_axis, size)
+    mesh = mo.load(mesh_path, units, up_axis, size=size)
     lobes = ("schiller",) if schiller_only else ("surface", "schiller", "body")
     with progress_bar("rendering", "samples/pixel") as update:
         result = labcut.render(

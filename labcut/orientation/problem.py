@@ -179,7 +179,9 @@ def build_problem(
     count = int(n_points or QUALITY_POINTS[quality])
     # sample the smooth-shaded copy the renderer uses (split along edges sharper than
     # 30°; same surface, its own face order), so both estimators shade alike
-    split = trimesh.graph.smooth_shade(mesh, angle=math.radians(30.0))
+    from ..rendering.scene import shading_angle_deg
+
+    split = trimesh.graph.smooth_shade(mesh, angle=math.radians(shading_angle_deg(mesh)))
     area_faces = split.area_faces
     ok = np.isfinite(area_faces) & (area_faces > 0)
     if not np.any(ok):

@@ -84,17 +84,31 @@ def camera_views(spec: Any, main: Any) -> list[CameraView]:
 VIEW_CHOICES = ("main", "face-up", "orbit")
 
 
-def to_mitsuba_mesh(mesh: Any, bsdf: Any, smooth_angle_deg: float = 30.0) -> Any:
+SMOOTH_ANGLE_DEG = 30.0  # edges sharper than this keep flat shading
+FACETED_ANGLE_DEG = 0.5  # a faceted design (GemCad) is flat-shaded at every facet junction
+
+
+def shading_angle_deg(mesh: Any) -> float:
+    """The smooth-shading angle of a mesh: 30° (curved domes smooth, step-cut junctions crisp),
+    or 0.5° for a faceted design, whose facets meet at angles as gentle as a few degrees
+    (a brilliant's pavilion mains: 7.6°) and must stay flat. The renderer and the flash
+    estimator both shade with it."""
+    info = (getattr(mesh, "metadata", None) or {}).get("labcut", {})
+    return FACETED_ANGLE_DEG if info.get("faceted") else SMOOTH_ANGLE_DEG
+
+
+def to_mitsuba_mesh(mesh: Any, bsdf: Any, smooth_angle_deg: float | None = None) -> Any:
     """A Mitsuba mesh of a ``trimesh.Trimesh`` (mm), smooth-shaded except across sharp edges.
 
-    Edges sharper than ``smooth_angle_deg`` (facet junctions of a step cut) keep
-    flat shading; curved domes get interpolated vertex normals.
+    Edges sharper than ``smooth_angle_deg`` (default :func:`shading_angle_deg`: 30°, or
+    0.5° for faceted designs) keep flat shading; curved domes get interpolated vertex normals.
     """
     import drjit as dr
     import mitsuba as mi
     import trimesh
 
-    split = trimesh.graph.smooth_shade(mesh, angle=math.radians(smooth_angle_deg))
+    angle = shading_angle_deg(mesh) if smooth_angle_deg is None else float(smooth_angle_deg)
+    split = trimesh.graph.smooth_shade(mesh, angle=math.radians(angle))
     v = np.ascontiguousarray(split.vertices, dtype=np.float32)
     f = np.ascontiguousarray(split.faces, dtype=np.uint32)
     n = np.ascontiguousarray(split.vertex_normals, dtype=np.float32)
