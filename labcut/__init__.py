@@ -55,6 +55,8 @@ _LAZY = {
     "Scenario": "labcut.scene.scenario:Scenario",
     "scene": "labcut.scene",
     "RenderResult": "labcut.rendering.api:RenderResult",
+    "compare_cuts": "labcut.reports.compare:compare_cuts",
+    "Comparison": "labcut.reports.compare:Comparison",
 }
 
 

@@ -21,6 +21,7 @@ from . import geometry  # noqa: F401  (registers cabochon, inspect)
 from . import recommend  # noqa: F401  (registers recommend-orientation, evaluate-orientation)
 from . import render  # noqa: F401  (registers render)
 from . import scenes  # noqa: F401  (registers scenarios)
+from . import compare  # noqa: F401  (registers compare)
 from .root import app, err_console
 
 

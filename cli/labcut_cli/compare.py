@@ -1,0 +1,225 @@
+"""``labcut compare``: compare cuts (mesh files or cabochon specs) for their schiller, under one or
+more scenarios; a ranked table for people, an HTML report, JSON and CSV for programs.
+
+Every cut, scenario, material option and output path is checked before the long work starts;
+the outputs are written only when everything is computed, each atomically, all or none.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Annotated, Any, Optional
+
+import typer
+from rich.table import Table
+
+from labcut.scene.scenario import SCENARIOS
+
+from . import materials as m
+from . import meshes as mo
+from .root import all_or_nothing, app, console
+
+Cuts = Annotated[
+    list[str],
+    typer.Argument(
+        metavar="CUT...",
+        help="Cuts to compare: mesh files (STL, OBJ, PLY, OFF, GLB/GLTF, 3MF) or cabochon specs "
+             "cab:OUTLINE,SIZE[,DOME][,key=value...], e.g. cab:oval,16x12,low or cab:round,12,high,profile=spherical.",
+        show_default=False,
+    ),
+]
+Scenarios = Annotated[
+    Optional[list[str]],
+    typer.Option("--scenario", "-s",
+                 help=f"How the stones are lit, worn and seen, once per scenario to compare: {SCENARIOS.choices()} "
+                      "or a scenario JSON file (default: bench)."),
+]
+
+
+def _reference(text: str) -> int | str:
+    """``--reference``: a cut's position on the command line (1 = the first) or its name."""
+    from labcut.errors import ParameterError
+
+    key = text.strip()
+    if key.isdigit():
+        if int(key) < 1:
+            raise ParameterError(f"--reference is a cut's position (1 = the first CUT) or its name, got {text!r}")
+        return int(key) - 1
+    return key
+
+
+def _check_outputs(html: Path | None, json_path: str | None, csv_path: Path | None) -> None:
+    from labcut.errors import ParameterError
+    from labcut.fileio import check_output_path
+
+    paths = []
+    if html is not None:
+        paths.append(check_output_path(html, (".html", ".htm")))
+    if json_path not in (None, "-"):
+        paths.append(check_output_path(json_path, (".json",)))
+    if csv_path is not None:
+        paths.append(check_output_path(csv_path, (".csv",)))
+    resolved = [p.resolve() for p in paths]
+    if len(set(resolved)) != len(resolved):
+        raise ParameterError("--html, --json and --csv must name different files")
+
+
+def short_orientation(normal: Any, scenario: Any, parallel_within_deg: float | None) -> str:
+    """``9° top``, ``4° front-left``, ``parallel (±2.3°)``: an orientation for a narrow table."""
+    from labcut.orientation.recommend import side_name, tilt_azimuth
+
+    if parallel_within_deg is not None:
+        return f"parallel (±{parallel_within_deg:.1f}°)"
+    tilt, az = tilt_azimuth(normal)
+    if tilt < 0.5:
+        return "parallel"
+    return f"{tilt:.0f}° {side_name(az, scenario).split(' (')[0]} ({az:.0f}°)"
+
+
+def _x(value: float | None) -> str:
+    return "–" if value is None else f"x{value:.2f}"
+
+
+def summary_table(cmp: Any) -> Table:
+    """The ranked summary: overall rank, weight, overall score, per scenario energy (x reference) and tolerance."""
+    table = Table(title=f"Ranked by flash (reference: {cmp.reference_cut.name})", title_justify="left")
+    table.add_column("rank", justify="right")
+    table.add_column("cut")
+    table.add_column("ct", justify="right")
+    table.add_column("overall", justify="right")
+    for n in cmp.scenario_names:
+        table.add_column(f"{n}: energy, tolerance", justify="right")
+    for c in cmp.ranked():
+        cells = [str(c.rank), c.name, f"{c.summary.weight_ct:.2f}", f"{c.overall_score:.2f}"]
+        for n in cmp.scenario_names:
+            r = c.scenarios[n]
+            cells.append(f"{r.energy:.4f} {_x(r.normalised.get('flash_energy'))} ±{r.recommendation.tolerance_deg:.1f}°")
+        table.add_row(*cells)
+    return table
+
+
+def scenario_table(cmp: Any, name: str) -> Table:
+    """One scenario: each cut's best orientation, tolerances, flash area and energy, flash colour."""
+    sc = next(s for s in cmp.scenarios if s.name == name)
+    table = Table(title=f"Scenario {name}: each cut at its best orientation", title_justify="left")
+    for col, just in (("#", "right"), ("cut", "left"), ("best orientation", "left"), ("tolerance; f-b, side", "right"),
+                      ("area", "right"), ("energy", "right"), ("colour", "right")):
+        table.add_column(col, justify=just)  # type: ignore[arg-type]
+    for c in cmp.cuts:
+        r = c.scenarios[name]
+        rec, met = r.recommendation, r.recommendation.metrics
+        ax = rec.tolerance_by_axis
+        nm = r.colour.stats.get("dominant_wavelength_nm") if r.colour is not None else None
+        table.add_row(
+            str(r.rank), c.name, short_orientation(rec.normal, sc, rec.parallel_within_deg),
+            f"±{rec.tolerance_deg:.1f}°; ±{ax['front_back_deg']:.1f}°, ±{ax['left_right_deg']:.1f}°",
+            f"{met.flash_area:.1%}", f"{met.flash_energy:.4f} {_x(r.normalised.get('flash_energy'))}",
+            "–" if nm is None else f"{nm:.0f} nm",
+        )
+    return table
+
+
+def compromise_table(cmp: Any) -> Table:
+    """One lamella orientation per cut for all the scenarios, and what each scenario keeps of its best."""
+    from labcut.reports.compare import naming_scenario
+
+    naming = naming_scenario(cmp.scenarios)
+    table = Table(title="One orientation for all scenarios", caption=cmp.sides_note, title_justify="left")
+    table.add_column("cut")
+    table.add_column("orientation")
+    table.add_column("tolerance", justify="right")
+    for n in cmp.scenario_names:
+        table.add_column(f"{n}: kept", justify="right")
+    for c in cmp.cuts:
+        table.add_row(c.name, short_orientation(c.compromise.normal, naming, c.compromise.parallel_within_deg),
+                      f"±{c.compromise.tolerance_deg:.1f}°", *(f"{c.compromise.relative[n]:.0%}" for n in cmp.scenario_names))
+    return table
+
+
+@app.command("compare")
+def compare(
+    cuts: Cuts,
+    scenario: Scenarios = None,
+    reference: Annotated[str, typer.Option("--reference", help="The cut every other is normalised to: its position (1 = the first CUT) or its name.")] = "1",
+    units: mo.Units = "auto",
+    up_axis: mo.UpAxis = "auto",
+    preset: m.Preset = None,
+    peak: m.Peak = None,
+    an: m.Anorthite = None,
+    material_file: m.MaterialFile = None,
+    d_a: m.DA = None,
+    d_b: m.DB = None,
+    sigma_a: m.SA = None,
+    sigma_b: m.SB = None,
+    n_a: m.NA = None,
+    n_b: m.NB = None,
+    n_surface: m.NS = None,
+    pairs: m.Pairs = None,
+    spread: m.SPREAD = None,
+    quality: Annotated[str, typer.Option(help="draft, standard or high: of the recommendations, curves and renders.")] = "standard",
+    seed: Annotated[int, typer.Option(help="Seed of the surface sampling and the renders.", min=0)] = 0,
+    resolution: Annotated[Optional[int], typer.Option(help="Size of the renders in pixels (default by quality: 96, 128, 256).")] = None,
+    spp: Annotated[Optional[int], typer.Option(help="Samples per pixel of the renders (default by quality: 8, 32, 128).")] = None,
+    html_path: Annotated[Optional[Path], typer.Option("--html", help="Write the report: one self-contained HTML page.")] = None,
+    json_path: Annotated[Optional[str], typer.Option("--json", help="Write every number of the report as JSON ('-' for stdout).")] = None,
+    csv_path: Annotated[Optional[Path], typer.Option("--csv", help="Write every number of the report as CSV (one number per row).")] = None,
+) -> None:
+    """Compare cuts for their schiller: each at its own best lamella orientation per scenario, plus one
+    orientation for all; ranked, normalised to a reference cut, with renders, curves and maps (--html).
+    """
+    import labcut
+    from labcut.errors import LabcutWarning, ParameterError
+    from labcut.reports.compare import QUALITIES, resolve_scenarios
+    from labcut.reports.cuts import resolve_cuts
+
+    from .progress import progress_bar
+
+    # every input is checked before the work starts
+    _check_outputs(html_path, json_path, csv_path)
+    if quality not in QUALITIES:
+        raise ParameterError(f"--quality must be one of {', '.join(QUALITIES)}, got {quality!r}")
+    material = m.build_material(preset, peak, an, material_file, d_a=d_a, d_b=d_b, sigma_a=sigma_a, sigma_b=sigma_b,
+                                n_a=n_a, n_b=n_b, n_surface=n_surface, pairs=pairs, spread_deg=spread)
+    scenes = resolve_scenarios(scenario or ["bench"], quality)
+    unit_arg, up = mo.check_mesh_options(units, up_axis)
+    import warnings
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", LabcutWarning)
+        resolved = resolve_cuts(cuts, units=unit_arg, up_axis=up)
+    for w in caught:
+        if issubclass(w.category, LabcutWarning):
+            mo.print_warning(str(w.message))
+    ref = _reference(reference)
+
+    with progress_bar("comparing", "cut x scenario") as update:
+        cmp = labcut.compare_cuts(resolved, material, scenes, reference=ref, quality=quality, seed=seed,
+                                  resolution=resolution, spp=spp, progress=update)
+
+    with all_or_nothing() as written:
+        if html_path is not None:
+            cmp.save_html(html_path)
+            written.append(Path(html_path))
+        if json_path not in (None, "-"):
+            cmp.save_json(json_path)
+            written.append(Path(json_path))
+        if csv_path is not None:
+            cmp.save_csv(csv_path)
+            written.append(Path(csv_path))
+    if json_path == "-":
+        typer.echo(json.dumps(cmp.to_dict(), indent=2, allow_nan=False))
+        return
+    console.print(summary_table(cmp))
+    leaders = [c.name for c in cmp.ranked() if c.rank == 1]
+    verb = "flashes" if len(leaders) == 1 else "flash"
+    console.print(f"{' and '.join(leaders)} {verb} most over {', '.join(cmp.scenario_names)}, each cut at its own best lamella "
+                  "orientation (the report, --html, says each in a cutter's words).", highlight=False)
+    for n in cmp.scenario_names:
+        console.print(scenario_table(cmp, n))
+    if len(cmp.scenarios) > 1:
+        console.print(compromise_table(cmp))
+    console.print(f"{len(cmp.cuts)} cut(s) x {len(cmp.scenarios)} scenario(s) at {quality} quality in {cmp.seconds:.1f} s")
+    for label, path in (("report", html_path), ("JSON", json_path), ("CSV", csv_path)):
+        if path is not None:
+            console.print(f"{label} written to {path}")

@@ -1,0 +1,11 @@
+"""Reports: comparisons of cuts (``labcut.compare_cuts``, ``labcut compare``).
+
+A layer above rendering, orientation and plots (tests/test_layers.py): it combines
+recommendations, flash metrics, renders and figures into a self-contained HTML page and
+JSON/CSV tables (docs/compare.md).
+"""
+
+from .compare import Comparison, compare_cuts
+from .cuts import Cut, parse_cab_spec, resolve_cuts
+
+__all__ = ["Comparison", "Cut", "compare_cuts", "parse_cab_spec", "resolve_cuts"]

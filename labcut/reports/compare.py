@@ -1,0 +1,609 @@
+"""``labcut.compare_cuts``: compare cuts (and ways of wearing them) for their schiller.
+
+Every cut gets, under every chosen scenario, its own best lamella orientation
+(:func:`labcut.recommend_orientation`), and one compromise orientation over all the scenarios
+(:func:`labcut.reports.analysis.compromise`). For each (cut, scenario) the comparison holds the
+answer in a cutter's words, its tolerance (overall and per axis), the flash metrics and the same
+normalised to a reference cut, the carat weight and a rank; a tilt-performance curve, a
+misorientation curve, renders (one exposure per scenario, shared by every cut), a rocking strip,
+the score map and a flash-colour map. :meth:`Comparison.save_html` writes the report page,
+:meth:`Comparison.to_dict` / :meth:`Comparison.save_json` / :meth:`Comparison.save_csv` every
+number in it (docs/compare.md).
+
+Units and frames: mm, degrees, nm; lamella normals in the mesh frame (+Z face-up, -Y the front,
+axial, z >= 0); flash values in units of ``L_ref`` (DESIGN.md §4).
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+import os
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..errors import ParameterError
+from ..validation import check_number
+from .cuts import Cut, resolve_cuts
+
+QUALITIES = ("draft", "standard", "high")
+#: metrics compared with the reference cut (best orientation of each cut, per scenario)
+NORMALISED = ("flash_energy", "flash_area", "flash_intensity", "coverage", "tolerance_deg")
+#: columns of :meth:`Comparison.save_csv` (one number per row)
+CSV_COLUMNS = ("cut", "scenario", "orientation", "quantity", "value", "unit", "x", "x_unit", "y", "y_unit")
+
+#: what the report's numbers mean (its JSON's ``metric_definitions``, the page's last section)
+COMPARE_DEFINITIONS = {
+    "flash_energy": "mean schiller radiance over the whole visible stone, in units of L_ref (a flat face, lamellae "
+                    "parallel, lit and seen along its normal by one light of the same total irradiance); mean over the "
+                    "scenario's viewers and poses. The ranking metric.",
+    "flash_area": "share of the visible stone (projected area) whose schiller reaches tau x L_ref (tau = 0.1); mean over viewers",
+    "flash_intensity": "mean schiller radiance / L_ref over the part that flashes (0 where none does); mean over viewers",
+    "coverage": "share (weight) of the viewers that see a flash on more than 5 % of the stone",
+    "energy_in_flash": "the part of the flash energy in the flashing regions: sum over views of weight x area x intensity",
+    "energy_below_threshold": "the part of the flash energy in schiller fainter than tau x L_ref",
+    "tolerance_deg": "how far (degrees) the lamella normal may miss the optimum in any direction and keep 90 % of the "
+                     "flash energy; front_back_deg / left_right_deg: the same, missing only towards the front/back "
+                     "(±Y) or the sides (±X) of the stone",
+    "normalised": "a cut's value divided by the reference cut's under the same scenario, each at its own best "
+                  "orientation (1 = as good as the reference; empty where the reference's value is 0)",
+    "rank": "per scenario: order by flash energy at each cut's own best orientation (1 = most; equal values share a "
+            "rank). Overall: order by overall_score",
+    "overall_score": "mean over the scenarios of a cut's flash energy at its compromise orientation divided by the "
+                     "reference cut's at its own compromise orientation",
+    "compromise": "one lamella orientation per cut for all chosen scenarios: the normal maximising the mean over "
+                  "scenarios of flash energy / that scenario's best; relative_to_best: energy at the compromise / "
+                  "energy at the scenario's own optimum",
+    "weight_ct": "carat weight at labradorite's density 2.705 g/cm³ (1 ct = 0.2 g); weight_ct_range: at 2.69-2.72 g/cm³",
+    "tilt_curve": "flash energy (and area) seen by the scenario's main viewer when the stone, cut at its best "
+                  "orientation, is tilted from its rest pose by the angle on the x axis, lights and viewer fixed: "
+                  "front_back about the horizontal axis across the line of sight (+: the far or top edge comes towards "
+                  "the viewer), side_to_side about the picture's vertical (+: the right edge turns away)",
+    "misorientation": "flash energy, relative to the optimum's, when the lamella normal misses the optimum by the "
+                      "angle on the x axis: mean and worst over 16 directions around it",
+    "score_map": "flash energy at lamella normals over the hemisphere (tilt from +Z, azimuth from +X towards +Y), "
+                 "divided by the best",
+    "dominant_wavelength_nm": "dominant wavelength (CIE 15) of the flash as the main viewer sees it, from a render of the "
+                              "schiller alone: the luminance-weighted median over the pixels that flash (or, where none "
+                              "does, over the faint schiller); p10_nm / p90_nm the 10th / 90th percentiles; negative "
+                              "values are purples' complementary wavelengths",
+    "flash_fraction": "share of the stone's pixels in the schiller-only render at or above tau x L_ref: the main view's "
+                      "flash area as the render sees it (noisier than the estimator's under environment light)",
+    "exposure": "the multiplier every render and rocking-strip frame of a scenario is tonemapped with: one for all cuts, "
+                "so brightness differences between their pictures are real",
+}
+
+
+@dataclass
+class ScenarioResult:
+    """One cut under one scenario: its recommendation and everything derived from it.
+
+    ``compromise_metrics``: flash metrics (:class:`~labcut.orientation.scoring.FlashMetrics`) at
+    the cut's compromise orientation; ``compromise_relative``: its energy there / at the optimum.
+    ``normalised``: :data:`NORMALISED` divided by the reference cut's (None where that is 0)."""
+
+    cut: str
+    scenario: Any
+    recommendation: Any
+    tilt: Any
+    misorientation: Any
+    renders: Any
+    colour: Any
+    compromise_metrics: Any = None
+    compromise_relative: float = 1.0
+    rank: int = 0
+    normalised: dict[str, float | None] = field(default_factory=dict)
+    seconds: float = 0.0
+
+    @property
+    def energy(self) -> float:
+        """Flash energy at the best orientation (L_ref units): the ranking metric."""
+        return float(self.recommendation.metrics.flash_energy)
+
+    def value(self, key: str) -> float:
+        """A normalised quantity (:data:`NORMALISED`) at the best orientation."""
+        if key == "tolerance_deg":
+            return float(self.recommendation.tolerance_deg)
+        return float(getattr(self.recommendation.metrics, key))
+
+
+@dataclass
+class CutResult:
+    """One cut: its mesh summary, a :class:`ScenarioResult` per scenario, its compromise
+    (:class:`~labcut.reports.analysis.Compromise`) in words and workshop terms, overall score and rank."""
+
+    cut: Cut
+    summary: Any
+    scenarios: dict[str, ScenarioResult]
+    compromise: Any
+    compromise_description: str
+    compromise_workshop: dict[str, Any]
+    overall_score: float = 0.0
+    rank: int = 0
+
+    @property
+    def name(self) -> str:
+        return self.cut.name
+
+
+def competition_ranks(values: Sequence[float]) -> list[int]:
+    """Ranks, largest value first; equal values share a rank ("1, 2, 2, 4")."""
+    return [1 + sum(1 for w in values if w > v) for v in values]
+
+
+def _ratio(a: float, b: float) -> float | None:
+    return float(a / b) if b > 0 else None
+
+
+def _upright(scenario: Any) -> bool:
+    """Is the stone worn upright (its +Y end up, pendant, brooch)? Then sides are top/bottom."""
+    return float((np.asarray(scenario.pose) @ np.array([0.0, 1.0, 0.0]))[2]) > 0.7
+
+
+def naming_scenario(scenarios: Sequence[Any]) -> Any:
+    """The scenario whose side names (front/back or top/bottom) a compromise uses: the first, when
+    every scenario wears the stone the same way up; else None (face-up names)."""
+    kinds = {_upright(s) for s in scenarios}
+    return scenarios[0] if len(kinds) == 1 else None
+
+
+def _json(value: Any) -> Any:
+    """Plain JSON: numpy scalars and arrays to Python, NaN and infinities to None."""
+    if isinstance(value, dict):
+        return {str(k): _json(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_json(v) for v in value]
+    if isinstance(value, np.ndarray):
+        return _json(value.tolist())
+    if isinstance(value, np.bool_ | bool):
+        return bool(value)
+    if isinstance(value, np.integer):
+        return int(value)
+    if isinstance(value, float | np.floating):
+        return float(value) if math.isfinite(float(value)) else None
+    return value
+
+
+@dataclass
+class Comparison:
+    """The result of :func:`compare_cuts`: per cut a :class:`CutResult`, in the order given.
+
+    ``scenarios``: the :class:`~labcut.Scenario` objects; ``reference``: index of the reference
+    cut; ``exposures``: per scenario the one exposure of its renders and rocking strips;
+    ``render``: resolution (pixels), samples per pixel and strip angles (degrees)."""
+
+    cuts: list[CutResult]
+    scenarios: list[Any]
+    material: Any
+    reference: int
+    quality: str
+    exposures: dict[str, float]
+    render: dict[str, Any]
+    seconds: float
+    tau: float = 0.1
+    seed: int = 0
+
+    # ------------------------------------------------------------------ access
+    @property
+    def sides_note(self) -> str:
+        """How the compromise orientation names the stone's sides (front/back lying face-up, top/bottom
+        worn upright; both when the scenarios mix the two)."""
+        upright = [_upright(s) for s in self.scenarios]
+        if all(upright):
+            return "sides are named as the stone is worn upright: +Y is its top (the bail end), -Y its bottom"
+        if not any(upright):
+            return "sides are named as the stone lies face-up: -Y is its front, +Y its back"
+        return ("sides are named as the stone lies face-up: +Y is its back lying face-up and its top (the bail end) "
+                "worn upright, -Y its front and its bottom")
+
+    @property
+    def scenario_names(self) -> list[str]:
+        return [s.name for s in self.scenarios]
+
+    @property
+    def reference_cut(self) -> CutResult:
+        return self.cuts[self.reference]
+
+    def result(self, cut: int | str, scenario: str) -> ScenarioResult:
+        """The :class:`ScenarioResult` of a cut (index or name) under a scenario (name)."""
+        c = self.cuts[cut] if isinstance(cut, int) else next((x for x in self.cuts if x.name == cut), None)
+        if c is None:
+            raise ParameterError(f"no cut named {cut!r} in this comparison: {', '.join(x.name for x in self.cuts)}")
+        if scenario not in c.scenarios:
+            raise ParameterError(f"no scenario {scenario!r} in this comparison: {', '.join(self.scenario_names)}")
+        return c.scenarios[scenario]
+
+    def ranked(self) -> list[CutResult]:
+        """The cuts by overall rank (ties in the order given)."""
+        return sorted(self.cuts, key=lambda c: (c.rank, self.cuts.index(c)))
+
+    # ------------------------------------------------------------------ JSON
+    def to_dict(self) -> dict[str, Any]:
+        """Plain JSON of every number in the report (docs/compare.md lists the keys)."""
+        from .. import __version__
+        from ..orientation.recommend import FRAME, METRIC_DEFINITIONS
+
+        cuts = []
+        for c in self.cuts:
+            scen = {}
+            for name, r in c.scenarios.items():
+                rec = r.recommendation.to_dict()
+                rec.pop("metric_definitions", None)
+                rec.pop("frame", None)
+                rec.pop("mesh", None)
+                scen[name] = {
+                    "rank": r.rank,
+                    "best": rec,
+                    "normalised": r.normalised,
+                    "tilt_curve": r.tilt.to_dict(),
+                    "misorientation": r.misorientation.to_dict(),
+                    "flash_colour": r.colour.stats if r.colour is not None else None,
+                    "render": None if r.renders is None else {
+                        "view": r.renders.view, "resolution": r.renders.resolution, "spp": r.renders.spp,
+                        "exposure": self.exposures.get(name), "strip_angles_deg": list(r.renders.strip_angles_deg),
+                        "strip_axis": "front_back", "plan": r.renders.plan,
+                    },
+                    "compromise": {"relative_to_best": r.compromise_relative,
+                                   "metrics": _metrics(r.compromise_metrics)},
+                    "seconds": r.seconds,
+                }
+            cp = c.compromise
+            cuts.append({
+                "name": c.name,
+                "source": c.cut.to_dict(),
+                "mesh": _mesh_block(c.cut),
+                "weight_ct": c.summary.weight_ct,
+                "weight_ct_range": c.summary.weight_ct_range,
+                "volume_mm3": c.summary.volume_mm3,
+                "dimensions_mm": [c.summary.length_mm, c.summary.width_mm, c.summary.height_mm],
+                "rank": c.rank,
+                "overall_score": c.overall_score,
+                "compromise": {
+                    "normal": cp.normal.tolist(), "tilt_deg": _tilt(cp.normal)[0], "azimuth_deg": _tilt(cp.normal)[1],
+                    "description": c.compromise_description, "workshop": c.compromise_workshop,
+                    "parallel_to_base": cp.parallel_within_deg is not None, "parallel_within_deg": cp.parallel_within_deg,
+                    "score": cp.score, "relative_to_best": cp.relative, "tolerance_deg": cp.tolerance_deg,
+                    "tolerance_by_axis": cp.tolerance_by_axis,
+                },
+                "scenarios": scen,
+            })
+        return _json({
+            "kind": "labcut.compare",
+            "labcut_version": __version__,
+            "quality": self.quality,
+            "tau": self.tau,
+            "seed": self.seed,
+            "material": self.material.to_dict(),
+            "reference": {"index": self.reference, "name": self.reference_cut.name},
+            "scenarios": [s.to_dict() for s in self.scenarios],
+            "render": self.render,
+            "exposures": self.exposures,
+            "summary": self.summary_rows(),
+            "compromise_sides": self.sides_note,
+            "cuts": cuts,
+            "frame": FRAME,
+            "metric_definitions": {**METRIC_DEFINITIONS, **COMPARE_DEFINITIONS},
+            "seconds": self.seconds,
+        })
+
+    def summary_rows(self) -> list[dict[str, Any]]:
+        """The ranked summary table (one row per cut, by overall rank): rank, name, weight, overall
+        score, and per scenario the rank, flash energy, energy / reference, tolerance."""
+        rows = []
+        for c in self.ranked():
+            row: dict[str, Any] = {"rank": c.rank, "cut": c.name, "weight_ct": c.summary.weight_ct,
+                                   "overall_score": c.overall_score, "compromise": c.compromise_description,
+                                   "compromise_tolerance_deg": c.compromise.tolerance_deg, "scenarios": {}}
+            for name, r in c.scenarios.items():
+                row["scenarios"][name] = {"rank": r.rank, "flash_energy": r.energy,
+                                          "flash_energy_normalised": r.normalised.get("flash_energy"),
+                                          "tolerance_deg": r.recommendation.tolerance_deg,
+                                          "description": r.recommendation.description}
+            rows.append(row)
+        return rows
+
+    def save_json(self, path: str | os.PathLike[str]) -> Path:
+        """Write :meth:`to_dict` as indented JSON, atomically."""
+        import json
+
+        from ..fileio import atomic_output
+
+        with atomic_output(path, (".json",)) as tmp:
+            tmp.write_text(json.dumps(self.to_dict(), indent=2, allow_nan=False) + "\n")
+        return Path(path)
+
+    # ------------------------------------------------------------------ CSV
+    def rows(self) -> list[dict[str, Any]]:
+        """Every number of the report as tidy rows (:data:`CSV_COLUMNS`): per cut (scenario empty),
+        per cut and scenario at the ``best`` and the ``compromise`` orientation, and the curves and
+        the score map point by point (``x``/``y`` their abscissae)."""
+        return csv_rows(self.to_dict())
+
+    def save_csv(self, path: str | os.PathLike[str]) -> Path:
+        """Write :meth:`rows` as CSV, atomically."""
+        from ..fileio import atomic_output
+
+        with atomic_output(path, (".csv",)) as tmp:
+            with open(tmp, "w", newline="") as fh:
+                writer = csv.DictWriter(fh, fieldnames=CSV_COLUMNS)
+                writer.writeheader()
+                for row in self.rows():
+                    writer.writerow({k: ("" if v is None else (repr(v) if isinstance(v, float) else v)) for k, v in row.items()})
+        return Path(path)
+
+    # ------------------------------------------------------------------ HTML
+    def save_html(self, path: str | os.PathLike[str]) -> Path:
+        """Write the report: one self-contained HTML page (images embedded, no scripts, no
+        network), readable on a phone and printable; atomically."""
+        from .html import write_report
+
+        return write_report(self, path)
+
+
+def _tilt(normal: np.ndarray) -> tuple[float, float]:
+    from ..orientation.recommend import tilt_azimuth
+
+    return tilt_azimuth(np.asarray(normal, dtype=np.float64))
+
+
+def _metrics(metrics: Any) -> dict[str, Any] | None:
+    if metrics is None:
+        return None
+    from ..orientation.recommend import metrics_dict
+
+    return metrics_dict(metrics)
+
+
+def _mesh_block(cut: Cut) -> dict[str, Any]:
+    from ..geometry.meshio import provenance
+
+    out = provenance(cut.mesh)
+    if cut.kind == "file":
+        out["path"] = cut.source
+    return out
+
+
+# ---------------------------------------------------------------------- CSV rows from the JSON
+def csv_rows(data: dict[str, Any]) -> list[dict[str, Any]]:
+    """The tidy rows of a comparison's JSON (:meth:`Comparison.to_dict`); see :meth:`Comparison.rows`."""
+    rows: list[dict[str, Any]] = []
+
+    def add(cut: str, scen: str, orient: str, qty: str, value: Any, unit: str = "", x: Any = None, x_unit: str = "",
+            y: Any = None, y_unit: str = "") -> None:
+        if value is None or isinstance(value, bool) or not isinstance(value, int | float):
+            return
+        rows.append({"cut": cut, "scenario": scen, "orientation": orient, "quantity": qty, "value": value, "unit": unit,
+                     "x": x, "x_unit": x_unit if x is not None else "", "y": y, "y_unit": y_unit if y is not None else ""})
+
+    metric_units = {"flash_area": "fraction", "flash_intensity": "L_ref", "flash_energy": "L_ref", "coverage": "fraction",
+                    "balanced": "", "energy_in_flash": "L_ref", "energy_below_threshold": "L_ref"}
+    for s in data["scenarios"]:
+        add("", s["name"], "", "exposure", data["exposures"].get(s["name"]), "multiplier")
+    for c in data["cuts"]:
+        n = c["name"]
+        add(n, "", "", "rank", c["rank"])
+        add(n, "", "", "overall_score", c["overall_score"], "ratio")
+        add(n, "", "", "weight_ct", c["weight_ct"], "ct")
+        for lo_hi, v in zip(("weight_ct_min", "weight_ct_max"), c["weight_ct_range"]):
+            add(n, "", "", lo_hi, v, "ct")
+        add(n, "", "", "volume_mm3", c["volume_mm3"], "mm3")
+        for axis, v in zip(("length_mm", "width_mm", "height_mm"), c["dimensions_mm"]):
+            add(n, "", "", axis, v, "mm")
+        cp = c["compromise"]
+        _orientation_rows(add, n, "", "compromise", cp)
+        add(n, "", "compromise", "score", cp["score"], "ratio")
+        for scen, rel in cp["relative_to_best"].items():
+            add(n, scen, "compromise", "relative_to_best", rel, "ratio")
+        for scen, r in c["scenarios"].items():
+            best = r["best"]
+            add(n, scen, "best", "rank", r["rank"])
+            _orientation_rows(add, n, scen, "best", best)
+            add(n, scen, "best", "score", best["score"], "L_ref")
+            for k, v in best["metrics"].items():
+                if k != "per_view":
+                    add(n, scen, "best", k, v, metric_units.get(k, ""))
+            for k, v in r["normalised"].items():
+                add(n, scen, "best", f"{k}_normalised", v, "ratio")
+            for k, v in r["compromise"]["metrics"].items():
+                if k != "per_view":
+                    add(n, scen, "compromise", k, v, metric_units.get(k, ""))
+            fc = r["flash_colour"] or {}
+            for k in ("flash_fraction", "dominant_wavelength_nm", "p10_nm", "p90_nm", "purple_fraction",
+                      "mean_dominant_wavelength_nm", "mean_purity", "peak_level"):
+                add(n, scen, "best", f"colour_{k}", fc.get(k), "nm" if k.endswith("_nm") else "")
+            tc = r["tilt_curve"]
+            for qty in ("flash_energy", "flash_area"):
+                for axis, values in tc[qty].items():
+                    for a, v in zip(tc["angles_deg"], values):
+                        add(n, scen, "best", f"tilt_{qty}_{axis}", v, metric_units[qty], a, "deg")
+            mc = r["misorientation"]
+            for key in ("mean_relative", "worst_relative"):
+                for a, v in zip(mc["miss_deg"], mc[key]):
+                    add(n, scen, "best", f"misorientation_{key}", v, "ratio", a, "deg")
+            mp = best["map"]
+            for t, az, v in zip(mp["tilt_deg"], mp["azimuth_deg"], mp["score"]):
+                add(n, scen, "", "score_map_flash_energy", v, "L_ref", t, "deg tilt", az, "deg azimuth")
+    return rows
+
+
+def _orientation_rows(add: Callable[..., None], cut: str, scen: str, orient: str, block: dict[str, Any]) -> None:
+    for axis, v in zip("xyz", block["normal"]):
+        add(cut, scen, orient, f"normal_{axis}", v, "unit")
+    add(cut, scen, orient, "tilt_deg", block["tilt_deg"], "deg")
+    add(cut, scen, orient, "azimuth_deg", block["azimuth_deg"], "deg")
+    add(cut, scen, orient, "tolerance_deg", block["tolerance_deg"], "deg")
+    for k, v in block["tolerance_by_axis"].items():
+        add(cut, scen, orient, f"tolerance_{k}", v, "deg")
+    add(cut, scen, orient, "parallel_within_deg", block.get("parallel_within_deg"), "deg")
+    shop = block.get("workshop") or {}
+    add(cut, scen, orient, "raise_deg", shop.get("raise_deg"), "deg")
+    add(cut, scen, orient, "raise_mm", shop.get("raise_mm"), "mm")
+    add(cut, scen, orient, "span_mm", shop.get("span_mm"), "mm")
+
+
+# ---------------------------------------------------------------------- the comparison
+def _material(material: Any) -> Any:
+    from ..physics.material import Labradorite
+
+    if material is None:
+        return Labradorite()
+    if isinstance(material, str):
+        return Labradorite.preset(material)
+    if not isinstance(material, Labradorite):
+        raise ParameterError(f"material must be a labcut.Labradorite or a preset name, got {type(material).__name__}")
+    return material
+
+
+def resolve_scenarios(scenarios: Any, quality: str) -> list[Any]:
+    """The :class:`~labcut.Scenario` of each name, JSON file or instance (default ``["bench"]``); a name
+    given twice is an error."""
+    from ..scene import scenario_from
+
+    if scenarios is None:
+        scenarios = ["bench"]
+    elif isinstance(scenarios, str | os.PathLike) or not isinstance(scenarios, Sequence):
+        scenarios = [scenarios]
+    if not scenarios:
+        raise ParameterError("give at least one scenario (default: bench)")
+    out = [scenario_from(s, quality) for s in scenarios]
+    names = [s.name for s in out]
+    twice = sorted({n for n in names if names.count(n) > 1})
+    if twice:
+        raise ParameterError(f"scenario {twice[0]!r} is given twice; each scenario is compared once")
+    return out
+
+
+def _reference(reference: Any, cuts: list[Cut]) -> int:
+    if isinstance(reference, str):
+        names = [c.name for c in cuts]
+        if reference not in names:
+            raise ParameterError(f"reference {reference!r} is none of the cuts: {', '.join(names)}")
+        return names.index(reference)
+    index = check_number(reference, "reference (a cut's index or name)", integer=True)
+    if not -len(cuts) <= index < len(cuts):
+        raise ParameterError(f"reference {index} is out of range: {len(cuts)} cut(s), indices 0 to {len(cuts) - 1}")
+    return index % len(cuts)
+
+
+def compare_cuts(
+    cuts: Any,
+    material: Any = None,
+    scenarios: Sequence[Any] | Any = None,
+    reference: int | str = 0,
+    quality: str = "standard",
+    *,
+    units: str | float = "auto",
+    up_axis: str = "auto",
+    seed: int = 0,
+    resolution: int | None = None,
+    spp: int | None = None,
+    progress: Callable[[int, int], None] | None = None,
+) -> Comparison:
+    """Compare cuts for their schiller under one or more scenarios.
+
+    Parameters
+    ----------
+    cuts: mesh paths, ``trimesh.Trimesh`` meshes (mm, +Z face-up), cabochon specs such as
+        ``"cab:oval,16x12,low"`` (:mod:`labcut.reports.cuts`), ``(name, cut)`` pairs, or a
+        mapping ``{name: cut}``. Equal names are told apart (``oval.ply (2)``).
+    material: :class:`~labcut.Labradorite` or a preset name (default blue-green labradorite).
+    scenarios: scenario names, JSON files or :class:`~labcut.Scenario` objects (default ``["bench"]``).
+    reference: the cut (index, or name) every other is normalised to.
+    quality: ``draft`` | ``standard`` | ``high``: of the recommendations (as
+        :func:`labcut.recommend_orientation`), the curves and the renders.
+    units, up_axis: how mesh files are read (:func:`labcut.load_mesh`).
+    seed: surface sampling and render seed.
+    resolution, spp: size (pixels) and samples per pixel of the renders (default by quality:
+        96/8, 128/32, 256/128); the rocking strip uses half the samples.
+    progress: ``callback(done, total)`` over all cuts x scenarios.
+
+    Every input is checked (each cut parsed, read and validated) before the long work starts;
+    a bad one raises a one-line :class:`~labcut.errors.ParameterError` or
+    :class:`~labcut.errors.MeshError` naming it.
+    """
+    from ..geometry.inspect import summarize
+    from ..orientation.problem import reference_radiance
+    from ..orientation.recommend import describe, recommend_orientation, workshop
+    from ..rendering.images import shared_exposure
+    from ..rendering.scene import RENDER_IRRADIANCE
+    from .analysis import compromise, misorientation_curve, scorer_for, tilt_axes, tilt_curve
+    from .flashcolour import flash_colour_map
+    from .renders import RENDER_RESOLUTION, RENDER_SPP, STRIP_ANGLES_DEG, render_cut
+
+    start = time.perf_counter()
+    # ---- validate everything before the work starts
+    if quality not in QUALITIES:
+        raise ParameterError(f"quality must be one of {', '.join(QUALITIES)}, got {quality!r}")
+    seed = check_number(seed, "seed", 0, 2**63 - 1, integer=True)
+    res = RENDER_RESOLUTION[quality] if resolution is None else check_number(resolution, "render resolution (pixels)", 16, 2048, integer=True)
+    n_spp = RENDER_SPP[quality] if spp is None else check_number(spp, "render samples per pixel", 1, 4096, integer=True)
+    strip_spp = max(1, n_spp // 2)
+    lab = _material(material)
+    scens = resolve_scenarios(scenarios, quality)
+    resolved = resolve_cuts(cuts, units=units, up_axis=up_axis)
+    ref = _reference(reference, resolved)
+    report = progress or (lambda done, total: None)
+    tau = 0.1
+    threshold = tau * reference_radiance(lab, RENDER_IRRADIANCE)
+    strip_angles = STRIP_ANGLES_DEG[quality]
+    naming = naming_scenario(scens)
+
+    total = len(resolved) * len(scens)
+    done = 0
+    report(done, total)
+    results: list[CutResult] = []
+    for cut in resolved:
+        per: dict[str, ScenarioResult] = {}
+        scorers = []
+        for sc in scens:
+            t0 = time.perf_counter()
+            rec = recommend_orientation(cut.mesh, lab, scenario=sc, quality=quality, seed=seed, tau=tau)
+            scorer = scorer_for(cut.mesh, lab, sc, quality, tau, seed)
+            scorers.append(scorer)
+            mis = misorientation_curve(scorer.energy_map, rec.normal, rec.score, rec.tolerance_deg, quality)
+            tilt = tilt_curve(cut.mesh, lab, rec.normal, sc, quality, tau, seed)
+            renders = render_cut(cut.mesh, lab, rec.normal, sc, tilt_axes(sc)["front_back"], res, n_spp, strip_angles,
+                                 seed, strip_spp=strip_spp)
+            colour = flash_colour_map(renders.schiller, renders.mask, threshold)
+            per[sc.name] = ScenarioResult(cut.name, sc, rec, tilt, mis, renders, colour, seconds=time.perf_counter() - t0)
+            done += 1
+            report(done, total)
+        recs = [per[s.name].recommendation for s in scens]
+        cp = compromise(scorers, [s.name for s in scens], [r.normal for r in recs], [r.score for r in recs], quality,
+                        maps=[(r.map_normals, r.map_scores) for r in recs])
+        for sc, scorer in zip(scens, scorers):
+            per[sc.name].compromise_metrics = scorer.metrics(cp.normal)
+            per[sc.name].compromise_relative = cp.relative[sc.name]
+        del scorers
+        parallel = cp.parallel_within_deg is not None
+        results.append(CutResult(cut, summarize(cut.mesh, cut.name), per, cp, describe(cp.normal, naming, cp.parallel_within_deg),
+                                 workshop(cp.normal, cut.mesh, naming, parallel=parallel)))
+
+    # ---- one exposure per scenario; normalised values and ranks
+    exposures = {}
+    for sc in scens:
+        images = []
+        for c in results:
+            images += [c.scenarios[sc.name].renders.main, *c.scenarios[sc.name].renders.strip]
+        exposures[sc.name] = shared_exposure(images)
+    refc = results[ref]
+    for sc in scens:
+        rs = [c.scenarios[sc.name] for c in results]
+        base = refc.scenarios[sc.name]
+        for r, rank in zip(rs, competition_ranks([r.energy for r in rs])):
+            r.rank = rank
+            r.normalised = {k: _ratio(r.value(k), base.value(k)) for k in NORMALISED}
+    for c in results:
+        ratios = [_ratio(c.scenarios[s.name].compromise_metrics.flash_energy,
+                         refc.scenarios[s.name].compromise_metrics.flash_energy) for s in scens]
+        c.overall_score = float(np.mean([r for r in ratios if r is not None])) if any(r is not None for r in ratios) else 0.0
+    for c, rank in zip(results, competition_ranks([c.overall_score for c in results])):
+        c.rank = rank
+    render_info = {"resolution": res, "spp": n_spp, "strip_spp": strip_spp, "strip_angles_deg": list(strip_angles),
+                   "flash_threshold": threshold, "irradiance": RENDER_IRRADIANCE}
+    return Comparison(results, scens, lab, ref, quality, exposures, render_info, time.perf_counter() - start, tau, seed)

@@ -1,0 +1,164 @@
+"""The comparison report as one self-contained HTML page (jinja2 template ``templates/compare.html.j2``).
+
+Images are embedded as ``data:`` PNGs; there is no script and nothing is fetched (a
+Content-Security-Policy of ``default-src 'none'`` says so to the browser). The layout reflows
+on a phone (tables scroll sideways, figures shrink) and prints on A4 (print CSS: one scenario
+per page, no figure split).
+"""
+
+from __future__ import annotations
+
+import base64
+import os
+from pathlib import Path
+from typing import Any
+
+from . import figures as fg
+
+TEMPLATE = "compare.html.j2"
+
+
+def data_uri(png: bytes) -> str:
+    """A PNG as a ``data:`` URI."""
+    return "data:image/png;base64," + base64.b64encode(png).decode("ascii")
+
+
+def _pct(v: float | None) -> str:
+    return "–" if v is None else f"{v:.1%}"
+
+
+def _num(v: float | None, fmt: str = ".3f") -> str:
+    return "–" if v is None else format(v, fmt)
+
+
+def _times(v: float | None) -> str:
+    return "–" if v is None else f"×{v:.2f}"
+
+
+def nm_range(lo: float | None, hi: float | None) -> str:
+    """``481–486 nm``; one decimal when the range is narrower than 2 nm."""
+    if lo is None or hi is None:
+        return ""
+    fmt = ".1f" if hi - lo < 2.0 else ".0f"
+    return f"{lo:{fmt}}–{hi:{fmt}} nm"
+
+
+def _scenario_rows(cmp: Any, name: str) -> list[dict[str, Any]]:
+    rows = []
+    for c in cmp.cuts:
+        r = c.scenarios[name]
+        rec, m, nz = r.recommendation, r.recommendation.metrics, r.normalised
+        st = r.colour.stats if r.colour is not None else {}
+        rows.append({
+            "rank": r.rank, "name": c.name, "reference": c is cmp.reference_cut,
+            "description": rec.description, "workshop": rec.workshop.get("text", ""),
+            "angles": f"{rec.tilt_deg:.1f}° / {rec.azimuth_deg:.0f}°",
+            "tolerance": f"±{rec.tolerance_deg:.1f}°", "tolerance_x": _times(nz.get("tolerance_deg")),
+            "front_back": f"±{rec.tolerance_by_axis['front_back_deg']:.1f}°",
+            "left_right": f"±{rec.tolerance_by_axis['left_right_deg']:.1f}°",
+            "energy": f"{m.flash_energy:.4f}", "energy_x": _times(nz.get("flash_energy")),
+            "area": _pct(m.flash_area), "area_x": _times(nz.get("flash_area")),
+            "intensity": f"{m.flash_intensity:.3f}", "intensity_x": _times(nz.get("flash_intensity")),
+            "coverage": _pct(m.coverage), "coverage_x": _times(nz.get("coverage")),
+            "weight": f"{c.summary.weight_ct:.2f} ct",
+            "colour_nm": "–" if st.get("dominant_wavelength_nm") is None else f"{st['dominant_wavelength_nm']:.0f} nm",
+            "colour_range": nm_range(st.get("p10_nm"), st.get("p90_nm")),
+            "colour_hex": st.get("mean_hex"), "colour_basis": st.get("basis"),
+            "no_flash": m.flash_area == 0.0, "rest_area": _pct(r.tilt.at_rest("flash_area")),
+        })
+    return rows
+
+
+def context(cmp: Any) -> dict[str, Any]:
+    """Everything the template shows: formatted tables and figures as data URIs."""
+    from .. import __version__
+    from .compare import COMPARE_DEFINITIONS
+    from ..orientation.recommend import FRAME, METRIC_DEFINITIONS
+
+    names = cmp.scenario_names
+    summary = []
+    for c in cmp.ranked():
+        summary.append({
+            "rank": c.rank, "name": c.name, "reference": c is cmp.reference_cut, "weight": f"{c.summary.weight_ct:.2f}",
+            "overall": f"{c.overall_score:.2f}", "compromise": c.compromise_description,
+            "compromise_tolerance": f"±{c.compromise.tolerance_deg:.1f}°",
+            "scenarios": [{"rank": c.scenarios[n].rank, "energy": f"{c.scenarios[n].energy:.4f}",
+                           "energy_x": _times(c.scenarios[n].normalised.get("flash_energy")),
+                           "tolerance": f"±{c.scenarios[n].recommendation.tolerance_deg:.1f}°"} for n in names],
+        })
+    scenarios = []
+    for sc in cmp.scenarios:
+        n = sc.name
+        exposure = cmp.exposures[n]
+        scenarios.append({
+            "name": n, "description": sc.description, "lighting": sc.lights.name, "viewing": sc.views.name,
+            "rock": sc.rock_deg, "sway": sc.sway_deg, "poses": len(sc.poses()), "exposure": f"{exposure:.3g}",
+            "rows": _scenario_rows(cmp, n),
+            "renders": [{"name": c.name, "rank": c.scenarios[n].rank, "note": c.scenarios[n].recommendation.metrics.flash_area == 0.0,
+                         "rest_area": _pct(c.scenarios[n].tilt.at_rest("flash_area")),
+                         "src": data_uri(fg.render_png(c.scenarios[n].renders.main, exposure))} for c in cmp.cuts],
+            "view": cmp.cuts[0].scenarios[n].renders.view,
+            "strips": [{"name": c.name, "src": data_uri(fg.strip_png(c.scenarios[n].renders.strip, exposure))} for c in cmp.cuts],
+            "strip_angles": ", ".join(f"{a:+g}°" for a in cmp.render["strip_angles_deg"]),
+            "score_maps": data_uri(fg.score_maps(cmp, n)),
+            "tilt": data_uri(fg.tilt_curves(cmp, n)),
+            "tilt_notes": sorted({note for c in cmp.cuts for note in c.scenarios[n].tilt.notes}),
+            "misorientation": data_uri(fg.misorientation_curves(cmp, n)),
+            "colour": data_uri(fg.colour_maps(cmp, n)),
+        })
+    compromise = []
+    for c in cmp.cuts:
+        compromise.append({
+            "name": c.name, "description": c.compromise_description, "workshop": c.compromise_workshop.get("text", ""),
+            "tolerance": f"±{c.compromise.tolerance_deg:.1f}°",
+            "front_back": f"±{c.compromise.tolerance_by_axis['front_back_deg']:.1f}°",
+            "left_right": f"±{c.compromise.tolerance_by_axis['left_right_deg']:.1f}°",
+            "score": f"{c.compromise.score:.1%}",
+            "scenarios": [{"relative": f"{c.scenarios[n].compromise_relative:.0%}",
+                           "energy": f"{c.scenarios[n].compromise_metrics.flash_energy:.4f}",
+                           "area": _pct(c.scenarios[n].compromise_metrics.flash_area)} for n in names],
+        })
+    layout = fg.design_layout(cmp)
+    design = fg.design_chart(cmp)
+    cuts = [{"name": c.name, "kind": c.cut.kind, "source": c.cut.source or "a mesh given in Python",
+             "dims": f"{c.summary.length_mm:.2f} × {c.summary.width_mm:.2f} × {c.summary.height_mm:.2f} mm",
+             "weight": f"{c.summary.weight_ct:.2f} ct ({c.summary.weight_ct_range[0]:.2f}–{c.summary.weight_ct_range[1]:.2f})",
+             "warnings": c.cut.warnings, "repairs": c.summary.repairs} for c in cmp.cuts]
+    definitions = {**METRIC_DEFINITIONS, **COMPARE_DEFINITIONS}
+    lab = cmp.material
+    return {
+        "title": f"Cut comparison: {len(cmp.cuts)} cut{'s' if len(cmp.cuts) != 1 else ''} × "
+                 f"{len(names)} scenario{'s' if len(names) != 1 else ''}",
+        "names": names, "summary": summary, "scenarios": scenarios, "compromise": compromise,
+        "many_scenarios": len(names) > 1, "sides_note": cmp.sides_note, "cuts": cuts, "reference": cmp.reference_cut.name,
+        "material": {"name": lab.name or "default", "peak": f"{lab.peak_wavelength():.0f}",
+                     "swatch": lab.flash_colour().hex, "params": lab.to_dict()},
+        "quality": cmp.quality, "render": cmp.render, "seconds": f"{cmp.seconds:.1f}", "version": __version__,
+        "design": None if design is None else data_uri(design), "design_why": layout["why"], "design_kind": layout["kind"],
+        "definitions": sorted(definitions.items()), "frame": FRAME,
+    }
+
+
+def render_html(cmp: Any) -> str:
+    """The report page as a string."""
+    import jinja2
+
+    env = jinja2.Environment(
+        loader=jinja2.PackageLoader("labcut.reports", "templates"),
+        autoescape=jinja2.select_autoescape(default=True, default_for_string=True),
+        undefined=jinja2.StrictUndefined,
+        trim_blocks=True,
+        lstrip_blocks=True,
+    )
+    return env.get_template(TEMPLATE).render(**context(cmp))
+
+
+def write_report(cmp: Any, path: str | os.PathLike[str]) -> Path:
+    """Write the page to ``path`` (.html/.htm), atomically."""
+    from ..fileio import atomic_output, check_output_path
+
+    check_output_path(path, (".html", ".htm"))
+    text = render_html(cmp)
+    with atomic_output(path, (".html", ".htm")) as tmp:
+        tmp.write_text(text, encoding="utf-8")
+    return Path(path)
