@@ -1,6 +1,7 @@
 # Two commands matter: `make demo` and `make test`. Each sets everything up on a
-# fresh machine (Debian libllvm19 when missing, a .venv with labcut installed
-# editable with its test extras) and is idempotent.
+# fresh machine (Debian libllvm19 when missing, Debian chromium for the report's
+# browser test when missing, a .venv with labcut installed editable with its test
+# extras) and is idempotent.
 
 PYTHON ?= python3
 VENV   := .venv
@@ -9,7 +10,7 @@ STAMP  := $(VENV)/.labcut-installed
 OUT    ?= out/demo
 PYTEST_WORKERS ?= 2
 
-.PHONY: setup llvm demo test clean help
+.PHONY: setup llvm chromium demo test clean help
 
 help:
 	@echo "make demo   set up, then run the main job on a bundled stone"
@@ -18,13 +19,16 @@ help:
 llvm:
 	@bash tools/ensure-llvm.sh
 
+chromium:
+	@bash tools/ensure-chromium.sh
+
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
 	$(BIN)/python -m pip install --quiet -e '.[test]'
 	@touch $(STAMP)
 
-setup: llvm $(STAMP)
+setup: llvm chromium $(STAMP)
 
 demo: setup
 	@mkdir -p $(OUT)
@@ -35,6 +39,9 @@ demo: setup
 		--json $(OUT)/oval-pendant.json --render $(OUT)/oval-pendant.png --map $(OUT)/oval-pendant-map.png
 	$(BIN)/labcut recommend-orientation meshes/carving-biplane.ply --preset blue --scenario bench \
 		--json $(OUT)/biplane-bench.json --render $(OUT)/biplane-bench.png --map $(OUT)/biplane-bench-map.png
+	$(BIN)/labcut compare meshes/oval-16x12-low.ply meshes/oval-16x12-medium.ply meshes/oval-16x12-high.ply \
+		--preset blue --scenario bench --scenario pendant --quality draft \
+		--html $(OUT)/compare.html --json $(OUT)/compare.json --csv $(OUT)/compare.csv
 	@echo "demo outputs in $(OUT)/"
 
 test: setup
