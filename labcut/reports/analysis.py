@@ -76,15 +76,18 @@ class MisorientationCurve:
                 "directions": MISS_DIRECTIONS}
 
 
-def misorientation_curve(scores: Callable[[np.ndarray], np.ndarray], best: np.ndarray, best_score: float,
-                         tolerance: float, quality: str = "standard") -> MisorientationCurve:
-    """Energy around ``best`` (mesh frame) relative to ``best_score``, ring by ring, out to
+def misorientation_curve(scores: Callable[[np.ndarray], np.ndarray], best: np.ndarray, tolerance: float,
+                         quality: str = "standard") -> MisorientationCurve:
+    """Energy around ``best`` (mesh frame) relative to its own, ring by ring, out to
     ``max(15°, 3 x tolerance)``; ``scores(normals) -> energies`` (e.g. ``Scorer.energy_map``)."""
     step = MISS_STEP_DEG[quality]
     top = max(15.0, 3.0 * float(tolerance))
     miss = np.arange(0.0, top + 0.5 * step, step)
     rings = np.concatenate([ring(best, a) for a in miss])
-    values = np.asarray(scores(rings), dtype=np.float64).reshape(len(miss), MISS_DIRECTIONS) / best_score
+    values = np.asarray(scores(rings), dtype=np.float64).reshape(len(miss), MISS_DIRECTIONS)
+    if not values[0, 0] > 0:
+        raise ParameterError("the optimum's energy is not positive: no misorientation curve")
+    values = values / values[0, 0]  # the first ring is the optimum itself
     return MisorientationCurve(miss, values.mean(axis=1), values.min(axis=1), float(tolerance))
 
 
@@ -224,20 +227,20 @@ class Compromise:
     parallel_within_deg: float | None = None
 
 
-def compromise(scorers: Sequence[Scorer], names: Sequence[str], bests: Sequence[np.ndarray], best_scores: Sequence[float],
+def compromise(scorers: Sequence[Scorer], names: Sequence[str], bests: Sequence[np.ndarray],
                quality: str = "standard", maps: Sequence[tuple[np.ndarray, np.ndarray]] | None = None) -> Compromise:
     """:class:`Compromise` of one cut: the score of each scenario's energy map (``scorers``, one per
-    scenario) normalised by its best (``best_scores`` at ``bests``), averaged. Candidates: every
+    scenario) normalised by its value at that scenario's optimum (``bests``), averaged. Candidates: every
     scenario's own optimum and the cells of a hemisphere grid (spacing
     :data:`~labcut.orientation.recommend.MAP_SPACING_DEG`), whose energies ``maps`` may give, one
     ``(normals, energies)`` per scenario on the same normals (a recommendation's ``map_normals``,
     ``map_scores``); the best is polished on grids of 0.5° then 0.1°. With one scenario it is that
     scenario's optimum."""
-    if not scorers or not (len(scorers) == len(names) == len(bests) == len(best_scores)):
-        raise ParameterError("compromise needs one scorer, name, optimum and best score per scenario")
-    best_scores = [float(s) for s in best_scores]
+    if not scorers or not (len(scorers) == len(names) == len(bests)):
+        raise ParameterError("compromise needs one scorer, name and optimum per scenario")
+    best_scores = [float(sc.energy_map(_upper(b)[None, :])[0]) for sc, b in zip(scorers, bests)]
     if not all(s > 0 for s in best_scores):
-        raise ParameterError("compromise needs positive best scores")
+        raise ParameterError("compromise needs a positive energy at every scenario's optimum")
     constraint = Constraint()
 
     def combined(normals: np.ndarray) -> np.ndarray:

@@ -565,7 +565,7 @@ def compare_cuts(
             rec = recommend_orientation(cut.mesh, lab, scenario=sc, quality=quality, seed=seed, tau=tau)
             scorer = scorer_for(cut.mesh, lab, sc, quality, tau, seed)
             scorers.append(scorer)
-            mis = misorientation_curve(scorer.energy_map, rec.normal, rec.score, rec.tolerance_deg, quality)
+            mis = misorientation_curve(scorer.energy_map, rec.normal, rec.tolerance_deg, quality)
             tilt = tilt_curve(cut.mesh, lab, rec.normal, sc, quality, tau, seed)
             renders = render_cut(cut.mesh, lab, rec.normal, sc, tilt_axes(sc)["front_back"], res, n_spp, strip_angles,
                                  seed, strip_spp=strip_spp)
@@ -574,7 +574,7 @@ def compare_cuts(
             done += 1
             report(done, total)
         recs = [per[s.name].recommendation for s in scens]
-        cp = compromise(scorers, [s.name for s in scens], [r.normal for r in recs], [r.score for r in recs], quality,
+        cp = compromise(scorers, [s.name for s in scens], [r.normal for r in recs], quality,
                         maps=[(r.map_normals, r.map_scores) for r in recs])
         for sc, scorer in zip(scens, scorers):
             per[sc.name].compromise_metrics = scorer.metrics(cp.normal)

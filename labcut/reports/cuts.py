@@ -158,9 +158,14 @@ def _design(mesh: Any, extra: dict[str, Any] | None = None) -> dict[str, Any]:
     return out
 
 
-def _label(item: Any) -> str:
+def _label(item: Any, position: int) -> str:
+    """How an error names a cut: its spec or path, a mesh's name, or the type given."""
     if isinstance(item, str | os.PathLike):
         return str(item)
+    if isinstance(item, Cut):
+        return item.name
+    if hasattr(item, "faces") and hasattr(item, "vertices"):
+        return str((getattr(item, "metadata", None) or {}).get("name") or f"mesh {position}")
     return type(item).__name__
 
 
@@ -254,7 +259,7 @@ def resolve_cuts(cuts: Any, units: str | float = "auto", up_axis: str = "auto") 
         try:
             cut = _resolve_one(item, k, units, up_axis)
         except LabcutError as exc:
-            label = given_name or _label(item)
+            label = given_name or _label(item, k)
             raise type(exc)(f"cut {k} ({label!r}): {exc}") from None
         if given_name is not None:
             cut.name = given_name

@@ -11,15 +11,13 @@ viewer, each pixel of the stone gets
   spectral-locus wavelength on the ray from the white point through the pixel's chromaticity;
   negative for purples (the complementary wavelength).
 
-The dominant wavelength depends only on the direction of the chromaticity from white, so it is
-tabulated once over that angle (0.05° steps, from :func:`labcut.colour.dominant_wavelength`
-itself) and looked up per pixel.
+The dominant wavelength is found for all pixels at once with the construction of
+:func:`labcut.colour.dominant_wavelength` (the ray from white crossing the spectral locus).
 """
 
 from __future__ import annotations
 
 import functools
-import math
 from dataclasses import dataclass
 from typing import Any
 
@@ -27,22 +25,19 @@ import numpy as np
 
 from ..colour import dominant_wavelength, encode_srgb, reflectance_to_xyz, tables, xy_chromaticity
 
-HUE_STEPS = 7200
 #: chromaticity distance from white (xy) below which a pixel has no hue
 NO_HUE = 1e-4
+CHUNK = 4096
 
 
 @functools.lru_cache(maxsize=1)
-def _hue_table() -> tuple[np.ndarray, np.ndarray]:
-    """White point (xy, D65) and dominant wavelength (nm) at each of HUE_STEPS hue angles."""
+def _locus() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """White point (xy, D65), the spectral locus (xy, 380-700 nm) and its wavelengths, as
+    :func:`labcut.colour.dominant_wavelength` uses them."""
     t = tables()
     white = xy_chromaticity(reflectance_to_xyz(np.ones_like(t.wavelengths), "D65"))
-    angles = np.arange(HUE_STEPS) * (2.0 * math.pi / HUE_STEPS)
-    out = np.empty(HUE_STEPS)
-    for i, a in enumerate(angles):
-        x, y = white + 0.02 * np.array([math.cos(a), math.sin(a)])
-        out[i] = dominant_wavelength(np.array([x / y, 1.0, (1.0 - x - y) / y]), "D65")[0]
-    return white, out
+    keep = (t.wavelengths >= 380.0) & (t.wavelengths <= 700.0)
+    return white, xy_chromaticity(t.xyz_bar[keep]), t.wavelengths[keep]
 
 
 def linear_srgb_to_xyz(rgb: np.ndarray) -> np.ndarray:
@@ -52,17 +47,39 @@ def linear_srgb_to_xyz(rgb: np.ndarray) -> np.ndarray:
 
 def dominant_wavelengths(rgb: np.ndarray) -> np.ndarray:
     """Dominant wavelength (nm; negative: a purple's complementary wavelength; NaN: no hue) of
-    linear sRGB colours (..., 3), vectorised by hue angle."""
-    white, table = _hue_table()
+    linear sRGB colours (..., 3): :func:`labcut.colour.dominant_wavelength`'s construction (the
+    nearest crossing of the spectral locus by the ray from white through the colour, else by the
+    opposite ray) for every colour at once."""
+    white, locus, lam = _locus()
     xyz = linear_srgb_to_xyz(rgb)
+    shape = xyz.shape[:-1]
+    xyz = xyz.reshape(-1, 3)
     total = xyz.sum(axis=-1)
     ok = total > 1e-12
-    xy = xyz[..., :2] / np.where(ok, total, 1.0)[..., None]
-    d = xy - white
-    angle = np.arctan2(d[..., 1], d[..., 0]) % (2.0 * math.pi)
-    idx = np.rint(angle / (2.0 * math.pi) * HUE_STEPS).astype(np.int64) % HUE_STEPS
-    out = table[idx]
-    return np.where(ok & (np.hypot(d[..., 0], d[..., 1]) > NO_HUE), out, np.nan)
+    d = xyz[:, :2] / np.where(ok, total, 1.0)[:, None] - white
+    out = np.full(len(d), np.nan)
+    a, e = locus[:-1], locus[1:] - locus[:-1]
+    w = a - white
+    w_x_e = w[:, 0] * e[:, 1] - w[:, 1] * e[:, 0]
+    for s0 in range(0, len(d), CHUNK):
+        dd = d[s0 : s0 + CHUNK]
+        denom = dd[:, 0:1] * e[None, :, 1] - dd[:, 1:2] * e[None, :, 0]
+        denom = np.where(np.abs(denom) > 1e-15, denom, np.nan)
+        with np.errstate(invalid="ignore"):
+            t = w_x_e[None, :] / denom
+            u = (w[None, :, 0] * dd[:, 1:2] - w[None, :, 1] * dd[:, 0:1]) / denom
+            on = (u >= 0) & (u <= 1)
+            ahead = np.where(on & (t > 0), t, np.inf)
+            behind = np.where(on & (t < 0), -t, np.inf)
+        rows = np.arange(len(dd))
+        ia, ib = np.argmin(ahead, axis=1), np.argmin(behind, axis=1)
+        fwd = np.isfinite(ahead[rows, ia])
+        i = np.where(fwd, ia, ib)
+        hit = fwd | np.isfinite(behind[rows, ib])
+        value = lam[i] + u[rows, i] * (lam[i + 1] - lam[i])
+        out[s0 : s0 + CHUNK] = np.where(hit, np.where(fwd, value, -value), np.nan)
+    out = np.where(ok & (np.hypot(d[:, 0], d[:, 1]) > NO_HUE), out, np.nan)
+    return out.reshape(shape)
 
 
 def _weighted_quantile(values: np.ndarray, weights: np.ndarray, q: float) -> float:

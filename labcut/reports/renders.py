@@ -88,12 +88,13 @@ class StoneScene:
         q = np.asarray(q, dtype=np.float64)
         if np.allclose(q, self._turn):
             return
+        rest_pose = np.allclose(q, np.eye(3), atol=0.0)
         m = np.eye(4)
         m[:3, :3] = q.T
         m[:3, 3] = self.centre - q.T @ self.centre
         about = mi.Transform4f(m)
         for key, rest in self._rest.items():
-            self.params[key] = about @ rest
+            self.params[key] = type(rest)(rest) if rest_pose else about @ rest
         self.params.update()
         self._turn = q
 
