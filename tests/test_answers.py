@@ -140,7 +140,10 @@ def test_ctrl_c_during_the_render_leaves_the_answer(tmp_path):
     env = {**os.environ, "NO_COLOR": "1"}
     proc = subprocess.Popen([str(exe), "recommend-orientation", str(OVAL), "--quality", "draft", "--json", str(js),
                              "--render", str(png), "--spp", "100000", "--resolution", "256"],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env,
+                            # a user's Ctrl-C: the child handles SIGINT as a terminal's process would, even
+                            # where the test runner (xdist workers, CI shells) starts children with it ignored
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     deadline = time.time() + 120
     while not js.exists() and time.time() < deadline and proc.poll() is None:
         time.sleep(0.2)

@@ -359,7 +359,7 @@ def render(
         k = 0
         while remaining > 0:
             n = min(per_pass, remaining)
-            img = mi.render(scene, spp=n, seed=seed * 100003 + k)
+            img = render_pass(scene, n, seed * 100003 + k)
             arr = np.array(img, dtype=np.float64) * n
             accum = arr if accum is None else accum + arr
             remaining -= n
@@ -394,6 +394,28 @@ def render(
     if output is not None:
         result.save(output)
     return result
+
+
+def render_pass(scene: Any, spp: int, seed: int) -> Any:
+    """One ``mi.render`` call that lets Ctrl-C through as ``KeyboardInterrupt``.
+
+    Mitsuba handles SIGINT itself in two ways: arriving while the Python BSDF is traced,
+    the ``KeyboardInterrupt`` comes back wrapped in a ``RuntimeError`` by ``dr.custom``;
+    arriving while the kernel runs, Mitsuba's handler "winds down" the pass and sets the
+    integrator's stop flag, and the next pass would start as if nothing happened.
+    """
+    import mitsuba as mi
+
+    try:
+        img = mi.render(scene, spp=spp, seed=seed)
+    except RuntimeError as exc:
+        if isinstance(exc.__cause__, KeyboardInterrupt) or isinstance(exc.__context__, KeyboardInterrupt):
+            raise KeyboardInterrupt from None
+        raise
+    integrator = scene.integrator()
+    if integrator is not None and integrator.should_stop():
+        raise KeyboardInterrupt
+    return img
 
 
 def flash_by_view(mesh: Any, material: Labradorite, lamella_normal: Any, setting: Setting,
