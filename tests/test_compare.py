@@ -137,15 +137,15 @@ def test_everything_is_checked_before_the_long_work(monkeypatch):
     monkeypatch.setattr(rec, "recommend_orientation", boom)
     good = ["cab:oval,16x12,low,res=32", "cab:oval,16x12,high,res=32"]
     cases = [
-        (dict(cuts=[good[0], "cab:oval,16x12,lo"]), "cut 2 ('cab:oval,16x12,lo')"),
-        (dict(cuts=good, scenarios=["bench", "disco"]), "disco"),
-        (dict(cuts=good, scenarios=["bench", "bench"]), "scenario 'bench' is given twice"),
-        (dict(cuts=good, reference=2), "reference 2 is out of range"),
-        (dict(cuts=good, reference="nope"), "reference 'nope' is none of the cuts"),
-        (dict(cuts=good, quality="ultra"), "quality must be one of"),
-        (dict(cuts=good, material="purple"), "purple"),
-        (dict(cuts=good, resolution=4), "render resolution"),
-        (dict(cuts=good, spp=0), "samples per pixel"),
+        ({"cuts": [good[0], "cab:oval,16x12,lo"]}, "cut 2 ('cab:oval,16x12,lo')"),
+        ({"cuts": good, "scenarios": ["bench", "disco"]}, "disco"),
+        ({"cuts": good, "scenarios": ["bench", "bench"]}, "scenario 'bench' is given twice"),
+        ({"cuts": good, "reference": 2}, "reference 2 is out of range"),
+        ({"cuts": good, "reference": "nope"}, "reference 'nope' is none of the cuts"),
+        ({"cuts": good, "quality": "ultra"}, "quality must be one of"),
+        ({"cuts": good, "material": "purple"}, "purple"),
+        ({"cuts": good, "resolution": 4}, "render resolution"),
+        ({"cuts": good, "spp": 0}, "samples per pixel"),
     ]
     for kwargs, fragment in cases:
         with pytest.raises(ParameterError, match=re.escape(fragment)):
@@ -321,10 +321,14 @@ def test_flash_colour_agrees_with_the_physics_and_the_estimator():
     """Dominant wavelength of the flash near the material's own colour; flashing pixels ~ flash area."""
     from labcut.colour import dominant_wavelength
     from labcut.orientation.problem import reference_radiance
-    from labcut.reports.flashcolour import dominant_wavelengths, flash_colour_map, linear_srgb_to_xyz
-    from labcut.reports.analysis import tilt_curve
-    from labcut.reports.renders import render_cut
     from labcut.rendering.scene import RENDER_IRRADIANCE
+    from labcut.reports.analysis import tilt_curve
+    from labcut.reports.flashcolour import (
+        dominant_wavelengths,
+        flash_colour_map,
+        linear_srgb_to_xyz,
+    )
+    from labcut.reports.renders import render_cut
     from labcut.scene import Scenario
 
     rng = np.random.default_rng(3)

@@ -37,32 +37,28 @@ Scenarios = Annotated[
 ]
 
 
-def _reference(text: str) -> int | str:
-    """``--reference``: a cut's position on the command line (1 = the first) or its name."""
+def _reference(text: str, count: int) -> int | str:
+    """``--reference``: a cut's position on the command line (1 = the first of ``count``) or its name."""
     from labcut.errors import ParameterError
 
     key = text.strip()
     if key.isdigit():
-        if int(key) < 1:
-            raise ParameterError(f"--reference is a cut's position (1 = the first CUT) or its name, got {text!r}")
+        if not 1 <= int(key) <= count:
+            raise ParameterError(f"--reference is a cut's position (1 to {count}, the order of the CUTs) or its name, got {text!r}")
         return int(key) - 1
     return key
 
 
 def _check_outputs(html: Path | None, json_path: str | None, csv_path: Path | None) -> None:
-    from labcut.errors import ParameterError
+    """Each output's folder exists and its suffix fits (so the three can never be one file)."""
     from labcut.fileio import check_output_path
 
-    paths = []
     if html is not None:
-        paths.append(check_output_path(html, (".html", ".htm")))
+        check_output_path(html, (".html", ".htm"))
     if json_path not in (None, "-"):
-        paths.append(check_output_path(json_path, (".json",)))
+        check_output_path(json_path, (".json",))
     if csv_path is not None:
-        paths.append(check_output_path(csv_path, (".csv",)))
-    resolved = [p.resolve() for p in paths]
-    if len(set(resolved)) != len(resolved):
-        raise ParameterError("--html, --json and --csv must name different files")
+        check_output_path(csv_path, (".csv",))
 
 
 def short_orientation(normal: Any, scenario: Any, parallel_within_deg: float | None) -> str:
@@ -168,34 +164,28 @@ def compare(
     """Compare cuts for their schiller: each at its own best lamella orientation per scenario, plus one
     orientation for all; ranked, normalised to a reference cut, with renders, curves and maps (--html).
     """
-    import labcut
-    from labcut.errors import LabcutWarning, ParameterError
-    from labcut.reports.compare import QUALITIES, resolve_scenarios
-    from labcut.reports.cuts import resolve_cuts
+    import warnings
+
+    from labcut.errors import LabcutWarning
+    from labcut.reports.compare import plan_comparison, run_comparison
 
     from .progress import progress_bar
 
     # every input is checked before the work starts
     _check_outputs(html_path, json_path, csv_path)
-    if quality not in QUALITIES:
-        raise ParameterError(f"--quality must be one of {', '.join(QUALITIES)}, got {quality!r}")
     material = m.build_material(preset, peak, an, material_file, d_a=d_a, d_b=d_b, sigma_a=sigma_a, sigma_b=sigma_b,
                                 n_a=n_a, n_b=n_b, n_surface=n_surface, pairs=pairs, spread_deg=spread)
-    scenes = resolve_scenarios(scenario or ["bench"], quality)
     unit_arg, up = mo.check_mesh_options(units, up_axis)
-    import warnings
-
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", LabcutWarning)
-        resolved = resolve_cuts(cuts, units=unit_arg, up_axis=up)
+        plan = plan_comparison(cuts, material, scenario or ["bench"], reference=_reference(reference, len(cuts)), quality=quality,
+                               units=unit_arg, up_axis=up, seed=seed, resolution=resolution, spp=spp)
     for w in caught:
         if issubclass(w.category, LabcutWarning):
             mo.print_warning(str(w.message))
-    ref = _reference(reference)
 
     with progress_bar("comparing", "cut x scenario") as update:
-        cmp = labcut.compare_cuts(resolved, material, scenes, reference=ref, quality=quality, seed=seed,
-                                  resolution=resolution, spp=spp, progress=update)
+        cmp = run_comparison(plan, progress=update)
 
     with all_or_nothing() as written:
         if html_path is not None:

@@ -285,7 +285,7 @@ def _cap_grid(centre: np.ndarray, radius_deg: float, step_deg: float) -> np.ndar
     """Normals on concentric rings (every ``step_deg``) out to ``radius_deg`` around ``centre``, the centre first."""
     out = [_upper(centre)[None, :]]
     for a in np.arange(step_deg, radius_deg + 0.5 * step_deg, step_deg):
-        count = max(6, int(math.ceil(2.0 * math.pi * a / step_deg)))
+        count = max(6, math.ceil(2.0 * math.pi * a / step_deg))
         out.append(ring(centre, float(a), count))
     return np.concatenate(out)
 

@@ -328,12 +328,11 @@ class Comparison:
         """Write :meth:`rows` as CSV, atomically."""
         from ..fileio import atomic_output
 
-        with atomic_output(path, (".csv",)) as tmp:
-            with open(tmp, "w", newline="") as fh:
-                writer = csv.DictWriter(fh, fieldnames=CSV_COLUMNS)
-                writer.writeheader()
-                for row in self.rows():
-                    writer.writerow({k: ("" if v is None else (repr(v) if isinstance(v, float) else v)) for k, v in row.items()})
+        with atomic_output(path, (".csv",)) as tmp, open(tmp, "w", newline="") as fh:
+            writer = csv.DictWriter(fh, fieldnames=CSV_COLUMNS)
+            writer.writeheader()
+            for row in self.rows():
+                writer.writerow({k: ("" if v is None else (repr(v) if isinstance(v, float) else v)) for k, v in row.items()})
         return Path(path)
 
     # ------------------------------------------------------------------ HTML
@@ -490,6 +489,60 @@ def _reference(reference: Any, cuts: list[Cut]) -> int:
     return index % len(cuts)
 
 
+@dataclass
+class ComparisonPlan:
+    """A checked comparison, ready to run (:func:`plan_comparison`): resolved cuts, the material,
+    the scenarios, the reference cut's index, quality, seed, render size (pixels) and samples per
+    pixel (main render, rocking strip), strip angles (degrees)."""
+
+    cuts: list[Cut]
+    material: Any
+    scenarios: list[Any]
+    reference: int
+    quality: str
+    seed: int
+    resolution: int
+    spp: int
+    strip_spp: int
+    strip_angles: tuple[float, ...]
+    tau: float = 0.1
+
+    @property
+    def steps(self) -> int:
+        """Units of work (and of a progress bar): cuts x scenarios."""
+        return len(self.cuts) * len(self.scenarios)
+
+
+def plan_comparison(
+    cuts: Any,
+    material: Any = None,
+    scenarios: Sequence[Any] | Any = None,
+    reference: int | str = 0,
+    quality: str = "standard",
+    *,
+    units: str | float = "auto",
+    up_axis: str = "auto",
+    seed: int = 0,
+    resolution: int | None = None,
+    spp: int | None = None,
+) -> ComparisonPlan:
+    """Check every input of :func:`compare_cuts` (each cut parsed, read and validated) without
+    starting the long work; a bad one is a one-line :class:`~labcut.errors.ParameterError` or
+    :class:`~labcut.errors.MeshError` naming it. Arguments as :func:`compare_cuts`."""
+    from .renders import RENDER_RESOLUTION, RENDER_SPP, STRIP_ANGLES_DEG
+
+    if quality not in QUALITIES:
+        raise ParameterError(f"quality must be one of {', '.join(QUALITIES)}, got {quality!r}")
+    seed = check_number(seed, "seed", 0, 2**63 - 1, integer=True)
+    res = RENDER_RESOLUTION[quality] if resolution is None else check_number(resolution, "render resolution (pixels)", 16, 2048, integer=True)
+    n_spp = RENDER_SPP[quality] if spp is None else check_number(spp, "render samples per pixel", 1, 4096, integer=True)
+    lab = _material(material)
+    scens = resolve_scenarios(scenarios, quality)
+    resolved = resolve_cuts(cuts, units=units, up_axis=up_axis)
+    ref = _reference(reference, resolved)
+    return ComparisonPlan(resolved, lab, scens, ref, quality, seed, res, n_spp, max(1, n_spp // 2), STRIP_ANGLES_DEG[quality])
+
+
 def compare_cuts(
     cuts: Any,
     material: Any = None,
@@ -522,35 +575,37 @@ def compare_cuts(
         96/8, 128/32, 256/128); the rocking strip uses half the samples.
     progress: ``callback(done, total)`` over all cuts x scenarios.
 
-    Every input is checked (each cut parsed, read and validated) before the long work starts;
-    a bad one raises a one-line :class:`~labcut.errors.ParameterError` or
-    :class:`~labcut.errors.MeshError` naming it.
+    Every input is checked (:func:`plan_comparison`) before the long work starts; a bad one
+    raises a one-line :class:`~labcut.errors.ParameterError` or :class:`~labcut.errors.MeshError`
+    naming it. Returns a :class:`Comparison`.
     """
+    plan = plan_comparison(cuts, material, scenarios, reference, quality, units=units, up_axis=up_axis, seed=seed,
+                           resolution=resolution, spp=spp)
+    return run_comparison(plan, progress)
+
+
+def run_comparison(plan: ComparisonPlan, progress: Callable[[int, int], None] | None = None) -> Comparison:
+    """The long work of :func:`compare_cuts` for a checked :class:`ComparisonPlan`."""
     from ..geometry.inspect import summarize
     from ..orientation.problem import reference_radiance
     from ..orientation.recommend import describe, recommend_orientation, workshop
     from ..rendering.images import shared_exposure
     from ..rendering.scene import RENDER_IRRADIANCE
-    from .analysis import compromise, misorientation_curve, scorer_for, tilt_axes, tilt_curve
+    from .analysis import (
+        compromise,
+        misorientation_curve,
+        scorer_for,
+        tilt_axes,
+        tilt_curve,
+    )
     from .flashcolour import flash_colour_map
-    from .renders import RENDER_RESOLUTION, RENDER_SPP, STRIP_ANGLES_DEG, render_cut
+    from .renders import render_cut
 
     start = time.perf_counter()
-    # ---- validate everything before the work starts
-    if quality not in QUALITIES:
-        raise ParameterError(f"quality must be one of {', '.join(QUALITIES)}, got {quality!r}")
-    seed = check_number(seed, "seed", 0, 2**63 - 1, integer=True)
-    res = RENDER_RESOLUTION[quality] if resolution is None else check_number(resolution, "render resolution (pixels)", 16, 2048, integer=True)
-    n_spp = RENDER_SPP[quality] if spp is None else check_number(spp, "render samples per pixel", 1, 4096, integer=True)
-    strip_spp = max(1, n_spp // 2)
-    lab = _material(material)
-    scens = resolve_scenarios(scenarios, quality)
-    resolved = resolve_cuts(cuts, units=units, up_axis=up_axis)
-    ref = _reference(reference, resolved)
+    resolved, lab, scens, ref, quality, seed = plan.cuts, plan.material, plan.scenarios, plan.reference, plan.quality, plan.seed
+    res, n_spp, strip_spp, strip_angles, tau = plan.resolution, plan.spp, plan.strip_spp, plan.strip_angles, plan.tau
     report = progress or (lambda done, total: None)
-    tau = 0.1
     threshold = tau * reference_radiance(lab, RENDER_IRRADIANCE)
-    strip_angles = STRIP_ANGLES_DEG[quality]
     naming = naming_scenario(scens)
 
     total = len(resolved) * len(scens)

@@ -242,8 +242,8 @@ def colour_maps(cmp: Any, scenario: str) -> bytes:
     one wavelength scale for the whole report; faded where the schiller stays below the
     threshold, grey where there is none; magenta for purples."""
     plt = _plt()
-    from matplotlib.colors import Normalize
     from matplotlib.cm import ScalarMappable
+    from matplotlib.colors import Normalize
 
     lo, hi = wavelength_range(cmp)
     cuts = cmp.cuts

@@ -23,7 +23,13 @@ from typing import Any
 
 import numpy as np
 
-from ..colour import dominant_wavelength, encode_srgb, reflectance_to_xyz, tables, xy_chromaticity
+from ..colour import (
+    dominant_wavelength,
+    encode_srgb,
+    reflectance_to_xyz,
+    tables,
+    xy_chromaticity,
+)
 
 #: chromaticity distance from white (xy) below which a pixel has no hue
 NO_HUE = 1e-4
@@ -149,7 +155,7 @@ def colour_stats(rgb: np.ndarray, wavelength: np.ndarray, level: np.ndarray, mas
     mean = rgb[sel].sum(axis=0)
     shown = np.clip(mean, 0.0, None)
     swatch = encode_srgb(shown / shown.max()) if shown.max() > 0 else np.zeros(3)
-    out["mean_hex"] = "#" + "".join(f"{int(round(255 * v)):02x}" for v in swatch)
+    out["mean_hex"] = "#" + "".join(f"{round(255 * float(v)):02x}" for v in swatch)
     dom, purity = dominant_wavelength(linear_srgb_to_xyz(mean), "D65")
     out["mean_dominant_wavelength_nm"] = None if not np.isfinite(dom) else float(dom)
     out["mean_purity"] = None if not np.isfinite(purity) else float(purity)

@@ -72,8 +72,8 @@ def _scenario_rows(cmp: Any, name: str) -> list[dict[str, Any]]:
 def context(cmp: Any) -> dict[str, Any]:
     """Everything the template shows: formatted tables and figures as data URIs."""
     from .. import __version__
-    from .compare import COMPARE_DEFINITIONS
     from ..orientation.recommend import FRAME, METRIC_DEFINITIONS
+    from .compare import COMPARE_DEFINITIONS
 
     names = cmp.scenario_names
     summary = []
