@@ -17,6 +17,10 @@ import pytest
 import labcut
 
 CHROMIUM = os.environ.get("LABCUT_CHROMIUM", "/usr/bin/chromium")
+pytestmark = pytest.mark.skipif(
+    not Path(CHROMIUM).exists(),
+    reason=f"chromium is not installed at {CHROMIUM} (make setup installs Debian's chromium as root: tools/ensure-chromium.sh)",
+)
 ARGS = ["--no-sandbox", "--headless", "--disable-gpu", "--no-first-run", "--disable-background-networking",
         "--disable-component-update", "--disable-sync"]
 
@@ -32,8 +36,6 @@ def report(tmp_path_factory):
 
 
 def _browser(p):
-    if not Path(CHROMIUM).exists():
-        pytest.skip(f"chromium is not installed at {CHROMIUM} (make setup installs Debian's chromium as root: tools/ensure-chromium.sh)")
     return p.chromium.launch(executable_path=CHROMIUM, args=ARGS)
 
 
