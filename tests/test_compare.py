@@ -281,6 +281,28 @@ def test_tilt_curve_at_rest_is_the_main_view_alone(comparison):
     assert r.tilt.at_rest() == pytest.approx(float(energy[0]), rel=1e-9)
 
 
+def test_tilt_curve_is_the_tilted_scenario(comparison):
+    """Each point of the curve is the flash of the main viewer in the scenario turned by that angle about
+    the world axis (pendant: side to side about the vertical, not about the stone's own face normal)."""
+    from labcut.orientation.problem import build_problem
+    from labcut.reports.analysis import TILT_POINTS
+    from labcut.scene import Scenario, Views
+    from labcut.scene.directions import rotation
+
+    cmp, _ = comparison
+    r = cmp.cuts[1].scenarios["pendant"]
+    sc, tc = r.scenario, r.tilt
+    for key in ("front_back", "side_to_side"):
+        for angle in (-20.0, 10.0):
+            turned = Scenario(sc.name, rotation(tilt_axes(sc)[key], angle) @ sc.pose, sc.lights, sc.views, 0.0, 0.0, "", "draft")
+            st = turned.main_setting()
+            problem = build_problem(cmp.cuts[1].cut.mesh, cmp.material, quality="draft", n_points=TILT_POINTS["draft"],
+                                    settings=[st.__class__(st.lights, Views([st.views.main]), 1.0, st.pose)])
+            energy, _ = per_view_flash(problem, r.recommendation.normal)
+            i = int(np.flatnonzero(tc.angles_deg == angle)[0])
+            assert tc.flash_energy[key][i] == pytest.approx(float(energy[0]), rel=1e-9), (key, angle)
+
+
 def test_one_exposure_per_scenario(comparison):
     from labcut.rendering.images import shared_exposure
 
