@@ -15,8 +15,11 @@ and the mesh, logged, and returned on the result:
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import math
+import signal
+import threading
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass, field, replace
@@ -349,31 +352,34 @@ def render(
     tiles = []
     plan = None
     start = time.perf_counter()
-    for v in views:
-        scene, plan = build_scene(
-            mesh, material, lamella_normal, setting, v, resolution, mode, polarizer_deg, lobes, max_depth, perspective,
-            zoning=zoning,
-        )
-        accum = None
-        remaining = int(spp)
-        k = 0
-        while remaining > 0:
-            n = min(per_pass, remaining)
-            img = render_pass(scene, n, seed * 100003 + k)
-            arr = np.array(img, dtype=np.float64) * n
-            accum = arr if accum is None else accum + arr
-            remaining -= n
-            done += n
-            k += 1
-            if progress is not None:
-                progress(done, total)
-        image = accum / float(spp)
-        if plan.polarizer_deg is not None:
-            image = _polarizer_intensity(image, plan.polarizer_deg)
-        if image.shape[-1] == 1:  # mono film: luminance, shown grey
-            image = np.repeat(image, 3, axis=-1)
-        tiles.append(image[..., :3].astype(np.float32))
-        dr.flush_malloc_cache()
+    with _interruptible() as interrupted:
+        for v in views:
+            scene, plan = build_scene(
+                mesh, material, lamella_normal, setting, v, resolution, mode, polarizer_deg, lobes, max_depth, perspective,
+                zoning=zoning,
+            )
+            accum = None
+            remaining = int(spp)
+            k = 0
+            while remaining > 0:
+                n = min(per_pass, remaining)
+                img = render_pass(scene, n, seed * 100003 + k)
+                if interrupted.is_set():
+                    raise KeyboardInterrupt
+                arr = np.array(img, dtype=np.float64) * n
+                accum = arr if accum is None else accum + arr
+                remaining -= n
+                done += n
+                k += 1
+                if progress is not None:
+                    progress(done, total)
+            image = accum / float(spp)
+            if plan.polarizer_deg is not None:
+                image = _polarizer_intensity(image, plan.polarizer_deg)
+            if image.shape[-1] == 1:  # mono film: luminance, shown grey
+                image = np.repeat(image, 3, axis=-1)
+            tiles.append(image[..., :3].astype(np.float32))
+            dr.flush_malloc_cache()
     seconds = time.perf_counter() - start
     assert plan is not None
     if len(tiles) == 1:
@@ -394,6 +400,28 @@ def render(
     if output is not None:
         result.save(output)
     return result
+
+
+@contextlib.contextmanager
+def _interruptible() -> Any:
+    """Hold Ctrl-C for the next safe point of a render loop.
+
+    A SIGINT that lands while Mitsuba calls back into the Python BSDF (loading or tracing a
+    scene) can be swallowed on the way back through C++; while this context is active (and
+    Python's own handler was in place) the signal only sets the returned event, which the
+    loop checks between passes and turns into ``KeyboardInterrupt``.
+    """
+    event = threading.Event()
+    previous = None
+    if threading.current_thread() is threading.main_thread() and signal.getsignal(signal.SIGINT) is signal.default_int_handler:
+        previous = signal.signal(signal.SIGINT, lambda signum, frame: event.set())
+    try:
+        yield event
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGINT, previous)
+    if event.is_set():
+        raise KeyboardInterrupt
 
 
 def render_pass(scene: Any, spp: int, seed: int) -> Any:
