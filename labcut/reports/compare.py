@@ -412,9 +412,11 @@ def csv_rows(data: dict[str, Any]) -> list[dict[str, Any]]:
                 if k != "per_view":
                     add(n, scen, "compromise", k, v, metric_units.get(k, ""))
             fc = r["flash_colour"] or {}
-            for k in ("flash_fraction", "dominant_wavelength_nm", "p10_nm", "p90_nm", "purple_fraction",
-                      "mean_dominant_wavelength_nm", "mean_purity", "peak_level"):
-                add(n, scen, "best", f"colour_{k}", fc.get(k), "nm" if k.endswith("_nm") else "")
+            colour_units = {"flash_fraction": "fraction", "dominant_wavelength_nm": "nm", "p10_nm": "nm", "p90_nm": "nm",
+                            "purple_fraction": "fraction", "mean_dominant_wavelength_nm": "nm", "mean_purity": "fraction",
+                            "peak_level": "tau L_ref"}
+            for k, unit in colour_units.items():
+                add(n, scen, "best", f"colour_{k}", fc.get(k), unit)
             tc = r["tilt_curve"]
             for qty in ("flash_energy", "flash_area"):
                 for axis, values in tc[qty].items():
