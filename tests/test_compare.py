@@ -67,11 +67,12 @@ def test_cab_specs_parse(spec, expected):
         ("cab:oval,16", "need LENGTHxWIDTH"),
         ("cab:oval,16x12x3", "LENGTHxWIDTH"),
         ("cab:oval,axb", "length must be a number"),
-        ("cab:oval,16x12,flat", "dome (low / medium / high or mm)"),
+        ("cab:oval,16x12,flat", "dome must be low, medium, high or a number of mm in 'cab:oval,16x12,flat', got 'flat'"),
         ("cab:oval,16x12,low,sparkle=3", "unknown part 'sparkle=3'"),
         ("cab:oval,16x12,low,girdle=1,girdle=2", "given twice"),
         ("cab:oval,16x12,low,res=6.5", "whole number"),
-        ("cab:oval,16x12,nan", "finite"),
+        ("cab:oval,16x12,nan", "dome must be low, medium, high or a number of mm"),
+        ("cab:oval,16x12,low,base=deep", "base must be low, medium, high or a number of mm"),
     ],
 )
 def test_bad_cab_specs_say_what_is_wrong(spec, fragment):

@@ -45,7 +45,7 @@ def test_json_to_stdout_and_reference_by_name(cli):
 @pytest.mark.parametrize(
     "args, fragment",
     [
-        ([OVAL, "cab:oval,16x12,lo"], "cut 2 ('cab:oval,16x12,lo'): dome"),
+        ([OVAL, "cab:oval,16x12,lo"], "cut 2 ('cab:oval,16x12,lo'): dome must be low, medium, high or a number of mm"),
         ([OVAL, "missing.stl", "cab:oval,16x12,low"], "cut 2 ('missing.stl'): mesh file 'missing.stl' does not exist"),
         ([OVAL, "--scenario", "disco"], "disco"),
         ([OVAL, "--scenario", "ring", "--scenario", "ring"], "scenario 'ring' is given twice"),

@@ -94,7 +94,15 @@ def _number(text: str, what: str, spec: str) -> float:
 
 def _name_or_mm(text: str, names: tuple[str, ...], what: str, spec: str) -> str | float:
     key = text.strip().lower()
-    return key if key in names else _number(key, f"{what} ({' / '.join(names)} or mm)", spec)
+    if key in names:
+        return key
+    try:
+        value = float(key)
+    except ValueError:
+        value = float("nan")
+    if not np.isfinite(value):
+        raise ParameterError(f"{what} must be {', '.join(names)} or a number of mm in {spec!r}, got {text!r}")
+    return value
 
 
 def parse_cab_spec(spec: str) -> dict[str, Any]:
