@@ -18,7 +18,7 @@ from labcut.scene.scenario import SCENARIOS
 
 from . import materials as m
 from . import meshes as mo
-from .root import all_or_nothing, app, console
+from .root import all_or_nothing, app, console, err_console
 
 Cuts = Annotated[
     list[str],
@@ -189,7 +189,8 @@ def compare(
 
     with all_or_nothing() as written:
         if html_path is not None:
-            cmp.save_html(html_path)
+            with err_console.status("writing the report (figures)"):
+                cmp.save_html(html_path)
             written.append(Path(html_path))
         if json_path not in (None, "-"):
             cmp.save_json(json_path)
