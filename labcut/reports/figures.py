@@ -17,6 +17,8 @@ DPI = 110
 #: hue range (nm) shown by the flash-colour maps when the flash spans less
 WAVELENGTH_SPAN_NM = 40.0
 GAP_PX = 4
+#: score maps zoom to where a cut keeps at least this share of its best
+ZOOM_KEEP = 0.3
 
 
 def _plt() -> Any:
@@ -94,14 +96,15 @@ def score_maps(cmp: Any, scenario: str) -> bytes:
     cols = min(len(cuts), 3)
     rows = math.ceil(len(cuts) / cols)
     fig, axes = plt.subplots(rows, cols, figsize=(3.0 * cols + 0.9, 3.0 * rows + 0.5), squeeze=False, constrained_layout=True)
-    # one zoom for every panel: where any cut's score is >= 2 % of its best
+    # one zoom for every panel: where any cut keeps >= 30 % of its best (and the compromise)
     lim = 15.0
     for c in cuts:
         rec = c.scenarios[scenario].recommendation
         t = np.degrees(np.arccos(np.clip(rec.map_normals[:, 2], -1, 1)))
         s = rec.map_scores / max(rec.score, 1e-30)
-        if np.any(s >= 0.02):
-            lim = max(lim, 1.2 * float(t[s >= 0.02].max()) + 3.0)
+        if np.any(s >= ZOOM_KEEP):
+            lim = max(lim, 1.2 * float(t[s >= ZOOM_KEEP].max()) + 3.0)
+        lim = max(lim, 1.2 * tilt_azimuth(c.compromise.normal)[0] + 3.0)
     lim = min(lim, 90.0)
     levels = np.linspace(0.0, 1.0, 21)
     cs = None
