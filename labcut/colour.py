@@ -210,6 +210,14 @@ LUMINANCE_TABLE_SIZE = 1024
 
 
 @functools.lru_cache(maxsize=16)
+def rgb_table(material: Any, polarization: str | None = None) -> np.ndarray:
+    """Linear sRGB reflectance (LUMINANCE_TABLE_SIZE, 3) of a material over cos θ in [0, 1], clipped at
+    0, float32: the RGB BSDF's table, built once per material (a scene build reuses it)."""
+    c = np.linspace(0.0, 1.0, LUMINANCE_TABLE_SIZE)
+    return np.clip(reflectance_rgb(material, c, polarization=polarization), 0.0, None).astype(np.float32)
+
+
+@functools.lru_cache(maxsize=16)
 def luminance_table(material: Any) -> tuple[np.ndarray, np.ndarray]:
     """(cos θ grid over [0, 1], luminance reflectance R_Y) of a material, computed once and
     shared by the mono BSDF, its sampling weight and the flash estimators."""

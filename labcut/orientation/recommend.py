@@ -302,6 +302,8 @@ def recommend_orientation(
     parallel = None
     if tilt >= 0.5 and scorer.score(pole) >= KEEP * score:
         parallel = float(tolerance_deg(scorer.scores, pole, score, constraint, keep=KEEP))
+        if parallel < 0.5:  # the base only just keeps 90 %: "any tilt within ±0.0°" is no instruction
+            parallel = None
     elif tilt < 0.5:
         parallel = float(tol)
     report("done", 1.0)

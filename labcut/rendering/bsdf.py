@@ -188,7 +188,7 @@ def _define_class() -> type:
         # ------------------------------------------------------------------ set-up
         def _build_tables(self) -> None:
             """Per-material lookup tables (RGB / mono) and the lobe-selection weight."""
-            from ..colour import luminance_table, reflectance_rgb
+            from ..colour import luminance_table, rgb_table
 
             if self.zoning is not None:  # the zoning's own tables; sampling weight averaged over x
                 self.schiller_weight = self.zoning.weight
@@ -201,7 +201,7 @@ def _define_class() -> type:
             self.table_sp = None
             if not self._spectral:
                 if mi.is_rgb:
-                    data = np.clip(reflectance_rgb(self.material, c), 0.0, None).astype(np.float32)
+                    data = rgb_table(self.material)
                 else:
                     data = lum[:, None].astype(np.float32)
                 self.table = mi.Texture1f(mi.TensorXf(data))
