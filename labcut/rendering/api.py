@@ -100,18 +100,9 @@ class RenderResult:
 
 def normalize_normal(normal: Any) -> np.ndarray:
     """Validate a lamella normal (3 finite numbers, not zero) and return it as a unit vector, z >= 0."""
-    try:
-        m = np.asarray(normal, dtype=np.float64).reshape(3)
-    except (TypeError, ValueError):
-        raise ParameterError(f"lamella normal must be three numbers, got {normal!r}") from None
-    if not np.all(np.isfinite(m)):
-        raise ParameterError(f"lamella normal must be finite, got {m.tolist()}")
-    if np.max(np.abs(m)) > 0:
-        m = m / np.max(np.abs(m))  # no overflow in the norm for huge components
-    norm = float(np.linalg.norm(m))
-    if norm < 1e-9:
-        raise ParameterError("lamella normal must not be the zero vector")
-    m = m / norm
+    from ..validation import unit_vector
+
+    m = unit_vector(normal, "lamella normal")
     return -m if m[2] < 0 else m  # axial: report the upper-hemisphere representative
 
 
