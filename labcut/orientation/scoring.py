@@ -147,11 +147,32 @@ class Scorer:
         self.q_norm = dr.opaque(t.Float, float(p.q_norm))
         self.tau = dr.opaque(t.Float, float(p.tau))
         self.evaluations = 0
-        hb, ab = self._bin_triples()
-        self.bin_h = t.Array3f(hb[:, 0], hb[:, 1], hb[:, 2])
-        self.bin_a = t.Float(ab)
-        self.n_bins = len(ab)
-        self._nb = dr.opaque(t.UInt32, self.n_bins)
+        self._bins: tuple[Any, Any, int, Any] | None = None  # binned energy weights, built on first use
+
+    def _binned(self) -> tuple[Any, Any, int, Any]:
+        """(bin directions, bin weights, bin count, opaque bin count), built the first time the
+        energy objective or an energy map needs them (a caller that only scores metrics never pays)."""
+        if self._bins is None:
+            dr, t = self.dr, self.t
+            hb, ab = self._bin_triples()
+            self._bins = (t.Array3f(hb[:, 0], hb[:, 1], hb[:, 2]), t.Float(ab), len(ab), dr.opaque(t.UInt32, len(ab)))
+        return self._bins
+
+    @property
+    def bin_h(self) -> Any:
+        return self._binned()[0]
+
+    @property
+    def bin_a(self) -> Any:
+        return self._binned()[1]
+
+    @property
+    def n_bins(self) -> int:
+        return self._binned()[2]
+
+    @property
+    def _nb(self) -> Any:
+        return self._binned()[3]
 
     def _bin_triples(self, bins: int | None = None) -> tuple[np.ndarray, np.ndarray]:
         """Energy weights alpha_t binned by h on a stereographic grid (weighted centroids).
