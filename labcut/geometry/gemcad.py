@@ -273,7 +273,7 @@ def parse_asc(text: str, name: str = "design.asc", source: str = "") -> Design:
 
     for lineno, line in lines:
         where = f"{name}, line {lineno}"
-        kind, rest = line[0], line[1:].strip()
+        kind = line[0]
         spans = list(re.finditer(r"\S+", line[1:]))
         words = [m.group() for m in spans]
         if line.lower().startswith("gemcad"):
@@ -669,7 +669,7 @@ def design_solid(
     import trimesh
 
     from ..errors import LabcutWarning
-    from .meshio import STONE_SIZE_MM, MeshReport
+    from .meshio import STONE_SIZE_MM, MeshReport, centre_on_base
     from .orient import check_up_axis, up_rotation
 
     stage = progress or (lambda s, x: None)
@@ -702,11 +702,7 @@ def design_solid(
                      f"--up-axis auto (up_axis='auto') keeps the crown up")
     rot = up_rotation(up)
     v = v @ rot.T
-    shift = np.zeros(3)
-    if recentre:
-        lo, hi = v.min(axis=0), v.max(axis=0)
-        shift = np.array([-(lo[0] + hi[0]) / 2, -(lo[1] + hi[1]) / 2, -lo[2]])
-        v = v + shift
+    v, shift = centre_on_base(v) if recentre else (v, np.zeros(3))
     mesh = trimesh.Trimesh(vertices=v, faces=f, process=False)
     if not (mesh.is_watertight and mesh.is_winding_consistent and mesh.volume > 0):  # pragma: no cover
         raise MeshError(f"{name}: the facets did not make a closed, outward-wound solid")

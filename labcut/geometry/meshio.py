@@ -485,6 +485,14 @@ def validate_arrays(
     return v2, f2, repairs, notes, bodies
 
 
+def centre_on_base(vertices: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """labcut's placement (DESIGN.md §3): the bounding box centred in XY, the lowest point on
+    z = 0. Returns the moved vertices (mm) and the shift that was added."""
+    lo, hi = vertices.min(axis=0), vertices.max(axis=0)
+    shift = np.array([-(lo[0] + hi[0]) / 2, -(lo[1] + hi[1]) / 2, -lo[2]])
+    return vertices + shift, shift
+
+
 def load_mesh(
     path: str | os.PathLike[str],
     units: str | float = "auto",
@@ -614,11 +622,7 @@ def load_mesh(
             )
     rot = up_rotation(up)
     v = (v @ rot.T) * factor
-    shift = np.zeros(3)
-    if recentre:
-        lo, hi = v.min(axis=0), v.max(axis=0)
-        shift = np.array([-(lo[0] + hi[0]) / 2, -(lo[1] + hi[1]) / 2, -lo[2]])
-        v = v + shift
+    v, shift = centre_on_base(v) if recentre else (v, np.zeros(3))
     mesh = trimesh.Trimesh(vertices=v, faces=f, process=False)
     if not (mesh.is_watertight and mesh.is_winding_consistent and mesh.volume > 0):  # pragma: no cover
         raise MeshError(f"{p.name} could not be made a closed, outward-wound solid")

@@ -203,16 +203,6 @@ class Recommendation:
         }
 
 
-def _check_material(material: Any) -> Labradorite:
-    if material is None:
-        return Labradorite()
-    if isinstance(material, str):
-        return Labradorite.preset(material)
-    if not isinstance(material, Labradorite):
-        raise ParameterError(f"material must be a labcut.Labradorite or a preset name, got {type(material).__name__}")
-    return material
-
-
 def _setup(mesh, material, scenario, lighting, viewing, objective, quality, tau, seed, max_tilt, tilt_axis):
     if objective not in OBJECTIVES:
         raise ParameterError(f"objective must be one of {', '.join(OBJECTIVES)}, got {objective!r}")
@@ -221,7 +211,7 @@ def _setup(mesh, material, scenario, lighting, viewing, objective, quality, tau,
     from ..geometry.meshio import validate_mesh
 
     validate_mesh(mesh)
-    material = _check_material(material)
+    material = Labradorite.coerce(material)
     scene = resolve_scene(scenario, lighting, viewing, quality)
     constraint = Constraint(float(max_tilt), tilt_axis)
     problem = build_problem(mesh, material, quality=quality, tau=tau, seed=seed, settings=scene.settings())

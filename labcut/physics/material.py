@@ -168,6 +168,18 @@ class Labradorite:
         params.setdefault("name", key)
         return cls.from_peak_wavelength(cls.PRESETS[key], **params)
 
+    @classmethod
+    def coerce(cls, material: Any) -> Labradorite:
+        """A material argument as the API takes it: ``None`` (the default blue-green labradorite),
+        a preset name, or a :class:`Labradorite` (returned as is)."""
+        if material is None:
+            return cls()
+        if isinstance(material, str):
+            return cls.preset(material)
+        if not isinstance(material, cls):
+            raise ParameterError(f"material must be a labcut.Labradorite or a preset name, got {type(material).__name__}")
+        return material
+
     def replace(self, **changes: Any) -> Labradorite:
         """A copy with some parameters changed (validated again)."""
         return dataclasses.replace(self, **changes)

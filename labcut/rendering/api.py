@@ -312,7 +312,6 @@ def render(
     for bad parameters.
     """
     import drjit as dr
-    import mitsuba as mi
 
     from ..geometry.meshio import provenance, validate_mesh
     from .images import auto_exposure, tonemap

@@ -448,18 +448,6 @@ def _orientation_rows(add: Callable[..., None], cut: str, scen: str, orient: str
 
 
 # ---------------------------------------------------------------------- the comparison
-def _material(material: Any) -> Any:
-    from ..physics.material import Labradorite
-
-    if material is None:
-        return Labradorite()
-    if isinstance(material, str):
-        return Labradorite.preset(material)
-    if not isinstance(material, Labradorite):
-        raise ParameterError(f"material must be a labcut.Labradorite or a preset name, got {type(material).__name__}")
-    return material
-
-
 def resolve_scenarios(scenarios: Any, quality: str) -> list[Any]:
     """The :class:`~labcut.Scenario` of each name, JSON file or instance (default ``["bench"]``); a name
     given twice is an error."""
@@ -538,7 +526,9 @@ def plan_comparison(
     seed = check_number(seed, "seed", 0, 2**63 - 1, integer=True)
     res = RENDER_RESOLUTION[quality] if resolution is None else check_number(resolution, "render resolution (pixels)", 16, 2048, integer=True)
     n_spp = RENDER_SPP[quality] if spp is None else check_number(spp, "render samples per pixel", 1, 4096, integer=True)
-    lab = _material(material)
+    from ..physics.material import Labradorite
+
+    lab = Labradorite.coerce(material)
     scens = resolve_scenarios(scenarios, quality)
     resolved = resolve_cuts(cuts, units=units, up_axis=up_axis)
     ref = _reference(reference, resolved)
