@@ -6,6 +6,7 @@ import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -201,6 +202,99 @@ class Recommendation:
             "settings": self.settings,
             "map": {"tilt_deg": list(map(float, tilt)), "azimuth_deg": list(map(float, az)), "score": self.map_scores.tolist()},
         }
+
+    def __repr__(self) -> str:
+        where = f", scenario={self.scenario.name!r}" if self.scenario is not None else ""
+        return (f"Recommendation(tilt={self.tilt_deg:.1f}°, azimuth={self.azimuth_deg:.1f}°, "
+                f"{self.objective}={self.score:.4g}, tolerance=±{self.tolerance_deg:.1f}°{where})")
+
+    def _repr_html_(self) -> str:
+        """A small table for notebooks: the instruction, the orientation, the score and its metrics."""
+        from html import escape
+
+        m = self.metrics
+        rows = [("instruction", self.description),
+                ("tilt / azimuth", f"{self.tilt_deg:.1f}° / {self.azimuth_deg:.1f}°"),
+                ("normal (mesh frame)", "(" + ", ".join(f"{x:+.4f}" for x in self.normal) + ")"),
+                ("tolerance (90 % kept)", f"±{self.tolerance_deg:.1f}°"),
+                (f"score ({self.objective})", f"{self.score:.4g}"),
+                ("flash area", f"{m.flash_area:.1%}"), ("flash intensity", f"{m.flash_intensity:.3f}"),
+                ("flash energy", f"{m.flash_energy:.4f}"), ("coverage", f"{m.coverage:.0%}")]
+        if self.scenario is not None:
+            rows.insert(1, ("scenario", self.scenario.name))
+        body = "".join(f"<tr><td>{escape(k)}</td><td style='text-align:right'>{escape(v)}</td></tr>" for k, v in rows)
+        return f"<table><thead><tr><th colspan='2'>labcut recommendation</th></tr></thead><tbody>{body}</tbody></table>"
+
+    @classmethod
+    def from_dict(cls, data: Any, source: str = "recommendation") -> Recommendation:
+        """The inverse of :meth:`to_dict` (numbers, metrics, map and settings; the scenario is
+        rebuilt when its name is a preset and its lights and views are the preset's, else None).
+
+        Raises :class:`~labcut.errors.ParameterError` naming ``source`` when a key is missing or
+        holds the wrong kind of value."""
+        if not isinstance(data, dict):
+            raise ParameterError(f"{source}: not a labcut recommendation (expected a JSON object)")
+        try:
+            metrics_in = data["metrics"]
+            metrics = FlashMetrics(**{k: metrics_in[k] for k in
+                                      ("flash_area", "flash_intensity", "flash_energy", "coverage", "balanced", "per_view")})
+            grid = data["map"]
+            tilt = np.radians(np.asarray(grid["tilt_deg"], dtype=np.float64))
+            az = np.radians(np.asarray(grid["azimuth_deg"], dtype=np.float64))
+            map_normals = np.stack([np.sin(tilt) * np.cos(az), np.sin(tilt) * np.sin(az), np.cos(tilt)], axis=-1).reshape(-1, 3)
+            normal = np.asarray(data["normal"], dtype=np.float64)
+            if normal.shape != (3,) or not np.all(np.isfinite(normal)):
+                raise ValueError("normal must be three finite numbers")
+            fields = dict(
+                normal=normal, tilt_deg=float(data["tilt_deg"]), azimuth_deg=float(data["azimuth_deg"]),
+                score=float(data["score"]), objective=str(data["objective"]), metrics=metrics,
+                tolerance_deg=float(data["tolerance_deg"]),
+                tolerance_by_axis={str(k): float(v) for k, v in data["tolerance_by_axis"].items()},
+                runners_up=list(data["runners_up"]), map_normals=map_normals,
+                map_scores=np.asarray(grid["score"], dtype=np.float64), optimizer=str(data["optimizer"]),
+                evaluations=int(data["evaluations"]), seconds=float(data["seconds"]),
+                settings=dict(data.get("settings", {})),
+                parallel_within_deg=None if data.get("parallel_within_deg") is None else float(data["parallel_within_deg"]),
+                workshop=dict(data.get("workshop", {})), mesh=dict(data.get("mesh", {})),
+            )
+        except KeyError as exc:
+            raise ParameterError(f"{source}: not a labcut recommendation (missing {exc.args[0]!r})") from None
+        except (TypeError, ValueError, AttributeError) as exc:
+            raise ParameterError(f"{source}: not a labcut recommendation ({exc})") from None
+        return cls(**fields, scenario=_saved_scenario(fields["settings"]))
+
+    def save(self, path: Any) -> Path:
+        """Write :meth:`to_dict` as JSON, atomically (no half-written file); returns the path."""
+        import json
+
+        from ..fileio import atomic_output
+
+        with atomic_output(path, (".json",)) as tmp:
+            tmp.write_text(json.dumps(self.to_dict(), indent=2) + "\n")
+        return Path(path)
+
+    @classmethod
+    def load(cls, path: Any) -> Recommendation:
+        """Read a recommendation back from the JSON that ``to_dict`` / ``--json`` wrote."""
+        from ..fileio import read_json
+
+        return cls.from_dict(read_json(path, "recommendation file"), source=str(path))
+
+
+def _saved_scenario(settings: dict[str, Any]) -> Scenario | None:
+    """The scenario a saved recommendation names, when it is a bundled preset left as it is."""
+    from ..scene import SCENARIOS
+
+    saved = settings.get("scenario")
+    if not isinstance(saved, dict) or saved.get("name") not in SCENARIOS:
+        return None
+    try:
+        scene = resolve_scene(saved["name"], quality=str(settings.get("quality", "standard")))
+    except Exception:  # noqa: BLE001  (a preset that no longer resolves: keep the numbers, drop the scene)
+        return None
+    same = (scene.lights.name == saved.get("lighting") and scene.views.name == saved.get("viewing")
+            and np.allclose(scene.pose, np.asarray(saved.get("pose", np.eye(3)), dtype=np.float64)))
+    return scene if same else None
 
 
 def _setup(mesh, material, scenario, lighting, viewing, objective, quality, tau, seed, max_tilt, tilt_axis):
