@@ -1,0 +1,415 @@
+"""The effect planner: simulate only what a scene calls for (docs/planner.md).
+
+Every command (``render``, ``recommend``, ``evaluate``, ``compare``) asks :func:`plan_effects`
+which effects to simulate for its scene, and gets an :class:`EffectPlan`: each effect on or off,
+how it is simulated and why, which flash estimator answers (``samples``: the surface-sample
+triples of :mod:`labcut.orientation.problem`; ``render``: Mitsuba renders differentiated with
+Dr.Jit, :mod:`labcut.orientation.render_estimator`) and the predicted time of each choice. The
+plan travels with the result (``plan`` in every JSON) and ``--plan`` prints it.
+
+Effects (all directions in the mesh frame, mm, +Z face-up):
+
+``occlusion``
+    parts of the stone hiding lights or viewers from other parts. A ray leaving a convex surface
+    never meets the surface again, so a convex stone needs none (exact); a carving does.
+``inter_reflection``
+    light reaching a point by way of another part of the stone. Zero for a convex stone (exact).
+    For a carving the planner bounds it: ``f x rho``, where ``f`` is the cosine-weighted share of
+    the sky above the surface that is the stone itself (:func:`labcut.rendering.rays.self_view_fraction`)
+    and ``rho`` the most the stone can send back (hemispherical Fresnel reflectance of its polish
+    + body albedo + the brightest schiller reflectance). It is simulated (a path tracer; for a
+    recommendation the render estimator) when the bound exceeds :data:`INTERREFLECTION_TOLERANCE`.
+``environment``
+    an environment map among the lights (``ceiling``, ``sky``, an .exr/.hdr file): sampled into
+    directions by the sample estimator, an ``envmap`` emitter in renders.
+``polarisation``
+    the flash metrics are for unpolarised light and an unpolarised eye. The sample estimator
+    multiplies s/p-averaged transmissions and stack reflectance; the planner computes what that
+    costs for the scene's light and view pairs (``(T_s R_s T_s + T_p R_p T_p)/2`` against
+    ``T R T`` of the averages) and reports it. Renders are polarised only through a polariser.
+``colour``
+    flash metrics are luminance ratios, from a table that integrates the spectrum exactly at every
+    angle (mono); renders are RGB unless spectral or mono is asked for, spectral with a polariser.
+``zoning``
+    colour zones (docs/zoning.md) are simulated in renders when asked for.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from .errors import ParameterError
+
+COMMANDS = ("render", "recommend", "evaluate", "compare")
+EFFECTS = ("occlusion", "inter_reflection", "environment", "polarisation", "colour", "zoning")
+ESTIMATORS = ("auto", "samples", "render")
+#: an effect whose predicted change of the flash energy stays below this share is left off
+#: (the scale of a standard recommendation's own score error: docs/accuracy.md)
+INTERREFLECTION_TOLERANCE = 0.02
+#: the effects a user may switch with ``effects=`` / ``--effect NAME=on|off`` (the others follow
+#: from the scene and from their own options: lighting, --mode, --polarizer, --zoning)
+SWITCHABLE = ("occlusion", "inter_reflection")
+
+
+@dataclass(frozen=True)
+class Decision:
+    """One effect: simulated or not, how, why, and whether the user forced it."""
+
+    effect: str
+    on: bool
+    how: str
+    why: str
+    forced: bool = False
+    #: the predicted relative change of the flash energy if this effect were switched the other
+    #: way (None where the planner has no estimate; 0.0 where it is exact)
+    bound: float | None = None
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"effect": self.effect, "on": self.on, "how": self.how, "why": self.why,
+                "forced": self.forced, "bound": self.bound}
+
+
+@dataclass(frozen=True)
+class EffectPlan:
+    """What a command simulates, how and why, and the predicted time of each choice (seconds)."""
+
+    command: str
+    decisions: tuple[Decision, ...]
+    estimator: str | None
+    estimator_why: str
+    predicted_seconds: dict[str, float] = field(default_factory=dict)
+    convex: bool = True
+    facts: dict[str, Any] = field(default_factory=dict)
+
+    def __getitem__(self, effect: str) -> Decision:
+        for d in self.decisions:
+            if d.effect == effect:
+                return d
+        raise KeyError(effect)
+
+    def on(self, effect: str) -> bool:
+        return self[effect].on
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "command": self.command,
+            "estimator": self.estimator,
+            "estimator_why": self.estimator_why,
+            "predicted_seconds": {k: round(v, 3) for k, v in self.predicted_seconds.items()},
+            "convex": self.convex,
+            "facts": self.facts,
+            "effects": {d.effect: d.to_dict() for d in self.decisions},
+        }
+
+    def lines(self) -> list[str]:
+        """The plan as text, one line per effect, then the estimator and its predicted time."""
+        out = [f"{d.effect.replace('_', '-'):17} {'ON ' if d.on else 'off'}  {d.how if d.on else ''}"
+               f"{' — ' if d.on else ''}{d.why}{' (forced)' if d.forced else ''}" for d in self.decisions]
+        if self.estimator is not None:
+            t = self.predicted_seconds.get(self.estimator)
+            costs = ", ".join(f"{k} ~{v:.1f} s" for k, v in self.predicted_seconds.items())
+            out.append(f"{'estimator':17} {self.estimator}  — {self.estimator_why}"
+                       + (f" (predicted {t:.1f} s; {costs})" if t is not None else ""))
+        elif self.predicted_seconds:
+            out.append("predicted: " + ", ".join(f"{k} ~{v:.1f} s" for k, v in self.predicted_seconds.items()))
+        return out
+
+    def __repr__(self) -> str:
+        on = [d.effect for d in self.decisions if d.on]
+        est = f", estimator={self.estimator!r}" if self.estimator else ""
+        return f"EffectPlan({self.command}: on={on}{est})"
+
+    def _repr_html_(self) -> str:
+        from html import escape
+
+        rows = "".join(f"<tr><td>{escape(d.effect)}</td><td>{'on' if d.on else 'off'}</td><td>{escape(d.why)}</td></tr>"
+                       for d in self.decisions)
+        if self.estimator:
+            rows += f"<tr><td>estimator</td><td>{escape(self.estimator)}</td><td>{escape(self.estimator_why)}</td></tr>"
+        return f"<table><thead><tr><th>effect</th><th></th><th>why</th></tr></thead><tbody>{rows}</tbody></table>"
+
+
+# ---------------------------------------------------------------------- facts of a scene
+def is_convex(mesh: Any) -> bool:
+    """Whether the stone is convex (the loader's verdict in ``mesh.metadata['labcut']``, else computed)."""
+    info = getattr(mesh, "metadata", {}).get("labcut", {})
+    if "convex" in info:
+        return bool(info["convex"])
+    from .geometry.meshio import is_convex_mesh
+
+    return bool(is_convex_mesh(mesh))
+
+
+def hemispherical_fresnel(eta: float, samples: int = 512) -> float:
+    """Cosine-weighted mean of the unpolarised Fresnel reflectance from air into index ``eta``."""
+    from .physics import schiller
+
+    c = (np.arange(samples) + 0.5) / samples  # midpoint rule over cos θ
+    return float(2.0 * np.mean(schiller.fresnel_reflectance(c, eta) * c))
+
+
+def return_albedo(material: Any) -> float:
+    """The most light a stone can send back towards itself: hemispherical Fresnel reflectance of
+    its polish + its body albedo + its brightest schiller (luminance) reflectance."""
+    from .colour import luminance_table
+
+    _, r = luminance_table(material)
+    return hemispherical_fresnel(material.n_surface) + float(material.body_albedo) + float(np.max(r))
+
+
+def _fresnel_sp(cos_i: np.ndarray, eta: float) -> tuple[np.ndarray, np.ndarray]:
+    """Power transmissions (T_s, T_p) from air into index ``eta`` at external cosines ``cos_i``."""
+    from .physics.lamella import interface_amplitudes
+
+    c = np.clip(np.asarray(cos_i, dtype=np.float64), 0.0, 1.0)
+    q_t = np.sqrt(np.maximum(eta * eta - (1.0 - c * c), 0.0))
+    r_s, r_p = interface_amplitudes(c, q_t, 1.0, eta)
+    return 1.0 - r_s * r_s, 1.0 - r_p * r_p
+
+
+def polarisation_bias(material: Any, lights: Any, views: Any) -> float:
+    """Relative error of the unpolarised (s/p-averaged) schiller for a scene's light/view pairs.
+
+    For every pair (mesh frame; the stone's face +Z, the lamella normal at the pair's internal
+    half vector, where the flash is), the exact unpolarised product ``(T_s R_s T_s + T_p R_p
+    T_p)/2`` against ``T R T`` of the s/p averages; weighted by light x view weight. Pairs that
+    do not both lie above the face carry no schiller and are skipped."""
+    from .colour import reflectance_luminance
+
+    eta = float(material.n_surface)
+    L = np.asarray(lights.directions, dtype=np.float64)
+    V = np.asarray(views.directions, dtype=np.float64)
+    wl, wv = np.asarray(lights.weights, dtype=np.float64), np.asarray(views.weights, dtype=np.float64)
+    cl, cv = L[:, 2][:, None], V[:, 2][None, :]
+    ok = (cl > 1e-3) & (cv > 1e-3)
+    if not np.any(ok):
+        return 0.0
+
+    def internal(d: np.ndarray) -> np.ndarray:  # refracted into the stone, pointing out of it
+        c = np.clip(d[:, 2], 1e-6, 1.0)
+        t = d.copy()
+        t[:, :2] /= eta
+        t[:, 2] = np.sqrt(np.maximum(1.0 - (1.0 - c * c) / (eta * eta), 0.0))
+        return t / np.linalg.norm(t, axis=1, keepdims=True)
+
+    a, b = internal(L), internal(V)
+    h = a[:, None, :] + b[None, :, :]
+    cos_half = np.clip(np.einsum("ijk,ijk->ij", a[:, None, :].repeat(len(V), 1), h) / np.maximum(np.linalg.norm(h, axis=2), 1e-12), 0.0, 1.0)
+    ts_l, tp_l = _fresnel_sp(np.clip(cl, 0, 1), eta)
+    ts_v, tp_v = _fresnel_sp(np.clip(cv, 0, 1), eta)
+    rs = reflectance_luminance(material, cos_half, polarization="s")
+    rp = reflectance_luminance(material, cos_half, polarization="p")
+    exact = 0.5 * (ts_l * rs * ts_v + tp_l * rp * tp_v)
+    approx = (0.5 * (ts_l + tp_l)) * (0.5 * (rs + rp)) * (0.5 * (ts_v + tp_v))
+    w = np.where(ok, wl[:, None] * wv[None, :], 0.0)
+    # the bias of the flash energy: weighted by the flash each pair carries
+    total = float(np.sum(w * exact))
+    return float(abs(np.sum(w * (approx - exact))) / total) if total > 0 else 0.0
+
+
+# ---------------------------------------------------------------------- the planner
+def _switches(effects: Mapping[str, Any] | None) -> dict[str, bool]:
+    if effects is None:
+        return {}
+    if not isinstance(effects, Mapping):
+        raise ParameterError(f"effects must map effect names to on/off, got {effects!r}")
+    out = {}
+    for name, value in effects.items():
+        key = str(name).replace("-", "_")
+        if key not in EFFECTS:
+            raise ParameterError(f"unknown effect {name!r}; effects: {', '.join(EFFECTS)}")
+        if key not in SWITCHABLE:
+            how = {"environment": "the lighting (an .exr/.hdr map or a map preset: ceiling, sky)",
+                   "polarisation": "--polarizer (renders only)", "colour": "--mode (renders only)",
+                   "zoning": "--zoning (renders only)"}[key]
+            raise ParameterError(f"effect {key.replace('_', '-')!r} follows from {how}; it cannot be switched on its own")
+        if isinstance(value, str):
+            if value.lower() not in ("on", "off", "true", "false", "yes", "no"):
+                raise ParameterError(f"effect {name!r} must be on or off, got {value!r}")
+            value = value.lower() in ("on", "true", "yes")
+        if not isinstance(value, bool | np.bool_):
+            raise ParameterError(f"effect {name!r} must be on or off, got {value!r}")
+        out[key] = bool(value)
+    return out
+
+
+def parse_effects(specs: Sequence[str] | None) -> dict[str, bool]:
+    """``["inter-reflection=off", ...]`` (the CLI's ``--effect``) as a mapping for ``effects=``."""
+    out: dict[str, Any] = {}
+    for spec in specs or ():
+        name, sep, value = str(spec).partition("=")
+        if not sep or not name.strip():
+            raise ParameterError(f"--effect takes NAME=on|off, got {spec!r}")
+        out[name.strip()] = value.strip()
+    return _switches(out)
+
+
+def plan_effects(
+    mesh: Any,
+    material: Any = None,
+    *,
+    command: str = "recommend",
+    scenario: Any = None,
+    lighting: Any = None,
+    viewing: Any = None,
+    quality: str = "standard",
+    estimator: str = "auto",
+    mode: str | None = None,
+    polarizer_deg: float | None = None,
+    zoning: Any = None,
+    max_depth: int | None = None,
+    effects: Mapping[str, Any] | None = None,
+) -> EffectPlan:
+    """Decide which effects ``command`` simulates for a stone in a scene (module docstring).
+
+    ``estimator`` (``recommend``/``evaluate``/``compare``): ``auto`` lets the planner choose,
+    ``samples``/``render`` force one. ``mode``/``polarizer_deg``/``zoning``/``max_depth``: a
+    render's request. ``effects``: ``{"occlusion": bool, "inter_reflection": bool}`` overrides.
+
+    Raises :class:`~labcut.errors.ParameterError` for combinations the scene cannot have (a
+    polariser with mono colour, inter-reflection in a convex stone, an unknown effect ...)."""
+    from .physics.material import Labradorite
+    from .scene import resolve_scene
+
+    if command not in COMMANDS:
+        raise ParameterError(f"command must be one of {', '.join(COMMANDS)}, got {command!r}")
+    if estimator not in ESTIMATORS:
+        raise ParameterError(f"estimator must be one of {', '.join(ESTIMATORS)}, got {estimator!r}")
+    forced = _switches(effects)
+    material = Labradorite.coerce(material)
+    scene = resolve_scene(scenario, lighting, viewing, quality)
+    rendering = command == "render"
+    if not rendering and (polarizer_deg is not None or mode is not None or zoning is not None):
+        raise ParameterError(f"{command} scores luminance flash of the uniform material: colour mode, polariser "
+                             "and zoning apply to renders only")
+    if rendering and estimator != "auto":
+        raise ParameterError("estimator applies to recommend, evaluate and compare, not to render")
+    if polarizer_deg is not None and mode == "mono":
+        raise ParameterError("a polariser view needs colour (the polarised schiller changes hue): "
+                             "use --mode spectral or leave --mode out, not mono")
+    convex = is_convex(mesh)
+    facts: dict[str, Any] = {"convex": convex, "scenario": scene.name, "lighting": scene.lights.name,
+                             "viewing": scene.views.name, "poses": len(scene.poses())}
+    decisions: list[Decision] = []
+
+    # occlusion ---------------------------------------------------------------
+    if "occlusion" in forced and forced["occlusion"] and convex:
+        raise ParameterError("occlusion cannot be switched on for a convex stone: no part of it can hide another")
+    occ_on = forced.get("occlusion", not convex)
+    if rendering:
+        occ_on = True
+        decisions.append(Decision("occlusion", True, "ray tracing", "a renderer traces every ray; it costs nothing extra",
+                                  "occlusion" in forced, None if not convex else 0.0))
+    elif convex:
+        decisions.append(Decision("occlusion", False, "", "convex stone: a ray leaving the surface never meets it again (exact)",
+                                  False, 0.0))
+    else:
+        why = ("non-convex stone: parts of it hide lights and viewers from other parts" if occ_on
+               else "switched off: lights and viewers treated as seen from every surface point (approximate)")
+        decisions.append(Decision("occlusion", occ_on, "shadow rays from every surface sample to every light and view direction",
+                                  why, "occlusion" in forced))
+
+    # inter-reflection ----------------------------------------------------------
+    if "inter_reflection" in forced and forced["inter_reflection"] and convex:
+        raise ParameterError("inter-reflection cannot be switched on for a convex stone: no light path leaves it and comes back")
+    if convex:
+        bound = 0.0
+        ir_on = False
+        why = "convex stone: no light path leaves it and comes back (exact)"
+    else:
+        from .rendering.rays import self_view_fraction
+
+        f = self_view_fraction(mesh)
+        rho = return_albedo(material)
+        bound = f * rho
+        facts.update(self_view_fraction=round(f, 4), return_albedo=round(rho, 4))
+        ir_on = forced.get("inter_reflection", bound > INTERREFLECTION_TOLERANCE)
+        share = f"{f:.0%} of the sky above the surface is the stone itself, which sends back at most {rho:.0%}"
+        if "inter_reflection" in forced:
+            why = f"switched {'on' if ir_on else 'off'} ({share}: up to {bound:.1%} of the flash energy)"
+        elif ir_on:
+            why = f"{share}: up to {bound:.1%} of the flash energy, above the {INTERREFLECTION_TOLERANCE:.0%} the answer can miss"
+        else:
+            why = f"{share}: at most {bound:.1%} of the flash energy, below the {INTERREFLECTION_TOLERANCE:.0%} the answer can miss"
+    if rendering and max_depth is not None:
+        ir_on = int(max_depth) > 2
+        how = f"path tracing to depth {int(max_depth)} (as asked)"
+    elif rendering:
+        how = "path tracing, 3 bounces"
+    else:
+        how = "the render estimator's path tracer (the surface samples cannot carry it)"
+    decisions.append(Decision("inter_reflection", ir_on, how, why, "inter_reflection" in forced, bound))
+
+    # environment ---------------------------------------------------------------
+    envs = {st.lights.environment.name for st in scene.settings() if st.lights.environment is not None}
+    if envs:
+        env_how = ("an envmap emitter" if rendering else
+                   f"{len(scene.lights) - scene.lights.n_lamps} directions importance-sampled from the map")
+        decisions.append(Decision("environment", True, env_how, f"the lights include the map {', '.join(sorted(envs))!r}"))
+    else:
+        decisions.append(Decision("environment", False, "", "the lights are lamps only"
+                                  + (" (a dim constant room shows the body in renders)" if rendering else ""), False, 0.0))
+
+    # polarisation --------------------------------------------------------------
+    if rendering:
+        if polarizer_deg is not None:
+            decisions.append(Decision("polarisation", True, "Stokes vectors through Mueller matrices (polarised variant)",
+                                      f"a polariser at {polarizer_deg:g}° is in front of the camera"))
+        else:
+            decisions.append(Decision("polarisation", False, "", "no polariser: the eye and the camera see unpolarised light"))
+    else:
+        bias = max(polarisation_bias(material, st.lights, st.views) for st in scene.settings())
+        facts["polarisation_bias"] = round(bias, 5)
+        decisions.append(Decision(
+            "polarisation", False, "",
+            f"unpolarised light and eye: s/p-averaged Fresnel and stack terms, {bias:.2%} off the exact "
+            "unpolarised product for this scene's light and view pairs", False, bias))
+
+    # colour --------------------------------------------------------------------
+    if rendering:
+        m = mode or "rgb"
+        if polarizer_deg is not None and m == "rgb":
+            m = "spectral"
+            why = "a polariser: Mitsuba has no polarised RGB, so spectral"
+        elif mode is None:
+            why = "RGB: the BSDF's colour table integrates the spectrum at every angle"
+        else:
+            why = f"{m} as asked"
+        decisions.append(Decision("colour", True, m, why))
+        facts["mode"] = m
+    else:
+        decisions.append(Decision("colour", False, "luminance",
+                                  "flash metrics are luminance ratios: a luminance table integrates the spectrum "
+                                  "exactly at every angle (no colour channels needed)", False, 0.0))
+
+    # zoning --------------------------------------------------------------------
+    if rendering and zoning is not None:
+        label = zoning if isinstance(zoning, str) else getattr(zoning, "name", "custom")
+        decisions.append(Decision("zoning", True, "lamella parameters blended by a baked noise field",
+                                  f"colour zones asked for ({label})"))
+    else:
+        decisions.append(Decision("zoning", False, "", "a uniform material" + ("" if rendering else
+                                  " (zoning is a render option)")))
+
+    # estimator -----------------------------------------------------------------
+    chosen: str | None = None
+    est_why = ""
+    if not rendering:
+        if estimator == "render":
+            chosen, est_why = "render", "asked for"
+        elif estimator == "samples":
+            chosen, est_why = "samples", "asked for"
+            if ir_on:
+                est_why += f"; it cannot carry inter-reflection (up to {bound:.1%} of the energy is left out)"
+        elif ir_on:
+            chosen, est_why = "render", "inter-reflection is on and only renders carry it"
+        else:
+            chosen, est_why = "samples", "every effect on is one the surface samples carry"
+        if command == "compare" and chosen == "render":
+            raise ParameterError("compare runs the sample estimator (many cuts and curves); "
+                                 "use --estimator samples, or recommend-orientation --estimator render per cut")
+    return EffectPlan(command, tuple(decisions), chosen, est_why, {}, convex, facts)

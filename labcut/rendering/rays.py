@@ -1,0 +1,71 @@
+"""Ray queries against a stone (mesh frame, mm): does a ray from a surface point escape the stone?
+
+One Mitsuba scene of the bare mesh answers every query (``scene.ray_test``, shadow rays: no
+shading, no BSDF). Used by the effect planner (how much of the sky above the surface is the stone
+itself) and by the surface-sample estimator's occlusion (``labcut.orientation.problem``).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+
+def escapes(mesh: Any, origins: np.ndarray, normals: np.ndarray, dirs: np.ndarray) -> np.ndarray:
+    """(N, D) bool: the ray from each point (offset along its normal by 1e-4 of the mesh's
+    diagonal) towards each distant direction leaves the mesh without meeting it again.
+
+    ``origins``/``normals``: (N, 3) surface points and their outward normals; ``dirs``: (D, 3)
+    unit directions, all in the mesh frame."""
+    origins, normals, dirs = (np.asarray(x, dtype=np.float64).reshape(-1, 3) for x in (origins, normals, dirs))
+    n, d = len(origins), len(dirs)
+    eps = 1e-4 * float(np.linalg.norm(mesh.extents))
+    return escapes_paired(mesh, np.repeat(origins + eps * normals, d, axis=0), np.tile(dirs, (n, 1))).reshape(n, d)
+
+
+def escapes_paired(mesh: Any, origins: np.ndarray, dirs: np.ndarray) -> np.ndarray:
+    """(M,) bool: ray ``i`` from ``origins[i]`` along ``dirs[i]`` (mesh frame) meets no part of
+    the mesh. The origins are used as given (offset them off the surface first)."""
+    import drjit as dr
+    import mitsuba as mi
+
+    from ..backend import set_variant
+    from .scene import to_mitsuba_mesh
+
+    o = np.asarray(origins, dtype=np.float64).reshape(-1, 3)
+    w = np.asarray(dirs, dtype=np.float64).reshape(-1, 3)
+    set_variant("rgb")
+    scene = mi.load_dict({"type": "scene", "stone": to_mitsuba_mesh(mesh, mi.load_dict({"type": "diffuse"}))})
+    ray = mi.Ray3f(mi.Point3f(o[:, 0], o[:, 1], o[:, 2]), mi.Vector3f(w[:, 0], w[:, 1], w[:, 2]))
+    hit = scene.ray_test(ray)
+    dr.eval(hit)
+    return ~np.array(hit, dtype=bool)
+
+
+def self_view_fraction(mesh: Any, points: int = 1024, directions: int = 64, seed: int = 0) -> float:
+    """Cosine-weighted share of the hemisphere above the surface that is the stone itself.
+
+    The mean, over ``points`` area-uniform surface samples, of the fraction of cosine-weighted
+    directions (about each face's outward normal) whose ray meets the stone again. 0 for a
+    convex stone; for a carving it bounds how much of the light reaching the surface arrives
+    by way of another part of it (times that part's reflectance)."""
+    import trimesh
+
+    rng = np.random.default_rng(seed)
+    pts, face = trimesh.sample.sample_surface(mesh, int(points), seed=int(rng.integers(2**31)))
+    pts = np.asarray(pts, dtype=np.float64)
+    n = np.asarray(mesh.face_normals[face], dtype=np.float64)
+    # a cosine-weighted direction set about +Z, rotated onto each point's normal
+    u1, u2 = rng.random(directions), rng.random(directions)
+    r, phi = np.sqrt(u1), 2.0 * np.pi * u2
+    local = np.stack([r * np.cos(phi), r * np.sin(phi), np.sqrt(np.maximum(0.0, 1.0 - u1))], axis=1)
+    helper = np.where(np.abs(n[:, :1]) < 0.9, [[1.0, 0.0, 0.0]], [[0.0, 1.0, 0.0]])
+    t = np.cross(n, helper)
+    t /= np.linalg.norm(t, axis=1, keepdims=True)
+    b = np.cross(n, t)
+    world = local[None, :, 0:1] * t[:, None] + local[None, :, 1:2] * b[:, None] + local[None, :, 2:3] * n[:, None]
+    eps = 1e-4 * float(np.linalg.norm(mesh.extents))
+    origins = np.repeat(pts + eps * n, directions, axis=0)
+    free = escapes_paired(mesh, origins, world.reshape(-1, 3))
+    return float(1.0 - free.mean())

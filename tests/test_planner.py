@@ -1,0 +1,169 @@
+"""The effect planner (labcut.planner, docs/planner.md): its decisions for convex stones,
+carvings, zoned renders, a polariser and an environment map; each "off" checked against what
+switching the effect on would change; bad combinations as one-line errors."""
+
+from __future__ import annotations
+
+import copy
+import math
+
+import numpy as np
+import pytest
+
+import labcut
+from labcut.errors import ParameterError
+from labcut.planner import (INTERREFLECTION_TOLERANCE, hemispherical_fresnel, parse_effects, plan_effects,
+                            polarisation_bias)
+from labcut.scene import Lights, Views
+
+
+@pytest.fixture(scope="module")
+def oval():
+    return labcut.load_mesh("meshes/oval-16x12-low.ply")
+
+
+@pytest.fixture(scope="module")
+def biplane():
+    return labcut.load_mesh("meshes/carving-biplane.ply")
+
+
+def _on(plan):
+    return {d.effect for d in plan.decisions if d.on}
+
+
+def test_convex_stone_under_lamps_needs_only_the_samples(oval):
+    plan = plan_effects(oval, scenario="bench")
+    assert _on(plan) == set() and plan.estimator == "samples"
+    assert plan["occlusion"].bound == 0.0 and plan["inter_reflection"].bound == 0.0
+    assert "convex" in plan["occlusion"].why and "exact" in plan["inter_reflection"].why
+    assert plan.to_dict()["effects"]["occlusion"]["on"] is False
+
+
+def test_carving_gets_occlusion_and_inter_reflection_and_the_render_estimator(biplane):
+    plan = plan_effects(biplane, scenario="display")
+    assert {"occlusion", "inter_reflection"} <= _on(plan)
+    assert plan.estimator == "render" and "inter-reflection" in plan.estimator_why
+    f = plan.facts["self_view_fraction"]
+    assert 0.05 < f < 0.6  # the biplane's wings and fuselage see each other
+    assert plan["inter_reflection"].bound == pytest.approx(f * plan.facts["return_albedo"], rel=1e-3)
+    # asked for the samples, it says what they leave out
+    samples = plan_effects(biplane, scenario="display", estimator="samples")
+    assert samples.estimator == "samples" and "cannot carry inter-reflection" in samples.estimator_why
+    # switched off by the user: the samples answer
+    off = plan_effects(biplane, scenario="display", effects={"inter_reflection": False})
+    assert off.estimator == "samples" and off["inter_reflection"].forced and not off.on("inter_reflection")
+
+
+def test_environment_map_is_on_only_when_the_lights_hold_one(oval, tmp_path):
+    assert plan_effects(oval, scenario="ring").on("environment")  # office ceiling: a map
+    assert not plan_effects(oval, scenario="display").on("environment")  # spots
+    import mitsuba as mi
+
+    from labcut.backend import set_variant
+
+    set_variant("rgb")
+    img = np.full((16, 32, 3), 0.1, dtype=np.float32)
+    img[2:5, 10:14] = 50.0
+    path = tmp_path / "studio.exr"
+    mi.Bitmap(img).write(str(path))
+    plan = plan_effects(oval, lighting=str(path), command="render")
+    assert plan.on("environment") and "envmap" in plan["environment"].how
+
+
+def test_zoned_polarised_render(oval):
+    plan = plan_effects(oval, command="render", polarizer_deg=30.0, zoning="smooth")
+    assert {"polarisation", "zoning", "colour"} <= _on(plan)
+    assert plan["colour"].how == "spectral" and "no polarised RGB" in plan["colour"].why
+    plain = plan_effects(oval, command="render")
+    assert not plain.on("polarisation") and not plain.on("zoning") and plain["colour"].how == "rgb"
+    assert not plain.on("inter_reflection")  # convex: direct lighting
+
+
+@pytest.mark.parametrize("kwargs, message", [
+    (dict(command="render", polarizer_deg=0.0, mode="mono"), "polariser view needs colour"),
+    (dict(effects={"inter_reflection": True}), "convex stone"),
+    (dict(effects={"occlusion": True}), "convex stone"),
+    (dict(effects={"environment": True}), "follows from the lighting"),
+    (dict(effects={"glitter": True}), "unknown effect"),
+    (dict(effects={"occlusion": "maybe"}), "on or off"),
+    (dict(command="recommend", polarizer_deg=0.0), "renders only"),
+    (dict(command="render", estimator="render"), "not to render"),
+    (dict(estimator="magic"), "estimator must be one of"),
+    (dict(command="paint"), "command must be one of"),
+])
+def test_bad_combinations_are_one_line_errors(oval, kwargs, message):
+    with pytest.raises(ParameterError, match=message) as info:
+        plan_effects(oval, **kwargs)
+    assert "\n" not in str(info.value)
+
+
+def test_parse_effects():
+    assert parse_effects(["inter-reflection=off", "occlusion=on"]) == {"inter_reflection": False, "occlusion": True}
+    for bad in (["occlusion"], ["=on"], ["occlusion=perhaps"]):
+        with pytest.raises(ParameterError):
+            parse_effects(bad)
+
+
+# ---------------------------------------------------------------------- each "off", checked
+def test_occlusion_left_off_for_a_convex_stone_changes_nothing(oval):
+    """Forcing the shadow rays on (the mesh flagged non-convex) leaves the answer where it was."""
+    forced = copy.deepcopy(oval)
+    forced.metadata.setdefault("labcut", {})["convex"] = False
+    a = labcut.recommend_orientation(oval, quality="draft")
+    b = labcut.recommend_orientation(forced, quality="draft")
+    assert b.settings["convex"] is False
+    angle = math.degrees(math.acos(min(1.0, abs(float(np.dot(a.normal, b.normal))))))
+    assert angle < a.tolerance_deg / 4
+    assert b.score == pytest.approx(a.score, rel=INTERREFLECTION_TOLERANCE / 4)
+
+
+def test_inter_reflection_left_off_for_a_convex_stone_changes_nothing(oval):
+    """A path tracer with many bounces renders the convex oval as direct lighting does."""
+    mat = labcut.Labradorite.preset("blue")
+    kw = dict(scenario="bench", resolution=32, spp=64, check_flash=False, mode="mono")
+    direct = labcut.render(oval, mat, (0.05, -0.02, 1.0), **kw)
+    deep = labcut.render(oval, mat, (0.05, -0.02, 1.0), max_depth=8, **kw)
+    assert direct.plan.integrator == "direct" and deep.plan.integrator == "path"
+    assert float(deep.image.mean()) == pytest.approx(float(direct.image.mean()), rel=0.02)
+
+
+def test_polarisation_left_off_is_within_the_tolerance_and_matches_a_direct_computation():
+    """The planner's bias against a per-pair computation from the lamella stack, and below 2 %."""
+    from labcut.colour import reflectance_luminance
+    from labcut.physics import schiller
+
+    mat = labcut.Labradorite.preset("blue")
+    tilt_l, tilt_v = math.radians(35.0), math.radians(20.0)
+    L = Lights([[math.sin(tilt_l), 0.0, math.cos(tilt_l)]])
+    V = Views([[-math.sin(tilt_v), 0.0, math.cos(tilt_v)]])
+    eta = mat.n_surface
+
+    def fresnel_sp(c):  # textbook Fresnel power reflectances from air into eta
+        s = math.sqrt(1 - c * c)
+        ct = math.sqrt(1 - (s / eta) ** 2)
+        rs = ((c - eta * ct) / (c + eta * ct)) ** 2
+        rp = ((ct - eta * c) / (ct + eta * c)) ** 2
+        return 1 - rs, 1 - rp
+
+    # internal directions (Snell) and the half vector's cosine with them
+    def refr(t):
+        return math.asin(math.sin(t) / eta)
+
+    a, b = refr(tilt_l), refr(tilt_v)
+    cos_half = math.cos((a + b) / 2)
+    (tsl, tpl), (tsv, tpv) = fresnel_sp(math.cos(tilt_l)), fresnel_sp(math.cos(tilt_v))
+    rs = float(reflectance_luminance(mat, np.array([cos_half]), polarization="s")[0])
+    rp = float(reflectance_luminance(mat, np.array([cos_half]), polarization="p")[0])
+    exact = 0.5 * (tsl * rs * tsv + tpl * rp * tpv)
+    averaged = 0.5 * (tsl + tpl) * 0.5 * (rs + rp) * 0.5 * (tsv + tpv)
+    assert polarisation_bias(mat, L, V) == pytest.approx(abs(averaged - exact) / exact, rel=1e-6)
+    # the unpolarised transmission the estimators use is the s/p mean
+    assert schiller.transmission(np.array([math.cos(tilt_l)]), eta)[0] == pytest.approx(0.5 * (tsl + tpl), rel=1e-9)
+    for name in ("bench", "ring", "pendant", "display", "outdoor"):
+        plan = plan_effects(labcut.load_mesh("meshes/oval-16x12-low.ply"), scenario=name, quality="draft")
+        assert plan["polarisation"].bound < INTERREFLECTION_TOLERANCE, name
+
+
+def test_hemispherical_fresnel_matches_its_closed_form():
+    """n = 1.5: the cosine-weighted hemispherical reflectance is 0.0918 (Walter et al.; exact integral)."""
+    assert hemispherical_fresnel(1.5, 4096) == pytest.approx(0.0918, abs=5e-4)
