@@ -49,6 +49,14 @@ def stereo_to_normal(u: float, v: float) -> np.ndarray:
     return np.array([2 * u, 2 * v, 1 - r2]) / (1 + r2)
 
 
+def stereo_jacobian(u: float, v: float) -> np.ndarray:
+    """(3, 2) derivative of :func:`stereo_to_normal` with respect to ``(u, v)``."""
+    d = 1.0 + u * u + v * v
+    return np.array([[2.0 * (1.0 + v * v - u * u), -4.0 * u * v],
+                     [-4.0 * u * v, 2.0 * (1.0 + u * u - v * v)],
+                     [-4.0 * u, -4.0 * v]]) / (d * d)
+
+
 def normal_to_stereo(m: np.ndarray) -> tuple[float, float]:
     m = np.asarray(m, dtype=np.float64)
     m = m / np.linalg.norm(m)
@@ -74,6 +82,130 @@ def _padded_rows(owner: np.ndarray, n_rows: int, t: Any) -> tuple[Any, Any, int]
     index[rows * width + cols] = order
     valid[rows * width + cols] = True
     return t.UInt32(index), t.Bool(valid), width
+
+
+#: largest grid (cells) binned with a dense bincount; finer grids sort the occupied keys instead
+DENSE_KEY_LIMIT = 1 << 24
+
+
+def grid_inverse(key: np.ndarray, n_keys: int) -> np.ndarray:
+    """For integer grid keys in ``[0, n_keys)``: each key's rank among the distinct keys present,
+    in ascending key order (``np.unique(key, return_inverse=True)[1]``, without the sort when the
+    grid is small enough for one ``bincount``: O(N + n_keys) instead of O(N log N))."""
+    key = np.asarray(key, dtype=np.int64).ravel()
+    if n_keys > DENSE_KEY_LIMIT:
+        return np.unique(key, return_inverse=True)[1].ravel().astype(np.int64)
+    present = np.bincount(key, minlength=n_keys) > 0
+    rank = np.cumsum(present) - 1
+    return rank[key]
+
+
+#: relative accuracy of the sparse energy map: every dropped lobe term lies below this share
+#: of a lower bound of the hemisphere's best energy
+SPARSE_RTOL = 1e-8
+
+
+class SparseLobeMap:
+    """Σ_b A_b q(|h_b·m|) at many normals, summing only the terms that matter (tile culling).
+
+    The lobe ``q = norm·exp(κ(|h·m| - 1))`` falls below ``e^{-T}`` of its peak beyond the
+    angle ``acos(1 - T/κ)``. Bins are grouped in tiles of a stereographic grid (upper
+    hemisphere, mesh frame); a tile whose bounding cap (centre, angular radius) lies further
+    than that from a normal (or from its antipode: the lobe is axial) is skipped whole. ``T``
+    is chosen so that all skipped terms together stay below :data:`SPARSE_RTOL` x a lower bound
+    of the best energy on the hemisphere (the largest energy at a few probe normals, computed
+    densely), so the map agrees with the dense sum to that relative accuracy. float64 numpy,
+    deterministic (fixed summation order).
+    """
+
+    def __init__(self, h: np.ndarray, a: np.ndarray, kappa: float, norm: float, rtol: float = SPARSE_RTOL) -> None:
+        h = np.asarray(h, dtype=np.float64)
+        a = np.asarray(a, dtype=np.float64)
+        self.kappa, self.norm = float(kappa), float(norm)
+        total = float(a.sum())
+        if total <= 0 or len(a) == 0:
+            self.h, self.a, self.cos_cut = h, a, -1.0
+            self.centre = np.zeros((0, 3))
+            self.starts = self.counts = np.zeros(0, dtype=np.int64)
+            self.cos_reach = np.zeros(0)
+            return
+        # probe normals: the heaviest bins' directions give a lower bound of the best energy
+        probes = h[np.argsort(a)[::-1][:16]]
+        lower = float(np.max(self._dense(h, a, probes)))
+        t_cut = max(12.5, math.log(max(self.norm * total / max(rtol * lower, 1e-300), 1.0)))
+        self.cos_cut = 1.0 - t_cut / self.kappa
+        cut = math.acos(max(-1.0, self.cos_cut))
+        # tiles about a quarter of the cut-off angle across (a stereographic cell of side s spans <= 2s rad)
+        g = int(min(128, max(4, math.ceil(16.0 / max(cut, 1e-6)))))
+        zp = 1.0 + np.maximum(h[:, 2], 0.0)
+        iu = np.clip(((h[:, 0] / zp + 1.0) * 0.5 * g).astype(np.int64), 0, g - 1)
+        iv = np.clip(((h[:, 1] / zp + 1.0) * 0.5 * g).astype(np.int64), 0, g - 1)
+        key = iu * g + iv
+        order = np.argsort(key, kind="stable")
+        self.h, self.a = h[order], a[order]
+        key = key[order]
+        self.starts = np.flatnonzero(np.r_[True, key[1:] != key[:-1]])
+        self.counts = np.diff(np.r_[self.starts, len(key)])
+        tile = np.repeat(np.arange(len(self.starts)), self.counts)
+        centre = np.add.reduceat(self.h, self.starts, axis=0)
+        centre /= np.maximum(np.linalg.norm(centre, axis=1, keepdims=True), 1e-300)
+        self.centre = centre
+        cos_in = np.clip(np.einsum("ij,ij->i", self.h, centre[tile]), -1.0, 1.0)
+        radius = np.maximum.reduceat(np.arccos(cos_in), self.starts) + 1e-6
+        reach = radius + cut
+        #: a normal m needs tile j when |m·centre_j| >= cos(radius_j + cut)
+        self.cos_reach = np.where(reach < math.pi / 2, np.cos(np.minimum(reach, math.pi / 2)), -1.0)
+
+    def _dense(self, h: np.ndarray, a: np.ndarray, m: np.ndarray) -> np.ndarray:
+        return self.norm * (np.exp(self.kappa * (np.abs(m @ h.T) - 1.0)) @ a)
+
+    @property
+    def n_tiles(self) -> int:
+        return len(self.starts)
+
+    def __call__(self, normals: np.ndarray, max_terms: int = 2_000_000) -> np.ndarray:
+        """Energy at each unit normal (rows of ``normals``, mesh frame)."""
+        m = np.atleast_2d(np.asarray(normals, dtype=np.float64))
+        out = np.zeros(len(m))
+        if self.n_tiles == 0 or len(m) == 0:
+            return out
+        need = np.abs(m @ self.centre.T) >= self.cos_reach[None, :]  # (k, tiles)
+        if len(m) > 64:  # many normals: one matrix product per tile over the normals that need it
+            for j in np.flatnonzero(need.any(axis=0)):
+                sel = np.flatnonzero(need[:, j])
+                s, c = self.starts[j], self.counts[j]
+                d = m[sel] @ self.h[s : s + c].T
+                out[sel] += np.exp(self.kappa * (np.abs(d) - 1.0)) @ self.a[s : s + c]
+            return self.norm * out
+        # few normals (a ring, a probe): one matrix product over the union of the tiles they need
+        tiles = np.flatnonzero(need.any(axis=0))
+        if len(tiles) == 0:
+            return out
+        cnt = self.counts[tiles]
+        idx = np.repeat(self.starts[tiles] - (np.cumsum(cnt) - cnt), cnt) + np.arange(int(cnt.sum()))
+        d = m @ self.h[idx].T
+        return self.norm * (np.exp(self.kappa * (np.abs(d) - 1.0)) @ self.a[idx])
+
+    def value_and_grad(self, m: np.ndarray) -> tuple[float, np.ndarray]:
+        """Energy at one unit normal ``m`` and its gradient with respect to ``m`` (a 3-vector,
+        the lobe's ``dq/dm = κ q sign(h·m) h``), from the same culled terms."""
+        m = np.asarray(m, dtype=np.float64).reshape(3)
+        if self.n_tiles == 0:
+            return 0.0, np.zeros(3)
+        tiles = np.flatnonzero(np.abs(self.centre @ m) >= self.cos_reach)
+        if len(tiles) == 0:
+            return 0.0, np.zeros(3)
+        cnt = self.counts[tiles]
+        idx = np.repeat(self.starts[tiles] - (np.cumsum(cnt) - cnt), cnt) + np.arange(int(cnt.sum()))
+        h = self.h[idx]
+        d = h @ m
+        w = self.a[idx] * np.exp(self.kappa * (np.abs(d) - 1.0))
+        return self.norm * float(w.sum()), self.norm * self.kappa * ((w * np.sign(d)) @ h)
+
+    def dense(self, normals: np.ndarray) -> np.ndarray:
+        """Reference: every term, float64 (for tests and benchmarks)."""
+        m = np.atleast_2d(np.asarray(normals, dtype=np.float64))
+        return np.concatenate([self._dense(self.h, self.a, m[s : s + 256]) for s in range(0, len(m), 256)]) if len(m) else np.zeros(0)
 
 
 @dataclass
@@ -147,16 +279,32 @@ class Scorer:
         self.q_norm = dr.opaque(t.Float, float(p.q_norm))
         self.tau = dr.opaque(t.Float, float(p.tau))
         self.evaluations = 0
-        self._bins: tuple[Any, Any, int, Any] | None = None  # binned energy weights, built on first use
+        self._bins_np: tuple[np.ndarray, np.ndarray] | None = None  # binned energy weights, built on first use
+        self._bins: tuple[Any, Any, int, Any] | None = None  # the same on the Dr.Jit device
+        self._sparse: SparseLobeMap | None = None
+
+    def _bins_numpy(self) -> tuple[np.ndarray, np.ndarray]:
+        """(bin directions (B, 3), bin weights (B,)) of :meth:`_bin_triples`, built the first time the
+        energy objective or an energy map needs them (a caller that only scores metrics never pays)."""
+        if self._bins_np is None:
+            self._bins_np = self._bin_triples()
+        return self._bins_np
 
     def _binned(self) -> tuple[Any, Any, int, Any]:
-        """(bin directions, bin weights, bin count, opaque bin count), built the first time the
-        energy objective or an energy map needs them (a caller that only scores metrics never pays)."""
+        """(bin directions, bin weights, bin count, opaque bin count) on the Dr.Jit device."""
         if self._bins is None:
             dr, t = self.dr, self.t
-            hb, ab = self._bin_triples()
+            hb, ab = self._bins_numpy()
             self._bins = (t.Array3f(hb[:, 0], hb[:, 1], hb[:, 2]), t.Float(ab), len(ab), dr.opaque(t.UInt32, len(ab)))
         return self._bins
+
+    @property
+    def sparse_map(self) -> SparseLobeMap:
+        """The tile-culled energy map of the binned triples (:class:`SparseLobeMap`), built once."""
+        if self._sparse is None:
+            hb, ab = self._bins_numpy()
+            self._sparse = SparseLobeMap(hb, ab, float(self.problem.kappa), float(self.problem.q_norm))
+        return self._sparse
 
     @property
     def bin_h(self) -> Any:
@@ -194,7 +342,7 @@ class Scorer:
         hv = h[:, 1] / (1.0 + h[:, 2])
         iu = np.clip(((hu + 1.0) * 0.5 * bins).astype(np.int64), 0, bins - 1)
         iv = np.clip(((hv + 1.0) * 0.5 * bins).astype(np.int64), 0, bins - 1)
-        _, inv = np.unique(iu * bins + iv, return_inverse=True)
+        inv = grid_inverse(iu * bins + iv, bins * bins)
         weight = np.bincount(inv, weights=a)
         centroid = np.stack([np.bincount(inv, weights=a * h[:, k]) for k in range(3)], axis=1)
         centroid /= np.linalg.norm(centroid, axis=1, keepdims=True)
@@ -261,14 +409,22 @@ class Scorer:
         return np.array([self.score(n) for n in normals])
 
     def score_uv(self, u: float, v: float) -> float:
+        """Objective (hard threshold) at stereographic ``(u, v)``; energy from the sparse map."""
+        if self.objective == "energy":
+            self.evaluations += 1
+            return float(self.sparse_map(stereo_to_normal(u, v)[None, :])[0])
         self.evaluations += 1
         value = self._objective_dr(self._normal(self._scalar(u), self._scalar(v)), smooth=False)
         return float(np.array(value).ravel()[0])
 
     def value_and_grad_uv(self, u: float, v: float) -> tuple[float, np.ndarray]:
-        """Objective (smooth threshold) and its Dr.Jit gradient in (u, v)."""
+        """Objective (smooth threshold) and its gradient in (u, v): for energy analytic, from the
+        sparse map (float64), otherwise by Dr.Jit automatic differentiation."""
         dr = self.dr
         self.evaluations += 1
+        if self.objective == "energy":
+            value, g_m = self.sparse_map.value_and_grad(stereo_to_normal(u, v))
+            return value, stereo_jacobian(u, v).T @ g_m
         uu, vv = self._scalar(u), self._scalar(v)
         dr.enable_grad(uu, vv)
         value = self._objective_dr(self._normal(uu, vv), smooth=True)
@@ -308,7 +464,16 @@ class Scorer:
         return dr.block_sum(values, self.n_bins)  # normal-major rows: deterministic, no atomics
 
     def energy_map(self, normals: np.ndarray) -> np.ndarray:
-        """Energy at many unit normals at once from the binned triples, in blocks."""
+        """Energy at many unit normals (rows, mesh frame) at once from the binned triples: the
+        tile-culled sparse sum (:class:`SparseLobeMap`, float64, relative accuracy
+        :data:`SPARSE_RTOL`); :meth:`energy_map_dense` sums every term on the Dr.Jit device."""
+        normals = np.atleast_2d(np.asarray(normals, dtype=np.float64))
+        out = self.sparse_map(normals)
+        self.evaluations += len(normals)
+        return out
+
+    def energy_map_dense(self, normals: np.ndarray) -> np.ndarray:
+        """Energy at many unit normals from every binned term, on the Dr.Jit device, in blocks."""
         t = self.t
         normals = np.asarray(normals, dtype=np.float64)
         out = np.empty(len(normals))
