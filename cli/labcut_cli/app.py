@@ -22,6 +22,7 @@ from . import recommend  # noqa: F401  (registers recommend-orientation, evaluat
 from . import render  # noqa: F401  (registers render)
 from . import scenes  # noqa: F401  (registers scenarios)
 from . import compare  # noqa: F401  (registers compare)
+from . import batch  # noqa: F401  (registers batch)
 from .root import app, err_console
 
 
