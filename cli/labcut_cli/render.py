@@ -10,15 +10,57 @@ import typer
 from . import materials as m
 from . import meshes as mo
 from . import scene_options as so
-from .recommend import Exposure, parse_exposure, print_render_notes
+from .recommend import print_render_notes
 from .root import all_or_nothing, app, console, parse_vector, write_json
+
+STILL_SUFFIXES = (".png", ".exr")
+ANIMATION_SUFFIXES = (".webp", ".gif")
+
+
+def parse_exposure(text: str) -> float | None:
+    """``auto`` -> None; ``2.5`` -> that multiplier; ``-1.5ev`` -> 2**-1.5 (stops)."""
+    import math
+
+    from labcut.errors import ParameterError
+
+    key = text.strip().lower()
+    if key == "auto":
+        return None
+    try:
+        value = float(key[:-2]) if key.endswith("ev") else float(key)
+    except ValueError:
+        raise ParameterError(f"--exposure must be auto, a multiplier > 0 or stops like -1.5ev, got {text!r}") from None
+    if key.endswith("ev"):
+        if not (math.isfinite(value) and abs(value) <= 40.0):
+            raise ParameterError(f"--exposure in stops must be finite and within ±40, got {text!r}")
+        return 2.0 ** value
+    if not (math.isfinite(value) and value > 0.0):
+        raise ParameterError(f"--exposure must be auto, a multiplier > 0 or stops like -1.5ev, got {text!r}")
+    return value
+
+
+def parse_normal(text: str) -> tuple[float, ...]:
+    """``X,Y,Z`` or a recommendation JSON (``labcut recommend-orientation --json``) holding ``normal``."""
+    from labcut.errors import ParameterError
+
+    if text.strip().lower().endswith(".json"):
+        from labcut.fileio import read_json
+
+        data = read_json(text, "recommendation file")
+        if not isinstance(data, dict) or "normal" not in data:
+            raise ParameterError(f"{text} holds no 'normal' (a labcut recommend-orientation --json file does)")
+        normal = data["normal"]
+        if not (isinstance(normal, list) and len(normal) == 3):
+            raise ParameterError(f"{text}: 'normal' must be three numbers")
+        return parse_vector(",".join(str(x) for x in normal), "--normal")
+    return parse_vector(text, "--normal")
 
 
 @app.command()
 def render(
     mesh_path: Annotated[Path, typer.Argument(metavar="MESH", help="Stone mesh: STL, OBJ, PLY, OFF, GLB/GLTF, 3MF.")],
-    output: Annotated[Path, typer.Option("--output", "-o", help="Image file to write (required): .png (tonemapped) or .exr (linear HDR).")],
-    normal: Annotated[str, typer.Option("--normal", "-n", help="Lamella normal X,Y,Z in the mesh frame (axial; +Z face-up, -Y front).")] = "0,0,1",
+    output: Annotated[Path, typer.Option("--output", "-o", "--out", help="File to write (required): .png (tonemapped) or .exr (linear HDR); with --animate .webp or .gif.")],
+    normal: Annotated[str, typer.Option("--normal", "-n", help="Lamella normal X,Y,Z in the mesh frame (axial; +Z face-up, -Y front), or a recommend-orientation --json file.")] = "0,0,1",
     units: mo.Units = "auto",
     up_axis: mo.UpAxis = "auto",
     size: mo.Size = None,
@@ -45,7 +87,14 @@ def render(
     polarizer: Annotated[Optional[float], typer.Option(help="Look through a linear polarizer at this angle (degrees).")] = None,
     zoning: Annotated[Optional[str], typer.Option(help="Colour zones: smooth, sharp, or a zoning .json file (docs/zoning.md).")] = None,
     schiller_only: Annotated[bool, typer.Option("--schiller-only", help="Render only the schiller flash (no glare, no body).")] = False,
-    exposure: Exposure = "auto",
+    look: Annotated[str, typer.Option(help="studio: a photograph on a table under the scenario's lamps (area lights, tent, AgX, denoised); diagram: the plain physics view.")] = "studio",
+    denoise: Annotated[Optional[bool], typer.Option("--denoise/--no-denoise", help="OIDN denoising with albedo and normal AOVs (default: on in the studio look).")] = None,
+    animate: Annotated[Optional[str], typer.Option(help="Animate: rock (tilted ±30° in the hand) or turntable (a full turn, for carvings); writes .webp or .gif.")] = None,
+    frames: Annotated[int, typer.Option(help="Frames of an animation.", min=2, max=360)] = 36,
+    rock_deg: Annotated[float, typer.Option(help="Rocking amplitude of --animate rock, degrees.")] = 30.0,
+    fps: Annotated[float, typer.Option(help="Frames per second of an animation.")] = 24.0,
+    seed: Annotated[int, typer.Option(help="Seed of the studio body's inclusions and of the sampler.")] = 0,
+    exposure: Annotated[str, typer.Option("--exposure", help="Exposure: auto (studio: metered from the lights; diagram: from the image), a multiplier > 0, or stops like -1.5ev; one value for every frame of an animation.")] = "auto",
     json_path: Annotated[Optional[str], typer.Option("--json", help="Write the render plan and timing as JSON ('-' for stdout).")] = None,
 ) -> None:
     """Render MESH cut from labradorite with its lamella plane normal to --normal.
@@ -62,12 +111,27 @@ def render(
 
     from .progress import progress_bar
 
-    check_output_path(output, IMAGE_SUFFIXES)
+    from labcut.errors import ParameterError
+
+    if animate is not None:
+        if animate.strip().lower() not in ("rock", "turntable"):
+            raise ParameterError(f"--animate must be rock or turntable, got {animate!r}")
+        animate = animate.strip().lower()
+        if output.suffix.lower() not in ANIMATION_SUFFIXES:
+            raise ParameterError(f"an animation is written as .webp or .gif, not {output.name!r}")
+    elif output.suffix.lower() in ANIMATION_SUFFIXES:
+        raise ParameterError(f"{output.name!r} is an animation file: add --animate rock or --animate turntable")
+    check_output_path(output, ANIMATION_SUFFIXES if animate else IMAGE_SUFFIXES)
     if json_path not in (None, "-"):
         check_output_path(json_path, (".json",))
+    from labcut.rendering.studio import Studio, resolve_look
+
+    look_spec = resolve_look(look)
+    if look_spec is not None:
+        look_spec = Studio(seed=seed)
     material = m.build_material(preset, peak, an, material_file, d_a=d_a, d_b=d_b, sigma_a=sigma_a, sigma_b=sigma_b,
                                 n_a=n_a, n_b=n_b, n_surface=n_surface, pairs=pairs, spread_deg=spread)
-    lamella = parse_vector(normal, "--normal")
+    lamella = parse_normal(normal)
     zoning_spec = None
     if zoning is not None:
         from labcut.errors import ParameterError
@@ -89,21 +153,36 @@ def render(
     normalize_normal(lamella)  # validate everything before the long work starts
     import math
 
-    from labcut.errors import ParameterError
-
     if polarizer is not None and not math.isfinite(polarizer):
         raise ParameterError(f"--polarizer must be a finite angle in degrees, got {polarizer}")
     exposure_value = parse_exposure(exposure)
     scene = so.resolve(scenario, lighting, viewing)
     camera_views(view_spec, scene.main_setting())
     variant_name(mode, polarizer is not None and mode != "rgb")
+    if animate is not None:
+        from labcut.rendering.animate import frame_angles
+
+        frame_angles(animate, frames, rock_deg)
+        if not (math.isfinite(fps) and 1.0 <= fps <= 60.0):
+            raise ParameterError(f"--fps must lie in [1, 60], got {fps}")
+        if view != "main" or polarizer is not None or mode != "rgb" or schiller_only:
+            raise ParameterError("--animate renders the scenario's main view in rgb: leave out --view, --polarizer, --mode and --schiller-only")
     mo.check_mesh_options(units, up_axis, size)
+    from labcut.rendering.api import plan_render
+
+    plan_render(_Probe(), None, mode, polarizer, ("schiller",) if schiller_only else ("surface", "schiller", "body"),
+                look=look_spec or "diagram", denoise=denoise)  # e.g. --denoise with --mode mono: fail before the mesh loads
     mesh = mo.load(mesh_path, units, up_axis, size=size)
     lobes = ("schiller",) if schiller_only else ("surface", "schiller", "body")
+    if animate is not None:
+        _animate(mesh_path, mesh, material, lamella, scene, animate, frames, rock_deg, fps, spp, resolution, exposure_value,
+                 look_spec or "diagram", denoise, zoning_spec, seed, output, json_path)
+        return
     with progress_bar("rendering", "samples/pixel") as update:
         result = labcut.render(
             mesh, material, lamella, scenario=scene, view=view_spec, spp=spp, resolution=resolution,
             mode=mode, polarizer_deg=polarizer, lobes=lobes, progress=update, zoning=zoning_spec, exposure=exposure_value,
+            look=look_spec or "diagram", denoise=denoise, seed=seed,
         )
     summary = {
         "output": str(output),
@@ -117,8 +196,14 @@ def render(
         "seconds": result.seconds,
         "samples_per_second": result.samples_per_second,
         "views": result.views,
+        "look": result.look,
+        "denoised": result.plan.denoise,
         "exposure": result.exposure if output.suffix.lower() == ".png" else None,
+        "exposure_ev": result.exposure_ev if output.suffix.lower() == ".png" else None,
         "exposure_mode": result.exposure_mode if output.suffix.lower() == ".png" else "linear (EXR: no exposure applied)",
+        "exposure_metering": result.exposure_metering,
+        "tonemap": result.tonemap,
+        "studio": result.studio,
         "flash_by_view": result.flash,
         "notes": result.notes,
     }
@@ -135,7 +220,67 @@ def render(
     mo.print_provenance(mesh, mesh_path.name)
     console.print(f"[bold]{output}[/]: {'; '.join(result.plan.reasons)}")
     print_render_notes(result)
-    exposure_text = (f"exposure {result.exposure:.3g} ({result.exposure_mode})" if output.suffix.lower() == ".png"
+    exposure_text = (f"exposure {result.exposure:.3g} = {result.exposure_ev:+.2f} EV ({result.exposure_mode}, "
+                     f"{'metered from the lights' if result.exposure_metering == 'incident' else 'from the image'}; "
+                     f"--exposure {result.exposure:.6g} repeats it)" if output.suffix.lower() == ".png"
                      else "linear HDR, no exposure")
     console.print(f"{result.spp} spp at {resolution}², {result.seconds:.1f} s ({result.samples_per_second / 1e6:.2f} Msamples/s); "
                   f"{exposure_text}")
+
+
+class _Probe:
+    """A stand-in mesh for validating a render plan before the mesh is loaded (convex: the plan's
+    checks of mode, polarizer, lobes, look and denoise do not depend on the shape)."""
+
+    metadata = {"labcut": {"convex": True}}
+
+
+def _animate(mesh_path: Path, mesh, material, lamella, scene, motion: str, frames: int, rock_deg: float, fps: float,
+             spp: int, resolution: int, exposure_value, look, denoise, zoning_spec, seed: int, output: Path,
+             json_path: Optional[str]) -> None:
+    """``labcut render --animate``: every frame under one exposure, the file written once all are done."""
+    import json
+
+    from labcut.geometry.meshio import provenance
+    from labcut.rendering.animate import animate
+    from labcut.rendering.api import normalize_normal
+
+    from .progress import progress_bar
+
+    with progress_bar(f"{motion} animation", "frames") as update:
+        anim = animate(mesh, material, lamella, motion=motion, frames=frames, amplitude_deg=rock_deg, scenario=scene,
+                       spp=spp, resolution=resolution, exposure=exposure_value, look=look, denoise=denoise,
+                       zoning=zoning_spec, fps=fps, seed=seed, progress=update)
+    summary = {
+        "output": str(output),
+        "mesh": {**provenance(mesh), "path": str(mesh_path)},
+        "normal": [float(x) for x in normalize_normal(lamella)],
+        "material": material.to_dict(),
+        "scenario": scene.to_dict(),
+        "plan": anim.plan.to_dict(),
+        "animation": {"motion": motion, "frames": len(anim.frames), "angles_deg": anim.angles_deg, "fps": anim.fps},
+        "spp": anim.spp,
+        "resolution": resolution,
+        "seconds": anim.seconds,
+        "look": anim.look,
+        "exposure": anim.exposure,
+        "exposure_ev": anim.exposure_ev,
+        "exposure_mode": anim.exposure_mode,
+        "tonemap": anim.tonemap,
+        "studio": anim.studio,
+        "notes": anim.notes,
+    }
+    if zoning_spec is not None:
+        summary["zoning"] = zoning_spec.to_dict()
+    with all_or_nothing() as written:
+        anim.save(output)
+        written.append(Path(output))
+        if json_path == "-":
+            typer.echo(json.dumps(summary, indent=2))
+            return
+        if json_path is not None:
+            write_json(json_path, summary)
+    console.print(f"[bold]{output}[/]: {len(anim.frames)} frames of {motion}, {'; '.join(anim.plan.reasons)}")
+    print_render_notes(anim)
+    console.print(f"{anim.spp} spp at {resolution}², {anim.seconds:.1f} s; exposure {anim.exposure:.3g} = {anim.exposure_ev:+.2f} EV "
+                  f"({anim.exposure_mode}) for every frame; --exposure {anim.exposure:.6g} repeats it")

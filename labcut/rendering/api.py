@@ -11,6 +11,14 @@ and the mesh, logged, and returned on the result:
   so light reflected between its parts is included.
 * lobes: ``("surface", "schiller", "body")`` by default; a schiller-only render
   (flash maps) switches the others off inside the plugin.
+* look: ``"diagram"`` (default for the API; what the estimators and comparisons use): the
+  scenario's lamps as distant lights in a dim constant room, an orthographic camera, the
+  hue-preserving tone curve and an exposure from the image. ``"studio"``
+  (:mod:`labcut.rendering.studio`; the default of ``labcut render``): the lamps as area lights
+  the polish mirrors, a light tent, a grey table with a contact shadow, a dark grey-green body
+  with inclusions, a perspective camera, path tracing to depth 3, OIDN denoising
+  (:mod:`labcut.rendering.denoise`), the AgX-like tone curve and an incident-light exposure
+  (:mod:`labcut.rendering.tonemap`).
 """
 
 from __future__ import annotations
@@ -22,7 +30,7 @@ import signal
 import threading
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import asdict, dataclass, field, replace
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -32,7 +40,7 @@ from ..errors import ParameterError
 from ..physics.material import Labradorite
 from .images import save_image
 from ..scene import Scenario, Setting, resolve_scene
-from .scene import CameraView, camera, camera_views, emitters, to_mitsuba_mesh
+from .scene import RENDER_IRRADIANCE, CameraView, camera, camera_views, emitters, to_mitsuba_mesh
 
 log = logging.getLogger("labcut.render")
 
@@ -50,6 +58,9 @@ class RenderPlan:
     convex: bool
     polarizer_deg: float | None
     reasons: tuple[str, ...] = ()
+    look: str = "diagram"
+    denoise: bool = False
+    zoning: str | None = None
 
     def to_dict(self) -> dict[str, Any]:
         return asdict(self)
@@ -65,7 +76,11 @@ class RenderResult:
     area the estimator finds there (share of the visible stone at or above the flash threshold;
     None where the view sees the stone edge-on) and whether there is any. ``notes``: what a
     viewer of the image should know (e.g. "no flash from this view"). ``mesh``: the mesh's
-    provenance (:func:`labcut.geometry.meshio.provenance`)."""
+    provenance (:func:`labcut.geometry.meshio.provenance`). ``look``: ``diagram`` or ``studio``;
+    ``tonemap``: the PNG's tone curve (``hue`` or ``agx``); ``exposure_metering``: how an automatic
+    exposure was found (``image``: from the image's bright pixels; ``incident``: from the lights,
+    as an incident-light meter would, so a dull stone stays dull); ``studio``: the studio
+    settings and lamps used."""
 
     image: np.ndarray
     plan: RenderPlan
@@ -78,6 +93,15 @@ class RenderResult:
     flash: list[dict[str, Any]] = field(default_factory=list)
     notes: list[str] = field(default_factory=list)
     mesh: dict[str, Any] = field(default_factory=dict)
+    look: str = "diagram"
+    tonemap: str = "hue"
+    exposure_metering: str = "image"
+    studio: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def exposure_ev(self) -> float:
+        """The exposure in stops (log2 of the multiplier)."""
+        return float(math.log2(self.exposure))
 
     @property
     def samples_per_second(self) -> float:
@@ -94,8 +118,9 @@ class RenderResult:
 
             tonemap(np.zeros((1, 1, 3)), exposure)  # validates
             self.exposure, self.exposure_mode = float(exposure), "given"
-        meta = {"views": self.views, "flash": self.flash, "plan": "; ".join(self.plan.reasons)}
-        return save_image(self.image, path, self.exposure, metadata=meta, exposure_mode=self.exposure_mode)
+        meta = {"views": self.views, "flash": self.flash, "plan": "; ".join(self.plan.reasons), "look": self.look,
+                "exposure_metering": self.exposure_metering}
+        return save_image(self.image, path, self.exposure, metadata=meta, exposure_mode=self.exposure_mode, curve=self.tonemap)
 
 
 def normalize_normal(normal: Any) -> np.ndarray:
@@ -122,10 +147,18 @@ def plan_render(
     polarizer_deg: float | None = None,
     lobes: Sequence[str] = LOBES,
     max_depth: int | None = None,
+    *,
+    look: Any = "diagram",
+    denoise: bool | None = None,
+    zoning: Any = None,
 ) -> RenderPlan:
     """Choose variant, integrator and depth for a request (see the module docstring).
 
-    ``lighting``: the :class:`~labcut.Lights` (mesh frame) the render uses, for the record."""
+    ``lighting``: the :class:`~labcut.Lights` (mesh frame) the render uses, for the record.
+    ``look``: ``"diagram"`` | ``"studio"`` | a :class:`~labcut.rendering.studio.Studio`.
+    ``denoise``: None (default: on for the studio look where the colour transport allows it),
+    True or False. ``zoning``: the :class:`~labcut.rendering.zoning.Zoning` used, for the record."""
+    from .studio import resolve_look
     from ..backend import variant_name
 
     lobes = tuple(lobes)
@@ -138,9 +171,13 @@ def plan_render(
     variant = variant_name(mode, polarized)
     convex = _is_convex(mesh)
     reasons = [f"{mode} colour{' with polarization (polarizer given)' if polarized else ''}"]
+    studio = resolve_look(look)
     if max_depth is not None:
         integrator, depth = ("path", int(max_depth))
         reasons.append(f"path tracing to depth {depth} as requested")
+    elif studio is not None and convex and studio.max_depth > 2:
+        integrator, depth = ("path", studio.max_depth)
+        reasons.append(f"studio look: path tracing to depth {depth}, so the polish mirrors the lamps, the tent and the table")
     elif convex:
         integrator, depth = ("direct", 2)
         reasons.append("convex stone: direct lighting is exact (no light path leaves and re-enters)")
@@ -149,12 +186,40 @@ def plan_render(
         reasons.append("non-convex stone: path tracing, 3 bounces, for light reflected between parts")
     if lobes != LOBES:
         reasons.append(f"lobes: {', '.join(lobes)} only")
-    if lighting is not None:
+    if lighting is not None and studio is None:
         parts = [f"{lighting.n_lamps} lamp direction(s) as distant lights"] if lighting.n_lamps else []
         if lighting.environment is not None:
             parts.append(f"environment map {lighting.environment.name!r} (the map the optimiser samples)")
         reasons.append(f"lights ({lighting.name}): {' and '.join(parts)}")
-    return RenderPlan(variant, integrator, depth, lobes, convex, polarizer_deg, tuple(reasons))
+    if studio is not None:
+        if lighting is not None:
+            from .studio import lamps_of
+
+            lamps = lamps_of(lighting, studio.point_lamp_deg)
+            sizes = ", ".join(f"{lamp.radius_deg:.1f}°{' (a point lamp, drawn this size)' if lamp.point else ''}" for lamp in lamps)
+            parts = [f"{len(lamps)} lamp(s) as area lights {studio.lamp_distance:g} stone radii away, radius {sizes}"] if lamps else []
+            if lighting.environment is not None:
+                parts.append(f"environment map {lighting.environment.name!r}")
+            parts.append(f"a light tent ({studio.tent_share:.0%} of the lamps' irradiance on a face-up card)")
+            reasons.append(f"lights ({lighting.name}): {', '.join(parts)}")
+        reasons.append(f"studio look: grey table (albedo {studio.backdrop_albedo:g}) with a contact shadow; dark grey-green body"
+                       f"{f' with dark inclusions ({studio.inclusions:.0%}, seed {studio.seed})' if studio.inclusions > 0 else ''}; "
+                       "perspective camera; AgX tone curve; exposure metered from the lights")
+    can_denoise = not polarized and mode != "mono"
+    if denoise is None:
+        use_denoise = studio is not None and can_denoise
+    else:
+        use_denoise = bool(denoise)
+        if use_denoise and not can_denoise:
+            raise ParameterError("denoising needs rgb or spectral colour without a polarizer")
+    if use_denoise:
+        reasons.append("denoised with Intel Open Image Denoise, guided by albedo and normal AOVs")
+    zone_name = None
+    if zoning is not None:
+        zone_name = getattr(zoning, "name", None) or "custom"
+        reasons.append(f"colour zoning ({zone_name}): {len(zoning.materials)} parameter sets, {zoning.mode} transitions")
+    return RenderPlan(variant, integrator, depth, lobes, convex, polarizer_deg, tuple(reasons),
+                      "diagram" if studio is None else "studio", use_denoise, zone_name)
 
 
 def bsdf_dict(material: Labradorite, normal: np.ndarray, lobes: Sequence[str] = LOBES, *, zoning: Any = None) -> dict[str, Any]:
@@ -188,6 +253,8 @@ def build_scene(
     integrator: str | None = None,
     *,
     zoning: Any = None,
+    look: Any = "diagram",
+    denoise: bool | None = None,
 ) -> tuple[Any, RenderPlan]:
     """The Mitsuba scene for one camera (selects the plan's variant). Returns (scene, plan).
 
@@ -202,6 +269,11 @@ def build_scene(
 
     ``zoning``: ``None``, ``"smooth"``, ``"sharp"`` or a :class:`~labcut.rendering.zoning.Zoning`
     (docs/zoning.md); its noise is baked over the mesh's bounding box.
+
+    ``look``: ``"diagram"`` (default) or ``"studio"`` / a :class:`~labcut.rendering.studio.Studio`
+    (module docstring). ``denoise``: as :func:`plan_render`; when on, the integrator is wrapped in
+    Mitsuba's ``aov`` integrator and each pixel carries albedo and normal after its colour
+    (:data:`labcut.rendering.denoise.AOVS`).
     """
     import mitsuba as mi
 
@@ -220,26 +292,44 @@ def build_scene(
     cams = camera_views(view, setting)
     if len(cams) != 1:
         raise ParameterError("build_scene takes a single view; render() handles 'orbit'")
-    plan = plan_render(mesh, setting.lights, mode, polarizer_deg, lobes, max_depth)
+    from .studio import resolve_look
+
+    studio = resolve_look(look)
+    plan = plan_render(mesh, setting.lights, mode, polarizer_deg, lobes, max_depth, look=look, denoise=denoise, zoning=zone)
     baked = None
     if zone is not None:
         baked = zone.bake(mesh.bounds)
-        label = f" ({zone.name})" if zone.name else ""
-        plan = replace(plan, reasons=plan.reasons + (f"colour zoning{label}: {len(zone.materials)} parameter sets, {zone.mode} transitions",))
     mi.set_variant(plan.variant)
-    bsdf = mi.load_dict(bsdf_dict(material, normal, plan.lobes, zoning=baked))
+    d = bsdf_dict(material, normal, plan.lobes, zoning=baked)
+    if studio is not None and plan.polarizer_deg is None:
+        from .studio import body_grid
+
+        d.update(body_grid(mesh, studio))
+    bsdf = mi.load_dict(d)
     name = integrator or plan.integrator
     integ: dict[str, Any] = {"type": name, "max_depth": plan.max_depth} if name != "direct" else {"type": "direct"}
     if name == "direct":
         integ.update({"emitter_samples": 1, "bsdf_samples": 1})
     if plan.polarizer_deg is not None:
         integ = {"type": "stokes", "nested": integ}
+    if plan.denoise:
+        from .denoise import AOVS
+
+        integ = {"type": "aov", "aovs": AOVS, "colour": integ}
+    if studio is None:
+        sensor = camera(mesh, cams[0], int(resolution), perspective)
+        lights = emitters(setting.lights)
+    else:
+        from .studio import studio_emitters
+
+        sensor = camera(mesh, cams[0], int(resolution), True, studio.fov_deg, margin=studio.margin, far_radii=200.0)
+        lights, _, _ = studio_emitters(mesh, setting, studio)
     scene_dict: dict[str, Any] = {
         "type": "scene",
         "integrator": integ,
-        "sensor": camera(mesh, cams[0], int(resolution), perspective),
+        "sensor": sensor,
         "stone": to_mitsuba_mesh(mesh, bsdf),
-        **emitters(setting.lights),
+        **lights,
     }
     return mi.load_dict(scene_dict), plan
 
@@ -276,6 +366,8 @@ def render(
     zoning: Any = None,
     exposure: float | None = None,
     check_flash: bool = True,
+    look: Any = "diagram",
+    denoise: bool | None = None,
 ) -> RenderResult:
     """Render ``mesh`` (mm, +Z face-up) cut from ``material`` with lamellae normal to ``lamella_normal``.
 
@@ -296,9 +388,15 @@ def render(
     zoning: ``None`` | ``"smooth"`` | ``"sharp"`` | a :class:`~labcut.rendering.zoning.Zoning`:
         colour zones, lamella parameters blended through the stone by a noise field
         (paper §3.2.2; docs/zoning.md). Presets are built on ``material``.
-    exposure: the PNG exposure multiplier (> 0); None (default) picks one automatically from the
-        whole image, so the tiles of an orbit share one exposure. Recorded on the result and in
-        the PNG.
+    exposure: the PNG exposure multiplier (> 0); None (default) picks one automatically: in the
+        diagram look from the whole image (so the tiles of an orbit share one exposure), in the
+        studio look from the lights, as an incident-light meter would (a card of 18 % grey facing
+        the camera renders at middle grey: a dull stone stays dull). Recorded on the result and
+        in the PNG (as a multiplier and in stops); pass the same value to every render of a series.
+    look: ``"diagram"`` (default) or ``"studio"`` / a :class:`~labcut.rendering.studio.Studio`: a
+        photograph of the stone on a table under the scenario's lamps (module docstring).
+    denoise: None (default: on in the studio look for rgb/spectral colour), True or False: OIDN
+        guided by albedo and normal AOVs (:mod:`labcut.rendering.denoise`).
     check_flash: estimate, per camera, whether any part of the stone flashes from there (the
         surface-sample estimator at draft quality, the material without zoning); a view with
         none gets a note (:attr:`RenderResult.notes`): an auto-exposed image of glare and body
@@ -333,9 +431,14 @@ def render(
         if not isinstance(material, Labradorite):
             raise ParameterError(f"material must be a labcut.Labradorite, got {type(material).__name__}")
         zoning = _resolve_zoning(zoning, material)  # validate (and build presets) once, before rendering
+    from .studio import resolve_look
+
+    studio = resolve_look(look)
     scenario_used = resolve_scene(scenario, lighting, viewing)
     setting = scenario_used.main_setting()
     views = camera_views(view, setting)
+    # validate the plan (denoise with a polarizer or mono, bad lobes) before any work
+    plan_render(mesh, setting.lights, mode, polarizer_deg, lobes, max_depth, look=look, denoise=denoise)
     total = int(spp) * len(views)
     per_pass = max(1, min(int(spp), 16))
     done = 0
@@ -346,7 +449,7 @@ def render(
         for v in views:
             scene, plan = build_scene(
                 mesh, material, lamella_normal, setting, v, resolution, mode, polarizer_deg, lobes, max_depth, perspective,
-                zoning=zoning,
+                zoning=zoning, look=look, denoise=denoise,
             )
             accum = None
             remaining = int(spp)
@@ -364,6 +467,10 @@ def render(
                 if progress is not None:
                     progress(done, total)
             image = accum / float(spp)
+            if plan.denoise:
+                from .denoise import denoise as _denoise
+
+                image = _denoise(image[..., :3], image[..., 3:6], image[..., 6:9])
             if plan.polarizer_deg is not None:
                 image = _polarizer_intensity(image, plan.polarizer_deg)
             if image.shape[-1] == 1:  # mono film: luminance, shown grey
@@ -379,17 +486,50 @@ def render(
         image = np.concatenate(rows, axis=0)
     log.info("render plan: %s", "; ".join(plan.reasons))
     image = np.ascontiguousarray(image)
+    studio_info: dict[str, Any] = {}
+    if studio is None:
+        auto = auto_exposure(np.clip(np.nan_to_num(image), 0.0, None))
+    else:
+        auto, studio_info = studio_exposure(mesh, setting, studio, views)
     result = RenderResult(
         image, plan, int(spp), seconds, [v.name for v in views], scenario_used.to_dict(),
-        exposure=float(exposure) if exposure is not None else auto_exposure(np.clip(np.nan_to_num(image), 0.0, None)),
+        exposure=float(exposure) if exposure is not None else auto,
         exposure_mode="given" if exposure is not None else "auto",
         mesh=provenance(mesh),
+        look=plan.look,
+        tonemap="hue" if studio is None else "agx",
+        exposure_metering="image" if studio is None else "incident",
+        studio=studio_info,
     )
     if check_flash:
         result.flash, result.notes = flash_by_view(mesh, material, lamella_normal, setting, views)
     if output is not None:
         result.save(output)
     return result
+
+
+def studio_exposure(mesh: Any, setting: Setting, look: Any, views: Sequence[CameraView]) -> tuple[float, dict[str, Any]]:
+    """The incident-light exposure of a studio render (:func:`labcut.rendering.tonemap.metered_exposure`)
+    metered towards the first camera, and a record of the studio settings and lamps (mesh frame)."""
+    from .studio import lamps_of, resolve_look, studio_environment
+    from .tonemap import metered_exposure
+    from .studio import irradiance_at_camera
+
+    studio = resolve_look(look)
+    if studio is None:
+        raise ParameterError("studio_exposure needs the studio look")
+    scale = RENDER_IRRADIANCE / float(np.sum(setting.lights.weights))
+    lamps = lamps_of(setting.lights, studio.point_lamp_deg)
+    env = studio_environment(setting, studio, scale)
+    e = irradiance_at_camera(lamps, env, views[0].direction, scale)
+    info = {
+        **studio.to_dict(),
+        "lamps": [{"direction": list(lamp.direction), "radius_deg": lamp.radius_deg, "point_lamp": lamp.point,
+                   "irradiance": lamp.irradiance * scale} for lamp in lamps],
+        "environment": env.name,
+        "irradiance_at_camera": e,
+    }
+    return metered_exposure(e), info
 
 
 @contextlib.contextmanager

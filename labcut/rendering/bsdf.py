@@ -41,6 +41,14 @@ API). RGB variants look R up in a table of linear sRGB over cos θ (R integrated
 against the CIE curves under D65 once per material, :mod:`labcut.colour`); mono
 variants in a table of luminance.
 
+Studio body (optional, :mod:`labcut.rendering.studio`, presentation renders only): the
+properties ``body_tint`` (an RGB colour of luminance 1) and ``body_grid`` / ``body_lo`` /
+``body_hi`` (a baked grid of a body multiplier and a flash mask over the mesh's box) tint the
+grey body and texture it with inclusions; the mask (1 outside inclusions) scales the schiller
+where an inclusion sits at the surface. Without them the body is the grey Lambertian above and
+the schiller is untouched. ``eval_diffuse_reflectance`` (Mitsuba's albedo AOV, used by the
+denoiser) returns the body reflectance plus the face-on flash colour R(λ, 1).
+
 Colour zoning (optional, :mod:`labcut.rendering.zoning`, docs/zoning.md): the
 properties ``zoning_grid``, ``zoning_path``, ``zoning_lo``, ``zoning_hi`` carry a
 baked noise grid and a parameter path; R then varies with the hit point ``si.p``
@@ -105,6 +113,11 @@ PLUGIN_PARAMETERS: tuple[tuple[str, str, str, str], ...] = (
     ("surface", "boolean", "true", "Simulate the polished surface's Fresnel mirror (component 0)."),
     ("schiller", "boolean", "true", "Simulate the schiller lobe (component 1)."),
     ("body", "boolean", "true", "Simulate the grey body (component 2); off when `body_albedo` is 0."),
+    ("body_tint", "rgb", "(1, 1, 1)", "Studio look: linear sRGB tint of the body (luminance 1; `body_albedo` sets the brightness)."),
+    ("body_grid", "tensor", "(none)", "Studio look: baked (nz, ny, nx, 2) grid of the body multiplier and the flash mask "
+     "(dark inclusions) over the box `body_lo`..`body_hi` (mesh frame, mm)."),
+    ("body_lo", "point", "(none)", "Studio look: the body grid's low corner, mesh frame, mm."),
+    ("body_hi", "point", "(none)", "Studio look: the body grid's high corner, mesh frame, mm."),
     ("zoning_grid", "tensor", "(none)", "Colour zoning: baked noise values x in [0, 1], shape (nz, ny, nx, 1) "
      "(docs/zoning.md); needs the three below."),
     ("zoning_path", "tensor", "(none)", "Colour zoning: the parameter path, (N, 5) rows of d_a, d_b, sigma_a, "
@@ -166,6 +179,7 @@ def _define_class() -> type:
 
                 self.zoning = ZoningKernel(props, {k: getattr(self.material, k) for k in SHARED_KEYS})
             self._build_tables()
+            self._init_body(props)
 
             front = mi.BSDFFlags.FrontSide
             self.m_components = [
@@ -174,7 +188,7 @@ def _define_class() -> type:
                 mi.BSDFFlags.DiffuseReflection | front,
             ]
             self.m_flags = self.m_components[0] | self.m_components[1] | self.m_components[2]
-            if self.zoning is not None:
+            if self.zoning is not None or self.body_grid is not None:
                 self.m_flags = self.m_flags | mi.BSDFFlags.SpatiallyVarying
             # Kernel constants as opaque values: another material (or spread) reuses the
             # compiled kernel instead of baking new literals into a new one.
@@ -210,6 +224,48 @@ def _define_class() -> type:
 
                     sp = np.stack([reflectance_luminance(self.material, c, polarization=pol) for pol in ("s", "p")], axis=1)
                     self.table_sp = mi.Texture1f(mi.TensorXf(np.clip(sp, 0.0, None).astype(np.float32)))
+
+        def _init_body(self, props: Any) -> None:
+            """The studio body: tint and the baked (body multiplier, flash mask) grid (optional)."""
+            self.body_tint = None
+            self.body_grid = None
+            if "body_tint" in props:
+                t = props["body_tint"]
+                tint = np.array([float(t[k]) for k in range(3)])
+                if not np.all(np.isfinite(tint)) or np.any(tint < 0.0):
+                    raise ParameterError("body_tint must be three finite numbers >= 0")
+                if mi.is_rgb:
+                    self.body_tint = mi.Color3f(*tint.tolist())
+            if "body_grid" in props:
+                if "body_lo" not in props or "body_hi" not in props:
+                    raise ParameterError("body_grid needs body_lo and body_hi")
+                g = np.array(props["body_grid"], dtype=np.float32)
+                if g.ndim != 4 or g.shape[3] != 2 or min(g.shape[:3]) < 2 or not np.all(np.isfinite(g)) or np.any(g < 0):
+                    raise ParameterError(f"body_grid must be a finite (nz, ny, nx, 2) tensor >= 0, got shape {g.shape}")
+                lo = np.array([float(props["body_lo"][k]) for k in range(3)])
+                hi = np.array([float(props["body_hi"][k]) for k in range(3)])
+                if not (np.all(np.isfinite(lo)) and np.all(np.isfinite(hi)) and np.all(hi > lo)):
+                    raise ParameterError("body_lo must lie below body_hi on every axis")
+                self.body_lo = mi.ScalarPoint3f(*lo.tolist())
+                self.body_inv_ext = mi.ScalarVector3f(*(1.0 / (hi - lo)).tolist())
+                self.body_grid = mi.Texture3f(mi.TensorXf(g), use_accel=False, filter_mode=dr.FilterMode.Linear,
+                                              wrap_mode=dr.WrapMode.Clamp)
+
+        def _body_at(self, si: Any) -> tuple[Any, Any]:
+            """(body multiplier, flash mask) at the hit (1, 1 without a studio body grid)."""
+            if self.body_grid is None:
+                return mi.Float(1.0), mi.Float(1.0)
+            u = (mi.Point3f(si.p) - self.body_lo) * self.body_inv_ext
+            v = self.body_grid.eval(u)
+            return v[0], dr.clip(v[1], 0.0, 1.0)
+
+        def _body_colour(self, si: Any) -> Any:
+            """Body reflectance (albedo x tint x multiplier) as an UnpolarizedSpectrum."""
+            mult, _ = self._body_at(si)
+            value = self._albedo * mult
+            if self.body_tint is not None:
+                return mi.UnpolarizedSpectrum(self.body_tint * value)
+            return mi.UnpolarizedSpectrum(value)
 
         # ------------------------------------------------------------------ helpers
         def _lamella_reflectance(self, si: Any, cos_l: Any) -> Any:
@@ -269,6 +325,8 @@ def _define_class() -> type:
             t_o = lobe.transmission(cos_o, self._eta, ops)
             factor = lobe.schiller_factor(t_i, t_o, cos_l, max_ab, self._eta, ops)
             r = self._lamella_reflectance(si, cos_l)
+            if self.body_grid is not None:
+                r = r * self._body_at(si)[1]  # an inclusion at the surface blocks the flash
             geom = factor * q * cos_o
             pdf = lobe.schiller_pdf(q, cos_l, b.z, cos_o, self._eta, ops)
             return r * geom, pdf, (geom, cos_l, h)
@@ -318,8 +376,19 @@ def _define_class() -> type:
             cos_i = mi.Frame3f.cos_theta(si.wi)
             cos_o = mi.Frame3f.cos_theta(wo)
             t = lobe.transmission(cos_i, self._eta, ops) * lobe.transmission(cos_o, self._eta, ops)
-            value = self._albedo * dr.inv_pi * t * cos_o
+            if self.body_tint is None and self.body_grid is None:
+                value = self._albedo * dr.inv_pi * t * cos_o
+            else:
+                value = self._body_colour(si) * (dr.inv_pi * t * cos_o)
             return value, mi.warp.square_to_cosine_hemisphere_pdf(wo)
+
+        def eval_diffuse_reflectance(self, si: Any, active: Any = True) -> Any:
+            """Albedo for the denoiser's AOV: body reflectance plus the face-on flash colour R(λ, 1)."""
+            body = self._body_colour(si) if self.use_body else mi.UnpolarizedSpectrum(0.0)
+            flash = mi.UnpolarizedSpectrum(0.0)
+            if self.use_schiller:
+                flash = self._lamella_reflectance(si, mi.Float(1.0)) * self._body_at(si)[1]
+            return self._to_spectrum(dr.clip(body + flash, 0.0, 1.0))
 
         def _to_spectrum(self, value: Any) -> Any:
             if mi.is_polarized:

@@ -46,33 +46,47 @@ def read_png_metadata(path: str | os.PathLike[str]) -> dict[str, str]:
     return {k.split(":", 1)[1]: v for k, v in text.items() if k.startswith("labcut:")}
 
 
-def tonemap(image: np.ndarray, exposure: float | None = None) -> np.ndarray:
-    """Linear RGB -> display sRGB in [0, 1], hue-preserving.
+def tonemap(image: np.ndarray, exposure: float | None = None, curve: str = "hue") -> np.ndarray:
+    """Linear RGB -> display sRGB in [0, 1].
 
-    Each pixel is scaled by ``(1 - exp(-m))/m`` with ``m`` its brightest channel
-    after exposure, so saturated flashes keep their colour instead of clipping to
-    white; then the sRGB transfer curve is applied.
+    ``curve="hue"`` (the diagram look): each pixel is scaled by ``(1 - exp(-m))/m`` with ``m``
+    its brightest channel after exposure, so saturated flashes keep their colour instead of
+    clipping to white; then the sRGB transfer curve is applied. ``curve="agx"`` (the studio
+    look): the filmic curve of :func:`labcut.rendering.tonemap.agx`.
     """
     from ..colour import encode_srgb
 
-    if exposure is not None and not (isinstance(exposure, int | float) and np.isfinite(exposure) and exposure > 0):
+    if exposure is not None and (isinstance(exposure, bool) or not (isinstance(exposure, int | float) and np.isfinite(exposure) and exposure > 0)):
         raise ParameterError(f"exposure must be a finite number > 0, got {exposure!r}")
+    if curve not in ("hue", "agx"):
+        raise ParameterError(f"tone curve must be 'hue' or 'agx', got {curve!r}")
     x = np.clip(np.nan_to_num(np.asarray(image, dtype=np.float64)), 0.0, None)
     x = x * (auto_exposure(x) if exposure is None else float(exposure))
+    if curve == "agx":
+        from .tonemap import agx
+
+        return agx(x)
     m = np.max(x, axis=-1, keepdims=True)
     scale = np.where(m > 1e-9, -np.expm1(-m) / np.maximum(m, 1e-9), 1.0)
     return encode_srgb(x * scale)
 
 
+def to_uint8(image: np.ndarray, exposure: float, curve: str = "hue") -> np.ndarray:
+    """Tonemapped 8-bit sRGB (H, W, 3) of a linear image."""
+    x = np.clip(np.nan_to_num(np.asarray(image, dtype=np.float64)), 0.0, None)
+    return np.ascontiguousarray(np.round(tonemap(x, exposure, curve) * 255.0).astype(np.uint8))
+
+
 def save_image(image: np.ndarray, path: str | os.PathLike[str], exposure: float | None = None,
-               metadata: dict[str, object] | None = None, exposure_mode: str | None = None) -> Path:
+               metadata: dict[str, object] | None = None, exposure_mode: str | None = None, curve: str = "hue") -> Path:
     """Write ``image`` (H, W, 3 linear) as tonemapped 8-bit PNG or float32 EXR, atomically.
 
     ``exposure``: the PNG's exposure multiplier (None: automatic, :func:`auto_exposure`). The PNG
     records it as ``labcut:exposure`` (and ``labcut:exposure_mode``), plus ``metadata`` as
     ``labcut:<key>`` text (non-strings as JSON). ``exposure_mode`` overrides the recorded mode
     (a caller that computed the automatic exposure itself passes ``"auto"``). An EXR is linear:
-    no exposure is applied."""
+    no exposure is applied. ``curve``: the tone curve (:func:`tonemap`), recorded as
+    ``labcut:tonemap`` with ``labcut:exposure_ev`` (log2 of the exposure)."""
     import json
 
     import mitsuba as mi
@@ -90,11 +104,13 @@ def save_image(image: np.ndarray, path: str | os.PathLike[str], exposure: float 
             x = np.clip(np.nan_to_num(np.asarray(image, dtype=np.float64)), 0.0, None)
             mode = exposure_mode or ("auto" if exposure is None else "given")
             used = auto_exposure(x) if exposure is None else exposure
-            ldr = np.ascontiguousarray(np.round(tonemap(x, used) * 255.0).astype(np.uint8))
+            ldr = to_uint8(x, used, curve)
             info = PngImagePlugin.PngInfo()
             info.add_text("Software", "labcut")
             info.add_text("labcut:exposure", repr(float(used)))
+            info.add_text("labcut:exposure_ev", repr(float(np.log2(used))))
             info.add_text("labcut:exposure_mode", mode)
+            info.add_text("labcut:tonemap", curve)
             for key, value in (metadata or {}).items():
                 info.add_text(f"labcut:{key}", value if isinstance(value, str) else json.dumps(value, allow_nan=False))
             Image.fromarray(ldr, "RGB").save(tmp, format="PNG", pnginfo=info)

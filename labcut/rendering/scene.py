@@ -122,9 +122,12 @@ def to_mitsuba_mesh(mesh: Any, bsdf: Any, smooth_angle_deg: float | None = None)
     return m
 
 
-def camera(mesh: Any, view: CameraView, resolution: int, perspective: bool = False, fov_deg: float = 25.0) -> dict[str, Any]:
+def camera(mesh: Any, view: CameraView, resolution: int, perspective: bool = False, fov_deg: float = 25.0,
+           *, margin: float = 1.0, far_radii: float = 2.0) -> dict[str, Any]:
     """A sensor dict looking at the mesh's bounding sphere from ``view.direction`` (mesh frame),
-    the image's top towards ``view.up``; clip planes from the bounds, so any size renders."""
+    the image's top towards ``view.up``; clip planes from the bounds, so any size renders.
+    ``margin`` (perspective): frame a sphere that many times wider than the stone's (room for a
+    table around it); ``far_radii``: the far clip plane, in bounding radii beyond the centre."""
     import mitsuba as mi
 
     lo, hi = np.asarray(mesh.bounds[0]), np.asarray(mesh.bounds[1])
@@ -143,13 +146,13 @@ def camera(mesh: Any, view: CameraView, resolution: int, perspective: bool = Fal
         "pixel_format": "luminance" if mi.is_monochromatic else "rgb",
     }
     if perspective:
-        distance = radius / math.sin(math.radians(fov_deg) / 2.0) * 1.05
+        distance = radius * float(margin) / math.sin(math.radians(fov_deg) / 2.0) * 1.05
         origin = centre + d * distance
         return {
             "type": "perspective",
             "fov": fov_deg,
             "near_clip": max(distance - 2.0 * radius, distance * 1e-3),
-            "far_clip": distance + 2.0 * radius,
+            "far_clip": distance + float(far_radii) * radius,
             "to_world": mi.ScalarTransform4f().look_at(origin=origin.tolist(), target=centre.tolist(), up=up.tolist()),
             "film": film,
         }
