@@ -53,6 +53,7 @@ _LAZY = {
     "Lights": "labcut.scene.sets:Lights",
     "Views": "labcut.scene.sets:Views",
     "Scenario": "labcut.scene.scenario:Scenario",
+    "Quality": "labcut.scene.quality:Quality",
     "scene": "labcut.scene",
     "RenderResult": "labcut.rendering.api:RenderResult",
     "compare_cuts": "labcut.reports.compare:compare_cuts",

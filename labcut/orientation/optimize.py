@@ -16,6 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import ParameterError
+from ..scene.quality import Quality
 from .scoring import Scorer, normal_to_stereo, stereo_to_normal
 
 OPTIMIZERS = ("nlopt", "gradient", "grid")
@@ -94,8 +95,10 @@ class OptimumResult:
     method: str
 
 
-def _polish_grid(scorer: Scorer, centre: np.ndarray, constraint: Constraint, radius_deg: float, step_deg: float) -> tuple[np.ndarray, float]:
-    """Exhaustive fine grid in a cap around ``centre`` (or a 1D segment for a fixed axis)."""
+def polish_grid(scorer: Scorer, centre: np.ndarray, constraint: Constraint, radius_deg: float, step_deg: float) -> tuple[np.ndarray, float]:
+    """The best normal (and its score) of an exhaustive grid of ``step_deg`` spacing within
+    ``radius_deg`` of ``centre`` (mesh frame, unit), or of a 1D segment of angles for a fixed
+    tilt axis; candidates outside the constraint are pulled onto its edge."""
     if constraint.tilt_axis is not None:
         k = np.asarray(constraint.tilt_axis)
         z = np.array([0.0, 0.0, 1.0])
@@ -124,7 +127,7 @@ def optimize_grid(scorer: Scorer, constraint: Constraint, coarse_deg: float = 1.
     order = np.argsort(values)[::-1][:3]
     best_n, best_v = normals[order[0]], float(values[order[0]])
     for i in order:
-        n, v = _polish_grid(scorer, normals[i], constraint, 1.5 * coarse_deg, fine_deg)
+        n, v = polish_grid(scorer, normals[i], constraint, 1.5 * coarse_deg, fine_deg)
         if v > best_v:
             best_n, best_v = n, v
     return OptimumResult(best_n, best_v, scorer.evaluations - start, "grid")
@@ -300,13 +303,16 @@ def _axis_gradient(scorer: Scorer, constraint: Constraint, starts: int, iteratio
     return OptimumResult(n, best[1], scorer.evaluations - start, "gradient")
 
 
-def run_optimizer(name: str, scorer: Scorer, constraint: Constraint, quality: str = "standard") -> OptimumResult:
+def run_optimizer(name: str, scorer: Scorer, constraint: Constraint, quality: Quality | str = "standard") -> OptimumResult:
+    """Run optimiser ``name`` with its budget from ``quality`` (:class:`~labcut.scene.quality.Quality`:
+    ``grid_coarse_deg``, ``nlopt_evals``, ``gradient_starts``)."""
+    q = Quality.coerce(quality)
     if name == "grid":
-        return optimize_grid(scorer, constraint, coarse_deg={"draft": 2.0, "standard": 1.5, "high": 1.0}[quality])
+        return optimize_grid(scorer, constraint, coarse_deg=q.grid_coarse_deg)
     if name == "nlopt":
-        return optimize_nlopt(scorer, constraint, global_evals={"draft": 150, "standard": 250, "high": 400}[quality])
+        return optimize_nlopt(scorer, constraint, global_evals=q.nlopt_evals)
     if name == "gradient":
-        return optimize_gradient(scorer, constraint, starts={"draft": 8, "standard": 12, "high": 20}[quality])
+        return optimize_gradient(scorer, constraint, starts=q.gradient_starts)
     raise ParameterError(f"optimizer must be one of {', '.join(OPTIMIZERS)}, got {name!r}")
 
 

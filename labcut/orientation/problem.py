@@ -38,8 +38,7 @@ from ..physics import schiller as lobe
 from ..physics.material import Labradorite
 from ..physics.ops import NUMPY
 from ..scene import Lights, Setting, Views
-
-QUALITY_POINTS = {"draft": 3000, "standard": 8000, "high": 24000}
+from ..scene.quality import Quality
 
 
 def fresnel_dielectric(cos_i: np.ndarray, eta: float) -> np.ndarray:
@@ -145,7 +144,7 @@ def build_problem(
     material: Labradorite,
     lights: Lights | None = None,
     views: Views | None = None,
-    quality: str = "standard",
+    quality: Quality | str = "standard",
     tau: float = 0.1,
     seed: int = 0,
     n_points: int | None = None,
@@ -168,15 +167,14 @@ def build_problem(
         settings = [Setting(lights, views, 1.0, np.eye(3))]
     if not settings:
         raise ParameterError("build_problem needs at least one setting")
-    if quality not in QUALITY_POINTS:
-        raise ParameterError(f"quality must be one of {', '.join(QUALITY_POINTS)}, got {quality!r}")
+    quality = Quality.coerce(quality)
     if not (isinstance(seed, int | np.integer) and 0 <= int(seed) < 2**63):
         raise ParameterError(f"seed must be a whole number >= 0, got {seed!r}")
     if not (isinstance(tau, int | float) and math.isfinite(tau) and 0.0 < tau < 10.0):
         raise ParameterError(f"flash threshold tau must lie in (0, 10), got {tau!r}")
     if not isinstance(mesh, trimesh.Trimesh) or len(mesh.faces) == 0:
         raise MeshError("the mesh is empty or not a trimesh.Trimesh (load it with labcut.load_mesh)")
-    count = int(n_points or QUALITY_POINTS[quality])
+    count = int(n_points or quality.surface_points)
     # sample the smooth-shaded copy the renderer uses (split along edges sharper than
     # 30°; same surface, its own face order), so both estimators shade alike
     from ..rendering.scene import shading_angle_deg

@@ -14,12 +14,14 @@ import numpy as np
 from ..errors import ParameterError
 from ..physics.material import Labradorite
 from ..scene import Lights, Scenario, Views, resolve_scene
-from .optimize import OPTIMIZERS, Constraint, hemisphere_grid, run_optimizer, score_map, tolerance_deg
+from ..scene.quality import Quality
+from .optimize import OPTIMIZERS, Constraint, hemisphere_grid, polish_grid, run_optimizer, score_map, tolerance_deg
 from ..geometry.meshio import provenance as mesh_provenance
 from .problem import build_problem
 from .scoring import OBJECTIVES, FlashMetrics, Scorer
 
-MAP_SPACING_DEG = {"draft": 4.0, "standard": 3.0, "high": 1.5}
+#: the presets' map spacing (degrees), read from :class:`~labcut.scene.quality.Quality`
+MAP_SPACING_DEG = {name: q.map_spacing_deg for name, q in Quality.PRESETS.items()}
 RUNNER_UP_SEPARATION_DEG = 12.0
 #: share of the best score the tolerances keep ("as good")
 KEEP = 0.9
@@ -289,7 +291,7 @@ def _saved_scenario(settings: dict[str, Any]) -> Scenario | None:
     if not isinstance(saved, dict) or saved.get("name") not in SCENARIOS:
         return None
     try:
-        scene = resolve_scene(saved["name"], quality=str(settings.get("quality", "standard")))
+        scene = resolve_scene(saved["name"], quality=Quality.coerce(settings.get("quality_settings") or settings.get("quality", "standard")))
     except Exception:  # noqa: BLE001  (a preset that no longer resolves: keep the numbers, drop the scene)
         return None
     same = (scene.lights.name == saved.get("lighting") and scene.views.name == saved.get("viewing")
@@ -300,8 +302,7 @@ def _saved_scenario(settings: dict[str, Any]) -> Scenario | None:
 def _setup(mesh, material, scenario, lighting, viewing, objective, quality, tau, seed, max_tilt, tilt_axis):
     if objective not in OBJECTIVES:
         raise ParameterError(f"objective must be one of {', '.join(OBJECTIVES)}, got {objective!r}")
-    if quality not in MAP_SPACING_DEG:
-        raise ParameterError(f"quality must be one of draft, standard, high, got {quality!r}")
+    quality = Quality.coerce(quality)
     from ..geometry.meshio import validate_mesh
 
     validate_mesh(mesh)
@@ -318,7 +319,7 @@ def recommend_orientation(
     lighting: str | Lights | None = None,
     viewing: str | Views | None = None,
     objective: str = "energy",
-    quality: str = "standard",
+    quality: Quality | str = "standard",
     optimizer: str = "nlopt",
     max_tilt: float = 90.0,
     tilt_axis: Any = None,
@@ -343,7 +344,8 @@ def recommend_orientation(
         file or :class:`~labcut.Views`. With ``lighting``/``viewing`` but no ``scenario`` the
         stone lies still and face-up (``overhead``/``face-up`` fill in the one not given).
     objective: ``energy`` | ``area`` | ``intensity`` | ``balanced`` (DESIGN.md §4).
-    quality: ``draft`` | ``standard`` | ``high``: surface samples, light/view directions, map spacing.
+    quality: ``draft`` | ``standard`` | ``high`` or a :class:`~labcut.Quality`: surface samples,
+        light/view directions, map spacing, optimiser budget (docs/accuracy.md).
     optimizer: ``nlopt`` (DIRECT-L + L-BFGS with Dr.Jit gradients) | ``gradient`` (Dr.Jit
         multi-start gradient ascent) | ``grid`` (exhaustive reference).
     max_tilt: largest allowed tilt of the lamella normal from +Z, degrees (the rough is
@@ -360,18 +362,17 @@ def recommend_orientation(
     start = time.perf_counter()
     report = progress or (lambda stage, fraction: None)
     report("sampling the surface", 0.0)
+    quality = Quality.coerce(quality)
     material, scene, constraint, scorer = _setup(mesh, material, scenario, lighting, viewing, objective, quality, tau, seed, max_tilt, tilt_axis)
     report("optimising", 0.3)
     best = run_optimizer(optimizer, scorer, constraint, quality)
     normal = _upper(best.normal)
     report("mapping the hemisphere", 0.6)
-    map_normals = hemisphere_grid(MAP_SPACING_DEG[quality], constraint)
+    map_normals = hemisphere_grid(quality.map_spacing_deg, constraint)
     map_scores = score_map(scorer, map_normals)
     score = scorer.score(normal)
     if map_scores.max() > score * (1.0 + 1e-4):  # the map found better: trust the better point, polished
-        from .optimize import _polish_grid
-
-        normal, score = _polish_grid(scorer, map_normals[int(np.argmax(map_scores))], constraint, MAP_SPACING_DEG[quality], 0.1)
+        normal, score = polish_grid(scorer, map_normals[int(np.argmax(map_scores))], constraint, quality.map_spacing_deg, 0.1)
         normal = _upper(normal)
     if not score > 0.0:
         _no_flash(objective, scene, tau)
@@ -399,7 +400,7 @@ def recommend_orientation(
         mesh=mesh_provenance(mesh),
         settings={
             "material": material.to_dict(), "scenario": scene.to_dict(), "lighting": scene.lights.name,
-            "viewing": scene.views.name, "quality": quality,
+            "viewing": scene.views.name, "quality": quality.name, "quality_settings": quality.to_dict(),
             "max_tilt_deg": constraint.max_tilt_deg, "tilt_axis": constraint.tilt_axis, "tau": tau, "seed": seed,
             "convex": scorer.problem.convex, "surface_samples": scorer.problem.n_points,
             "triples": scorer.problem.n_triples, "lights": len(scene.lights), "views": len(scene.views),
@@ -436,7 +437,7 @@ def axis_tolerances(scorer: Scorer, best: np.ndarray, best_score: float, constra
 
 def _runners_up(scorer: Scorer, constraint: Constraint, normals: np.ndarray, scores: np.ndarray, best: np.ndarray, best_score: float, count: int = 3, scenario: Scenario | None = None) -> list[dict[str, Any]]:
     """Distinct local maxima of the map: >= 12° from better ones, >= 30 % of the best score."""
-    from .optimize import _polish_grid
+    from .optimize import polish_grid
 
     out: list[dict[str, Any]] = []
     taken = [best]
@@ -449,7 +450,7 @@ def _runners_up(scorer: Scorer, constraint: Constraint, normals: np.ndarray, sco
         near = np.degrees(np.arccos(np.clip(np.abs(normals @ n), 0.0, 1.0))) < 1.5 * MAP_SPACING_DEG.get("standard", 2.0)
         if np.any(scores[near] > scores[i]):  # not a local maximum
             continue
-        polished, value = _polish_grid(scorer, n, constraint, 2.0, 0.25)
+        polished, value = polish_grid(scorer, n, constraint, 2.0, 0.25)
         polished = _upper(polished)
         if any(_axial_angle(polished, t) < RUNNER_UP_SEPARATION_DEG for t in taken):
             continue
@@ -466,7 +467,7 @@ def evaluate_orientation(
     material: Labradorite | str | None = None,
     lighting: str | Lights | None = None,
     viewing: str | Views | None = None,
-    quality: str = "standard",
+    quality: Quality | str = "standard",
     tau: float = 0.1,
     seed: int = 0,
     *,

@@ -18,18 +18,18 @@ import numpy as np
 from ..errors import ParameterError
 from ..orientation.optimize import Constraint, hemisphere_grid, tolerance_deg
 from ..orientation.problem import build_problem
-from ..orientation.recommend import KEEP, MAP_SPACING_DEG
+from ..orientation.recommend import KEEP
 from ..orientation.scoring import Scorer
 from ..scene import Scenario, Setting, Views
+from ..scene.quality import Quality
 from ..scene.directions import rotation
 
-#: angles (degrees) of the tilt-performance curve, by quality: ±30° in these steps
-TILT_STEP_DEG = {"draft": 10.0, "standard": 7.5, "high": 5.0}
+#: the tilt-performance curve spans ±30° in steps of the quality's ``tilt_step_deg``, on a problem of
+#: ``tilt_points`` surface samples (one view per pose, many poses: a curve, not a score)
 TILT_RANGE_DEG = 30.0
-#: surface points of the tilt-performance problem (one view per pose, many poses: a curve, not a score)
-TILT_POINTS = {"draft": 1000, "standard": 2000, "high": 5000}
-#: misorientation curve: rings of directions around the optimum, every step up to the range
-MISS_STEP_DEG = {"draft": 1.0, "standard": 0.5, "high": 0.25}
+#: the presets' ``tilt_points`` (read from :class:`~labcut.scene.quality.Quality`)
+TILT_POINTS = {name: q.tilt_points for name, q in Quality.PRESETS.items()}
+#: misorientation curve: rings of directions around the optimum, every ``miss_step_deg`` up to the range
 MISS_DIRECTIONS = 16
 #: a compromise reads "parallel to the base" only when tilts up to at least this many degrees
 #: from the base keep 90 % of its score (a base barely at 90 % is no instruction)
@@ -77,10 +77,10 @@ class MisorientationCurve:
 
 
 def misorientation_curve(scores: Callable[[np.ndarray], np.ndarray], best: np.ndarray, tolerance: float,
-                         quality: str = "standard") -> MisorientationCurve:
+                         quality: Quality | str = "standard") -> MisorientationCurve:
     """Energy around ``best`` (mesh frame) relative to its own, ring by ring, out to
     ``max(15°, 3 x tolerance)``; ``scores(normals) -> energies`` (e.g. ``Scorer.energy_map``)."""
-    step = MISS_STEP_DEG[quality]
+    step = Quality.coerce(quality).miss_step_deg
     top = max(15.0, 3.0 * float(tolerance))
     miss = np.arange(0.0, top + 0.5 * step, step)
     rings = np.concatenate([ring(best, a) for a in miss])
@@ -166,13 +166,14 @@ def tilted_pose(scenario: Scenario, axis: str, angle_deg: float) -> np.ndarray:
     return rotation(tilt_axes(scenario)[axis], angle_deg) @ scenario.pose
 
 
-def tilt_curve(mesh: Any, material: Any, normal: np.ndarray, scenario: Scenario, quality: str = "standard",
+def tilt_curve(mesh: Any, material: Any, normal: np.ndarray, scenario: Scenario, quality: Quality | str = "standard",
                tau: float = 0.1, seed: int = 0) -> TiltCurve:
     """The tilt-performance curve of a cut at lamella ``normal`` (mesh frame) under ``scenario``.
 
     One flash problem holds every tilted pose with the main viewer alone, so one evaluation
-    gives the flash per pose (``TILT_POINTS`` surface samples: a curve, not a score)."""
-    step = TILT_STEP_DEG[quality]
+    gives the flash per pose (the quality's ``tilt_points`` surface samples: a curve, not a score)."""
+    quality = Quality.coerce(quality)
+    step = quality.tilt_step_deg
     angles = np.arange(-TILT_RANGE_DEG, TILT_RANGE_DEG + 0.5 * step, step)
     axes = tilt_axes(scenario)
     main = _unit(scenario.views.main)
@@ -191,7 +192,7 @@ def tilt_curve(mesh: Any, material: Any, normal: np.ndarray, scenario: Scenario,
     area = np.zeros(2 * n)
     notes: list[str] = []
     try:
-        problem = build_problem(mesh, material, quality=quality, tau=tau, seed=seed, n_points=TILT_POINTS[quality],
+        problem = build_problem(mesh, material, quality=quality, tau=tau, seed=seed, n_points=quality.tilt_points,
                                 settings=settings)
         energy, area = per_view_flash(problem, normal)
     except ParameterError:  # no light reaches what the main viewer sees, in any pose
@@ -202,7 +203,7 @@ def tilt_curve(mesh: Any, material: Any, normal: np.ndarray, scenario: Scenario,
     if mask.any():
         notes.append(f"at {int(mask.sum())} tilt(s) the main viewer sees the face edge-on or from behind (no value)")
     return TiltCurve(angles, {"front_back": energy[:n], "side_to_side": energy[n:]},
-                     {"front_back": area[:n], "side_to_side": area[n:]}, axes, TILT_POINTS[quality],
+                     {"front_back": area[:n], "side_to_side": area[n:]}, axes, quality.tilt_points,
                      scenario.rock_deg, scenario.sway_deg, notes)
 
 
@@ -228,11 +229,11 @@ class Compromise:
 
 
 def compromise(scorers: Sequence[Scorer], names: Sequence[str], bests: Sequence[np.ndarray],
-               quality: str = "standard", maps: Sequence[tuple[np.ndarray, np.ndarray]] | None = None) -> Compromise:
+               quality: Quality | str = "standard", maps: Sequence[tuple[np.ndarray, np.ndarray]] | None = None) -> Compromise:
     """:class:`Compromise` of one cut: the score of each scenario's energy map (``scorers``, one per
     scenario) normalised by its value at that scenario's optimum (``bests``), averaged. Candidates: every
     scenario's own optimum and the cells of a hemisphere grid (spacing
-    :data:`~labcut.orientation.recommend.MAP_SPACING_DEG`), whose energies ``maps`` may give, one
+    the quality's ``map_spacing_deg``), whose energies ``maps`` may give, one
     ``(normals, energies)`` per scenario on the same normals (a recommendation's ``map_normals``,
     ``map_scores``); the best is polished on grids of 0.5° then 0.1°. With one scenario it is that
     scenario's optimum."""
@@ -250,7 +251,7 @@ def compromise(scorers: Sequence[Scorer], names: Sequence[str], bests: Sequence[
     if len(scorers) == 1:
         normal = _upper(bests[0])
     else:
-        spacing = MAP_SPACING_DEG[quality]
+        spacing = Quality.coerce(quality).map_spacing_deg
         if maps is not None and len(maps) == len(scorers) and all(np.array_equal(maps[0][0], m[0]) for m in maps):
             grid = np.asarray(maps[0][0], dtype=np.float64)
             values = np.mean([np.asarray(m[1], dtype=np.float64) / b for m, b in zip(maps, best_scores)], axis=0)
@@ -290,7 +291,7 @@ def _cap_grid(centre: np.ndarray, radius_deg: float, step_deg: float) -> np.ndar
     return np.concatenate(out)
 
 
-def scorer_for(mesh: Any, material: Any, scenario: Scenario, quality: str, tau: float = 0.1, seed: int = 0) -> Scorer:
+def scorer_for(mesh: Any, material: Any, scenario: Scenario, quality: Quality | str, tau: float = 0.1, seed: int = 0) -> Scorer:
     """The energy :class:`Scorer` of a cut under a scenario, built exactly as
     :func:`labcut.recommend_orientation` builds its own (same samples for the same seed), so its
     scores equal the recommendation's."""

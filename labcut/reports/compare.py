@@ -31,7 +31,6 @@ from ..errors import ParameterError
 from ..validation import check_number
 from .cuts import Cut, resolve_cuts
 
-QUALITIES = ("draft", "standard", "high")
 #: metrics compared with the reference cut (best orientation of each cut, per scenario)
 NORMALISED = ("flash_energy", "flash_area", "flash_intensity", "coverage", "tolerance_deg")
 #: columns of :meth:`Comparison.save_csv` (one number per row)
@@ -181,7 +180,7 @@ class Comparison:
     scenarios: list[Any]
     material: Any
     reference: int
-    quality: str
+    quality: Any  # a labcut.Quality (str() is its name) or a preset name
     exposures: dict[str, float]
     render: dict[str, Any]
     seconds: float
@@ -275,7 +274,7 @@ class Comparison:
         return _json({
             "kind": "labcut.compare",
             "labcut_version": __version__,
-            "quality": self.quality,
+            "quality": str(self.quality),
             "tau": self.tau,
             "seed": self.seed,
             "material": self.material.to_dict(),
@@ -448,7 +447,7 @@ def _orientation_rows(add: Callable[..., None], cut: str, scen: str, orient: str
 
 
 # ---------------------------------------------------------------------- the comparison
-def resolve_scenarios(scenarios: Any, quality: str) -> list[Any]:
+def resolve_scenarios(scenarios: Any, quality: Any) -> list[Any]:
     """The :class:`~labcut.Scenario` of each name, JSON file or instance (default ``["bench"]``); a name
     given twice is an error."""
     from ..scene import scenario_from
@@ -489,7 +488,7 @@ class ComparisonPlan:
     material: Any
     scenarios: list[Any]
     reference: int
-    quality: str
+    quality: Any  # a labcut.Quality
     seed: int
     resolution: int
     spp: int
@@ -508,7 +507,7 @@ def plan_comparison(
     material: Any = None,
     scenarios: Sequence[Any] | Any = None,
     reference: int | str = 0,
-    quality: str = "standard",
+    quality: Any = "standard",
     *,
     units: str | float = "auto",
     up_axis: str = "auto",
@@ -519,20 +518,19 @@ def plan_comparison(
     """Check every input of :func:`compare_cuts` (each cut parsed, read and validated) without
     starting the long work; a bad one is a one-line :class:`~labcut.errors.ParameterError` or
     :class:`~labcut.errors.MeshError` naming it. Arguments as :func:`compare_cuts`."""
-    from .renders import RENDER_RESOLUTION, RENDER_SPP, STRIP_ANGLES_DEG
+    from ..scene.quality import Quality
 
-    if quality not in QUALITIES:
-        raise ParameterError(f"quality must be one of {', '.join(QUALITIES)}, got {quality!r}")
+    quality = Quality.coerce(quality)
     seed = check_number(seed, "seed", 0, 2**63 - 1, integer=True)
-    res = RENDER_RESOLUTION[quality] if resolution is None else check_number(resolution, "render resolution (pixels)", 16, 2048, integer=True)
-    n_spp = RENDER_SPP[quality] if spp is None else check_number(spp, "render samples per pixel", 1, 4096, integer=True)
+    res = quality.render_resolution if resolution is None else check_number(resolution, "render resolution (pixels)", 16, 2048, integer=True)
+    n_spp = quality.render_spp if spp is None else check_number(spp, "render samples per pixel", 1, 4096, integer=True)
     from ..physics.material import Labradorite
 
     lab = Labradorite.coerce(material)
     scens = resolve_scenarios(scenarios, quality)
     resolved = resolve_cuts(cuts, units=units, up_axis=up_axis)
     ref = _reference(reference, resolved)
-    return ComparisonPlan(resolved, lab, scens, ref, quality, seed, res, n_spp, max(1, n_spp // 2), STRIP_ANGLES_DEG[quality])
+    return ComparisonPlan(resolved, lab, scens, ref, quality, seed, res, n_spp, max(1, n_spp // 2), quality.strip_angles_deg)
 
 
 def compare_cuts(
@@ -540,7 +538,7 @@ def compare_cuts(
     material: Any = None,
     scenarios: Sequence[Any] | Any = None,
     reference: int | str = 0,
-    quality: str = "standard",
+    quality: Any = "standard",
     *,
     units: str | float = "auto",
     up_axis: str = "auto",

@@ -26,11 +26,8 @@ from ..rendering.api import build_scene, normalize_normal
 from ..scene import Scenario
 from ..scene.directions import rotation
 
-#: render size (pixels, square) and samples per pixel by quality: the main render, then the strip
-RENDER_RESOLUTION = {"draft": 96, "standard": 128, "high": 256}
-RENDER_SPP = {"draft": 8, "standard": 32, "high": 128}
-STRIP_ANGLES_DEG = {"draft": (-20.0, 0.0, 20.0), "standard": (-20.0, -10.0, 0.0, 10.0, 20.0),
-                    "high": (-24.0, -16.0, -8.0, 0.0, 8.0, 16.0, 24.0)}
+# render size, samples per pixel and strip angles by quality: Quality.render_resolution,
+# render_spp and strip_angles_deg (labcut.scene.quality)
 
 
 @dataclass

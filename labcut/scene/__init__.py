@@ -8,21 +8,25 @@ This layer sits below rendering and orientation; both take a :class:`Scenario`
   (:meth:`Lights.from_envmap`).
 * :class:`Scenario`: the stone's pose in a world with +Z up, lights and viewers
   in that world, a rocking motion; presets by name in :data:`SCENARIOS`.
+* :class:`Quality`: every knob that trades accuracy for time (``draft``, ``standard``, ``high``).
 """
 
 from .directions import FRONT_AZIMUTH_DEG, direction, tilt_azimuth
 from .envmap import Environment, studio_environment
 from .presets import LIGHTING, VIEWING
+from .quality import QUALITIES, Quality
 from .scenario import SCENARIOS, Scenario, Setting, resolve_scene, scenario_from
 from .sets import Lights, Views, lights_from, views_from
 
 __all__ = [
     "FRONT_AZIMUTH_DEG",
     "LIGHTING",
+    "QUALITIES",
     "SCENARIOS",
     "VIEWING",
     "Environment",
     "Lights",
+    "Quality",
     "Scenario",
     "Setting",
     "Views",

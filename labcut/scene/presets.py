@@ -11,15 +11,13 @@ import numpy as np
 from .directions import FRONT_AZIMUTH_DEG, GOLDEN_ANGLE, direction, spherical_cap
 from .envmap import Environment, ceiling_radiance, sky_radiance, studio_environment
 from .registry import Registry
+from .quality import Quality
 from .sets import Lights, Views
 
 LIGHTING = Registry("lighting", "a JSON file of directions/weights, or an .exr/.hdr environment map")
 VIEWING = Registry("viewing", "or a JSON file of directions/weights")
 
-LAMP_SAMPLES = {"draft": 7, "standard": 13, "high": 25}  # directions per lamp of finite size
-ENV_SAMPLES = {"draft": 32, "standard": 64, "high": 128}  # directions per environment map
-CONE_VIEWS = {"draft": 7, "standard": 13, "high": 25}
-RING_VIEWS = {"draft": 12, "standard": 20, "high": 40}
+# direction counts come from the Quality (lamp_samples, env_samples, cone_views, ring_views)
 
 FRONT_LEFT = FRONT_AZIMUTH_DEG - 30.0
 FRONT_RIGHT = FRONT_AZIMUTH_DEG + 30.0
@@ -45,48 +43,48 @@ def _unit(lights: Lights, name: str) -> Lights:
 
 # ---------------------------------------------------------------------- lighting
 @LIGHTING.register("overhead", "the bench lamp: a disc of 8° radius straight above the stone")
-def overhead(quality: str) -> Lights:
-    return _unit(Lights.lamp([0.0, 0.0, 1.0], 8.0, 1.0, LAMP_SAMPLES[quality]), "overhead")
+def overhead(quality: Quality | str) -> Lights:
+    return _unit(Lights.lamp([0.0, 0.0, 1.0], 8.0, 1.0, Quality.coerce(quality).lamp_samples), "overhead")
 
 
 @LIGHTING.register("spot", "one small spot 35° from the vertical, in front of the stone")
-def spot(quality: str) -> Lights:
+def spot(quality: Quality | str) -> Lights:
     return Lights.lamp(direction(35.0, FRONT_AZIMUTH_DEG), 0.0, 1.0, 1, "spot")
 
 
 @LIGHTING.register("ceiling", "an even, bright office ceiling: radiance ∝ cos θ over the upper hemisphere")
-def ceiling(quality: str) -> Lights:
-    return _unit(Lights.from_envmap(_env("ceiling"), ENV_SAMPLES[quality], "ceiling"), "ceiling")
+def ceiling(quality: Quality | str) -> Lights:
+    return _unit(Lights.from_envmap(_env("ceiling"), Quality.coerce(quality).env_samples, "ceiling"), "ceiling")
 
 
 @LIGHTING.register("sky", "an overcast sky: uniform radiance over the upper hemisphere")
-def sky(quality: str) -> Lights:
-    return _unit(Lights.from_envmap(_env("sky"), ENV_SAMPLES[quality], "sky"), "sky")
+def sky(quality: Quality | str) -> Lights:
+    return _unit(Lights.from_envmap(_env("sky"), Quality.coerce(quality).env_samples, "sky"), "sky")
 
 
 @LIGHTING.register("window", "daylight through a window the stone faces: a disc of 20° radius, 20° above the horizon, in front")
-def window(quality: str) -> Lights:
-    return _unit(Lights.lamp(direction(70.0, FRONT_AZIMUTH_DEG), 20.0, 1.0, LAMP_SAMPLES[quality], "window"), "window")
+def window(quality: Quality | str) -> Lights:
+    return _unit(Lights.lamp(direction(70.0, FRONT_AZIMUTH_DEG), 20.0, 1.0, Quality.coerce(quality).lamp_samples, "window"), "window")
 
 
 @LIGHTING.register("sun", "direct sun 50° above the horizon, front-right (a point: its 0.27° radius is far below the lamella spread)")
-def sun(quality: str) -> Lights:
+def sun(quality: Quality | str) -> Lights:
     return Lights.lamp(direction(40.0, FRONT_RIGHT), 0.0, 1.0, 1, "sun")
 
 
 @LIGHTING.register("office", "ceiling (75 %) and a window (25 %)")
-def office(quality: str) -> Lights:
+def office(quality: Quality | str) -> Lights:
     return Lights.combine([(ceiling(quality), 0.75), (window(quality), 0.25)], "office")
 
 
 @LIGHTING.register("daylight", "sun (70 %) and overcast sky (30 %)")
-def daylight(quality: str) -> Lights:
+def daylight(quality: Quality | str) -> Lights:
     return Lights.combine([(sun(quality), 0.7), (sky(quality), 0.3)], "daylight")
 
 
 @LIGHTING.register("shop", "shop-window spots 30-45° from the vertical: front-left, front-right and back")
-def shop(quality: str) -> Lights:
-    n = max(1, LAMP_SAMPLES[quality] // 3)
+def shop(quality: Quality | str) -> Lights:
+    n = max(1, Quality.coerce(quality).lamp_samples // 3)
     parts = [
         (Lights.lamp(direction(35.0, FRONT_LEFT - 20.0), 3.0, 1.0, n), 0.4),
         (Lights.lamp(direction(40.0, FRONT_RIGHT + 20.0), 3.0, 1.0, n), 0.4),
@@ -96,26 +94,26 @@ def shop(quality: str) -> Lights:
 
 
 @LIGHTING.register("studio", "a photographer's light tent built in code: key softbox, strip light, top light")
-def studio(quality: str) -> Lights:
-    return _unit(Lights.from_envmap(_env("studio"), 2 * ENV_SAMPLES[quality], "studio"), "studio")
+def studio(quality: Quality | str) -> Lights:
+    return _unit(Lights.from_envmap(_env("studio"), 2 * Quality.coerce(quality).env_samples, "studio"), "studio")
 
 
 # ---------------------------------------------------------------------- viewing
 @VIEWING.register("face-up", "looking straight down at the face: a 15° cone, weighted toward the centre")
-def face_up(quality: str) -> Views:
-    d = spherical_cap(np.array([0.0, 0.0, 1.0]), 15.0, CONE_VIEWS[quality])
+def face_up(quality: Quality | str) -> Views:
+    d = spherical_cap(np.array([0.0, 0.0, 1.0]), 15.0, Quality.coerce(quality).cone_views)
     w = np.exp(-0.5 * (np.degrees(np.arccos(np.clip(d[:, 2], -1, 1))) / 8.0) ** 2)
     return Views(d, w, "face-up", main=[0.0, 0.0, 1.0])
 
 
 @VIEWING.register("cutter", "the cutter's eye just in front of the bench lamp, 10° from the vertical")
-def cutter(quality: str) -> Views:
+def cutter(quality: Quality | str) -> Views:
     return Views([direction(10.0, FRONT_AZIMUTH_DEG)], None, "cutter")
 
 
 @VIEWING.register("above", "people around the stone looking down at it, 20-60° from the vertical, from every side")
-def above(quality: str) -> Views:
-    n = RING_VIEWS[quality]
+def above(quality: Quality | str) -> Views:
+    n = Quality.coerce(quality).ring_views
     i = np.arange(n) + 0.5
     c_hi, c_lo = np.cos(np.radians(20.0)), np.cos(np.radians(60.0))
     z = c_hi - (c_hi - c_lo) * i / n  # equal solid angle bands
@@ -126,14 +124,14 @@ def above(quality: str) -> Views:
 
 
 @VIEWING.register("eye-level", "people in front at eye level, within ±20° of the horizontal line of sight")
-def eye_level(quality: str) -> Views:
+def eye_level(quality: Quality | str) -> Views:
     front = direction(90.0, FRONT_AZIMUTH_DEG)
-    d = spherical_cap(front, 20.0, CONE_VIEWS[quality])
+    d = spherical_cap(front, 20.0, Quality.coerce(quality).cone_views)
     return Views(d, None, "eye-level", main=front)
 
 
 @VIEWING.register("front", "looking down at a stone on display, 0-30° from the vertical, from the front half")
-def front(quality: str) -> Views:
-    d = spherical_cap(np.array([0.0, 0.0, 1.0]), 30.0, 2 * CONE_VIEWS[quality])
+def front(quality: Quality | str) -> Views:
+    d = spherical_cap(np.array([0.0, 0.0, 1.0]), 30.0, 2 * Quality.coerce(quality).cone_views)
     d = d[d[:, 1] <= 0.05]  # front half (-Y), and the centre
     return Views(d, None, "front", main=direction(15.0, FRONT_AZIMUTH_DEG))

@@ -28,6 +28,7 @@ from ..errors import ParameterError
 from ..validation import check_number
 from .directions import check_rotation, rotation
 from .registry import Registry
+from .quality import Quality
 from .sets import Lights, Views, check_quality, lights_from, views_from
 
 SCENARIOS = Registry("scenario", "or a scenario JSON file")
@@ -36,7 +37,6 @@ POSES = {
     "face-up": np.eye(3),
     "face-front": rotation([1.0, 0.0, 0.0], 90.0),  # mesh +Z -> world -Y, mesh +Y -> world +Z
 }
-ROCK_STEPS = {"draft": (5, 2), "standard": (9, 4), "high": (17, 6)}  # poses front-to-back, side-to-side (besides rest)
 SCENARIO_KEYS = ("name", "description", "pose", "tilt_back_deg", "lighting", "viewing", "rock_deg", "sway_deg")
 
 
@@ -67,7 +67,7 @@ class Scenario:
     rock_deg: float = 0.0
     sway_deg: float = 0.0
     description: str = ""
-    quality: str = "standard"
+    quality: Quality | str = "standard"  # coerced to a Quality: its direction counts and rocking steps
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "pose", check_rotation(self.pose, f"scenario {self.name!r} pose"))
@@ -77,14 +77,14 @@ class Scenario:
                 raise ParameterError(f"scenario {self.name!r}: {key} must lie in [0, 60] degrees, got {value!r}")
         if not isinstance(self.lights, Lights) or not isinstance(self.views, Views):
             raise ParameterError(f"scenario {self.name!r} needs labcut.Lights and labcut.Views")
-        check_quality(self.quality)
+        object.__setattr__(self, "quality", check_quality(self.quality))
         main = self.pose.T @ self.views.main
         if main[2] <= 1e-3:
             raise ParameterError(f"scenario {self.name!r}: the main viewer does not see the face of the stone")
 
     # ------------------------------------------------------------------ construction
     @classmethod
-    def preset(cls, name: str, quality: str = "standard") -> Scenario:
+    def preset(cls, name: str, quality: Quality | str = "standard") -> Scenario:
         """A named wear scenario: :data:`labcut.scene.SCENARIOS` lists them (docs/scenarios.md).
 
         Examples
@@ -99,7 +99,7 @@ class Scenario:
         return SCENARIOS.get(name).factory(check_quality(quality))
 
     @classmethod
-    def from_json(cls, path: str | os.PathLike[str], quality: str = "standard") -> Scenario:
+    def from_json(cls, path: str | os.PathLike[str], quality: Quality | str = "standard") -> Scenario:
         """A scenario from a JSON file (keys: name, description, pose, tilt_back_deg, lighting,
         viewing, rock_deg, sway_deg; docs/scenarios.md)."""
         from ..fileio import read_json
@@ -108,7 +108,7 @@ class Scenario:
         return cls.from_dict(data, quality, source=str(path), base=Path(path).parent)
 
     @classmethod
-    def from_dict(cls, data: Any, quality: str = "standard", source: str = "scenario", base: Path | None = None) -> Scenario:
+    def from_dict(cls, data: Any, quality: Quality | str = "standard", source: str = "scenario", base: Path | None = None) -> Scenario:
         if not isinstance(data, dict):
             raise ParameterError(f"{source} must hold a JSON object with keys {', '.join(SCENARIO_KEYS)}")
         unknown = sorted(set(data) - set(SCENARIO_KEYS))
@@ -134,7 +134,7 @@ class Scenario:
     def poses(self) -> list[tuple[np.ndarray, float]]:
         """(mesh-to-world rotation, weight) of each pose of the rocking motion; the rest pose first."""
         out = [self.pose]
-        n_rock, n_sway = ROCK_STEPS[self.quality]
+        n_rock, n_sway = self.quality.rock_steps
         for axis, amp, k in (([1.0, 0.0, 0.0], self.rock_deg, n_rock), ([0.0, 1.0, 0.0], self.sway_deg, n_sway)):
             if amp <= 0.0:
                 continue
@@ -197,7 +197,7 @@ def _path(text: str, base: Path | None) -> str:
     return text
 
 
-def _lighting(value: Any, quality: str, source: str, base: Path | None) -> Lights:
+def _lighting(value: Any, quality: Quality | str, source: str, base: Path | None) -> Lights:
     if isinstance(value, str):
         return lights_from(_path(value, base), quality)
     if isinstance(value, dict) and "directions" in value:
@@ -211,14 +211,10 @@ def _lighting(value: Any, quality: str, source: str, base: Path | None) -> Light
             if "preset" in part:
                 lights = lights_from(str(part["preset"]), quality)
             elif "envmap" in part:
-                from .presets import ENV_SAMPLES
-
-                lights = Lights.from_envmap(_path(str(part["envmap"]), base), _count(part.get("n", ENV_SAMPLES[quality]), f"{source}: n"))
+                lights = Lights.from_envmap(_path(str(part["envmap"]), base), _count(part.get("n", check_quality(quality).env_samples), f"{source}: n"))
             elif "lamp" in part:
-                from .presets import LAMP_SAMPLES
-
                 lights = Lights.lamp(part["lamp"], _number(part.get("radius_deg", 0.0), f"{source}: radius_deg"), 1.0,
-                                     _count(part.get("n", LAMP_SAMPLES[quality]), f"{source}: n"))
+                                     _count(part.get("n", check_quality(quality).lamp_samples), f"{source}: n"))
             else:
                 raise ParameterError(f"{source}: each lighting part needs 'preset', 'envmap' or 'lamp'")
             parts.append((lights, share))
@@ -226,7 +222,7 @@ def _lighting(value: Any, quality: str, source: str, base: Path | None) -> Light
     raise ParameterError(f"{source}: lighting must be a preset name, a file, {{'directions': ...}} or a list of parts")
 
 
-def _viewing(value: Any, quality: str, source: str, base: Path | None) -> Views:
+def _viewing(value: Any, quality: Quality | str, source: str, base: Path | None) -> Views:
     if isinstance(value, str):
         return views_from(_path(value, base), quality)
     if isinstance(value, dict) and "directions" in value:
@@ -237,43 +233,43 @@ def _viewing(value: Any, quality: str, source: str, base: Path | None) -> Views:
 
 
 # ---------------------------------------------------------------------- presets
-def _preset(name: str, pose: np.ndarray, lighting: str, viewing: str, quality: str, description: str,
+def _preset(name: str, pose: np.ndarray, lighting: str, viewing: str, quality: Quality | str, description: str,
             rock: float = 0.0, sway: float = 0.0) -> Scenario:
     return Scenario(name, pose, Lights.preset(lighting, quality), Views.preset(viewing, quality), rock, sway, description, quality)
 
 
 @SCENARIOS.register("bench", "the cutter's check: lamp straight above, stone face-up, rocked ±30° front-to-back and ±15° sideways in the hand")
-def bench(quality: str) -> Scenario:
+def bench(quality: Quality | str) -> Scenario:
     return _preset("bench", POSES["face-up"], "overhead", "cutter", quality, SCENARIOS.get("bench").summary, 30.0, 15.0)
 
 
 @SCENARIOS.register("ring", "a ring on a hand: stone face-up under an office ceiling, seen from every side looking down 20-60°")
-def ring(quality: str) -> Scenario:
+def ring(quality: Quality | str) -> Scenario:
     return _preset("ring", POSES["face-up"], "ceiling", "above", quality, SCENARIOS.get("ring").summary)
 
 
 @SCENARIOS.register("pendant", "a pendant: face vertical, bail at the stone's +Y end; ceiling and window light; viewers in front at eye level within ±20°")
-def pendant(quality: str) -> Scenario:
+def pendant(quality: Quality | str) -> Scenario:
     return _preset("pendant", POSES["face-front"], "office", "eye-level", quality, SCENARIOS.get("pendant").summary)
 
 
 @SCENARIOS.register("brooch", "a brooch: face vertical but tilted back 15° (facing slightly up); ceiling and window light; viewers at eye level")
-def brooch(quality: str) -> Scenario:
+def brooch(quality: Quality | str) -> Scenario:
     pose = rotation([1.0, 0.0, 0.0], -15.0) @ POSES["face-front"]
     return _preset("brooch", pose, "office", "eye-level", quality, SCENARIOS.get("brooch").summary)
 
 
 @SCENARIOS.register("display", "a shop window: stone face-up, spots 30-45° from the vertical, viewers 0-30° from the vertical in front")
-def display(quality: str) -> Scenario:
+def display(quality: Quality | str) -> Scenario:
     return _preset("display", POSES["face-up"], "shop", "front", quality, SCENARIOS.get("display").summary)
 
 
 @SCENARIOS.register("outdoor", "outdoors: stone face-up in sun and sky, seen from every side looking down 20-60°")
-def outdoor(quality: str) -> Scenario:
+def outdoor(quality: Quality | str) -> Scenario:
     return _preset("outdoor", POSES["face-up"], "daylight", "above", quality, SCENARIOS.get("outdoor").summary)
 
 
-def scenario_from(spec: Any, quality: str = "standard") -> Scenario:
+def scenario_from(spec: Any, quality: Quality | str = "standard") -> Scenario:
     """A :class:`Scenario` from an instance, a preset name or a JSON file."""
     if isinstance(spec, Scenario):
         return spec
@@ -285,7 +281,7 @@ def scenario_from(spec: Any, quality: str = "standard") -> Scenario:
     raise ParameterError(f"scenario must be one of {SCENARIOS.choices()} or labcut.Scenario, got {type(spec).__name__}")
 
 
-def resolve_scene(scenario: Any = None, lighting: Any = None, viewing: Any = None, quality: str = "standard") -> Scenario:
+def resolve_scene(scenario: Any = None, lighting: Any = None, viewing: Any = None, quality: Quality | str = "standard") -> Scenario:
     """The scenario a command runs under.
 
     * ``scenario`` given: that scenario, with its lights and/or views replaced by
@@ -294,7 +290,7 @@ def resolve_scene(scenario: Any = None, lighting: Any = None, viewing: Any = Non
       ``face-up`` fill in the one not given), as in labcut's first release.
     * nothing: the default scenario, ``bench``.
     """
-    check_quality(quality)
+    quality = check_quality(quality)
     if scenario is None and lighting is None and viewing is None:
         return Scenario.preset("bench", quality)
     if scenario is None:

@@ -25,14 +25,11 @@ import numpy as np
 from ..errors import ParameterError
 from .directions import spherical_cap, unit_vector
 from .envmap import ENVMAP_SUFFIXES, Environment
+from .quality import QUALITIES, Quality
 
-QUALITIES = ("draft", "standard", "high")
-
-
-def check_quality(quality: str) -> str:
-    if quality not in QUALITIES:
-        raise ParameterError(f"quality must be one of {', '.join(QUALITIES)}, got {quality!r}")
-    return quality
+def check_quality(quality: Quality | str) -> Quality:
+    """The :class:`~labcut.scene.quality.Quality` of a preset name or a Quality (one check)."""
+    return Quality.coerce(quality)
 
 
 def _validated(directions: Any, weights: Any, what: str, allow_below: bool) -> tuple[np.ndarray, np.ndarray]:
@@ -153,7 +150,7 @@ class Lights(DirectionSet):
         return cls._make(d, w, name or e.name, e, 0)
 
     @classmethod
-    def preset(cls, name: str, quality: str = "standard") -> Lights:
+    def preset(cls, name: str, quality: Quality | str = "standard") -> Lights:
         """A named lighting preset (world frame); :data:`labcut.scene.LIGHTING` lists them."""
         from .presets import LIGHTING
 
@@ -226,7 +223,7 @@ class Views(DirectionSet):
         object.__setattr__(self, "main", m)
 
     @classmethod
-    def preset(cls, name: str, quality: str = "standard") -> Views:
+    def preset(cls, name: str, quality: Quality | str = "standard") -> Views:
         """A named viewing preset (world frame); :data:`labcut.scene.VIEWING` lists them."""
         from .presets import VIEWING
 
@@ -250,7 +247,7 @@ class Views(DirectionSet):
 
 
 # ---------------------------------------------------------------------- from files / names
-def _json_lights(data: Any, path: str, quality: str) -> Lights:
+def _json_lights(data: Any, path: str, quality: Quality | str) -> Lights:
     if isinstance(data, list):
         data = {"directions": data}
     if not isinstance(data, dict) or "directions" not in data:
@@ -266,27 +263,27 @@ def _json_views(data: Any, path: str) -> Views:
     return Views(data["directions"], data.get("weights"), str(data.get("name", Path(path).stem)), data.get("main"))
 
 
-def lights_from(spec: Any, quality: str = "standard", envmap_samples: int | None = None) -> Lights:
+def lights_from(spec: Any, quality: Quality | str = "standard", envmap_samples: int | None = None) -> Lights:
     """A :class:`Lights` from an instance, a preset name, a JSON file of directions/weights,
     or an .exr/.hdr environment map (importance-sampled)."""
     from ..fileio import read_json
-    from .presets import ENV_SAMPLES, LIGHTING
+    from .presets import LIGHTING
 
     if isinstance(spec, Lights):
         return spec
     if isinstance(spec, Environment):
-        return Lights.from_envmap(spec, envmap_samples or ENV_SAMPLES[check_quality(quality)])
+        return Lights.from_envmap(spec, envmap_samples or check_quality(quality).env_samples)
     if isinstance(spec, str | Path):
         text = str(spec)
         if text.lower().endswith(".json"):
             return _json_lights(read_json(text, "lighting file"), text, quality)
         if text.lower().endswith(ENVMAP_SUFFIXES):
-            return Lights.from_envmap(text, envmap_samples or ENV_SAMPLES[check_quality(quality)])
+            return Lights.from_envmap(text, envmap_samples or check_quality(quality).env_samples)
         return Lights.preset(text, quality)
     raise ParameterError(f"lighting must be one of {LIGHTING.choices()} or labcut.Lights, got {type(spec).__name__}")
 
 
-def views_from(spec: Any, quality: str = "standard") -> Views:
+def views_from(spec: Any, quality: Quality | str = "standard") -> Views:
     """A :class:`Views` from an instance, a preset name, or a JSON file of directions/weights."""
     from ..fileio import read_json
     from .presets import VIEWING
