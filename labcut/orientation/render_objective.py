@@ -1,0 +1,344 @@
+"""The flash objective of a lamella normal from Mitsuba renders, differentiable by Dr.Jit AD.
+
+:class:`RenderObjective` renders every view of a scenario's poses (orthographic, mono, the
+schiller lobe alone) and scores the images as :func:`labcut.orientation.render_estimator.render_metrics`
+does; :func:`view_terms` and :func:`combine_views` turn images into the flash terms and the
+objective, and the objective's derivative into the per-pixel adjoint images the integrator's
+reverse pass takes. :mod:`labcut.orientation.render_estimator` optimises it.
+
+Frames and units: normals and directions in the mesh frame (mm, +Z face-up); radiance as
+``L/L_ref`` (:func:`labcut.orientation.problem.reference_radiance`, lights at unit total
+irradiance); times in seconds.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from ..errors import ParameterError
+from ..physics.material import Labradorite
+from ..rendering.api import normalize_normal
+from ..scene import Setting
+from .problem import reference_radiance
+from .scoring import FlashMetrics
+
+#: width of the logistic step that stands in for the flash threshold in the gradients of the
+#: ``area``/``intensity``/``balanced`` objectives, in units of tau (a rendered pixel is noisier than
+#: a surface sample, so the step is wider than the sample estimator's 0.02 tau)
+SMOOTH_WIDTH = 0.05
+#: path depth: 2 is direct lighting (exact for a convex stone), 4 carries light reflected
+#: between the parts of a carving up to twice (as ``labcut.render`` plans a non-convex stone)
+DIRECT_DEPTH = 2
+CARVING_DEPTH = 4
+#: samples (pixels x spp) of one view rendered and differentiated in one go; larger images
+#: are rendered in passes of at most this many samples, each with its own seed
+PASS_SAMPLES = 1 << 20
+#: a pixel counts when its alpha (box-filter coverage) exceeds this, as in :func:`render_metrics`
+COVER_ALPHA = 1e-3
+
+
+def _mesh_is_convex(mesh: Any) -> bool:
+    info = (getattr(mesh, "metadata", None) or {}).get("labcut", {})
+    if "convex" in info:
+        return bool(info["convex"])
+    from ..geometry.meshio import is_convex_mesh
+
+    return bool(is_convex_mesh(mesh))
+
+
+def _sigmoid(x: np.ndarray) -> np.ndarray:
+    return 0.5 * (1.0 + np.tanh(0.5 * x))  # overflow-free logistic
+
+
+@dataclass
+class ViewTerms:
+    """Flash terms of one rendered view (hard threshold) and, when smoothed, their derivatives
+    with respect to the view's pixel values (luminance, the film's first channel)."""
+
+    area: float
+    intensity: float
+    energy: float
+    d_area: np.ndarray | None = None
+    d_intensity: np.ndarray | None = None
+    d_energy: np.ndarray | None = None
+
+
+def view_terms(value: np.ndarray, alpha: np.ndarray, tau: float, l_ref: float, width: float | None = None) -> ViewTerms:
+    """Flash area, intensity and energy of one view from its image (as :func:`render_metrics`).
+
+    ``value``: rendered luminance per pixel (alpha-premultiplied, the film's output), ``alpha``:
+    coverage of the stone per pixel (box filter: the share of the pixel's area it covers), so a
+    pixel's weight is the projected area it sees and ``L/L_ref = value / alpha / l_ref``. Pixels
+    with alpha <= :data:`COVER_ALPHA` are left out. With ``width`` (in units of ``tau``) the hard
+    threshold of area and intensity is replaced by a logistic step ``σ((L/L_ref - τ) / (width τ))``
+    and the derivatives of the three terms with respect to ``value`` (same shape) are returned
+    too; the energy has no threshold and is the same either way."""
+    value = np.asarray(value, dtype=np.float64)
+    alpha = np.asarray(alpha, dtype=np.float64)
+    cover = alpha > COVER_ALPHA
+    w = alpha[cover]
+    y = value[cover]
+    total = float(w.sum())
+    if total <= 0.0:
+        zero = np.zeros_like(value) if width is not None else None
+        return ViewTerms(0.0, 0.0, 0.0, zero, zero, zero)
+    r = y / w / l_ref
+    energy = float(y.sum()) / l_ref / total
+    if width is None:
+        flash = r >= tau
+        area = float((w * flash).sum()) / total
+        inflash = float((w * flash).sum())
+        intensity = float((w * r * flash).sum()) / inflash if area > 0 else 0.0
+        return ViewTerms(area, intensity, energy)
+    scale = width * tau
+    s = _sigmoid((r - tau) / scale)
+    ds = s * (1.0 - s) / scale  # d s / d r
+    area_w = float((w * s).sum())  # D
+    inflash = float((w * s * r).sum())  # N
+    area = area_w / total
+    intensity = inflash / area_w if area_w > 1e-300 else 0.0
+    # dr_p/dy_p = 1 / (w_p l_ref): dD/dy = ds / l_ref, dN/dy = (ds r + s) / l_ref
+    d_d = ds / l_ref
+    d_n = (ds * r + s) / l_ref
+    out = [np.zeros_like(value) for _ in range(3)]
+    out[0][cover] = d_d / total
+    out[1][cover] = (d_n - intensity * d_d) / area_w if area_w > 1e-300 else 0.0
+    out[2][cover] = 1.0 / (l_ref * total)
+    return ViewTerms(area, intensity, energy, *out)
+
+
+def combine_views(terms: Sequence[ViewTerms], weights: np.ndarray, objective: str) -> tuple[float, list[np.ndarray] | None]:
+    """The objective of per-view terms with view weights (summing to 1), and (when the terms carry
+    derivatives) its derivative with respect to each view's pixel values. ``balanced`` =
+    sqrt(area x intensity), floored at 1e-20 under the root where it is smoothed (a finite gradient
+    where nothing flashes), as :class:`~labcut.orientation.scoring.Scorer` does."""
+    w = np.asarray(weights, dtype=np.float64)
+    area = float(sum(wv * t.area for wv, t in zip(w, terms)))
+    intensity = float(sum(wv * t.intensity for wv, t in zip(w, terms)))
+    energy = float(sum(wv * t.energy for wv, t in zip(w, terms)))
+    smooth = all(t.d_energy is not None for t in terms)
+    if objective == "energy":
+        return energy, [wv * t.d_energy for wv, t in zip(w, terms)] if smooth else None
+    if objective == "area":
+        return area, [wv * t.d_area for wv, t in zip(w, terms)] if smooth else None
+    if objective == "intensity":
+        return intensity, [wv * t.d_intensity for wv, t in zip(w, terms)] if smooth else None
+    value = math.sqrt(max(area * intensity, 1e-20 if smooth else 0.0))
+    if not smooth:
+        return value, None
+    return value, [wv * (intensity * t.d_area + area * t.d_intensity) / (2.0 * value) for wv, t in zip(w, terms)]
+
+
+def _whole(value: Any, name: str, low: int, high: int) -> int:
+    if isinstance(value, bool) or not isinstance(value, int | np.integer) or not low <= int(value) <= high:
+        raise ParameterError(f"{name} must be a whole number in [{low}, {high}], got {value!r}")
+    return int(value)
+
+
+class RenderObjective:
+    """The flash objective of a lamella normal from Mitsuba renders, with its gradient by Dr.Jit AD.
+
+    For every pose of ``settings`` (:meth:`labcut.Scenario.settings`: lights and views in the mesh
+    frame, mm, +Z face-up) one scene is built once, holding that pose's lights (lamps as distant
+    lights at unit total irradiance, an environment map as an ``envmap`` emitter, no ambient room)
+    and one orthographic sensor per view; all scenes share one stone mesh and one ``labradorite``
+    BSDF with only its schiller lobe on (the delta ``surface`` lobe does not depend on the normal and
+    prb cannot differentiate it; the body is not flash). A new normal is written into the BSDF
+    through ``mi.traverse`` as an opaque Dr.Jit value, so every evaluation reuses the compiled
+    kernels. The images are mono (luminance), as the sample estimator scores luminance.
+
+    Light transport: ``max_depth`` 2 (default for a convex stone, where no light path leaves the
+    stone and comes back, so direct lighting is exact) renders with Mitsuba's ``direct``
+    integrator and differentiates it in reverse mode through its traced kernel (Dr.Jit AD; it
+    gives the same images and gradients as ``prb`` at depth 2, faster); a larger depth (default 4
+    for a non-convex carving: light reflected between its parts by the schiller, up to twice)
+    uses ``prb``, whose adjoint pass re-traces the paths (detached sampling).
+
+    Common random numbers: every evaluation renders every view with the same ``seed``, so the
+    objective is a deterministic function of the normal and finite differences of it are
+    meaningful; the gradient is that of the same estimator (with ``direct``: exactly, the adjoint
+    pass replays the primal's samples; with ``prb`` the BSDF-sampled directions are held fixed).
+
+    Objective (DESIGN.md §4): the view-weighted (pose weight x view weight) mean over views of
+    the flash terms of :func:`view_terms`; ``energy`` is linear in the images, the thresholded
+    objectives are smoothed by a logistic step of width ``smooth_width`` x tau for
+    :meth:`value_and_grad` and exact (hard threshold) in :meth:`value` and :meth:`metrics`.
+    """
+
+    def __init__(self, mesh: Any, material: Any, settings: Sequence[Setting], tau: float = 0.1,
+                 resolution: int = 64, spp: int = 8, seed: int = 0, objective: str = "energy",
+                 max_depth: int | None = None, smooth_width: float = SMOOTH_WIDTH) -> None:
+        import mitsuba as mi
+
+        from ..backend import set_variant
+        from ..geometry.meshio import validate_mesh
+        from ..rendering import bsdf as _bsdf  # noqa: F401  (registers the plugin)
+        from ..rendering.api import bsdf_dict
+        from ..rendering.scene import CameraView, camera, emitters, to_mitsuba_mesh
+        from ..validation import check_number
+        from .scoring import OBJECTIVES
+
+        if objective not in OBJECTIVES:
+            raise ParameterError(f"objective must be one of {', '.join(OBJECTIVES)}, got {objective!r}")
+        self.tau = check_number(tau, "flash threshold tau", 0.0, 10.0, low_open=True)
+        self.resolution = _whole(resolution, "resolution", 8, 4096)
+        self.spp = _whole(spp, "spp (samples per pixel)", 1, 1 << 16)
+        self.seed = _whole(seed, "seed", 0, (1 << 32) - 1)
+        self.smooth_width = check_number(smooth_width, "smooth_width", 0.0, 10.0, low_open=True)
+        settings = list(settings) if settings is not None else []
+        if not settings or not all(isinstance(st, Setting) for st in settings):
+            raise ParameterError("the render estimator needs at least one labcut.scene.Setting (a scenario's settings())")
+        validate_mesh(mesh)
+        self.material = Labradorite.coerce(material)
+        self.objective = objective
+        self.convex = _mesh_is_convex(mesh)
+        self.max_depth = (DIRECT_DEPTH if self.convex else CARVING_DEPTH) if max_depth is None else _whole(max_depth, "max_depth", 2, 16)
+        self.integrator = "direct" if self.max_depth == DIRECT_DEPTH else "prb"
+        self.l_ref = reference_radiance(self.material, 1.0)
+        if not self.l_ref > 0:
+            raise ParameterError("the material reflects nothing at normal incidence: no flash can be scored")
+        self.variant = set_variant("mono")
+        integ: dict[str, Any] = ({"type": "direct", "emitter_samples": 1, "bsdf_samples": 1} if self.integrator == "direct"
+                                 else {"type": "prb", "max_depth": self.max_depth})
+        self._bsdf = mi.load_dict(bsdf_dict(self.material, np.array([0.0, 0.0, 1.0]), ("schiller",)))
+        shape = to_mitsuba_mesh(mesh, self._bsdf)
+        pose_total = sum(float(st.weight) for st in settings)
+        self._views: list[tuple[Any, int]] = []  # (scene, sensor index) per view
+        weights = []
+        self._scenes = []
+        for st in settings:
+            sensors = {}
+            for k, (d, wv) in enumerate(zip(st.views.directions, st.views.weights)):
+                sensor = camera(mesh, CameraView(f"view {k}", tuple(d), tuple(st.up())), self.resolution)
+                sensor["film"]["pixel_format"] = "luminance_alpha"
+                sensor["film"]["rfilter"] = {"type": "box"}
+                sensors[f"sensor_{k:03d}"] = sensor
+                weights.append(float(st.weight) / pose_total * float(wv))
+            lamps = emitters(st.lights, total_irradiance=1.0, ambient=0.0)
+            scene = mi.load_dict({"type": "scene", "integrator": integ, "stone": shape, **lamps, **sensors})
+            self._scenes.append(scene)
+            # scene.sensors() keeps the dictionary's (sorted) order of the sensor keys
+            self._views += [(scene, i) for i in range(len(sensors))]
+        wv = np.asarray(weights, dtype=np.float64)
+        self.view_weight = wv / wv.sum()
+        self._params = mi.traverse(self._scenes[0])
+        self._key = "stone.bsdf.normal"
+        self.evaluations = 0  # objective evaluations (value, or value and gradient)
+        self.renders = 0  # images rendered: one per view for a value, plus one adjoint pass per view for a gradient
+        self.render_seconds = 0.0
+
+    @property
+    def n_views(self) -> int:
+        return len(self._views)
+
+    def _passes(self) -> list[tuple[int, int]]:
+        """(seed, spp) of each pass: one pass (the objective's seed) while a view's samples fit
+        :data:`PASS_SAMPLES`, else passes with seeds derived from it."""
+        per = max(1, min(self.spp, PASS_SAMPLES // (self.resolution * self.resolution)))
+        if per >= self.spp:
+            return [(self.seed, self.spp)]
+        out, left, k = [], self.spp, 0
+        while left > 0:
+            n = min(per, left)
+            out.append(((self.seed * 1_000_003 + k) % (1 << 32), n))
+            left -= n
+            k += 1
+        return out
+
+    def _set_normal(self, m: np.ndarray, grad: bool) -> Any:
+        import drjit as dr
+        import mitsuba as mi
+
+        from ..backend import set_variant
+
+        set_variant("mono")  # another part of labcut may have switched the variant since
+        value = mi.Vector3f(*(dr.opaque(mi.Float, float(x)) for x in m))  # opaque: no recompilation
+        if grad:
+            dr.enable_grad(value)
+        self._params[self._key] = value
+        self._params.update()
+        return self._params[self._key]
+
+    def images(self, normal: Any) -> list[np.ndarray]:
+        """The rendered (H, W, 2) float64 images (luminance, alpha) of every view for ``normal``."""
+        m = normalize_normal(normal)
+        self._set_normal(m, grad=False)
+        return [self._render(scene, i) for scene, i in self._views]
+
+    def _render(self, scene: Any, sensor: int) -> np.ndarray:
+        import drjit as dr
+
+        start = time.perf_counter()
+        passes = self._passes()
+        acc = None
+        integ = scene.integrator()
+        for seed, spp in passes:
+            with dr.suspend_grad():
+                img = np.array(integ.render(scene, sensor, seed=seed, spp=spp), dtype=np.float64) * spp
+            acc = img if acc is None else acc + img
+            self.renders += 1
+        self.render_seconds += time.perf_counter() - start
+        return acc / float(self.spp)
+
+    def _terms(self, images: Sequence[np.ndarray], width: float | None) -> list[ViewTerms]:
+        return [view_terms(img[..., 0], img[..., 1], self.tau, self.l_ref, width) for img in images]
+
+    def metrics(self, normal: Any) -> FlashMetrics:
+        """All flash metrics (hard threshold) of ``normal`` from its renders (:func:`render_metrics`'s
+        numbers, here with the objective's integrator and depth)."""
+        self.evaluations += 1
+        return self._metrics(self.images(normal))
+
+    def _metrics(self, images: Sequence[np.ndarray]) -> FlashMetrics:
+        t = self._terms(images, None)
+        return FlashMetrics.from_views([x.area for x in t], [x.intensity for x in t], [x.energy for x in t], self.view_weight)
+
+    def value(self, normal: Any, smooth: bool = False) -> float:
+        """The objective at a lamella normal (mesh frame, axial): with the hard threshold, or
+        ``smooth`` as :meth:`value_and_grad` optimises it (the same for ``energy``)."""
+        if not smooth:
+            return self.metrics(normal).score(self.objective)
+        self.evaluations += 1
+        return combine_views(self._terms(self.images(normal), self.smooth_width), self.view_weight, self.objective)[0]
+
+    def value_and_grad(self, normal: Any) -> tuple[float, np.ndarray]:
+        """The objective at ``normal`` and its gradient with respect to the normal (a 3-vector,
+        mesh frame, orthogonal to the unit normal: the BSDF normalises what it is given).
+
+        ``energy`` is exact; the thresholded objectives are smoothed (class docstring). The
+        gradient: one adjoint render per view seeded with the image-space derivative of the
+        objective (:func:`combine_views`), by Dr.Jit AD through the integrator."""
+        import drjit as dr
+        import mitsuba as mi
+
+        m = normalize_normal(normal)
+        self.evaluations += 1
+        self._set_normal(m, grad=False)
+        images = [self._render(scene, i) for scene, i in self._views]
+        value, d_images = combine_views(self._terms(images, self.smooth_width), self.view_weight, self.objective)
+        assert d_images is not None
+        start = time.perf_counter()
+        var = self._set_normal(m, grad=True)
+        passes = self._passes()
+        for (scene, i), d_value in zip(self._views, d_images):
+            if not np.any(d_value):
+                continue
+            grad_in = np.zeros((self.resolution, self.resolution, 2), dtype=np.float32)
+            grad_in[..., 0] = d_value
+            integ = scene.integrator()
+            for seed, spp in passes:
+                # image = Σ_k spp_k image_k / spp: each pass's adjoint gets its share of the derivative
+                integ.render_backward(scene, self._params, mi.TensorXf(grad_in * (spp / self.spp)), i, seed=seed, spp=spp)
+                self.renders += 1
+        g = dr.grad(var)
+        grad = np.array([float(np.array(c).ravel()[0]) for c in (g.x, g.y, g.z)], dtype=np.float64)
+        dr.disable_grad(var)
+        self._set_normal(m, grad=False)
+        self.render_seconds += time.perf_counter() - start
+        return float(value), grad

@@ -1,0 +1,243 @@
+"""The render estimator: the flash objective through Mitsuba renders, its AD gradient, the optimiser.
+
+Small images and few samples (the objective is a deterministic function of the normal at a
+fixed seed, so finite differences of it are exact enough at any spp); draft scenarios.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+import labcut
+from labcut import Labradorite, ParameterError
+from labcut.orientation import render_estimator as re_
+from labcut.orientation.optimize import Constraint
+from labcut.orientation.render_estimator import (
+    RENDER_QUALITY, RenderObjective, optimize_render, predict_render_seconds, recommend_by_render, render_metrics,
+)
+from labcut.orientation.render_objective import combine_views, view_terms
+from labcut.orientation.scoring import normal_to_stereo, stereo_jacobian, stereo_to_normal
+from labcut.scene import resolve_scene
+
+MESHES = Path(__file__).resolve().parents[1] / "meshes"
+LAB = Labradorite()  # the default material, as recommend_orientation uses
+
+
+def angle_deg(a, b) -> float:
+    a, b = np.asarray(a, float), np.asarray(b, float)
+    return math.degrees(math.acos(min(1.0, abs(a @ b) / np.linalg.norm(a) / np.linalg.norm(b))))
+
+
+@pytest.fixture(scope="module")
+def oval():
+    return labcut.load_mesh(MESHES / "oval-16x12-low.ply")
+
+
+@pytest.fixture(scope="module")
+def still():
+    """A still stone, face-up, under the overhead lamps, seen by the face-up viewers (7 views)."""
+    return resolve_scene(lighting="overhead", viewing="face-up", quality="draft").settings()
+
+
+@pytest.fixture(scope="module")
+def energy(oval, still):
+    return RenderObjective(oval, LAB, still, resolution=32, spp=4, seed=1)
+
+
+def uv_gradient(objective, u, v, smooth=False, h=1e-3):
+    """AD gradient in stereographic (u, v) and central finite differences of the same objective."""
+    _, g = objective.value_and_grad(stereo_to_normal(u, v))
+    ad = stereo_jacobian(u, v).T @ g
+    f = lambda a, b: objective.value(stereo_to_normal(a, b), smooth=smooth)  # noqa: E731
+    fd = np.array([(f(u + h, v) - f(u - h, v)) / (2 * h), (f(u, v + h) - f(u, v - h)) / (2 * h)])
+    return ad, fd
+
+
+# ------------------------------------------------------------------ image terms (numpy only)
+
+def test_view_terms_by_hand():
+    # four pixels: one empty, one half covered; L/L_ref = value / alpha / l_ref
+    value = np.array([[0.0, 0.3], [0.05, 0.1]])
+    alpha = np.array([[0.0, 1.0], [0.5, 1.0]])
+    t = view_terms(value, alpha, tau=0.2, l_ref=1.0)
+    # ratios 0.3, 0.1, 0.1 with weights 1, 0.5, 1: only the first flashes
+    assert t.area == pytest.approx(1.0 / 2.5)
+    assert t.intensity == pytest.approx(0.3)
+    assert t.energy == pytest.approx((0.3 + 0.05 + 0.1) / 2.5)
+    empty = view_terms(np.zeros((2, 2)), np.zeros((2, 2)), 0.2, 1.0)
+    assert (empty.area, empty.intensity, empty.energy) == (0.0, 0.0, 0.0)
+
+
+@given(
+    seed=st.integers(0, 10_000),
+    objective=st.sampled_from(["energy", "area", "intensity", "balanced"]),
+    tau=st.floats(0.05, 1.0),
+    width=st.floats(0.05, 0.5),
+)
+def test_image_gradient_matches_finite_differences(seed, objective, tau, width):
+    """The derivative of the smoothed objective with respect to each pixel value (what seeds the
+    adjoint renders) is the derivative of the value it reports."""
+    rng = np.random.default_rng(seed)
+    images = []
+    for _ in range(2):
+        alpha = np.where(rng.random((4, 4)) < 0.8, rng.uniform(0.2, 1.0, (4, 4)), 0.0)
+        images.append((alpha * rng.uniform(0.0, 2.0 * tau, (4, 4)), alpha))
+    weights = np.array([0.3, 0.7])
+
+    def value(imgs):
+        return combine_views([view_terms(y, a, tau, 0.8, width) for y, a in imgs], weights, objective)
+
+    v0, grads = value(images)
+    h = 1e-6 * tau
+    for k, (y, a) in enumerate(images):
+        for idx in zip(*np.nonzero(a > 1e-3)):
+            plus = [(yy.copy(), aa) for yy, aa in images]
+            minus = [(yy.copy(), aa) for yy, aa in images]
+            plus[k][0][idx] += h
+            minus[k][0][idx] -= h
+            fd = (value(plus)[0] - value(minus)[0]) / (2 * h)
+            assert grads[k][idx] == pytest.approx(fd, rel=1e-4, abs=1e-6 * (1.0 + abs(v0)) / h * 1e-6)
+
+
+# ------------------------------------------------------------------ the rendered objective
+
+def test_objective_equals_render_metrics(oval, still, energy):
+    """The objective's images and weights are render_metrics' (the same renders, same seed)."""
+    normal = stereo_to_normal(0.12, -0.08)
+    value, _ = energy.value_and_grad(normal)
+    reference = render_metrics(oval, LAB, normal, settings=still, resolution=32, spp=4, seed=1)
+    assert value == pytest.approx(reference.flash_energy, rel=1e-9)
+    mine = energy.metrics(normal)
+    for key in ("flash_area", "flash_intensity", "flash_energy", "coverage"):
+        assert getattr(mine, key) == pytest.approx(getattr(reference, key), rel=1e-9, abs=1e-12)
+    assert mine.per_view["weight"] == pytest.approx(reference.per_view["weight"])
+    assert value > 0.005  # the renders really see the flash (~5 % of the best energy, 11° off it)
+
+
+def test_ad_gradient_matches_finite_differences(energy):
+    u, v = 0.15, -0.10  # ~10° off the optimum: a steep flank
+    ad, fd = uv_gradient(energy, u, v)
+    value = energy.value(stereo_to_normal(u, v))
+    assert np.linalg.norm(fd) > 0.5 * value  # not a tiny gradient
+    assert np.linalg.norm(ad - fd) <= 0.05 * np.linalg.norm(fd), (ad, fd)
+    # and the 3-vector gradient is tangent: the BSDF normalises the normal it is given
+    _, g = energy.value_and_grad(stereo_to_normal(u, v))
+    assert abs(g @ stereo_to_normal(u, v)) <= 1e-3 * np.linalg.norm(g)
+
+
+def test_gradient_of_a_render_in_passes(oval, still, monkeypatch):
+    """A large image is rendered and differentiated in passes (each its own seed): each adjoint
+    pass carries its share of the derivative, so the gradient is still the objective's."""
+    from labcut.orientation import render_objective
+
+    monkeypatch.setattr(render_objective, "PASS_SAMPLES", 32 * 32 * 2)
+    obj = RenderObjective(oval, LAB, still, resolution=32, spp=6, seed=1)
+    assert len(obj._passes()) == 3
+    ad, fd = uv_gradient(obj, 0.15, -0.10)
+    assert np.linalg.norm(ad - fd) <= 0.05 * np.linalg.norm(fd), (ad, fd)
+
+
+def test_smoothed_threshold_gradient_matches_finite_differences(oval, still):
+    """The thresholded objectives are optimised through a logistic step: its AD gradient is the
+    derivative of the smoothed value; the reported value keeps the hard threshold."""
+    obj = RenderObjective(oval, LAB, still, resolution=32, spp=4, seed=1, objective="balanced", tau=0.1)
+    u, v = 0.03, 0.02
+    ad, fd = uv_gradient(obj, u, v, smooth=True)
+    assert np.linalg.norm(fd) > 1e-3
+    assert np.linalg.norm(ad - fd) <= 0.05 * np.linalg.norm(fd), (ad, fd)
+    m = obj.metrics(stereo_to_normal(u, v))
+    assert obj.value(stereo_to_normal(u, v)) == pytest.approx(math.sqrt(m.flash_area * m.flash_intensity))
+
+
+# ------------------------------------------------------------------ the optimiser
+
+@pytest.fixture(scope="module")
+def display(oval):
+    """The display scenario (8 viewers in front of a shop window): its best normal is tilted ~14°."""
+    settings = resolve_scene("display", quality="draft").settings()
+    return settings, RenderObjective(oval, LAB, settings, resolution=48, spp=4, seed=0)
+
+
+def test_render_optimum_agrees_with_sample_estimator(oval, display):
+    samples = labcut.recommend_orientation(oval, scenario="display", quality="draft")
+    assert samples.tilt_deg > 8.0  # far from the start: the optimiser has to travel
+    _, obj = display
+    best = optimize_render(obj, (0.0, 0.0, 1.0), iterations=25)
+    assert angle_deg(best.normal, samples.normal) < 1.0, (best.normal, samples.normal)
+    assert best.score > 1.5 * best.start_score
+    assert best.normal[2] > 0 and best.renders >= 2 * obj.n_views * best.evaluations
+    assert best.score == pytest.approx(obj.value(best.normal), rel=1e-9)
+
+
+def test_constraints_hold(oval, display):
+    obj = RenderObjective(oval, LAB, display[0], resolution=32, spp=2, seed=0)  # cheaper: only where it ends matters
+    capped = optimize_render(obj, (0.0, 0.0, 1.0), Constraint(max_tilt_deg=6.0), iterations=12)
+    tilt = math.degrees(math.acos(capped.normal[2]))
+    assert tilt <= 6.0 + 1e-6 and tilt > 5.0  # the optimum lies beyond: it ends on the cap's edge
+    axis = Constraint(max_tilt_deg=30.0, tilt_axis=(1.0, 0.0, 0.0))
+    about_x = optimize_render(obj, (0.0, 0.0, 1.0), axis, iterations=12)
+    assert abs(about_x.normal[0]) < 1e-9  # rotated about x only
+    assert about_x.score > about_x.start_score
+
+
+def test_recommend_by_render(oval, still):
+    steps = []
+    rec = recommend_by_render(oval, LAB, still, start_normal=(0.1, 0.0, 1.0), quality="draft",
+                              progress=lambda stage, f: steps.append(f))
+    q = RENDER_QUALITY["draft"]
+    assert rec.stats["resolution"] == q.resolution and rec.stats["spp"] == q.spp and rec.stats["integrator"] == "direct"
+    assert rec.stats["evaluations"] <= q.iterations + 1 and rec.stats["renders"] > 0 and rec.stats["seconds"] > 0
+    assert rec.score == pytest.approx(rec.metrics.flash_energy)
+    assert rec.score > rec.stats["start_score"]
+    assert steps[-1] == 1.0 and steps == sorted(steps)
+    json.dumps(rec.to_dict())  # plain JSON
+
+
+# ------------------------------------------------------------------ bad input
+
+def test_bad_input_is_a_parameter_error(oval, still, energy):
+    for bad in ((0.0, 0.0, 0.0), (math.nan, 0.0, 1.0), (1.0, 2.0)):
+        with pytest.raises(ParameterError):
+            energy.value_and_grad(bad)
+        with pytest.raises(ParameterError):
+            recommend_by_render(oval, LAB, still, start_normal=bad, quality="draft")
+    for kwargs in ({"spp": 0}, {"spp": 2.5}, {"resolution": 4}, {"objective": "sparkle"}, {"tau": math.nan},
+                   {"seed": -1}, {"max_depth": 1}):
+        with pytest.raises(ParameterError):
+            RenderObjective(oval, LAB, still, **kwargs)
+    with pytest.raises(ParameterError):
+        RenderObjective(oval, LAB, [])
+    with pytest.raises(ParameterError):
+        recommend_by_render(oval, LAB, still, quality="ultra")
+    with pytest.raises(ParameterError):
+        predict_render_seconds(0, 64, 4, True)
+
+
+# ------------------------------------------------------------------ cost model
+
+def test_prediction_follows_the_calibration(monkeypatch, tmp_path):
+    """The predicted time is built from the measured per-render costs (here a known calibration,
+    stored and read back through the cache file), growing with views, pixels and samples."""
+    timing = re_.RenderTiming({"direct": (0.01, 1e-7), "prb": (0.02, 4e-7)}, {"direct": (0.02, 2e-7), "prb": (0.05, 8e-7)},
+                              {"direct": 1.0, "prb": 3.0}, 0.05, re_._timing_key())
+    monkeypatch.setattr(re_, "_timing_path", lambda: tmp_path / "timing.json")
+    monkeypatch.setattr(re_, "measure_render_timing", lambda: timing)
+    monkeypatch.setattr(re_, "_TIMING", None)
+    assert re_.render_timing() == timing and (tmp_path / "timing.json").exists()
+    monkeypatch.setattr(re_, "measure_render_timing", lambda: pytest.fail("measured again instead of read from the cache"))
+    monkeypatch.setattr(re_, "_TIMING", None)
+    assert re_.render_timing() == timing
+    p = predict_render_seconds(7, 48, 4, True, iterations=10)
+    samples = 48 * 48 * 4
+    expected = 0.05 * 7 + 1.0 + 7 * (10 * (0.01 + 1e-7 * samples + 0.02 + 2e-7 * samples) + (0.01 + 1e-7 * samples))
+    assert p == pytest.approx(expected)
+    assert predict_render_seconds(14, 48, 4, True, iterations=10) > p
+    assert predict_render_seconds(7, 96, 4, True, iterations=10) > p
+    assert predict_render_seconds(7, 48, 4, False, iterations=10) > p  # a carving: prb, deeper paths
