@@ -85,14 +85,14 @@ def batch(
     peak: m.Peak = None,
     material_file: m.MaterialFile = None,
     retry_failed: Annotated[bool, typer.Option("--retry-failed", help="Run rows again that are stored as failed.")] = False,
-    node_cache: Annotated[bool, typer.Option("--node-cache/--no-node-cache", help="With --scheduler: give each machine its own Dr.Jit kernel cache (restarts the workers once).")] = True,
+    node_cache: Annotated[Optional[bool], typer.Option("--node-cache/--no-node-cache", help="With --scheduler: give each machine its own Dr.Jit kernel cache, restarting the workers once (default: when the workers are not all on this machine).", show_default=False)] = None,
     show: Annotated[int, typer.Option("--show", help="Rows listed in the table at the end.", min=0)] = 30,
     json_path: Annotated[Optional[str], typer.Option("--json", help="Write a summary of the batch as JSON ('-' for stdout).")] = None,
 ) -> None:
     """Run a catalogue of cuts (x materials x scenarios) on Dask: each row's recommended lamella
     orientation, streamed to Parquet as rows finish; re-running skips rows already done."""
     from labcut.batch.catalog import Defaults, read_catalog
-    from labcut.batch.run import connect, run
+    from labcut.batch.runner import connect, run
     from labcut.batch.store import ResultStore
     from labcut.errors import ParameterError
     from labcut.fileio import check_output_path

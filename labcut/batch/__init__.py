@@ -9,7 +9,7 @@ for every row on Dask distributed and streams the results to a Parquet store
 from __future__ import annotations
 
 from .catalog import Catalog, CatalogError, Defaults, Row, read_catalog
-from .run import BatchResult, run, run_row
+from .runner import BatchResult, run, run_row
 from .store import ResultStore, read_results
 
 __all__ = ["BatchResult", "Catalog", "CatalogError", "Defaults", "ResultStore", "Row", "read_catalog", "read_results",

@@ -73,7 +73,7 @@ class LabcutWorkerPlugin(WorkerPlugin):
         import labcut.orientation.recommend  # noqa: F401
         from labcut.backend import set_variant
 
-        from .run import run_row  # noqa: F401  (the row function)
+        from .runner import run_row  # noqa: F401  (the row function)
 
         host = worker.address.split("://")[-1].rsplit(":", 1)[0]
         threads = self.thread_count(host)

@@ -304,11 +304,13 @@ def _client(client: Any, workers: int, node_cache: bool) -> Any:
     """Yield ``(client, embedded?, startup seconds)``: the given client, or a new LocalCluster."""
     start = time.perf_counter()
     if client is not None:
-        if node_cache:
+        if node_cache is None:  # auto: a cluster on more than this machine's loopback
+            node_cache = not all(_is_loopback(a) for a in client.scheduler_info()["workers"])
+        if node_cache and not all(client.run(_has_node_cache).values()):
             from .plugin import NodeKernelCache
 
-            client.register_plugin(NodeKernelCache())
-        yield client, False, 0.0
+            client.register_plugin(NodeKernelCache())  # restarts the workers once
+        yield client, False, time.perf_counter() - start
         return
     import importlib.util
     import logging
@@ -327,6 +329,18 @@ def _client(client: Any, workers: int, node_cache: bool) -> Any:
             cluster.close(timeout=30)
 
 
+def _is_loopback(address: str) -> bool:
+    host = address.split("://")[-1].rsplit(":", 1)[0].strip("[]")
+    return host in ("localhost", "::1") or host.startswith("127.")
+
+
+def _has_node_cache() -> bool:
+    """Does this worker already use its machine's own kernel cache (:class:`NodeKernelCache`)?"""
+    from .plugin import node_cache_dir
+
+    return os.environ.get("DRJIT_CACHE_DIR") == node_cache_dir()
+
+
 def run(
     catalog: Any,
     client: Any = None,
@@ -341,7 +355,7 @@ def run(
     html: str | os.PathLike[str] | None = None,
     retry_failed: bool = False,
     threads_per_worker: int | None = None,
-    node_cache: bool = True,
+    node_cache: bool | None = None,
     progress: Callable[[int, int], None] | None = None,
     on_start: Callable[[dict[str, Any]], None] | None = None,
 ) -> BatchResult:
@@ -364,7 +378,8 @@ def run(
     retry_failed: run rows again that are stored with an error (default: skip them too).
     threads_per_worker: Dr.Jit threads of each worker (default: the machine's cores / its workers).
     node_cache: with ``client``, give each machine its own kernel cache folder (restarts the
-        workers once: :class:`~labcut.batch.plugin.NodeKernelCache`).
+        workers once, when they do not have it yet: :class:`~labcut.batch.plugin.NodeKernelCache`);
+        None (default): when some worker is not on this machine's loopback address.
     progress: ``callback(done, total)`` over the rows to run (and the report's cuts).
     on_start: ``callback(info)`` once the cluster is up: ``dashboard``, ``workers``, ``to_run``, ``skipped``.
 
@@ -492,7 +507,10 @@ def _run_rows(client: Any, rows: list[Row], store: ResultStore, done: Callable[[
     """Submit the rows; store each as it finishes (the driver is the only writer, a key once)."""
     from distributed import as_completed
 
-    futures = {client.submit(run_row, row, key=f"labcut-row-{row.key}", pure=False): row for row in rows}
+    import uuid
+
+    token = uuid.uuid4().hex[:8]  # a run's own task keys: a cancelled run's tasks never answer for this one
+    futures = {client.submit(run_row, row, key=f"labcut-row-{row.key}-{token}", pure=False): row for row in rows}
     written: set[str] = set()
     count = 0
     pending = set(futures)
