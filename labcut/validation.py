@@ -16,19 +16,29 @@ from .errors import ParameterError
 
 
 def check_number(value: Any, name: str, low: float = -math.inf, high: float = math.inf, *,
-                 low_open: bool = False, integer: bool = False) -> Any:
+                 low_open: bool = False, integer: bool = False, unit: str = "", why: str = "") -> Any:
     """``value`` as a float (an int with ``integer=True``) in ``[low, high]`` (``(low, high]``
-    with ``low_open``); finite, not a bool."""
+    with ``low_open``); finite, not a bool. ``unit`` (e.g. ``"mm"``) and ``why`` (e.g. "a
+    stone's size") only word the message."""
+    of = f" of {unit}" if unit else ""
     if isinstance(value, bool):
-        raise ParameterError(f"{name} must be a number, got {value!r}")
+        raise ParameterError(f"{name} must be a number{of}, got {value!r}")
     try:
         x = float(value)
     except (TypeError, ValueError):
-        raise ParameterError(f"{name} must be a number, got {value!r}") from None
+        raise ParameterError(f"{name} must be a number{of}, got {value!r}") from None
     if not math.isfinite(x):
-        raise ParameterError(f"{name} must be finite, got {value!r}")
+        raise ParameterError(f"{name} must be a finite number{of}, got {value!r}")
     if (x <= low if low_open else x < low) or x > high:
-        raise ParameterError(f"{name} must lie in {'(' if low_open else '['}{low:g}, {high:g}], got {x:g}")
+        unit_s = f" {unit}" if unit else ""
+        if high == math.inf:
+            bound = f"{'greater than' if low_open else 'at least'} {low:g}{unit_s}"
+        elif low == -math.inf:
+            bound = f"at most {high:g}{unit_s}"
+        else:
+            bound = f"lie in {'(' if low_open else '['}{low:g}, {high:g}]{unit_s}"
+        bound = bound if bound.startswith("lie") else f"be {bound}"
+        raise ParameterError(f"{name} must {bound}{f' ({why})' if why else ''}, got {x:g}")
     if integer:
         if x != int(x):
             raise ParameterError(f"{name} must be a whole number, got {value!r}")

@@ -243,7 +243,7 @@ def test_outlines_are_ccw_simple_and_exact():
         W = 10.0 if name == "round" else 7.0
         p = ol.make_outline(name, 10.0, W, n=200)
         assert ol.polygon_area(p) > 0
-        assert ol._segments_intersect(p) is None
+        assert ol.segments_intersect(p) is None
         assert np.ptp(p[:, 0]) == pytest.approx(10.0, abs=1e-9)
         assert np.ptp(p[:, 1]) == pytest.approx(W, abs=1e-9)
         assert ol.star_centre(p) is not None

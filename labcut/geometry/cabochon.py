@@ -25,6 +25,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import ParameterError
+from ..validation import check_number
 from . import outlines as _ol
 from .profiles import MAX_TABLE, PROFILES, Profile, dome_limit
 
@@ -47,16 +48,8 @@ MIN_RESOLUTION, MAX_RESOLUTION = 16, 4096
 
 
 def _finite_positive(name: str, value: Any, allow_zero: bool = False) -> float:
-    if isinstance(value, bool):
-        raise ParameterError(f"{name} must be a number of mm, got {value!r}")
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        raise ParameterError(f"{name} must be a number of mm, got {value!r}") from None
-    if not math.isfinite(v) or v < 0 or (v == 0 and not allow_zero):
-        kind = "non-negative" if allow_zero else "positive"
-        raise ParameterError(f"{name} must be a {kind} finite number of mm, got {value!r}")
-    return v
+    """A length in mm: finite, > 0 (>= 0 with ``allow_zero``)."""
+    return check_number(value, name, 0.0, low_open=not allow_zero, unit="mm")
 
 
 def _resolution(resolution: int | str) -> int:
@@ -159,8 +152,8 @@ def _outline_points(outline: Any, length: Any, width: Any, corner_radius: Any, n
         keys = set(np.flatnonzero(turn > np.radians(15.0)).tolist())
         keys |= {int(np.argmin(pts[:, 0])), int(np.argmax(pts[:, 0])), int(np.argmin(pts[:, 1])), int(np.argmax(pts[:, 1]))}
         if len(keys) < n:
-            fewer = _ol._resample(pts, sorted(keys), n)
-            if _ol._segments_intersect(fewer) is None and _ol.star_centre(fewer) is not None:
+            fewer = _ol.resample(pts, sorted(keys), n)
+            if _ol.segments_intersect(fewer) is None and _ol.star_centre(fewer) is not None:
                 pts = fewer
     return pts, "custom"
 

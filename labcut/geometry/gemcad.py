@@ -47,6 +47,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import MeshError, ParameterError
+from ..validation import check_number
 
 #: file suffixes read as GemCad designs
 DESIGN_SUFFIXES = (".asc", ".gem")
@@ -615,18 +616,9 @@ def design_polyhedron(design: Design) -> Polyhedron:
 def _check_size(size: Any) -> tuple[float, bool]:
     if size is None:
         return DEFAULT_SIZE_MM, False
-    if isinstance(size, bool):
-        raise ParameterError(f"the girdle width (--size, size=) must be a number of mm, got {size!r}")
-    try:
-        s = float(size)
-    except (TypeError, ValueError):
-        raise ParameterError(f"the girdle width (--size, size=) must be a number of mm, got {size!r}") from None
     from .meshio import STONE_SIZE_MM
 
-    lo, hi = STONE_SIZE_MM
-    if not math.isfinite(s) or not lo <= s <= hi:
-        raise ParameterError(f"the girdle width (--size, size=) must be {lo:g}-{hi:g} mm, got {size!r}")
-    return s, True
+    return check_number(size, "the girdle width (--size, size=)", *STONE_SIZE_MM, unit="mm"), True
 
 
 def design_solid(

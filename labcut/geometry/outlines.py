@@ -22,6 +22,7 @@ from collections.abc import Callable
 import numpy as np
 
 from ..errors import ParameterError
+from ..validation import check_number
 
 #: Sizes a gem cutter works with: below a grain of sand or above a boulder is an input error.
 MIN_SIZE_MM = 0.1
@@ -40,15 +41,7 @@ _DENSE = 4096  # samples per quarter of a smooth outline before resampling
 
 def check_size(name: str, value: float) -> float:
     """A stone dimension in mm: finite, positive, between MIN_SIZE_MM and MAX_SIZE_MM."""
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        raise ParameterError(f"{name} must be a number in mm, got {value!r}") from None
-    if not math.isfinite(v) or v <= 0:
-        raise ParameterError(f"{name} must be a positive finite size in mm, got {value!r}")
-    if not MIN_SIZE_MM <= v <= MAX_SIZE_MM:
-        raise ParameterError(f"{name} must lie between {MIN_SIZE_MM:g} and {MAX_SIZE_MM:g} mm (a stone's size), got {v:g}")
-    return v
+    return check_number(value, name, MIN_SIZE_MM, MAX_SIZE_MM, unit="mm", why="a stone's size")
 
 
 # ----------------------------------------------------------------------------- dense curves
@@ -137,7 +130,7 @@ def _rounded_rectangle_dense(a: float, b: float, r: float) -> tuple[np.ndarray, 
 
 
 # ----------------------------------------------------------------------------- resampling
-def _resample(dense: np.ndarray, keys: list[int], n: int, keep_all_vertices: bool = False) -> np.ndarray:
+def resample(dense: np.ndarray, keys: list[int], n: int, keep_all_vertices: bool = False) -> np.ndarray:
     """Resample a closed dense polyline to about ``n`` points, keeping the ``keys``.
 
     Points are spaced by a measure that is half arc length, half turning angle, per
@@ -223,18 +216,11 @@ def make_outline(
         dense, keys = (_pear_dense if name == "pear" else _marquise_dense)(a, b)
     else:  # rectangle
         r = 0.15 * min(L, W) if corner_radius is None else corner_radius
-        try:
-            r = float(r)
-        except (TypeError, ValueError):
-            raise ParameterError(f"corner_radius must be a number in mm, got {corner_radius!r}") from None
-        if not math.isfinite(r) or r < 0 or r > min(a, b) * (1 + 1e-12):
-            raise ParameterError(
-                f"corner_radius must be between 0 and half the smaller side ({min(a, b):g} mm), got {corner_radius!r}"
-            )
+        r = check_number(r, "corner_radius", 0.0, min(a, b) * (1 + 1e-12), unit="mm", why="up to half the smaller side")
         dense, keys = _rounded_rectangle_dense(a, b, min(r, min(a, b)))
         if r == 0:
             return dense
-    pts = _resample(dense, keys, int(n))
+    pts = resample(dense, keys, int(n))
     return pts
 
 
@@ -245,7 +231,7 @@ def polygon_area(points: np.ndarray) -> float:
     return 0.5 * float(np.dot(x, np.roll(y, -1)) - np.dot(np.roll(x, -1), y))
 
 
-def _segments_intersect(p: np.ndarray) -> tuple[int, int] | None:
+def segments_intersect(p: np.ndarray) -> tuple[int, int] | None:
     """First pair of non-adjacent edges of the closed polygon ``p`` that intersect, or None.
 
     Vectorised O(N^2) test in chunks; fine for a few thousand points.
@@ -373,7 +359,7 @@ def validate_outline(points: object, name: str = "outline") -> np.ndarray:
     size = max(float(np.ptp(p[:, 0])), float(np.ptp(p[:, 1])))
     if size <= 0:
         raise ParameterError(f"{name} encloses no area (its points coincide)")
-    hit = _segments_intersect(p) if len(p) > 3 else None
+    hit = segments_intersect(p) if len(p) > 3 else None
     if hit is not None:
         raise ParameterError(f"{name} is self-intersecting (edges {hit[0]} and {hit[1]} cross or touch)")
     area = polygon_area(p)
