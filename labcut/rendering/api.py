@@ -322,7 +322,8 @@ def build_scene(
     else:
         from .studio import studio_emitters
 
-        sensor = camera(mesh, cams[0], int(resolution), True, studio.fov_deg, margin=studio.margin, far_radii=200.0)
+        sensor = camera(mesh, cams[0], int(resolution), True, studio.fov_deg, margin=studio.margin, far_radii=200.0,
+                        rfilter="box" if plan.denoise else "gaussian")
         lights, _, _ = studio_emitters(mesh, setting, studio)
     scene_dict: dict[str, Any] = {
         "type": "scene",

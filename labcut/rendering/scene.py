@@ -123,11 +123,13 @@ def to_mitsuba_mesh(mesh: Any, bsdf: Any, smooth_angle_deg: float | None = None)
 
 
 def camera(mesh: Any, view: CameraView, resolution: int, perspective: bool = False, fov_deg: float = 25.0,
-           *, margin: float = 1.0, far_radii: float = 2.0) -> dict[str, Any]:
+           *, margin: float = 1.0, far_radii: float = 2.0, rfilter: str = "gaussian") -> dict[str, Any]:
     """A sensor dict looking at the mesh's bounding sphere from ``view.direction`` (mesh frame),
     the image's top towards ``view.up``; clip planes from the bounds, so any size renders.
     ``margin`` (perspective): frame a sphere that many times wider than the stone's (room for a
-    table around it); ``far_radii``: the far clip plane, in bounding radii beyond the centre."""
+    table around it); ``far_radii``: the far clip plane, in bounding radii beyond the centre.
+    ``rfilter``: the film's reconstruction filter (``box`` keeps pixel noise independent, as a
+    denoiser expects; the gaussian spreads each sample over neighbouring pixels)."""
     import mitsuba as mi
 
     lo, hi = np.asarray(mesh.bounds[0]), np.asarray(mesh.bounds[1])
@@ -142,7 +144,7 @@ def camera(mesh: Any, view: CameraView, resolution: int, perspective: bool = Fal
         "type": "hdrfilm",
         "width": int(resolution),
         "height": int(resolution),
-        "rfilter": {"type": "gaussian"},
+        "rfilter": {"type": rfilter},
         "pixel_format": "luminance" if mi.is_monochromatic else "rgb",
     }
     if perspective:
