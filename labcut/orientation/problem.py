@@ -150,6 +150,7 @@ def build_problem(
     n_points: int | None = None,
     *,
     settings: list[Setting] | None = None,
+    occlusion: bool | None = None,
 ) -> FlashProblem:
     """Sample the surface and build every (point, light, view) triple (see the module docstring).
 
@@ -157,7 +158,8 @@ def build_problem(
     poses of a scenario (:meth:`labcut.Scenario.settings`), each with its own lights and
     views in the mesh frame and a weight. A light of one pose is only ever paired with the
     views of the same pose; the problem's views are all poses' views, weighted by
-    pose weight x view weight.
+    pose weight x view weight. ``occlusion``: test each sample's lights and views for parts of
+    the stone in the way (default: when the stone is not convex; the effect planner may switch it).
     """
     import trimesh
 
@@ -217,7 +219,7 @@ def build_problem(
         # each pose's lights are normalised to total irradiance 1: L_ref is per unit irradiance
         h_k, c_k, pair_k, pi, pv, pw = _setting_triples(
             st.lights.directions, st.lights.weights / total_irradiance[k], st.views.directions,
-            points, n_geo, n_sh, mesh, convex, material.n_surface, table, l_ref, count,
+            points, n_geo, n_sh, mesh, (convex if occlusion is None else not occlusion), material.n_surface, table, l_ref, count,
         )
         h_parts += h_k
         c_parts += c_k
