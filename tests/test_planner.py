@@ -17,6 +17,18 @@ from labcut.planner import (INTERREFLECTION_TOLERANCE, hemispherical_fresnel, pa
 from labcut.scene import Lights, Views
 
 
+@pytest.fixture(autouse=True, scope="module")
+def fresh_pilot_cache(tmp_path_factory):
+    """Pilot renders measured here, not read from an earlier run's cache."""
+    import labcut.planner as planner
+
+    mp = pytest.MonkeyPatch()
+    mp.setattr(planner, "_pilot_cache_path", lambda: tmp_path_factory.mktemp("cache") / "planner-pilot.json")
+    mp.setattr(planner, "_PILOT_CACHE", {})
+    yield
+    mp.undo()
+
+
 @pytest.fixture(scope="module")
 def oval():
     return labcut.load_mesh("meshes/oval-16x12-low.ply")
@@ -39,19 +51,63 @@ def test_convex_stone_under_lamps_needs_only_the_samples(oval):
     assert plan.to_dict()["effects"]["occlusion"]["on"] is False
 
 
-def test_carving_gets_occlusion_and_inter_reflection_and_the_render_estimator(biplane):
+@pytest.fixture(scope="module")
+def slotted(tmp_path_factory):
+    """A block with a deep cross-shaped slot: its walls face each other across 3 mm."""
+    import manifold3d as m3
+    import trimesh
+
+    box = m3.Manifold.cube([16.0, 12.0, 8.0], center=True).translate([0, 0, 4.0])
+    a = m3.Manifold.cube([3.0, 14.0, 7.0], center=True).translate([0, 0, 5.5])
+    b = m3.Manifold.cube([14.0, 3.0, 7.0], center=True).translate([0, 0, 5.5])
+    out = (box - a - b).to_mesh()
+    path = tmp_path_factory.mktemp("slotted") / "slotted.ply"
+    trimesh.Trimesh(np.asarray(out.vert_properties)[:, :3], np.asarray(out.tri_verts)).export(path)
+    return labcut.load_mesh(path)
+
+
+def test_carving_gets_occlusion_and_a_measured_inter_reflection(biplane):
+    """The biplane: the bound (sky share x return albedo) is large, pilot renders show the light
+    between its parts is below the tolerance, so the samples answer."""
     plan = plan_effects(biplane, scenario="display")
-    assert {"occlusion", "inter_reflection"} <= _on(plan)
-    assert plan.estimator == "render" and "inter-reflection" in plan.estimator_why
+    assert _on(plan) == {"occlusion"} and plan.estimator == "samples"
     f = plan.facts["self_view_fraction"]
     assert 0.05 < f < 0.6  # the biplane's wings and fuselage see each other
-    assert plan["inter_reflection"].bound == pytest.approx(f * plan.facts["return_albedo"], rel=1e-3)
-    # asked for the samples, it says what they leave out
-    samples = plan_effects(biplane, scenario="display", estimator="samples")
+    bound = plan.facts["interreflection_bound"]
+    assert bound == pytest.approx(f * plan.facts["return_albedo"], rel=1e-3) and bound > INTERREFLECTION_TOLERANCE
+    measured = plan.facts["interreflection_measured"]
+    assert 0.0 < measured < INTERREFLECTION_TOLERANCE < bound
+    assert plan["inter_reflection"].bound == pytest.approx(measured, abs=1e-5) and "pilot renders" in plan["inter_reflection"].why
+    # switched on by the user: the render estimator carries it
+    on = plan_effects(biplane, scenario="display", effects={"inter_reflection": True})
+    assert on.estimator == "render" and on["inter_reflection"].forced and on.on("inter_reflection")
+
+
+def test_deep_slots_turn_inter_reflection_and_the_render_estimator_on(slotted):
+    plan = plan_effects(slotted, scenario="display")
+    assert {"occlusion", "inter_reflection"} <= _on(plan)
+    assert plan.facts["interreflection_measured"] > INTERREFLECTION_TOLERANCE
+    assert plan.estimator == "render" and "inter-reflection" in plan.estimator_why
+    samples = plan_effects(slotted, scenario="display", estimator="samples")
     assert samples.estimator == "samples" and "cannot carry inter-reflection" in samples.estimator_why
-    # switched off by the user: the samples answer
-    off = plan_effects(biplane, scenario="display", effects={"inter_reflection": False})
-    assert off.estimator == "samples" and off["inter_reflection"].forced and not off.on("inter_reflection")
+    # compare ranks with the samples and says what that leaves out; asked for renders, it refuses
+    cmp = plan_effects(slotted, scenario="display", command="compare")
+    assert cmp.estimator == "samples" and "left out" in cmp.estimator_why
+    with pytest.raises(ParameterError, match="compare runs the sample estimator"):
+        plan_effects(slotted, scenario="display", command="compare", estimator="render")
+
+
+def test_inter_reflection_left_off_for_the_biplane_changes_the_answer_less_than_its_tolerance(biplane):
+    """Switched on, the light between the biplane's parts moves the render estimator's normal by
+    less than 1° and its score by less than the planner's tolerance."""
+    off = labcut.recommend_orientation(biplane, scenario="display", quality="draft", estimator="render")
+    on = labcut.recommend_orientation(biplane, scenario="display", quality="draft", estimator="render",
+                                      effects={"inter_reflection": True})
+    assert off.render["max_depth"] == 2 and on.render["max_depth"] == 4 and on.render["integrator"] == "prb"
+    angle = math.degrees(math.acos(min(1.0, abs(float(np.dot(on.normal, off.normal))))))
+    assert angle < 1.0
+    assert on.score == pytest.approx(off.score, rel=INTERREFLECTION_TOLERANCE)
+    assert on.score != off.score  # the deeper paths did add light
 
 
 def test_environment_map_is_on_only_when_the_lights_hold_one(oval, tmp_path):

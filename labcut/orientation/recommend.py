@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -173,6 +173,14 @@ class Recommendation:
     workshop: dict[str, Any] = field(default_factory=dict)
     #: the mesh's provenance (:func:`mesh_provenance`): path, units, up axis, repairs, bodies
     mesh: dict[str, Any] = field(default_factory=dict)
+    #: the effect plan it ran under (:meth:`labcut.planner.EffectPlan.to_dict`): effects on and
+    #: off and why, the estimator and the predicted seconds
+    plan: dict[str, Any] = field(default_factory=dict)
+    #: which estimator found the normal and scored it: ``samples`` or ``render``
+    estimator: str = "samples"
+    #: the render estimator's statistics (:class:`~labcut.orientation.render_estimator.RenderRecommendation`),
+    #: when it answered: its settings, costs, and the sample estimator's normal it started from
+    render: dict[str, Any] = field(default_factory=dict)
 
     @property
     def description(self) -> str:
@@ -202,6 +210,9 @@ class Recommendation:
             "evaluations": self.evaluations,
             "seconds": self.seconds,
             "settings": self.settings,
+            "estimator": self.estimator,
+            "plan": self.plan,
+            "render_estimator": self.render,
             "map": {"tilt_deg": list(map(float, tilt)), "azimuth_deg": list(map(float, az)), "score": self.map_scores.tolist()},
         }
 
@@ -258,6 +269,8 @@ class Recommendation:
                 settings=dict(data.get("settings", {})),
                 parallel_within_deg=None if data.get("parallel_within_deg") is None else float(data["parallel_within_deg"]),
                 workshop=dict(data.get("workshop", {})), mesh=dict(data.get("mesh", {})),
+                plan=dict(data.get("plan", {})), estimator=str(data.get("estimator", "samples")),
+                render=dict(data.get("render_estimator", {})),
             )
         except KeyError as exc:
             raise ParameterError(f"{source}: not a labcut recommendation (missing {exc.args[0]!r})") from None
@@ -299,18 +312,25 @@ def _saved_scenario(settings: dict[str, Any]) -> Scenario | None:
     return scene if same else None
 
 
-def _setup(mesh, material, scenario, lighting, viewing, objective, quality, tau, seed, max_tilt, tilt_axis):
+def _setup(mesh, material, scenario, lighting, viewing, objective, quality, tau, seed, max_tilt, tilt_axis,
+           command="recommend", estimator="auto", effects=None):
+    """Validate the inputs, plan the effects (:func:`labcut.planner.plan_effects`) and build the
+    sample estimator's problem as planned: ``(material, scene, constraint, scorer, plan)``."""
     if objective not in OBJECTIVES:
         raise ParameterError(f"objective must be one of {', '.join(OBJECTIVES)}, got {objective!r}")
     quality = Quality.coerce(quality)
     from ..geometry.meshio import validate_mesh
+    from ..planner import plan_effects
 
     validate_mesh(mesh)
     material = Labradorite.coerce(material)
     scene = resolve_scene(scenario, lighting, viewing, quality)
     constraint = Constraint(float(max_tilt), tilt_axis)
-    problem = build_problem(mesh, material, quality=quality, tau=tau, seed=seed, settings=scene.settings())
-    return material, scene, constraint, Scorer(problem, objective)
+    plan = plan_effects(mesh, material, command=command, scenario=scene, quality=quality, estimator=estimator,
+                        effects=effects)
+    problem = build_problem(mesh, material, quality=quality, tau=tau, seed=seed, settings=scene.settings(),
+                            occlusion=plan.on("occlusion"))
+    return material, scene, constraint, Scorer(problem, objective), plan
 
 
 def recommend_orientation(
@@ -328,6 +348,8 @@ def recommend_orientation(
     progress: Callable[[str, float], None] | None = None,
     *,
     scenario: str | Scenario | None = None,
+    estimator: str = "auto",
+    effects: Mapping[str, Any] | None = None,
 ) -> Recommendation:
     """Find the lamella normal (mesh frame) that maximises the flash objective.
 
@@ -352,10 +374,18 @@ def recommend_orientation(
         sawn near the plane). ``tilt_axis``: a horizontal axis the normal may only rotate about.
     tau: flash threshold in units of L_ref.
     progress: optional ``callback(stage, fraction)``.
+    estimator: ``auto`` (the effect planner chooses, docs/planner.md) | ``samples`` (surface
+        sample triples: fast, every effect but light between the parts of a carving) |
+        ``render`` (Mitsuba renders of the schiller, optimised through Dr.Jit's automatic
+        differentiation from the sample estimator's answer; carries inter-reflection).
+    effects: overrides of the planner's switchable effects, ``{"occlusion": bool,
+        "inter_reflection": bool}`` (:data:`labcut.planner.SWITCHABLE`).
 
     Returns a :class:`Recommendation`: normal (unit, z >= 0), tilt and azimuth, score and all
     metrics, the tolerance (degrees the cutter may miss and keep 90 % of the score), distinct
-    runner-up optima, and the score map over the allowed hemisphere.
+    runner-up optima, the score map over the allowed hemisphere, and the effect plan. With the
+    render estimator the normal, score and metrics are the renders'; the map, tolerance and
+    runners-up come from the sample estimator around that normal.
     """
     if optimizer not in OPTIMIZERS:
         raise ParameterError(f"optimizer must be one of {', '.join(OPTIMIZERS)}, got {optimizer!r}")
@@ -363,11 +393,14 @@ def recommend_orientation(
     report = progress or (lambda stage, fraction: None)
     report("sampling the surface", 0.0)
     quality = Quality.coerce(quality)
-    material, scene, constraint, scorer = _setup(mesh, material, scenario, lighting, viewing, objective, quality, tau, seed, max_tilt, tilt_axis)
-    report("optimising", 0.3)
+    material, scene, constraint, scorer, plan = _setup(mesh, material, scenario, lighting, viewing, objective, quality, tau,
+                                                       seed, max_tilt, tilt_axis, "recommend", estimator, effects)
+    renders = plan.estimator == "render"
+    stage = (lambda fraction: 0.3 * fraction) if renders else (lambda fraction: fraction)
+    report("optimising", stage(0.3))
     best = run_optimizer(optimizer, scorer, constraint, quality)
     normal = _upper(best.normal)
-    report("mapping the hemisphere", 0.6)
+    report("mapping the hemisphere", stage(0.6))
     map_normals = hemisphere_grid(quality.map_spacing_deg, constraint)
     map_scores = score_map(scorer, map_normals)
     score = scorer.score(normal)
@@ -376,17 +409,34 @@ def recommend_orientation(
         normal = _upper(normal)
     if not score > 0.0:
         _no_flash(objective, scene, tau)
-    report("tolerance and runners-up", 0.8)
-    tol = tolerance_deg(scorer.scores, normal, score, constraint, keep=KEEP)
-    runners = _runners_up(scorer, constraint, map_normals, map_scores, normal, score, scenario=scene)
-    by_axis = axis_tolerances(scorer, normal, score, constraint)
-    metrics = scorer.metrics(normal)
+    render_stats: dict[str, Any] = {}
+    metrics = None
+    if renders:
+        from .render_estimator import recommend_by_render
+
+        depth = 4 if plan.on("inter_reflection") else 2
+        found = recommend_by_render(
+            mesh, material, scene.settings(), start_normal=normal, objective=objective, tau=tau, constraint=constraint,
+            quality=quality.name if quality.name in ("draft", "standard", "high") else "standard", seed=seed,
+            progress=lambda st, f: report(f"renders: {st}", 0.3 + 0.6 * f), max_depth=depth)
+        render_stats = dict(found.stats, samples_normal=[float(x) for x in normal], samples_score=float(score),
+                            angle_to_samples_deg=_axial_angle(found.normal, normal))
+        normal, score, metrics = _upper(found.normal), float(found.score), found.metrics
+        if not score > 0.0:
+            _no_flash(objective, scene, tau)
+    report("tolerance and runners-up", 0.9 if renders else 0.8)
+    sample_score = scorer.score(normal) if renders else score  # the tolerances are the sample estimator's
+    tol = tolerance_deg(scorer.scores, normal, sample_score, constraint, keep=KEEP)
+    runners = _runners_up(scorer, constraint, map_normals, map_scores, normal, sample_score, scenario=scene)
+    by_axis = axis_tolerances(scorer, normal, sample_score, constraint)
+    if metrics is None:
+        metrics = scorer.metrics(normal)
     tilt, az = tilt_azimuth(normal)
     # lamellae parallel to the base score as well as the optimum: that is the instruction
     pole = np.array([0.0, 0.0, 1.0])
     parallel = None
-    if tilt >= 0.5 and scorer.score(pole) >= KEEP * score:
-        parallel = float(tolerance_deg(scorer.scores, pole, score, constraint, keep=KEEP))
+    if tilt >= 0.5 and scorer.score(pole) >= KEEP * sample_score:
+        parallel = float(tolerance_deg(scorer.scores, pole, sample_score, constraint, keep=KEEP))
         if parallel < 0.5:  # the base only just keeps 90 %: "any tilt within ±0.0°" is no instruction
             parallel = None
     elif tilt < 0.5:
@@ -397,13 +447,14 @@ def recommend_orientation(
         tolerance_deg=float(tol), tolerance_by_axis=by_axis, runners_up=runners, map_normals=map_normals, map_scores=map_scores,
         optimizer=optimizer, evaluations=scorer.evaluations, seconds=time.perf_counter() - start,
         parallel_within_deg=parallel, workshop=workshop(normal, mesh, scene, parallel=parallel is not None),
-        mesh=mesh_provenance(mesh),
+        mesh=mesh_provenance(mesh), plan=plan.to_dict(), estimator=plan.estimator or "samples", render=render_stats,
         settings={
             "material": material.to_dict(), "scenario": scene.to_dict(), "lighting": scene.lights.name,
             "viewing": scene.views.name, "quality": quality.name, "quality_settings": quality.to_dict(),
             "max_tilt_deg": constraint.max_tilt_deg, "tilt_axis": constraint.tilt_axis, "tau": tau, "seed": seed,
             "convex": scorer.problem.convex, "surface_samples": scorer.problem.n_points,
             "triples": scorer.problem.n_triples, "lights": len(scene.lights), "views": len(scene.views),
+            "estimator": plan.estimator, "occlusion": plan.on("occlusion"), "inter_reflection": plan.on("inter_reflection"),
         },
         scenario=scene,
     )
@@ -472,11 +523,27 @@ def evaluate_orientation(
     seed: int = 0,
     *,
     scenario: str | Scenario | None = None,
+    estimator: str = "auto",
+    effects: Mapping[str, Any] | None = None,
 ) -> FlashMetrics:
     """Flash metrics (DESIGN.md §4) of a given lamella normal (mesh frame, axial) under a
-    scenario (default ``bench``; ``lighting``/``viewing`` as in :func:`recommend_orientation`)."""
+    scenario (default ``bench``; ``lighting``/``viewing`` as in :func:`recommend_orientation`).
+
+    ``estimator``/``effects`` as in :func:`recommend_orientation`: with the render estimator the
+    metrics come from renders (:class:`~labcut.orientation.render_objective.RenderObjective` at the
+    quality's render settings, paths as deep as the plan's inter-reflection asks)."""
     from ..rendering.api import normalize_normal
 
     m = normalize_normal(normal)
-    *_, scorer = _setup(mesh, material, scenario, lighting, viewing, "energy", quality, tau, seed, 90.0, None)
+    material, scene, _, scorer, plan = _setup(mesh, material, scenario, lighting, viewing, "energy", quality, tau, seed, 90.0,
+                                              None, "evaluate", estimator, effects)
+    if plan.estimator == "render":
+        from .render_estimator import RENDER_QUALITY
+        from .render_objective import RenderObjective
+
+        name = scorer.problem.info.get("quality") or Quality.coerce(quality).name
+        q = RENDER_QUALITY.get(name, RENDER_QUALITY["standard"])
+        obj = RenderObjective(mesh, material, scene.settings(), tau=tau, resolution=q.resolution, spp=q.spp, seed=seed,
+                              max_depth=4 if plan.on("inter_reflection") else 2)
+        return obj.metrics(m)
     return scorer.metrics(m)
