@@ -214,6 +214,7 @@ def build_problem(
     pose_w = pose_w / pose_w.sum()
 
     h_parts, c_parts, pair_parts, pv_parts, pw_parts, vw_parts = [], [], [], [], [], []
+    pp_parts: list[np.ndarray] = []  # surface point of each pair (the uncertainty bootstrap resamples points)
     pair_offset = view_offset = 0
     for k, st in enumerate(settings):
         # each pose's lights are normalised to total irradiance 1: L_ref is per unit irradiance
@@ -225,6 +226,7 @@ def build_problem(
         c_parts += c_k
         pair_parts += [p + pair_offset for p in pair_k]
         pv_parts.append(pv + view_offset)
+        pp_parts.append(pi)
         pw_parts.append(pw)
         vw_parts.append(pose_w[k] * st.views.weights)
         pair_offset += len(pi)
@@ -251,7 +253,8 @@ def build_problem(
         views=settings[0].views,
         convex=convex,
         n_points=count,
-        info={"l_ref": l_ref, "pairs": int(pair_offset), "triples": int(c.size), "poses": len(settings)},
+        info={"l_ref": l_ref, "pairs": int(pair_offset), "triples": int(c.size), "poses": len(settings),
+              "pair_point": np.concatenate(pp_parts).astype(np.int32)},
     )
 
 
