@@ -363,3 +363,55 @@ def tolerance_deg(scores: Callable[[np.ndarray], np.ndarray], best: np.ndarray, 
         mid = 0.5 * (lo + hi)
         lo, hi = (lo, mid) if fails(mid) else (mid, hi)
     return lo
+
+
+def _dots(normals: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """Dot product of each row of ``normals`` (N, 3) with ``t`` (3,), as three multiply-adds
+    (no BLAS call: OpenBLAS threads next to Dr.Jit's pool wait milliseconds on few cores)."""
+    return normals[:, 0] * t[0] + normals[:, 1] * t[1] + normals[:, 2] * t[2]
+
+
+def _axial_deg(normals: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """Axial angle (degrees) between each row of ``normals`` and the unit vector ``t``."""
+    return np.degrees(np.arccos(np.minimum(1.0, np.abs(_dots(normals, np.asarray(t, dtype=np.float64))))))
+
+
+def distinct_optima(scorer: Scorer, constraint: Constraint, normals: np.ndarray, scores: np.ndarray, best: np.ndarray,
+                    best_score: float, count: int = 3, separation_deg: float = 12.0, neighbour_deg: float = 4.5,
+                    floor: float = 0.3) -> list[tuple[np.ndarray, float]]:
+    """Distinct local maxima of a score map (unit ``normals``, mesh frame, with ``scores``), best first:
+    each a map point at least ``separation_deg`` (axial) from ``best`` and from the optima already
+    found, no lower than any map point within ``neighbour_deg``, scoring at least ``floor`` x
+    ``best_score``; polished on a 0.25° grid within 2° (:func:`polish_grid`) and kept when the
+    polished normal (folded to z >= 0) is still that far from the others. At most ``count``.
+
+    Vectorised: the distance of every candidate to a newly found optimum is one array operation
+    (the per-candidate Python loop made millions of ``acos`` calls at high quality)."""
+    normals = np.asarray(normals, dtype=np.float64)
+    scores = np.asarray(scores, dtype=np.float64)
+    order = np.argsort(scores)[::-1]
+    order = order[scores[order] >= floor * best_score]  # the loop stops at the first one below
+    cand = normals[order]
+    free = _axial_deg(cand, best) >= separation_deg  # not within the separation of a taken optimum
+    taken = [np.asarray(best, dtype=np.float64)]
+    out: list[tuple[np.ndarray, float]] = []
+    for k in np.flatnonzero(free):
+        if len(out) >= count:
+            break
+        if not free[k]:  # an optimum found since the mask was made lies near
+            continue
+        n = cand[k]
+        near = np.degrees(np.arccos(np.clip(np.abs(_dots(normals, n)), 0.0, 1.0))) < neighbour_deg
+        if np.any(scores[near] > scores[order[k]]):  # not a local maximum
+            continue
+        polished, value = polish_grid(scorer, n, constraint, 2.0, 0.25)
+        polished = np.asarray(polished, dtype=np.float64)
+        polished = polished / np.linalg.norm(polished)
+        if polished[2] < 0:
+            polished = -polished
+        if any(float(_axial_deg(polished[None, :], t)[0]) < separation_deg for t in taken):
+            continue
+        taken.append(polished)
+        free &= _axial_deg(cand, polished) >= separation_deg
+        out.append((polished, value))
+    return out

@@ -487,25 +487,14 @@ def axis_tolerances(scorer: Scorer, best: np.ndarray, best_score: float, constra
 
 
 def _runners_up(scorer: Scorer, constraint: Constraint, normals: np.ndarray, scores: np.ndarray, best: np.ndarray, best_score: float, count: int = 3, scenario: Scenario | None = None) -> list[dict[str, Any]]:
-    """Distinct local maxima of the map: >= 12° from better ones, >= 30 % of the best score."""
-    from .optimize import polish_grid
+    """Distinct local maxima of the map: >= 12° from better ones, >= 30 % of the best score
+    (:func:`~labcut.orientation.optimize.distinct_optima`, vectorised)."""
+    from .optimize import distinct_optima
 
     out: list[dict[str, Any]] = []
-    taken = [best]
-    for i in np.argsort(scores)[::-1]:
-        if scores[i] < 0.3 * best_score or len(out) >= count:
-            break
-        n = normals[i]
-        if any(_axial_angle(n, t) < RUNNER_UP_SEPARATION_DEG for t in taken):
-            continue
-        near = np.degrees(np.arccos(np.clip(np.abs(normals @ n), 0.0, 1.0))) < 1.5 * MAP_SPACING_DEG.get("standard", 2.0)
-        if np.any(scores[near] > scores[i]):  # not a local maximum
-            continue
-        polished, value = polish_grid(scorer, n, constraint, 2.0, 0.25)
-        polished = _upper(polished)
-        if any(_axial_angle(polished, t) < RUNNER_UP_SEPARATION_DEG for t in taken):
-            continue
-        taken.append(polished)
+    for polished, value in distinct_optima(scorer, constraint, normals, scores, best, best_score, count=count,
+                                           separation_deg=RUNNER_UP_SEPARATION_DEG,
+                                           neighbour_deg=1.5 * MAP_SPACING_DEG.get("standard", 2.0)):
         tilt, az = tilt_azimuth(polished)
         out.append({"normal": [float(x) for x in polished], "tilt_deg": tilt, "azimuth_deg": az, "score": float(value),
                     "relative_score": float(value / best_score) if best_score > 0 else 0.0, "description": describe(polished, scenario)})
