@@ -278,7 +278,8 @@ def _pilot_cache_path() -> Any:
     return Path(user_cache_dir("labcut")) / "planner-pilot.json"
 
 
-def _switches(effects: Mapping[str, Any] | None) -> dict[str, bool]:
+def check_effects(effects: Mapping[str, Any] | None) -> dict[str, bool]:
+    """``effects`` as ``{name: bool}`` of switchable effects (one-line errors for the rest)."""
     if effects is None:
         return {}
     if not isinstance(effects, Mapping):
@@ -311,7 +312,7 @@ def parse_effects(specs: Sequence[str] | None) -> dict[str, bool]:
         if not sep or not name.strip():
             raise ParameterError(f"--effect takes NAME=on|off, got {spec!r}")
         out[name.strip()] = value.strip()
-    return _switches(out)
+    return check_effects(out)
 
 
 def plan_effects(
@@ -329,12 +330,15 @@ def plan_effects(
     zoning: Any = None,
     max_depth: int | None = None,
     effects: Mapping[str, Any] | None = None,
+    predict: bool = True,
 ) -> EffectPlan:
     """Decide which effects ``command`` simulates for a stone in a scene (module docstring).
 
     ``estimator`` (``recommend``/``evaluate``/``compare``): ``auto`` lets the planner choose,
     ``samples``/``render`` force one. ``mode``/``polarizer_deg``/``zoning``/``max_depth``: a
     render's request. ``effects``: ``{"occlusion": bool, "inter_reflection": bool}`` overrides.
+    ``predict``: for ``recommend``, the predicted seconds of each estimator on this machine
+    (calibrated once, a few seconds, then cached: :mod:`labcut.orientation.timing`).
 
     Raises :class:`~labcut.errors.ParameterError` for combinations the scene cannot have (a
     polariser with mono colour, inter-reflection in a convex stone, an unknown effect ...)."""
@@ -345,7 +349,7 @@ def plan_effects(
         raise ParameterError(f"command must be one of {', '.join(COMMANDS)}, got {command!r}")
     if estimator not in ESTIMATORS:
         raise ParameterError(f"estimator must be one of {', '.join(ESTIMATORS)}, got {estimator!r}")
-    forced = _switches(effects)
+    forced = check_effects(effects)
     material = Labradorite.coerce(material)
     scene = resolve_scene(scenario, lighting, viewing, quality)
     rendering = command == "render"
@@ -395,7 +399,7 @@ def plan_effects(
         facts.update(self_view_fraction=round(f, 4), return_albedo=round(rho, 4), interreflection_bound=round(bound, 4))
         share = f"{f:.0%} of the sky above the surface is the stone itself, which sends back at most {rho:.0%}"
         measured = None
-        if bound > INTERREFLECTION_TOLERANCE and "inter_reflection" not in forced and not rendering:
+        if bound > INTERREFLECTION_TOLERANCE and "inter_reflection" not in forced and command in ("recommend", "evaluate"):
             # the bound is loose (the returning light is mostly the lamps' mirror images, which
             # rarely meet the lamellae's flash direction): measure it with pilot renders
             measured = measured_interreflection(mesh, material, scene)
@@ -418,6 +422,7 @@ def plan_effects(
         ir_on = int(max_depth) > 2
         how = f"path tracing to depth {int(max_depth)} (as asked)"
     elif rendering:
+        ir_on = not convex  # a renderer traces the extra bounces at little cost: no need to measure
         how = "path tracing, 3 bounces"
     else:
         how = "the render estimator's path tracer (the surface samples cannot carry it)"
@@ -495,4 +500,28 @@ def plan_effects(
             chosen = "samples"
             est_why = (f"compare ranks many cuts with the sample estimator; inter-reflection (up to {bound:.1%} of the "
                        "flash energy) is left out: recommend-orientation --estimator render per cut carries it")
-    return EffectPlan(command, tuple(decisions), chosen, est_why, {}, convex, facts)
+            decisions = [Decision(d.effect, False, "", f"left out: compare ranks with the sample estimator ({d.why})",
+                                  d.forced, d.bound) if d.effect == "inter_reflection" else d for d in decisions]
+    predicted = _predicted_seconds(scene, command, occ_on, ir_on, convex) if predict and command == "recommend" else {}
+    return EffectPlan(command, tuple(decisions), chosen, est_why, predicted, convex, facts)
+
+
+def _predicted_seconds(scene: Any, command: str, occlusion: bool, inter_reflection: bool, convex: bool) -> dict[str, float]:
+    """Predicted seconds of each estimator for a recommendation on this machine (calibrated:
+    :func:`labcut.orientation.timing.predict_sample_seconds`,
+    :func:`labcut.orientation.render_estimator.predict_render_seconds`); the render estimator
+    starts from the sample estimator's answer, so its time includes the samples'."""
+    from .orientation.timing import calibrating, predict_sample_seconds
+
+    if calibrating():
+        return {}
+    from .orientation.render_estimator import RENDER_QUALITY, predict_render_seconds
+
+    settings = scene.settings()
+    q = scene.quality
+    samples = predict_sample_seconds(settings, q.surface_points, occlusion)
+    rq = RENDER_QUALITY.get(q.name, RENDER_QUALITY["standard"])
+    n_views = sum(len(st.views) for st in settings)
+    depth = 4 if inter_reflection else 2
+    render = samples + predict_render_seconds(n_views, rq.resolution, rq.spp, convex, rq.iterations, 0, depth)
+    return {"samples": samples, "render": render}

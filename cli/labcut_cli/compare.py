@@ -18,7 +18,8 @@ from labcut.scene.scenario import SCENARIOS
 
 from . import materials as m
 from . import meshes as mo
-from .root import all_or_nothing, app, console, err_console
+from . import plan_options as po
+from .root import all_or_nothing, app, console, err_console, write_json
 
 Cuts = Annotated[
     list[str],
@@ -160,6 +161,10 @@ def compare(
     html_path: Annotated[Optional[Path], typer.Option("--html", help="Write the report: one self-contained HTML page.")] = None,
     json_path: Annotated[Optional[str], typer.Option("--json", help="Write every number of the report as JSON ('-' for stdout).")] = None,
     csv_path: Annotated[Optional[Path], typer.Option("--csv", help="Write every number of the report as CSV (one number per row).")] = None,
+    estimator: po.Estimator = "auto",
+    effect: po.Effect = None,
+    plan_flag: po.Plan = False,
+    plan_only: po.PlanOnly = False,
 ) -> None:
     """Compare cuts for their schiller: each at its own best lamella orientation per scenario, plus one
     orientation for all; ranked, normalised to a reference cut, with renders, curves and maps (--html).
@@ -173,16 +178,33 @@ def compare(
 
     # every input is checked before the work starts
     _check_outputs(html_path, json_path, csv_path)
+    effects = po.check(estimator, effect)
+    if estimator == "render":
+        from labcut.errors import ParameterError
+
+        raise ParameterError("compare runs the sample estimator (many cuts and curves); "
+                             "use --estimator samples, or recommend-orientation --estimator render per cut")
     material = m.build_material(preset, peak, an, material_file, d_a=d_a, d_b=d_b, sigma_a=sigma_a, sigma_b=sigma_b,
                                 n_a=n_a, n_b=n_b, n_surface=n_surface, pairs=pairs, spread_deg=spread)
     unit_arg, up = mo.check_mesh_options(units, up_axis)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", LabcutWarning)
         plan = plan_comparison(cuts, material, scenario or ["bench"], reference=_reference(reference, len(cuts)), quality=quality,
-                               units=unit_arg, up_axis=up, seed=seed, resolution=resolution, spp=spp)
+                               units=unit_arg, up_axis=up, seed=seed, resolution=resolution, spp=spp, effects=effects)
     for w in caught:
         if issubclass(w.category, LabcutWarning):
             mo.print_warning(str(w.message))
+
+    if plan_flag or plan_only:
+        for (cut_name, scen_name), eplan in plan.effect_plans.items():
+            po.show(eplan, f"{cut_name}, scenario {scen_name!r}", to_stderr=json_path == "-")
+        if plan_only:
+            data = {"plans": [{"cut": c, "scenario": s, "plan": e.to_dict()} for (c, s), e in plan.effect_plans.items()]}
+            if json_path == "-":
+                typer.echo(json.dumps(data, indent=2, allow_nan=False))
+            elif json_path is not None:
+                write_json(json_path, data)
+            return
 
     with progress_bar("comparing", "cut x scenario") as update:
         cmp = run_comparison(plan, progress=update)

@@ -15,6 +15,7 @@ from rich.table import Table
 
 from . import materials as m
 from . import meshes as mo
+from . import plan_options as po
 from . import scene_options as so
 from .root import all_or_nothing, app, console, err_console, parse_vector, write_json
 
@@ -134,6 +135,10 @@ def recommend_orientation(
     spp: Annotated[int, typer.Option(help="Samples per pixel of --render.", min=1)] = 64,
     resolution: Annotated[int, typer.Option(help="Width and height of --render in pixels.", min=8, max=8192)] = 512,
     exposure: Exposure = "auto",
+    estimator: po.Estimator = "auto",
+    effect: po.Effect = None,
+    plan: po.Plan = False,
+    plan_only: po.PlanOnly = False,
 ) -> None:
     """Find the lamella orientation that makes MESH flash most, and how precisely it must be cut.
 
@@ -160,6 +165,7 @@ def recommend_orientation(
     if optimizer not in OPTIMIZERS:
         raise ParameterError(f"--optimizer must be one of {', '.join(OPTIMIZERS)}, got {optimizer!r}")
     exposure_value = parse_exposure(exposure)
+    effects = po.check(estimator, effect)
     axis = parse_vector(tilt_axis, "--tilt-axis") if tilt_axis else None
     Constraint(max_tilt, axis)
     scene = so.resolve(scenario, lighting, viewing, quality)
@@ -167,12 +173,23 @@ def recommend_orientation(
                                 n_a=n_a, n_b=n_b, n_surface=n_surface, pairs=pairs, spread_deg=spread)
     mo.check_mesh_options(units, up_axis, size)
     mesh = mo.load(mesh_path, units, up_axis, size=size)
+    if plan or plan_only or effects or estimator != "auto":  # a bad combination fails before the work starts
+        from labcut.planner import plan_effects
+
+        the_plan = plan_effects(mesh, material, command="recommend", scenario=scene, quality=quality,
+                                estimator=estimator, effects=effects, predict=plan or plan_only)
+    if plan or plan_only:
+        po.show(the_plan, mesh_path.name, to_stderr=json_path == "-")
+        if plan_only:
+            po.finish_plan_only(the_plan, json_path)
+            return
 
     with progress_bar("recommending", "%") as update:
         rec = labcut.recommend_orientation(
             mesh, material, scenario=scene, objective=objective, quality=quality,
             optimizer=optimizer, max_tilt=max_tilt, tilt_axis=axis, seed=seed,
             progress=lambda stage, fraction: update(int(round(100 * fraction)), 100),
+            estimator=estimator, effects=effects,
         )
     data = rec.to_dict()
     data["mesh"]["path"] = str(mesh_path)
@@ -211,6 +228,11 @@ def recommend_orientation(
             console.print(table)
         console.print(f"{rec.optimizer}: {rec.evaluations} evaluations, {rec.seconds:.2f} s; "
                       f"{rec.settings['triples']} (point, light, view) triples")
+        if rec.estimator == "render":
+            r = rec.render
+            console.print(f"render estimator ({r['integrator']}, depth {r['max_depth']}, {r['resolution']}² px, {r['spp']} spp): "
+                          f"{r['evaluations']} evaluations, {r['renders']} renders, {r['seconds']:.1f} s; "
+                          f"{r['angle_to_samples_deg']:.2f}° from the sample estimator's answer")
         for label, path in (("JSON", json_path), ("score map", map_path)):
             if path is not None:
                 console.print(f"{label} written to {path}")
@@ -263,6 +285,10 @@ def evaluate_orientation(
     viewing: so.Viewing = None,
     quality: Quality = "standard",
     json_path: Annotated[Optional[str], typer.Option("--json", help="Write the metrics as JSON ('-' for stdout).")] = None,
+    estimator: po.Estimator = "auto",
+    effect: po.Effect = None,
+    plan: po.Plan = False,
+    plan_only: po.PlanOnly = False,
 ) -> None:
     """Flash metrics of MESH cut with its lamella plane normal to --normal."""
     import labcut
@@ -273,15 +299,27 @@ def evaluate_orientation(
     if json_path not in (None, "-"):
         check_output_path(json_path, (".json",))
     m_vec = normalize_normal(parse_vector(normal, "--normal"))
+    effects = po.check(estimator, effect)
     material = m.build_material(preset, peak, an, material_file, d_a=d_a, d_b=d_b, sigma_a=sigma_a, sigma_b=sigma_b,
                                 n_a=n_a, n_b=n_b, n_surface=n_surface, pairs=pairs, spread_deg=spread)
     scene = so.resolve(scenario, lighting, viewing, quality)
     mo.check_mesh_options(units, up_axis, size)
     mesh = mo.load(mesh_path, units, up_axis, size=size)
-    metrics = labcut.evaluate_orientation(mesh, m_vec, material, scenario=scene, quality=quality)
+    from labcut.planner import plan_effects
+
+    the_plan = plan_effects(mesh, material, command="evaluate", scenario=scene, quality=quality, estimator=estimator,
+                            effects=effects)
+    if plan or plan_only:
+        po.show(the_plan, mesh_path.name, to_stderr=json_path == "-")
+        if plan_only:
+            po.finish_plan_only(the_plan, json_path)
+            return
+    metrics = labcut.evaluate_orientation(mesh, m_vec, material, scenario=scene, quality=quality, estimator=estimator,
+                                          effects=effects)
     provenance = {**mesh_provenance(mesh), "path": str(mesh_path)}
     data = {"normal": m_vec.tolist(), "frame": FRAME, "scenario": scene.to_dict(), "material": material.to_dict(),
-            "mesh": provenance, **metrics_dict(metrics), "metric_definitions": METRIC_DEFINITIONS}
+            "mesh": provenance, **metrics_dict(metrics), "metric_definitions": METRIC_DEFINITIONS,
+            "estimator": the_plan.estimator, "plan": the_plan.to_dict()}
     if json_path == "-":
         typer.echo(json.dumps(data, indent=2, allow_nan=False))
         return

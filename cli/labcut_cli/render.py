@@ -9,6 +9,7 @@ import typer
 
 from . import materials as m
 from . import meshes as mo
+from . import plan_options as po
 from . import scene_options as so
 from .recommend import print_render_notes
 from .root import all_or_nothing, app, console, parse_vector, write_json
@@ -96,6 +97,8 @@ def render(
     seed: Annotated[int, typer.Option(help="Seed of the studio body's inclusions and of the sampler.")] = 0,
     exposure: Annotated[str, typer.Option("--exposure", help="Exposure: auto (studio: metered from the lights; diagram: from the image), a multiplier > 0, or stops like -1.5ev; one value for every frame of an animation.")] = "auto",
     json_path: Annotated[Optional[str], typer.Option("--json", help="Write the render plan and timing as JSON ('-' for stdout).")] = None,
+    plan: po.Plan = False,
+    plan_only: po.PlanOnly = False,
 ) -> None:
     """Render MESH cut from labradorite with its lamella plane normal to --normal.
 
@@ -173,6 +176,15 @@ def render(
     plan_render(_Probe(), None, mode, polarizer, ("schiller",) if schiller_only else ("surface", "schiller", "body"),
                 look=look_spec or "diagram", denoise=denoise)  # e.g. --denoise with --mode mono: fail before the mesh loads
     mesh = mo.load(mesh_path, units, up_axis, size=size)
+    if plan or plan_only:
+        from labcut.planner import plan_effects
+
+        the_plan = plan_effects(mesh, material, command="render", scenario=scene, mode=None if mode == "rgb" else mode,
+                                polarizer_deg=polarizer, zoning=zoning_spec)
+        po.show(the_plan, mesh_path.name, to_stderr=json_path == "-")
+        if plan_only:
+            po.finish_plan_only(the_plan, json_path)
+            return
     lobes = ("schiller",) if schiller_only else ("surface", "schiller", "body")
     if animate is not None:
         _animate(mesh_path, mesh, material, lamella, scene, animate, frames, rock_deg, fps, spp, resolution, exposure_value,

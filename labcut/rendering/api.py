@@ -23,6 +23,8 @@ and the mesh, logged, and returned on the result:
 
 from __future__ import annotations
 
+import dataclasses
+
 import contextlib
 import logging
 import math
@@ -61,6 +63,8 @@ class RenderPlan:
     look: str = "diagram"
     denoise: bool = False
     zoning: str | None = None
+    #: the effect planner's plan of the render (:meth:`labcut.planner.EffectPlan.to_dict`)
+    effects: dict[str, Any] = field(default_factory=dict)
 
     def to_dict(self) -> dict[str, Any]:
         return asdict(self)
@@ -440,6 +444,10 @@ def render(
     views = camera_views(view, setting)
     # validate the plan (denoise with a polarizer or mono, bad lobes) before any work
     plan_render(mesh, setting.lights, mode, polarizer_deg, lobes, max_depth, look=look, denoise=denoise)
+    from ..planner import plan_effects
+
+    effect_plan = plan_effects(mesh, material, command="render", scenario=scenario_used, mode=None if mode == "rgb" else mode,
+                               polarizer_deg=polarizer_deg, zoning=zoning, max_depth=max_depth).to_dict()
     total = int(spp) * len(views)
     per_pass = max(1, min(int(spp), 16))
     done = 0
@@ -492,6 +500,7 @@ def render(
         auto = auto_exposure(np.clip(np.nan_to_num(image), 0.0, None))
     else:
         auto, studio_info = studio_exposure(mesh, setting, studio, views)
+    plan = dataclasses.replace(plan, effects=effect_plan)
     result = RenderResult(
         image, plan, int(spp), seconds, [v.name for v in views], scenario_used.to_dict(),
         exposure=float(exposure) if exposure is not None else auto,

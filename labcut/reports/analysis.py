@@ -291,9 +291,11 @@ def _cap_grid(centre: np.ndarray, radius_deg: float, step_deg: float) -> np.ndar
     return np.concatenate(out)
 
 
-def scorer_for(mesh: Any, material: Any, scenario: Scenario, quality: Quality | str, tau: float = 0.1, seed: int = 0) -> Scorer:
+def scorer_for(mesh: Any, material: Any, scenario: Scenario, quality: Quality | str, tau: float = 0.1, seed: int = 0,
+               occlusion: bool | None = None) -> Scorer:
     """The energy :class:`Scorer` of a cut under a scenario, built exactly as
-    :func:`labcut.recommend_orientation` builds its own (same samples for the same seed), so its
-    scores equal the recommendation's."""
-    problem = build_problem(mesh, material, quality=quality, tau=tau, seed=seed, settings=scenario.settings())
+    :func:`labcut.recommend_orientation` builds its own (same samples for the same seed, the
+    effect plan's ``occlusion``), so its scores equal the recommendation's."""
+    problem = build_problem(mesh, material, quality=quality, tau=tau, seed=seed, settings=scenario.settings(),
+                            occlusion=occlusion)
     return Scorer(problem, "energy")

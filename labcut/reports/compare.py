@@ -20,7 +20,7 @@ import csv
 import math
 import os
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -495,6 +495,10 @@ class ComparisonPlan:
     strip_spp: int
     strip_angles: tuple[float, ...]
     tau: float = 0.1
+    #: the user's overrides of the effect planner (``{"occlusion": bool}``)
+    effects: dict[str, bool] = field(default_factory=dict)
+    #: the effect plan of each (cut name, scenario name) (:class:`labcut.planner.EffectPlan`)
+    effect_plans: dict[tuple[str, str], Any] = field(default_factory=dict)
 
     @property
     def steps(self) -> int:
@@ -514,6 +518,7 @@ def plan_comparison(
     seed: int = 0,
     resolution: int | None = None,
     spp: int | None = None,
+    effects: Mapping[str, Any] | None = None,
 ) -> ComparisonPlan:
     """Check every input of :func:`compare_cuts` (each cut parsed, read and validated) without
     starting the long work; a bad one is a one-line :class:`~labcut.errors.ParameterError` or
@@ -530,7 +535,14 @@ def plan_comparison(
     scens = resolve_scenarios(scenarios, quality)
     resolved = resolve_cuts(cuts, units=units, up_axis=up_axis)
     ref = _reference(reference, resolved)
-    return ComparisonPlan(resolved, lab, scens, ref, quality, seed, res, n_spp, max(1, n_spp // 2), quality.strip_angles_deg)
+    from ..planner import check_effects, plan_effects
+
+    switches = check_effects(effects)
+    plans = {(cut.name, sc.name): plan_effects(cut.mesh, lab, command="compare", scenario=sc, quality=quality,
+                                               effects=switches, predict=False)
+             for cut in resolved for sc in scens}
+    return ComparisonPlan(resolved, lab, scens, ref, quality, seed, res, n_spp, max(1, n_spp // 2), quality.strip_angles_deg,
+                          effects=switches, effect_plans=plans)
 
 
 def compare_cuts(
@@ -546,6 +558,7 @@ def compare_cuts(
     resolution: int | None = None,
     spp: int | None = None,
     progress: Callable[[int, int], None] | None = None,
+    effects: Mapping[str, Any] | None = None,
 ) -> Comparison:
     """Compare cuts for their schiller under one or more scenarios.
 
@@ -564,13 +577,16 @@ def compare_cuts(
     resolution, spp: size (pixels) and samples per pixel of the renders (default by quality:
         96/8, 128/32, 256/128); the rocking strip uses half the samples.
     progress: ``callback(done, total)`` over all cuts x scenarios.
+    effects: overrides of the effect planner, ``{"occlusion": bool}`` (docs/planner.md); each
+        cut's plan under each scenario is in its recommendation's ``plan``. Compare ranks with the
+        sample estimator.
 
     Every input is checked (:func:`plan_comparison`) before the long work starts; a bad one
     raises a one-line :class:`~labcut.errors.ParameterError` or :class:`~labcut.errors.MeshError`
     naming it. Returns a :class:`Comparison`.
     """
     plan = plan_comparison(cuts, material, scenarios, reference, quality, units=units, up_axis=up_axis, seed=seed,
-                           resolution=resolution, spp=spp)
+                           resolution=resolution, spp=spp, effects=effects)
     return run_comparison(plan, progress)
 
 
@@ -607,8 +623,13 @@ def run_comparison(plan: ComparisonPlan, progress: Callable[[int, int], None] | 
         scorers = []
         for sc in scens:
             t0 = time.perf_counter()
-            rec = recommend_orientation(cut.mesh, lab, scenario=sc, quality=quality, seed=seed, tau=tau)
-            scorer = scorer_for(cut.mesh, lab, sc, quality, tau, seed)
+            eplan = plan.effect_plans.get((cut.name, sc.name))
+            rec = recommend_orientation(cut.mesh, lab, scenario=sc, quality=quality, seed=seed, tau=tau, estimator="samples",
+                                        effects=plan.effects)
+            if eplan is not None:
+                rec.plan = eplan.to_dict()
+            scorer = scorer_for(cut.mesh, lab, sc, quality, tau, seed,
+                                occlusion=None if eplan is None else eplan.on("occlusion"))
             scorers.append(scorer)
             mis = misorientation_curve(scorer.energy_map, rec.normal, rec.tolerance_deg, quality)
             tilt = tilt_curve(cut.mesh, lab, rec.normal, sc, quality, tau, seed)

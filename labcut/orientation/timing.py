@@ -1,0 +1,135 @@
+"""Predicted wall time of the sample estimator, calibrated on this machine.
+
+The effect planner (:mod:`labcut.planner`) shows the predicted time of each choice (docs/planner.md).
+The render estimator has its own calibration (:func:`labcut.orientation.render_estimator.render_timing`);
+this module is the sample estimator's:
+
+``seconds = fixed + per_term x terms + per_ray x rays`` (occlusion only)
+
+with ``terms`` = surface points x the sum over poses of lights x views (the candidate
+(point, light, view) triples before culling) and ``rays`` = surface points x the sum over poses
+of lights + views (the shadow rays of a non-convex stone). The three constants come from three
+timed recommendations of a bundled-size oval cabochon (draft and standard quality, and draft
+with occlusion forced on), measured once per machine (a few seconds) and kept in the user
+cache folder; they are measured again when the CPU count, labcut's or numpy's version differ.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import time
+from collections.abc import Sequence
+from dataclasses import asdict, dataclass
+from typing import Any
+
+from ..errors import LabcutError
+
+_TIMING: SampleTiming | None = None
+_CALIBRATING = False
+
+
+@dataclass(frozen=True)
+class SampleTiming:
+    """Seconds of a sample-estimator recommendation: a fixed part, per candidate term, per shadow ray."""
+
+    fixed: float
+    per_term: float
+    per_ray: float
+    key: str
+
+    def to_dict(self) -> dict[str, Any]:
+        return asdict(self)
+
+
+def calibrating() -> bool:
+    """True while :func:`measure_sample_timing` runs (the planner then predicts nothing)."""
+    return _CALIBRATING
+
+
+def work(settings: Sequence[Any], surface_points: int) -> tuple[float, float]:
+    """``(terms, rays)`` of a problem: surface points x Σ_poses lights x views, and x Σ (lights + views)."""
+    terms = sum(len(st.lights) * len(st.views) for st in settings) * surface_points
+    rays = sum(len(st.lights) + len(st.views) for st in settings) * surface_points
+    return float(terms), float(rays)
+
+
+def _key() -> str:
+    import numpy as np
+
+    from .. import __version__
+
+    return f"labcut {__version__} numpy {np.__version__} cpus {os.cpu_count()} v1"
+
+
+def _path() -> Any:
+    from pathlib import Path
+
+    from platformdirs import user_cache_dir
+
+    return Path(user_cache_dir("labcut")) / "sample-estimator-timing.json"
+
+
+def measure_sample_timing() -> SampleTiming:
+    """Time three recommendations of a 16 x 12 mm oval cabochon under the bench scenario (module docstring)."""
+    import copy
+
+    from ..geometry.cabochon import cabochon
+    from ..scene import resolve_scene
+    from .recommend import recommend_orientation
+
+    global _CALIBRATING
+    mesh = cabochon(outline="oval", length=16.0, width=12.0, dome="medium")
+    hidden = copy.deepcopy(mesh)
+    hidden.metadata.setdefault("labcut", {})["convex"] = False
+    rows = []
+    _CALIBRATING = True
+    try:
+        recommend_orientation(mesh, quality="draft")  # warm: imports and kernels
+        for m, quality, occl in ((mesh, "draft", False), (mesh, "standard", False), (hidden, "draft", True)):
+            scene = resolve_scene("bench", quality=quality)
+            terms, rays = work(scene.settings(), scene.quality.surface_points)
+            t = time.perf_counter()
+            recommend_orientation(m, quality=quality)
+            rows.append((terms, rays if occl else 0.0, time.perf_counter() - t))
+    finally:
+        _CALIBRATING = False
+    (t0, _, s0), (t1, _, s1), (t2, r2, s2) = rows
+    per_term = max((s1 - s0) / (t1 - t0), 0.0) if t1 != t0 else 0.0
+    fixed = max(s0 - per_term * t0, 0.0)
+    per_ray = max((s2 - s0) / r2, 0.0) if r2 > 0 else 0.0
+    return SampleTiming(fixed, per_term, per_ray, _key())
+
+
+def sample_timing(refresh: bool = False) -> SampleTiming:
+    """The calibration of :func:`predict_sample_seconds`: measured once on this machine and cached."""
+    global _TIMING
+    key = _key()
+    if _TIMING is not None and _TIMING.key == key and not refresh:
+        return _TIMING
+    path = _path()
+    if not refresh:
+        try:
+            data = json.loads(path.read_text())
+            if data.get("key") == key:
+                _TIMING = SampleTiming(float(data["fixed"]), float(data["per_term"]), float(data["per_ray"]), key)
+                return _TIMING
+        except (OSError, ValueError, KeyError, TypeError, AttributeError):
+            pass  # none yet, or unreadable: measure
+    _TIMING = measure_sample_timing()
+    try:
+        from ..fileio import atomic_output
+
+        path.parent.mkdir(parents=True, exist_ok=True)
+        with atomic_output(path, (".json",)) as tmp:
+            tmp.write_text(json.dumps(_TIMING.to_dict(), indent=1) + "\n")
+    except (OSError, LabcutError):
+        pass  # a read-only cache: measured again next time
+    return _TIMING
+
+
+def predict_sample_seconds(settings: Sequence[Any], surface_points: int, occlusion: bool) -> float:
+    """Predicted wall seconds of a sample-estimator recommendation on this machine (warm process)."""
+    t = sample_timing()
+    terms, rays = work(settings, surface_points)
+    return float(t.fixed + t.per_term * terms + (t.per_ray * rays if occlusion else 0.0))
