@@ -58,6 +58,8 @@ _LAZY = {
     "RenderResult": "labcut.rendering.api:RenderResult",
     "compare_cuts": "labcut.reports.compare:compare_cuts",
     "Comparison": "labcut.reports.compare:Comparison",
+    "plan_effects": "labcut.planner:plan_effects",
+    "EffectPlan": "labcut.planner:EffectPlan",
 }
 
 
