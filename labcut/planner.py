@@ -353,9 +353,14 @@ def plan_effects(
     material = Labradorite.coerce(material)
     scene = resolve_scene(scenario, lighting, viewing, quality)
     rendering = command == "render"
-    if not rendering and (polarizer_deg is not None or mode is not None or zoning is not None):
-        raise ParameterError(f"{command} scores luminance flash of the uniform material: colour mode, polariser "
-                             "and zoning apply to renders only")
+    if not rendering and (polarizer_deg is not None or mode is not None):
+        raise ParameterError(f"{command} scores luminance flash: colour mode and polariser apply to renders only")
+    if zoning is not None and command == "compare":
+        raise ParameterError("compare scores uniform materials with the sample estimator: zoning applies to "
+                             "render, recommend-orientation and evaluate-orientation")
+    if zoning is not None and estimator == "samples":
+        raise ParameterError("the sample estimator scores a uniform material: a zoned stone needs --estimator render "
+                             "(or auto, which picks it)")
     if rendering and estimator != "auto":
         raise ParameterError("estimator applies to recommend, evaluate and compare, not to render")
     if polarizer_deg is not None and mode == "mono":
@@ -471,9 +476,10 @@ def plan_effects(
                                   "exactly at every angle (no colour channels needed)", False, 0.0))
 
     # zoning --------------------------------------------------------------------
-    if rendering and zoning is not None:
-        label = zoning if isinstance(zoning, str) else getattr(zoning, "name", "custom")
-        decisions.append(Decision("zoning", True, "lamella parameters blended by a baked noise field",
+    if zoning is not None:
+        label = zoning if isinstance(zoning, str) else (getattr(zoning, "name", None) or "custom")
+        decisions.append(Decision("zoning", True, "lamella parameters blended by a baked noise field" +
+                                  ("" if rendering else ": the render estimator weighs each zone's flash as the viewers see it"),
                                   f"colour zones asked for ({label})"))
     else:
         decisions.append(Decision("zoning", False, "", "a uniform material" + ("" if rendering else
@@ -489,6 +495,8 @@ def plan_effects(
             chosen, est_why = "samples", "asked for"
             if ir_on:
                 est_why += f"; it cannot carry inter-reflection (up to {bound:.1%} of the energy is left out)"
+        elif zoning is not None:
+            chosen, est_why = "render", "a zoned stone: each point flashes with its own lamella stack, which only renders carry"
         elif ir_on:
             chosen, est_why = "render", "inter-reflection is on and only renders carry it"
         else:

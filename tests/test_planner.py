@@ -135,8 +135,28 @@ def test_zoned_polarised_render(oval):
     assert not plain.on("inter_reflection")  # convex: direct lighting
 
 
+def test_zoned_stone_is_recommended_through_renders(oval):
+    """Zones give each point its own lamella stack: only renders carry that, so the planner picks
+    the render estimator, which starts from a coarse map of rendered zoned flash and ends at least
+    as high as the uniform material's answer scores on the zoned stone."""
+    plan = plan_effects(oval, scenario="display", zoning="smooth")
+    assert plan.on("zoning") and plan.estimator == "render" and "zoned stone" in plan.estimator_why
+    assert not plan_effects(oval, scenario="display").on("zoning")
+    rec = labcut.recommend_orientation(oval, scenario="display", quality="draft", zoning="smooth")
+    assert rec.estimator == "render" and rec.render["zoning"] == "smooth" and rec.settings["zoning"] == "smooth"
+    assert rec.render["start"].startswith("coarse map")
+    uniform = labcut.recommend_orientation(oval, scenario="display", quality="draft")
+    at_uniform = labcut.evaluate_orientation(oval, uniform.normal, scenario="display", quality="draft", zoning="smooth")
+    assert rec.score >= at_uniform.flash_energy
+    # the zones change what flashes: the same renders of the uniform stone score differently
+    plain = labcut.evaluate_orientation(oval, uniform.normal, scenario="display", quality="draft", estimator="render")
+    assert abs(at_uniform.flash_energy / plain.flash_energy - 1) > 0.2
+
+
 @pytest.mark.parametrize("kwargs, message", [
     (dict(command="render", polarizer_deg=0.0, mode="mono"), "polariser view needs colour"),
+    (dict(zoning="smooth", estimator="samples"), "sample estimator scores a uniform material"),
+    (dict(zoning="smooth", command="compare"), "compare scores uniform materials"),
     (dict(effects={"inter_reflection": True}), "convex stone"),
     (dict(effects={"occlusion": True}), "convex stone"),
     (dict(effects={"environment": True}), "follows from the lighting"),

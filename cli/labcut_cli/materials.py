@@ -77,3 +77,20 @@ def build_material(
     else:
         return Labradorite(**changes, **on_top)
     return base.replace(**on_top) if on_top else base
+
+
+ZoningOpt = Annotated[Optional[str], typer.Option("--zoning", help="Colour zones: smooth, sharp, or a zoning .json file (docs/zoning.md).", rich_help_panel="Material")]
+
+
+def build_zoning(text: str | None, material: Any) -> Any:
+    """The :class:`labcut.rendering.zoning.Zoning` of ``--zoning`` (a preset name or a JSON file), or None."""
+    if text is None:
+        return None
+    from labcut.errors import ParameterError
+    from labcut.rendering.zoning import PRESETS, Zoning
+
+    if text.strip().lower() in PRESETS:
+        return Zoning.preset(text, material)
+    if text.lower().endswith(".json") or Path(text).exists():
+        return Zoning.load(text, material)
+    raise ParameterError(f"--zoning must be {', '.join(PRESETS)} or a zoning .json file, got {text!r}")

@@ -139,6 +139,7 @@ def recommend_orientation(
     effect: po.Effect = None,
     plan: po.Plan = False,
     plan_only: po.PlanOnly = False,
+    zoning: m.ZoningOpt = None,
 ) -> None:
     """Find the lamella orientation that makes MESH flash most, and how precisely it must be cut.
 
@@ -171,13 +172,14 @@ def recommend_orientation(
     scene = so.resolve(scenario, lighting, viewing, quality)
     material = m.build_material(preset, peak, an, material_file, d_a=d_a, d_b=d_b, sigma_a=sigma_a, sigma_b=sigma_b,
                                 n_a=n_a, n_b=n_b, n_surface=n_surface, pairs=pairs, spread_deg=spread)
+    zone = m.build_zoning(zoning, material)
     mo.check_mesh_options(units, up_axis, size)
     mesh = mo.load(mesh_path, units, up_axis, size=size)
-    if plan or plan_only or effects or estimator != "auto":  # a bad combination fails before the work starts
+    if plan or plan_only or effects or estimator != "auto" or zone is not None:  # a bad combination fails before the work
         from labcut.planner import plan_effects
 
         the_plan = plan_effects(mesh, material, command="recommend", scenario=scene, quality=quality,
-                                estimator=estimator, effects=effects, predict=plan or plan_only)
+                                estimator=estimator, effects=effects, zoning=zone, predict=plan or plan_only)
     if plan or plan_only:
         po.show(the_plan, mesh_path.name, to_stderr=json_path == "-")
         if plan_only:
@@ -189,7 +191,7 @@ def recommend_orientation(
             mesh, material, scenario=scene, objective=objective, quality=quality,
             optimizer=optimizer, max_tilt=max_tilt, tilt_axis=axis, seed=seed,
             progress=lambda stage, fraction: update(int(round(100 * fraction)), 100),
-            estimator=estimator, effects=effects,
+            estimator=estimator, effects=effects, zoning=zone,
         )
     data = rec.to_dict()
     data["mesh"]["path"] = str(mesh_path)
@@ -243,7 +245,7 @@ def recommend_orientation(
     try:
         with progress_bar("rendering", "samples/pixel") as update:
             result = labcut.render(mesh, material, rec.normal, scenario=rec.scenario, spp=spp, resolution=resolution,
-                                   progress=update)
+                                   progress=update, zoning=zone)
         with all_or_nothing() as written:
             result.save(render_path, exposure_value)
             written.append(Path(render_path))
@@ -289,6 +291,7 @@ def evaluate_orientation(
     effect: po.Effect = None,
     plan: po.Plan = False,
     plan_only: po.PlanOnly = False,
+    zoning: m.ZoningOpt = None,
 ) -> None:
     """Flash metrics of MESH cut with its lamella plane normal to --normal."""
     import labcut
@@ -303,19 +306,20 @@ def evaluate_orientation(
     material = m.build_material(preset, peak, an, material_file, d_a=d_a, d_b=d_b, sigma_a=sigma_a, sigma_b=sigma_b,
                                 n_a=n_a, n_b=n_b, n_surface=n_surface, pairs=pairs, spread_deg=spread)
     scene = so.resolve(scenario, lighting, viewing, quality)
+    zone = m.build_zoning(zoning, material)
     mo.check_mesh_options(units, up_axis, size)
     mesh = mo.load(mesh_path, units, up_axis, size=size)
     from labcut.planner import plan_effects
 
     the_plan = plan_effects(mesh, material, command="evaluate", scenario=scene, quality=quality, estimator=estimator,
-                            effects=effects)
+                            effects=effects, zoning=zone)
     if plan or plan_only:
         po.show(the_plan, mesh_path.name, to_stderr=json_path == "-")
         if plan_only:
             po.finish_plan_only(the_plan, json_path)
             return
     metrics = labcut.evaluate_orientation(mesh, m_vec, material, scenario=scene, quality=quality, estimator=estimator,
-                                          effects=effects)
+                                          effects=effects, zoning=zone)
     provenance = {**mesh_provenance(mesh), "path": str(mesh_path)}
     data = {"normal": m_vec.tolist(), "frame": FRAME, "scenario": scene.to_dict(), "material": material.to_dict(),
             "mesh": provenance, **metrics_dict(metrics), "metric_definitions": METRIC_DEFINITIONS,

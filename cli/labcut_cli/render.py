@@ -135,17 +135,7 @@ def render(
     material = m.build_material(preset, peak, an, material_file, d_a=d_a, d_b=d_b, sigma_a=sigma_a, sigma_b=sigma_b,
                                 n_a=n_a, n_b=n_b, n_surface=n_surface, pairs=pairs, spread_deg=spread)
     lamella = parse_normal(normal)
-    zoning_spec = None
-    if zoning is not None:
-        from labcut.errors import ParameterError
-        from labcut.rendering.zoning import PRESETS, Zoning
-
-        if zoning.strip().lower() in PRESETS:
-            zoning_spec = Zoning.preset(zoning, material)
-        elif zoning.lower().endswith(".json") or Path(zoning).exists():
-            zoning_spec = Zoning.load(zoning, material)
-        else:
-            raise ParameterError(f"--zoning must be {', '.join(PRESETS)} or a zoning .json file, got {zoning!r}")
+    zoning_spec = m.build_zoning(zoning, material)
     view_spec: str | tuple[float, float] = view
     if "," in view:
         view_spec = parse_vector(view, "--view", length=2)  # type: ignore[assignment]

@@ -313,7 +313,7 @@ def _saved_scenario(settings: dict[str, Any]) -> Scenario | None:
 
 
 def _setup(mesh, material, scenario, lighting, viewing, objective, quality, tau, seed, max_tilt, tilt_axis,
-           command="recommend", estimator="auto", effects=None):
+           command="recommend", estimator="auto", effects=None, zoning=None):
     """Validate the inputs, plan the effects (:func:`labcut.planner.plan_effects`) and build the
     sample estimator's problem as planned: ``(material, scene, constraint, scorer, plan)``."""
     if objective not in OBJECTIVES:
@@ -327,7 +327,7 @@ def _setup(mesh, material, scenario, lighting, viewing, objective, quality, tau,
     scene = resolve_scene(scenario, lighting, viewing, quality)
     constraint = Constraint(float(max_tilt), tilt_axis)
     plan = plan_effects(mesh, material, command=command, scenario=scene, quality=quality, estimator=estimator,
-                        effects=effects)
+                        effects=effects, zoning=zoning)
     problem = build_problem(mesh, material, quality=quality, tau=tau, seed=seed, settings=scene.settings(),
                             occlusion=plan.on("occlusion"))
     return material, scene, constraint, Scorer(problem, objective), plan
@@ -350,6 +350,7 @@ def recommend_orientation(
     scenario: str | Scenario | None = None,
     estimator: str = "auto",
     effects: Mapping[str, Any] | None = None,
+    zoning: Any = None,
 ) -> Recommendation:
     """Find the lamella normal (mesh frame) that maximises the flash objective.
 
@@ -380,6 +381,9 @@ def recommend_orientation(
         differentiation from the sample estimator's answer; carries inter-reflection).
     effects: overrides of the planner's switchable effects, ``{"occlusion": bool,
         "inter_reflection": bool}`` (:data:`labcut.planner.SWITCHABLE`).
+    zoning: colour zones (``"smooth"``, ``"sharp"``, a :class:`~labcut.rendering.zoning.Zoning`,
+        docs/zoning.md): the render estimator answers, weighing each zone's flash as the viewers
+        see it (starting from a coarse map of rendered zoned flash).
 
     Returns a :class:`Recommendation`: normal (unit, z >= 0), tilt and azimuth, score and all
     metrics, the tolerance (degrees the cutter may miss and keep 90 % of the score), distinct
@@ -394,7 +398,7 @@ def recommend_orientation(
     report("sampling the surface", 0.0)
     quality = Quality.coerce(quality)
     material, scene, constraint, scorer, plan = _setup(mesh, material, scenario, lighting, viewing, objective, quality, tau,
-                                                       seed, max_tilt, tilt_axis, "recommend", estimator, effects)
+                                                       seed, max_tilt, tilt_axis, "recommend", estimator, effects, zoning)
     renders = plan.estimator == "render"
     stage = (lambda fraction: 0.3 * fraction) if renders else (lambda fraction: fraction)
     report("optimising", stage(0.3))
@@ -416,9 +420,11 @@ def recommend_orientation(
 
         depth = 4 if plan.on("inter_reflection") else 2
         found = recommend_by_render(
-            mesh, material, scene.settings(), start_normal=normal, objective=objective, tau=tau, constraint=constraint,
+            # a zoned stone's optimum may lie far from the uniform material's: start from a coarse map of renders
+            mesh, material, scene.settings(), start_normal=None if zoning is not None else normal, objective=objective,
+            tau=tau, constraint=constraint,
             quality=quality.name if quality.name in ("draft", "standard", "high") else "standard", seed=seed,
-            progress=lambda st, f: report(f"renders: {st}", 0.3 + 0.6 * f), max_depth=depth)
+            progress=lambda st, f: report(f"renders: {st}", 0.3 + 0.6 * f), max_depth=depth, zoning=zoning)
         render_stats = dict(found.stats, samples_normal=[float(x) for x in normal], samples_score=float(score),
                             angle_to_samples_deg=_axial_angle(found.normal, normal))
         normal, score, metrics = _upper(found.normal), float(found.score), found.metrics
@@ -455,6 +461,7 @@ def recommend_orientation(
             "convex": scorer.problem.convex, "surface_samples": scorer.problem.n_points,
             "triples": scorer.problem.n_triples, "lights": len(scene.lights), "views": len(scene.views),
             "estimator": plan.estimator, "occlusion": plan.on("occlusion"), "inter_reflection": plan.on("inter_reflection"),
+            "zoning": render_stats.get("zoning"),
         },
         scenario=scene,
     )
@@ -514,18 +521,20 @@ def evaluate_orientation(
     scenario: str | Scenario | None = None,
     estimator: str = "auto",
     effects: Mapping[str, Any] | None = None,
+    zoning: Any = None,
 ) -> FlashMetrics:
     """Flash metrics (DESIGN.md §4) of a given lamella normal (mesh frame, axial) under a
     scenario (default ``bench``; ``lighting``/``viewing`` as in :func:`recommend_orientation`).
 
     ``estimator``/``effects`` as in :func:`recommend_orientation`: with the render estimator the
     metrics come from renders (:class:`~labcut.orientation.render_objective.RenderObjective` at the
-    quality's render settings, paths as deep as the plan's inter-reflection asks)."""
+    quality's render settings, paths as deep as the plan's inter-reflection asks; with ``zoning``
+    always, each point flashing with its own lamella stack)."""
     from ..rendering.api import normalize_normal
 
     m = normalize_normal(normal)
     material, scene, _, scorer, plan = _setup(mesh, material, scenario, lighting, viewing, "energy", quality, tau, seed, 90.0,
-                                              None, "evaluate", estimator, effects)
+                                              None, "evaluate", estimator, effects, zoning)
     if plan.estimator == "render":
         from .render_estimator import RENDER_QUALITY
         from .render_objective import RenderObjective
@@ -533,6 +542,6 @@ def evaluate_orientation(
         name = scorer.problem.info.get("quality") or Quality.coerce(quality).name
         q = RENDER_QUALITY.get(name, RENDER_QUALITY["standard"])
         obj = RenderObjective(mesh, material, scene.settings(), tau=tau, resolution=q.resolution, spp=q.spp, seed=seed,
-                              max_depth=4 if plan.on("inter_reflection") else 2)
+                              max_depth=4 if plan.on("inter_reflection") else 2, zoning=zoning)
         return obj.metrics(m)
     return scorer.metrics(m)

@@ -294,7 +294,7 @@ def _quality(quality: str) -> RenderQuality:
 def recommend_by_render(mesh: Any, material: Any, settings: Sequence[Setting], start_normal: Any = None,
                         objective: str = "energy", tau: float = 0.1, constraint: Any = None, quality: str = "standard",
                         seed: int = 0, progress: Callable[[str, float], None] | None = None, *,
-                        max_depth: int | None = None) -> RenderRecommendation:
+                        max_depth: int | None = None, zoning: Any = None) -> RenderRecommendation:
     """The render estimator end to end: the lamella normal that maximises ``objective`` through
     renders (:class:`RenderObjective`, :func:`optimize_render`), at a quality of
     :data:`RENDER_QUALITY` (image size, samples per pixel, L-BFGS evaluations).
@@ -305,7 +305,9 @@ def recommend_by_render(mesh: Any, material: Any, settings: Sequence[Setting], s
     :attr:`RenderQuality.coarse_deg`). ``constraint``: a
     :class:`~labcut.orientation.optimize.Constraint` (max tilt, optional tilt axis).
     ``max_depth``: path depth (default 2 for a convex stone, 4 for a carving; see
-    :class:`RenderObjective`). ``progress(stage, fraction)`` as :func:`labcut.recommend_orientation`.
+    :class:`RenderObjective`). ``zoning``: colour zones (``"smooth"``, ``"sharp"``, a
+    :class:`~labcut.rendering.zoning.Zoning`): each point of the stone flashes with its own
+    lamella stack, so the objective weighs the zones as a viewer sees them. ``progress(stage, fraction)`` as :func:`labcut.recommend_orientation`.
     The thresholded objectives are optimised through a logistic relaxation of the threshold
     (:data:`SMOOTH_WIDTH` x tau wide) and scored with the hard threshold."""
     from .optimize import Constraint, hemisphere_grid
@@ -321,7 +323,7 @@ def recommend_by_render(mesh: Any, material: Any, settings: Sequence[Setting], s
     t0 = time.perf_counter()
     report("building the render scenes", 0.0)
     obj = RenderObjective(mesh, material, settings, tau=tau, resolution=q.resolution, spp=q.spp, seed=seed,
-                          objective=objective, max_depth=max_depth)
+                          objective=objective, max_depth=max_depth, zoning=zoning)
     map_normals = 0
     if not start_given:
         normals = hemisphere_grid(q.coarse_deg, constraint)
@@ -341,6 +343,7 @@ def recommend_by_render(mesh: Any, material: Any, settings: Sequence[Setting], s
         "estimator": "render", "quality": quality, "resolution": q.resolution, "spp": q.spp, "iterations": q.iterations,
         "seed": int(seed), "integrator": obj.integrator, "max_depth": obj.max_depth, "convex": obj.convex,
         "views": obj.n_views, "objective": objective, "tau": float(tau),
+        "zoning": None if obj.zoning is None else (obj.zoning.name or "custom"),
         "smooth_width": None if objective == "energy" else obj.smooth_width,
         "start": "given" if start_given else f"coarse map of {map_normals} normals ({q.coarse_deg:g}° apart)",
         "start_normal": [float(x) for x in best.start_normal], "start_score": best.start_score,

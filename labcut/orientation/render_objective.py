@@ -176,7 +176,7 @@ class RenderObjective:
 
     def __init__(self, mesh: Any, material: Any, settings: Sequence[Setting], tau: float = 0.1,
                  resolution: int = 64, spp: int = 8, seed: int = 0, objective: str = "energy",
-                 max_depth: int | None = None, smooth_width: float = SMOOTH_WIDTH) -> None:
+                 max_depth: int | None = None, smooth_width: float = SMOOTH_WIDTH, zoning: Any = None) -> None:
         import mitsuba as mi
 
         from ..backend import set_variant
@@ -207,6 +207,10 @@ class RenderObjective:
         if not self.l_ref > 0:
             raise ParameterError("the material reflects nothing at normal incidence: no flash can be scored")
         self.variant = set_variant("mono")
+        from ..rendering.zoning import resolve as resolve_zoning
+
+        self.zoning = resolve_zoning(zoning, self.material)  # colour zones: each point's own lamella stack
+        baked = None if self.zoning is None else self.zoning.bake(mesh.bounds)
         integ: dict[str, Any] = ({"type": "direct", "emitter_samples": 1, "bsdf_samples": 1} if self.integrator == "direct"
                                  else {"type": "prb", "max_depth": self.max_depth})
         # direct lighting: the schiller lobe alone is the flash. Deeper paths: every lobe, so light
@@ -217,12 +221,13 @@ class RenderObjective:
 
         self.indirect = self.integrator == "prb"
         lobes = tuple(LOBES) if self.indirect else ("schiller",)
-        self._bsdf = mi.load_dict(bsdf_dict(self.material, np.array([0.0, 0.0, 1.0]), lobes))
+        self._bsdf = mi.load_dict(bsdf_dict(self.material, np.array([0.0, 0.0, 1.0]), lobes, zoning=baked))
         shape = to_mitsuba_mesh(mesh, self._bsdf)
         base_shape = None
         if self.indirect:
             base_lobes = tuple(x for x in LOBES if x != "schiller")
-            base_shape = to_mitsuba_mesh(mesh, mi.load_dict(bsdf_dict(self.material, np.array([0.0, 0.0, 1.0]), base_lobes)))
+            base_shape = to_mitsuba_mesh(mesh, mi.load_dict(bsdf_dict(self.material, np.array([0.0, 0.0, 1.0]), base_lobes,
+                                                                      zoning=baked)))
         self._base_scenes: list[Any] = []
         pose_total = sum(float(st.weight) for st in settings)
         self._views: list[tuple[Any, int]] = []  # (scene, sensor index) per view
