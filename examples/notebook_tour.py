@@ -39,6 +39,21 @@ base = labcut.evaluate_orientation(stone, [0.0, 0.0, 1.0], material, scenario="b
 base
 
 # %%
+# What that recommendation simulated, and why (docs/planner.md).
+labcut.plan_effects(stone, material, command="recommend", scenario="bench", quality="draft", predict=False)
+
+# %%
+# A small render at the recommended orientation: a notebook shows it as an image (`_repr_png_`).
+picture = labcut.render(stone, material, rec.normal, scenario="bench", resolution=64, spp=4, look="diagram")
+picture
+
+# %%
+# Two cabochon domes side by side (a comparison: ranked, normalised to the first).
+comparison = labcut.compare_cuts(["cab:oval,16x12,low,res=48", "cab:oval,16x12,high,res=48"], material,
+                                 ["bench"], quality="draft", resolution=32, spp=2)
+comparison
+
+# %%
 if __name__ == "__main__":
     print(rec.description)
     print(f"{again!r}")

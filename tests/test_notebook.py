@@ -72,6 +72,32 @@ def test_tour_runs_and_displays_short_reprs(tour):
     assert f"{rec.metrics.flash_area:.1%}" in rec._repr_html_()
 
 
+def test_plan_render_and_comparison_display_in_a_notebook(tour):
+    namespace, shown = tour
+    from labcut import Comparison, EffectPlan, RenderResult
+
+    kinds = [type(x).__name__ for x in shown if x is not None]
+    assert {"EffectPlan", "RenderResult", "Comparison"} <= set(kinds), kinds
+    plan = next(x for x in shown if isinstance(x, EffectPlan))
+    assert repr(plan).startswith("EffectPlan(recommend") and "<table>" in plan._repr_html_()
+    picture = next(x for x in shown if isinstance(x, RenderResult))
+    text = repr(picture)
+    assert "64x64 px" in text and "4 spp" in text and "\n" not in text and len(text) < 160
+    png = picture._repr_png_()
+    assert png[:8] == b"\x89PNG\r\n\x1a\n"
+    from io import BytesIO
+
+    from PIL import Image
+
+    img = np.asarray(Image.open(BytesIO(png)))
+    assert img.shape == (64, 64, 3) and img.max() > 0  # the stone, not a black square
+    cmp = next(x for x in shown if isinstance(x, Comparison))
+    text = repr(cmp)
+    assert text.startswith("Comparison(2 cuts x 1 scenarios (bench)") and "\n" not in text
+    html = cmp._repr_html_()
+    assert html.startswith("<table>") and html.count("<tr>") == 3 and "100%" in html  # the reference against itself
+
+
 def test_saved_recommendation_reads_back(tour, tmp_path):
     namespace, _ = tour
     rec, again = namespace["rec"], namespace["again"]

@@ -112,6 +112,23 @@ class RenderResult:
         h, w = self.image.shape[:2]
         return h * w * self.spp / max(self.seconds, 1e-9)
 
+    def __repr__(self) -> str:
+        h, w = self.image.shape[:2]
+        return (f"RenderResult({w}x{h} px, {self.spp} spp, {self.look} look, {self.plan.integrator} on {self.plan.variant}, "
+                f"{self.seconds:.1f} s, exposure {self.exposure:.3g})")
+
+    def _repr_png_(self) -> bytes:
+        """The image as a notebook shows it: the PNG :meth:`save` writes (same exposure and tone curve)."""
+        import io
+
+        from PIL import Image
+
+        from .images import to_uint8
+
+        buf = io.BytesIO()
+        Image.fromarray(to_uint8(np.nan_to_num(self.image), self.exposure, self.tonemap), "RGB").save(buf, format="PNG")
+        return buf.getvalue()
+
     def save(self, path: str | Path, exposure: float | None = None) -> Path:
         """PNG (tonemapped, sRGB) or EXR (linear HDR) by suffix; written atomically.
 

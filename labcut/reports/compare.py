@@ -221,6 +221,28 @@ class Comparison:
         """The cuts by overall rank (ties in the order given)."""
         return sorted(self.cuts, key=lambda c: (c.rank, self.cuts.index(c)))
 
+    # ------------------------------------------------------------------ notebooks
+    def __repr__(self) -> str:
+        best = self.ranked()[0].name if self.cuts else "-"
+        return (f"Comparison({len(self.cuts)} cuts x {len(self.scenarios)} scenarios ({', '.join(self.scenario_names)}), "
+                f"best {best!r}, reference {self.reference_cut.name!r}, {self.seconds:.1f} s)")
+
+    def _repr_html_(self) -> str:
+        """The ranked summary as a small table: rank, cut, weight, overall score and per scenario
+        the flash energy relative to the reference cut."""
+        from html import escape
+
+        head = "".join(f"<th>{escape(n)}</th>" for n in ["rank", "cut", "ct", "overall", *self.scenario_names])
+        body = []
+        for row in self.summary_rows():
+            cells = [str(row["rank"]), escape(row["cut"]), f"{row['weight_ct']:.2f}", f"{row['overall_score']:.3g}"]
+            for name in self.scenario_names:
+                rel = row["scenarios"][name]["flash_energy_normalised"]
+                cells.append("-" if rel is None else f"{rel:.0%}")
+            body.append("<tr>" + "".join(f"<td>{c}</td>" for c in cells) + "</tr>")
+        caption = f"flash energy relative to {escape(self.reference_cut.name)}"
+        return f"<table><caption>{caption}</caption><thead><tr>{head}</tr></thead><tbody>{''.join(body)}</tbody></table>"
+
     # ------------------------------------------------------------------ JSON
     def to_dict(self) -> dict[str, Any]:
         """Plain JSON of every number in the report (docs/compare.md lists the keys)."""
