@@ -74,3 +74,31 @@ def read_json(path: str | os.PathLike[str], what: str) -> Any:
         raise ParameterError(f"{what} {str(path)!r} does not exist") from None
     except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
         raise ParameterError(f"{what} {str(path)!r} is not readable JSON ({str(exc).splitlines()[0]})") from None
+
+
+def cache_path(name: str) -> Path:
+    """A file in labcut's user cache folder (beside Dr.Jit's kernel cache): calibrations and
+    measurements kept between runs (``platformdirs.user_cache_dir("labcut")``)."""
+    from platformdirs import user_cache_dir
+
+    return Path(user_cache_dir("labcut")) / name
+
+
+def read_cache(path: str | os.PathLike[str]) -> dict[str, Any] | None:
+    """The JSON object a cache file holds, or None when it is missing or unreadable (then the
+    caller measures again)."""
+    try:
+        data = json.loads(Path(path).read_text())
+    except (OSError, ValueError):
+        return None
+    return data if isinstance(data, dict) else None
+
+
+def write_cache(path: str | os.PathLike[str], data: dict[str, Any]) -> None:
+    """Write a cache file atomically; a read-only cache folder is no error (measured again next time)."""
+    try:
+        Path(path).parent.mkdir(parents=True, exist_ok=True)
+        with atomic_output(path, (".json",)) as tmp:
+            tmp.write_text(json.dumps(data, indent=1) + "\n")
+    except (OSError, LabcutError):
+        pass

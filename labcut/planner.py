@@ -246,11 +246,12 @@ def measured_interreflection(mesh: Any, material: Any, scene: Any) -> float:
     key = h.hexdigest()[:32]
     if key in _PILOT_CACHE:
         return _PILOT_CACHE[key]
+    from .fileio import read_cache, write_cache
+
     path = _pilot_cache_path()
-    stored: dict[str, float] = {}
     try:
-        stored = {str(k): float(v) for k, v in json.loads(path.read_text()).items()}
-    except (OSError, ValueError, TypeError, AttributeError):
+        stored = {str(k): float(v) for k, v in (read_cache(path) or {}).items()}
+    except (TypeError, ValueError):
         stored = {}
     if key in stored:
         _PILOT_CACHE[key] = stored[key]
@@ -258,24 +259,14 @@ def measured_interreflection(mesh: Any, material: Any, scene: Any) -> float:
     value = interreflection_share(mesh, material, settings, resolution=PILOT_RESOLUTION, spp=PILOT_SPP)
     _PILOT_CACHE[key] = value
     stored[key] = value
-    try:
-        from .errors import LabcutError
-        from .fileio import atomic_output
-
-        path.parent.mkdir(parents=True, exist_ok=True)
-        with atomic_output(path, (".json",)) as tmp:
-            tmp.write_text(json.dumps(dict(list(stored.items())[-512:])) + "\n")
-    except (OSError, LabcutError):
-        pass  # a read-only cache: measured again next time
+    write_cache(path, dict(list(stored.items())[-512:]))  # the latest 512 stones and scenes
     return value
 
 
 def _pilot_cache_path() -> Any:
-    from pathlib import Path
+    from .fileio import cache_path
 
-    from platformdirs import user_cache_dir
-
-    return Path(user_cache_dir("labcut")) / "planner-pilot.json"
+    return cache_path("planner-pilot.json")
 
 
 def check_effects(effects: Mapping[str, Any] | None) -> dict[str, bool]:

@@ -24,7 +24,6 @@ irradiance); times in seconds.
 
 from __future__ import annotations
 
-import json
 import math
 import time
 from collections.abc import Callable, Mapping, Sequence
@@ -34,7 +33,7 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import LabcutError, ParameterError
+from ..errors import ParameterError
 from ..physics.material import Labradorite
 from ..rendering.api import normalize_normal
 from ..scene import Lights, Setting, Views
@@ -391,11 +390,9 @@ def _timing_key() -> str:
 
 
 def _timing_path() -> Any:
-    from pathlib import Path
+    from ..fileio import cache_path
 
-    from platformdirs import user_cache_dir
-
-    return Path(user_cache_dir("labcut")) / "render-estimator-timing.json"
+    return cache_path("render-estimator-timing.json")
 
 
 def measure_render_timing() -> RenderTiming:
@@ -453,26 +450,20 @@ def render_timing(refresh: bool = False) -> RenderTiming:
     key = _timing_key()
     if _TIMING is not None and _TIMING.key == key and not refresh:
         return _TIMING
-    path = _timing_path()
-    if not refresh:
-        try:
-            data = json.loads(path.read_text())
-            if data.get("key") == key:
-                _TIMING = RenderTiming({k: tuple(v) for k, v in data["primal"].items()},
-                                       {k: tuple(v) for k, v in data["adjoint"].items()},
-                                       dict(data["compile"]), float(data["setup"]), key)
-                return _TIMING
-        except (OSError, ValueError, KeyError, TypeError, AttributeError):
-            pass  # none yet, or unreadable: measure
-    _TIMING = measure_render_timing()
-    try:
-        from ..fileio import atomic_output
+    from ..fileio import read_cache, write_cache
 
-        path.parent.mkdir(parents=True, exist_ok=True)
-        with atomic_output(path, (".json",)) as tmp:
-            tmp.write_text(json.dumps(_TIMING.to_dict(), indent=1) + "\n")
-    except (OSError, LabcutError):
-        pass  # a read-only cache: measured again next time
+    path = _timing_path()
+    data = None if refresh else read_cache(path)
+    if data is not None and data.get("key") == key:
+        try:
+            _TIMING = RenderTiming({k: tuple(v) for k, v in data["primal"].items()},
+                                   {k: tuple(v) for k, v in data["adjoint"].items()},
+                                   dict(data["compile"]), float(data["setup"]), key)
+            return _TIMING
+        except (KeyError, TypeError, ValueError, AttributeError):
+            pass  # an older layout: measure
+    _TIMING = measure_render_timing()
+    write_cache(path, _TIMING.to_dict())
     return _TIMING
 
 

@@ -16,14 +16,11 @@ cache folder; they are measured again when the CPU count, labcut's or numpy's ve
 
 from __future__ import annotations
 
-import json
 import os
 import time
 from collections.abc import Sequence
 from dataclasses import asdict, dataclass
 from typing import Any
-
-from ..errors import LabcutError
 
 _TIMING: SampleTiming | None = None
 _CALIBRATING = False
@@ -63,11 +60,9 @@ def _key() -> str:
 
 
 def _path() -> Any:
-    from pathlib import Path
+    from ..fileio import cache_path
 
-    from platformdirs import user_cache_dir
-
-    return Path(user_cache_dir("labcut")) / "sample-estimator-timing.json"
+    return cache_path("sample-estimator-timing.json")
 
 
 def measure_sample_timing() -> SampleTiming:
@@ -107,24 +102,18 @@ def sample_timing(refresh: bool = False) -> SampleTiming:
     key = _key()
     if _TIMING is not None and _TIMING.key == key and not refresh:
         return _TIMING
-    path = _path()
-    if not refresh:
-        try:
-            data = json.loads(path.read_text())
-            if data.get("key") == key:
-                _TIMING = SampleTiming(float(data["fixed"]), float(data["per_term"]), float(data["per_ray"]), key)
-                return _TIMING
-        except (OSError, ValueError, KeyError, TypeError, AttributeError):
-            pass  # none yet, or unreadable: measure
-    _TIMING = measure_sample_timing()
-    try:
-        from ..fileio import atomic_output
+    from ..fileio import read_cache, write_cache
 
-        path.parent.mkdir(parents=True, exist_ok=True)
-        with atomic_output(path, (".json",)) as tmp:
-            tmp.write_text(json.dumps(_TIMING.to_dict(), indent=1) + "\n")
-    except (OSError, LabcutError):
-        pass  # a read-only cache: measured again next time
+    path = _path()
+    data = None if refresh else read_cache(path)
+    if data is not None and data.get("key") == key:
+        try:
+            _TIMING = SampleTiming(float(data["fixed"]), float(data["per_term"]), float(data["per_ray"]), key)
+            return _TIMING
+        except (KeyError, TypeError, ValueError):
+            pass  # an older layout: measure
+    _TIMING = measure_sample_timing()
+    write_cache(path, _TIMING.to_dict())
     return _TIMING
 
 
