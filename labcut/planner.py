@@ -332,7 +332,22 @@ def plan_effects(
     (calibrated once, a few seconds, then cached: :mod:`labcut.orientation.timing`).
 
     Raises :class:`~labcut.errors.ParameterError` for combinations the scene cannot have (a
-    polariser with mono colour, inter-reflection in a convex stone, an unknown effect ...)."""
+    polariser with mono colour, inter-reflection in a convex stone, an unknown effect ...).
+
+    Examples
+    --------
+    >>> import labcut
+    >>> cab = labcut.cabochon(outline="oval", length=16, width=12, dome="low")
+    >>> plan = labcut.plan_effects(cab, "blue", command="recommend", scenario="bench", predict=False)
+    >>> plan.estimator, plan.on("occlusion"), plan["occlusion"].why
+    ('samples', False, 'convex stone: a ray leaving the surface never meets it again (exact)')
+    >>> labcut.plan_effects(cab, "blue", command="render", polarizer_deg=30.0)["colour"].how
+    'spectral'
+    >>> labcut.plan_effects(cab, "blue", command="render", polarizer_deg=30.0, mode="mono")
+    Traceback (most recent call last):
+    ...
+    labcut.errors.ParameterError: a polariser view needs colour (the polarised schiller changes hue): use --mode spectral or leave --mode out, not mono
+    """
     from .physics.material import Labradorite
     from .scene import resolve_scene
 

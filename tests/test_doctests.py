@@ -12,6 +12,9 @@ MODULES = [
     "labcut.physics.lamella",
     "labcut.scene.scenario",
     "labcut.scene.sets",
+    "labcut.geometry.cabochon",
+    "labcut.planner",
+    "labcut.reports.compare",
 ]
 
 

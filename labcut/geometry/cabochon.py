@@ -244,6 +244,16 @@ def cabochon(
         ParameterError: a size is not positive and finite, a dome is higher
             than the profile allows, a user outline is self-intersecting or not
             star-shaped, or an option is unknown.
+
+    Examples:
+        >>> import labcut
+        >>> cab = labcut.cabochon(outline="oval", length=16, width=12, dome="low")
+        >>> cab.is_watertight, [round(float(x), 1) for x in cab.extents], cab.metadata["labcut"]["convex"]
+        (True, [16.0, 12.0, 2.4], True)
+        >>> labcut.cabochon(outline="oval", length=-1, width=12)
+        Traceback (most recent call last):
+        ...
+        labcut.errors.ParameterError: length must lie in [0.1, 1000] mm (a stone's size), got -1
     """
     import manifold3d as m3
     import trimesh

@@ -606,6 +606,18 @@ def compare_cuts(
     Every input is checked (:func:`plan_comparison`) before the long work starts; a bad one
     raises a one-line :class:`~labcut.errors.ParameterError` or :class:`~labcut.errors.MeshError`
     naming it. Returns a :class:`Comparison`.
+
+    Examples
+    --------
+    >>> import labcut
+    >>> cmp = labcut.compare_cuts(["cab:oval,16x12,low,res=48", "cab:oval,16x12,high,res=48"], "blue", ["bench"],
+    ...                           quality="draft", resolution=32, spp=2)
+    >>> len(cmp.cuts), cmp.scenario_names, cmp.result(0, "bench").normalised["flash_energy"]
+    (2, ['bench'], 1.0)
+    >>> labcut.compare_cuts(["cab:oval,16x12,low"], "blue", ["beach"])
+    Traceback (most recent call last):
+    ...
+    labcut.errors.ParameterError: unknown scenario 'beach'; choose one of bench, ring, pendant, brooch, display, outdoor, or a scenario JSON file
     """
     plan = plan_comparison(cuts, material, scenarios, reference, quality, units=units, up_axis=up_axis, seed=seed,
                            resolution=resolution, spp=spp, effects=effects)
