@@ -493,3 +493,18 @@ def test_design_layout():
     # every pair of parameters leaves two cuts in one cell: a line over the first one
     same_cell = design_layout(fake((16, 12, 2.4), (14, 10, 2.4), (14, 10, 4.0), (14, 10, 4.0)))
     assert same_cell["kind"] == "line" and same_cell["x"] == "length_mm"
+
+
+def test_size_sets_the_girdle_width_of_designs_only():
+    """``size`` sizes the GemCad designs among the cuts and leaves meshes as they are; without a
+    design among them it is a one-line error."""
+    from labcut.errors import ParameterError
+    from labcut.reports.compare import plan_comparison
+
+    meshes = Path(__file__).resolve().parents[1] / "meshes"
+    plan = plan_comparison([meshes / "designs" / "SRB.asc", meshes / "oval-16x12-low.ply"], None, ["bench"], size=8,
+                           quality="draft")
+    assert plan.cuts[0].design["width_mm"] == pytest.approx(8.0)
+    assert plan.cuts[1].design["length_mm"] == pytest.approx(16.0, abs=0.01)
+    with pytest.raises(ParameterError, match="no cut is one"):
+        plan_comparison([meshes / "oval-16x12-low.ply"], None, ["bench"], size=8)

@@ -141,6 +141,7 @@ def compare(
     reference: Annotated[str, typer.Option("--reference", help="The cut every other is normalised to: its position (1 = the first CUT) or its name.")] = "1",
     units: mo.Units = "auto",
     up_axis: mo.UpAxis = "auto",
+    size: mo.Size = None,
     preset: m.Preset = None,
     peak: m.Peak = None,
     an: m.Anorthite = None,
@@ -186,11 +187,12 @@ def compare(
                              "use --estimator samples, or recommend-orientation --estimator render per cut")
     material = m.build_material(preset, peak, an, material_file, d_a=d_a, d_b=d_b, sigma_a=sigma_a, sigma_b=sigma_b,
                                 n_a=n_a, n_b=n_b, n_surface=n_surface, pairs=pairs, spread_deg=spread)
-    unit_arg, up = mo.check_mesh_options(units, up_axis)
+    unit_arg, up = mo.check_mesh_options(units, up_axis, size)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", LabcutWarning)
         plan = plan_comparison(cuts, material, scenario or ["bench"], reference=_reference(reference, len(cuts)), quality=quality,
-                               units=unit_arg, up_axis=up, seed=seed, resolution=resolution, spp=spp, effects=effects)
+                               units=unit_arg, up_axis=up, seed=seed, resolution=resolution, spp=spp, effects=effects,
+                               size=size)
     for w in caught:
         if issubclass(w.category, LabcutWarning):
             mo.print_warning(str(w.message))

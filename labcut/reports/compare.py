@@ -541,6 +541,7 @@ def plan_comparison(
     resolution: int | None = None,
     spp: int | None = None,
     effects: Mapping[str, Any] | None = None,
+    size: float | None = None,
 ) -> ComparisonPlan:
     """Check every input of :func:`compare_cuts` (each cut parsed, read and validated) without
     starting the long work; a bad one is a one-line :class:`~labcut.errors.ParameterError` or
@@ -555,7 +556,7 @@ def plan_comparison(
 
     lab = Labradorite.coerce(material)
     scens = resolve_scenarios(scenarios, quality)
-    resolved = resolve_cuts(cuts, units=units, up_axis=up_axis)
+    resolved = resolve_cuts(cuts, units=units, up_axis=up_axis, size=size)
     ref = _reference(reference, resolved)
     from ..planner import check_effects, plan_effects
 
@@ -581,6 +582,7 @@ def compare_cuts(
     spp: int | None = None,
     progress: Callable[[int, int], None] | None = None,
     effects: Mapping[str, Any] | None = None,
+    size: float | None = None,
 ) -> Comparison:
     """Compare cuts for their schiller under one or more scenarios.
 
@@ -594,7 +596,8 @@ def compare_cuts(
     reference: the cut (index, or name) every other is normalised to.
     quality: ``draft`` | ``standard`` | ``high``: of the recommendations (as
         :func:`labcut.recommend_orientation`), the curves and the renders.
-    units, up_axis: how mesh files are read (:func:`labcut.load_mesh`).
+    units, up_axis: how mesh files are read (:func:`labcut.load_mesh`); ``size``: the girdle
+        width (mm) of the GemCad designs among the cuts (``.asc``, ``.gem``).
     seed: surface sampling and render seed.
     resolution, spp: size (pixels) and samples per pixel of the renders (default by quality:
         96/8, 128/32, 256/128); the rocking strip uses half the samples.
@@ -620,7 +623,7 @@ def compare_cuts(
     labcut.errors.ParameterError: unknown scenario 'beach'; choose one of bench, ring, pendant, brooch, display, outdoor, or a scenario JSON file
     """
     plan = plan_comparison(cuts, material, scenarios, reference, quality, units=units, up_axis=up_axis, seed=seed,
-                           resolution=resolution, spp=spp, effects=effects)
+                           resolution=resolution, spp=spp, effects=effects, size=size)
     return run_comparison(plan, progress)
 
 

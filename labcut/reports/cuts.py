@@ -177,7 +177,11 @@ def _label(item: Any, position: int) -> str:
     return type(item).__name__
 
 
-def _resolve_one(item: Any, position: int, units: Any, up_axis: str) -> Cut:
+#: file suffixes of GemCad designs (sized by ``size``, their girdle width in mm)
+DESIGN_SUFFIXES = (".asc", ".gem")
+
+
+def _resolve_one(item: Any, position: int, units: Any, up_axis: str, size: float | None = None) -> Cut:
     """One cut (not yet told apart from the others' names)."""
     import trimesh
 
@@ -204,7 +208,8 @@ def _resolve_one(item: Any, position: int, units: Any, up_axis: str) -> Cut:
         path = Path(item)
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always", LabcutWarning)
-            mesh = load_mesh(path, units=units, up_axis=up_axis)
+            design = path.suffix.lower() in DESIGN_SUFFIXES
+            mesh = load_mesh(path, units=units, up_axis=up_axis, size=size if design else None)
         notes = [str(w.message) for w in caught if issubclass(w.category, LabcutWarning)]
         return Cut(path.name, mesh, "file", str(item), _design(mesh), notes)
     raise ParameterError(
@@ -239,11 +244,12 @@ def unique_names(names: Iterable[str]) -> list[str]:
     return out
 
 
-def resolve_cuts(cuts: Any, units: str | float = "auto", up_axis: str = "auto") -> list[Cut]:
+def resolve_cuts(cuts: Any, units: str | float = "auto", up_axis: str = "auto", size: float | None = None) -> list[Cut]:
     """Resolve every cut (see the module docstring) before any long work starts.
 
     ``cuts``: a sequence of cuts, or a mapping ``{name: cut}``. ``units`` and ``up_axis`` apply
-    to mesh files (:func:`labcut.load_mesh`). Warnings from loading a file are kept on the
+    to mesh files (:func:`labcut.load_mesh`); ``size`` (mm) is the girdle width of every GemCad
+    design among them (``.asc``, ``.gem``; default :data:`labcut.geometry.gemcad.DEFAULT_SIZE_MM`). Warnings from loading a file are kept on the
     :class:`Cut` and issued again as :class:`~labcut.errors.LabcutWarning`, prefixed with the
     cut's name. Raises a one-line :class:`~labcut.errors.ParameterError` /
     :class:`~labcut.errors.MeshError` naming the first bad cut (``cut 2 ('x.stl'): ...``).
@@ -256,6 +262,10 @@ def resolve_cuts(cuts: Any, units: str | float = "auto", up_axis: str = "auto") 
         items = list(cuts)
     if not items:
         raise ParameterError("give at least one cut to compare")
+    if size is not None and not any(isinstance(x[1] if isinstance(x, tuple) and len(x) == 2 else x, str | os.PathLike)
+                                    and Path(x[1] if isinstance(x, tuple) and len(x) == 2 else x).suffix.lower()
+                                    in DESIGN_SUFFIXES for x in items):
+        raise ParameterError("--size (size=) is the girdle width of a GemCad design (.asc, .gem); no cut is one")
     resolved: list[Cut] = []
     fresh: list[bool] = []  # read or built here (not a Cut given again): its warnings are new
     for k, item in enumerate(items, start=1):
@@ -265,7 +275,7 @@ def resolve_cuts(cuts: Any, units: str | float = "auto", up_axis: str = "auto") 
             if not given_name.strip():
                 raise ParameterError(f"cut {k}: its name is empty")
         try:
-            cut = _resolve_one(item, k, units, up_axis)
+            cut = _resolve_one(item, k, units, up_axis, size)
         except LabcutError as exc:
             label = given_name or _label(item, k)
             raise type(exc)(f"cut {k} ({label!r}): {exc}") from None
