@@ -48,11 +48,11 @@ PROGRESS_BYTES = 2_000_000
 def check_mesh_options(units: str, up_axis: str, size: float | None = None) -> tuple[str | float, str]:
     """Validate ``--units``, ``--up-axis`` (and ``--size``) before any work; returns units and up axis as
     ``load_mesh`` takes them."""
-    from labcut.geometry.gemcad import _check_size
+    from labcut.geometry.gemcad import design_size
     from labcut.geometry.meshio import _units_scale
     from labcut.geometry.orient import check_up_axis
 
-    _check_size(size)
+    design_size(size)
     unit_arg: str | float = units.strip()
     try:
         unit_arg = float(units)

@@ -613,7 +613,8 @@ def design_polyhedron(design: Design) -> Polyhedron:
     return Polyhedron(vertices=v, faces=f.astype(np.int64), face_facet=face_facet.astype(np.int64), facet_area=facet_area)
 
 
-def _check_size(size: Any) -> tuple[float, bool]:
+def design_size(size: Any) -> tuple[float, bool]:
+    """``(girdle width in mm, given?)`` of a design's ``size`` (None: :data:`DEFAULT_SIZE_MM`), validated."""
     if size is None:
         return DEFAULT_SIZE_MM, False
     from .meshio import STONE_SIZE_MM
@@ -665,7 +666,7 @@ def design_solid(
     from .orient import check_up_axis, up_rotation
 
     stage = progress or (lambda s, x: None)
-    size_mm, given = _check_size(size)
+    size_mm, given = design_size(size)
     up_key = check_up_axis(up_axis)
     name = Path(design.source).name
     stage("intersecting the facet planes", 0.2)
@@ -757,7 +758,7 @@ def load_design(
     progress: Callable[[str, float], None] | None = None,
 ):
     """Read a GemCad ``.asc`` or ``.gem`` design and cut its stone (:func:`design_solid`)."""
-    _check_size(size)  # a bad size is an error before the file is read
+    design_size(size)  # a bad size is an error before the file is read
     (progress or (lambda s, x: None))(f"reading {Path(path).name}", 0.0)
     return design_solid(read_design(path), size=size, up_axis=up_axis, recentre=recentre, progress=progress)
 
