@@ -38,7 +38,8 @@ from ..physics.material import Labradorite
 from ..rendering.api import normalize_normal
 from ..scene import Lights, Setting, Views
 from .problem import reference_radiance
-from .render_objective import CARVING_DEPTH, DIRECT_DEPTH, SMOOTH_WIDTH, RenderObjective, _whole
+from ..validation import check_number
+from .render_objective import CARVING_DEPTH, DIRECT_DEPTH, SMOOTH_WIDTH, RenderObjective
 from .scoring import FlashMetrics
 
 __all__ = [
@@ -184,7 +185,7 @@ def optimize_render(objective: RenderObjective, start_normal: Any, constraint: A
     constraint = Constraint() if constraint is None else constraint
     if not isinstance(constraint, Constraint):
         raise ParameterError(f"constraint must be a labcut Constraint, got {type(constraint).__name__}")
-    iterations = _whole(iterations, "iterations", 1, 10_000)
+    iterations = check_number(iterations, "iterations", 1, 10_000, integer=True)
     m0 = normalize_normal(start_normal)
     start = time.perf_counter()
     evals0, renders0 = objective.evaluations, objective.renders
@@ -475,12 +476,12 @@ def predict_render_seconds(n_views_total: int, resolution: int, spp: int, convex
     metrics at the optimum (a primal per view) and a coarse start map of ``coarse_normals`` normals
     (a primal per view each; 0 when the start is given). ``convex`` picks the integrator as
     :class:`RenderObjective` does (``max_depth`` overrides it)."""
-    n_views = _whole(n_views_total, "n_views_total", 1, 1_000_000)
-    res = _whole(resolution, "resolution", 8, 4096)
-    spp = _whole(spp, "spp (samples per pixel)", 1, 1 << 16)
-    iters = RENDER_QUALITY["standard"].iterations if iterations is None else _whole(iterations, "iterations", 1, 10_000)
-    coarse = _whole(coarse_normals, "coarse_normals", 0, 1_000_000)
-    depth = (DIRECT_DEPTH if convex else CARVING_DEPTH) if max_depth is None else _whole(max_depth, "max_depth", 2, 16)
+    n_views = check_number(n_views_total, "n_views_total", 1, 1_000_000, integer=True)
+    res = check_number(resolution, "resolution", 8, 4096, integer=True)
+    spp = check_number(spp, "spp (samples per pixel)", 1, 1 << 16, integer=True)
+    iters = RENDER_QUALITY["standard"].iterations if iterations is None else check_number(iterations, "iterations", 1, 10_000, integer=True)
+    coarse = check_number(coarse_normals, "coarse_normals", 0, 1_000_000, integer=True)
+    depth = (DIRECT_DEPTH if convex else CARVING_DEPTH) if max_depth is None else check_number(max_depth, "max_depth", 2, 16, integer=True)
     integ = "direct" if depth == DIRECT_DEPTH else "prb"
     t = render_timing()
     samples = res * res * spp

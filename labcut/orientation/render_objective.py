@@ -135,12 +135,6 @@ def combine_views(terms: Sequence[ViewTerms], weights: np.ndarray, objective: st
     return value, [wv * (intensity * t.d_area + area * t.d_intensity) / (2.0 * value) for wv, t in zip(w, terms)]
 
 
-def _whole(value: Any, name: str, low: int, high: int) -> int:
-    if isinstance(value, bool) or not isinstance(value, int | np.integer) or not low <= int(value) <= high:
-        raise ParameterError(f"{name} must be a whole number in [{low}, {high}], got {value!r}")
-    return int(value)
-
-
 class RenderObjective:
     """The flash objective of a lamella normal from Mitsuba renders, with its gradient by Dr.Jit AD.
 
@@ -190,9 +184,9 @@ class RenderObjective:
         if objective not in OBJECTIVES:
             raise ParameterError(f"objective must be one of {', '.join(OBJECTIVES)}, got {objective!r}")
         self.tau = check_number(tau, "flash threshold tau", 0.0, 10.0, low_open=True)
-        self.resolution = _whole(resolution, "resolution", 8, 4096)
-        self.spp = _whole(spp, "spp (samples per pixel)", 1, 1 << 16)
-        self.seed = _whole(seed, "seed", 0, (1 << 32) - 1)
+        self.resolution = check_number(resolution, "resolution", 8, 4096, integer=True)
+        self.spp = check_number(spp, "spp (samples per pixel)", 1, 1 << 16, integer=True)
+        self.seed = check_number(seed, "seed", 0, (1 << 32) - 1, integer=True)
         self.smooth_width = check_number(smooth_width, "smooth_width", 0.0, 10.0, low_open=True)
         settings = list(settings) if settings is not None else []
         if not settings or not all(isinstance(st, Setting) for st in settings):
@@ -201,7 +195,7 @@ class RenderObjective:
         self.material = Labradorite.coerce(material)
         self.objective = objective
         self.convex = _mesh_is_convex(mesh)
-        self.max_depth = (DIRECT_DEPTH if self.convex else CARVING_DEPTH) if max_depth is None else _whole(max_depth, "max_depth", 2, 16)
+        self.max_depth = (DIRECT_DEPTH if self.convex else CARVING_DEPTH) if max_depth is None else check_number(max_depth, "max_depth", 2, 16, integer=True)
         self.integrator = "direct" if self.max_depth == DIRECT_DEPTH else "prb"
         self.l_ref = reference_radiance(self.material, 1.0)
         if not self.l_ref > 0:
