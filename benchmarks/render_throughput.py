@@ -75,7 +75,10 @@ def main() -> None:
     ]
     lines += [f"| {v} | {n} | {a:.2f} | {b:.2f} | {r:.2f} |" for v, n, a, b, r in rows]
     lines += ["", "Targets (issue 4): RGB within 1.5x of the built-in BSDFs, spectral within 2x.", ""]
-    Path(args.out).write_text("\n".join(lines))
+    out = Path(args.out)
+    kept = out.read_text().split("\n## ", 1) if out.exists() else []
+    tail = "\n## " + kept[1] if len(kept) == 2 else ""  # later sections (render_denoise.py's) stay
+    out.write_text("\n".join(lines) + tail)
     print(f"written {args.out}")
 
 
