@@ -19,6 +19,8 @@ from .optimize import OPTIMIZERS, Constraint, hemisphere_grid, polish_grid, run_
 from ..geometry.meshio import provenance as mesh_provenance
 from .problem import build_problem
 from .scoring import OBJECTIVES, FlashMetrics, Scorer
+from .setup import FlashSetup
+from .uncertainty import Uncertainty, uncertainty_for
 
 #: the presets' map spacing (degrees), read from :class:`~labcut.scene.quality.Quality`
 MAP_SPACING_DEG = {name: q.map_spacing_deg for name, q in Quality.PRESETS.items()}
@@ -181,6 +183,19 @@ class Recommendation:
     #: the render estimator's statistics (:class:`~labcut.orientation.render_estimator.RenderRecommendation`),
     #: when it answered: its settings, costs, and the sample estimator's normal it started from
     render: dict[str, Any] = field(default_factory=dict)
+    #: error bars (:mod:`labcut.orientation.uncertainty`): the normal's angular error (degrees) and
+    #: the score's relative error against the converged answer; None when not estimated
+    uncertainty: Uncertainty | None = None
+
+    @property
+    def angle_error_deg(self) -> float | None:
+        """Angle (degrees) within which the converged normal lies (about 95 %), or None."""
+        return None if self.uncertainty is None else self.uncertainty.angle_deg
+
+    @property
+    def score_rel_error(self) -> float | None:
+        """Relative error of the score (0.05 = ±5 %), or None."""
+        return None if self.uncertainty is None else self.uncertainty.score_rel
 
     @property
     def description(self) -> str:
@@ -213,13 +228,16 @@ class Recommendation:
             "estimator": self.estimator,
             "plan": self.plan,
             "render_estimator": self.render,
+            "uncertainty": None if self.uncertainty is None else self.uncertainty.to_dict(),
             "map": {"tilt_deg": list(map(float, tilt)), "azimuth_deg": list(map(float, az)), "score": self.map_scores.tolist()},
         }
 
     def __repr__(self) -> str:
         where = f", scenario={self.scenario.name!r}" if self.scenario is not None else ""
-        return (f"Recommendation(tilt={self.tilt_deg:.1f}°, azimuth={self.azimuth_deg:.1f}°, "
-                f"{self.objective}={self.score:.4g}, tolerance=±{self.tolerance_deg:.1f}°{where})")
+        bar = f" ± {self.uncertainty.angle_deg:.1f}°" if self.uncertainty is not None else ""
+        sbar = f" ± {self.uncertainty.score_rel:.0%}" if self.uncertainty is not None else ""
+        return (f"Recommendation(tilt={self.tilt_deg:.1f}°{bar}, azimuth={self.azimuth_deg:.1f}°, "
+                f"{self.objective}={self.score:.4g}{sbar}, tolerance=±{self.tolerance_deg:.1f}°{where})")
 
     def _repr_html_(self) -> str:
         """A small table for notebooks: the instruction, the orientation, the score and its metrics."""
@@ -228,6 +246,8 @@ class Recommendation:
         m = self.metrics
         rows = [("instruction", self.description),
                 ("tilt / azimuth", f"{self.tilt_deg:.1f}° / {self.azimuth_deg:.1f}°"),
+                ("error bar (normal, score)", "not estimated" if self.uncertainty is None else
+                 f"± {self.uncertainty.angle_deg:.1f}°, ± {self.uncertainty.score_rel:.0%}"),
                 ("normal (mesh frame)", "(" + ", ".join(f"{x:+.4f}" for x in self.normal) + ")"),
                 ("tolerance (90 % kept)", f"±{self.tolerance_deg:.1f}°"),
                 (f"score ({self.objective})", f"{self.score:.4g}"),
@@ -271,6 +291,7 @@ class Recommendation:
                 workshop=dict(data.get("workshop", {})), mesh=dict(data.get("mesh", {})),
                 plan=dict(data.get("plan", {})), estimator=str(data.get("estimator", "samples")),
                 render=dict(data.get("render_estimator", {})),
+                uncertainty=Uncertainty.from_dict(data.get("uncertainty")),
             )
         except KeyError as exc:
             raise ParameterError(f"{source}: not a labcut recommendation (missing {exc.args[0]!r})") from None
@@ -312,25 +333,51 @@ def _saved_scenario(settings: dict[str, Any]) -> Scenario | None:
     return scene if same else None
 
 
-def _setup(mesh, material, scenario, lighting, viewing, objective, quality, tau, seed, max_tilt, tilt_axis,
-           command="recommend", estimator="auto", effects=None, zoning=None):
-    """Validate the inputs, plan the effects (:func:`labcut.planner.plan_effects`) and build the
-    sample estimator's problem as planned: ``(material, scene, constraint, scorer, plan)``."""
-    if objective not in OBJECTIVES:
-        raise ParameterError(f"objective must be one of {', '.join(OBJECTIVES)}, got {objective!r}")
-    quality = Quality.coerce(quality)
+#: the question's arguments of recommend_orientation / evaluate_orientation and their defaults:
+#: with ``setup=`` they stay at these (the setup holds them)
+_QUESTION_DEFAULTS: dict[str, Any] = {
+    "material": None, "lighting": None, "viewing": None, "scenario": None, "objective": "energy",
+    "quality": "standard", "max_tilt": 90.0, "tilt_axis": None, "tau": 0.1, "seed": 0, "estimator": "auto",
+    "effects": None, "zoning": None,
+}
+
+
+def question(setup: FlashSetup | None = None, **asked: Any) -> FlashSetup:
+    """The :class:`~labcut.orientation.setup.FlashSetup` of a call: ``setup`` itself, or one built
+    (and so validated) from the loose arguments ``asked`` (names of :data:`_QUESTION_DEFAULTS`).
+    Both at once is an error: the setup holds the question."""
+    if setup is None:
+        return FlashSetup.build(asked.get("material"), asked.get("scenario"), asked.get("lighting"), asked.get("viewing"),
+                                **{k: v for k, v in asked.items() if k not in ("material", "scenario", "lighting", "viewing")})
+    if not isinstance(setup, FlashSetup):
+        raise ParameterError(f"setup must be a labcut FlashSetup (FlashSetup.build(...)), got {type(setup).__name__}")
+    clash = [k for k, v in asked.items() if not _is_default(v, _QUESTION_DEFAULTS[k])]
+    if clash:
+        raise ParameterError(f"setup= already holds the question; do not also pass {', '.join(clash)}")
+    return setup
+
+
+def _is_default(value: Any, default: Any) -> bool:
+    if value is None or default is None:
+        return value is default
+    try:
+        return bool(value == default) and type(value) in (type(default), int, float)
+    except Exception:  # noqa: BLE001 - an array or object that does not compare: not the default
+        return False
+
+
+def _setup(mesh: Any, setup: FlashSetup, command: str = "recommend") -> tuple[Scorer, Any]:
+    """Plan the effects of ``setup`` on ``mesh`` (:func:`labcut.planner.plan_effects`) and build the
+    sample estimator's problem as planned: ``(scorer, plan)``."""
     from ..geometry.meshio import validate_mesh
     from ..planner import plan_effects
 
     validate_mesh(mesh)
-    material = Labradorite.coerce(material)
-    scene = resolve_scene(scenario, lighting, viewing, quality)
-    constraint = Constraint(float(max_tilt), tilt_axis)
-    plan = plan_effects(mesh, material, command=command, scenario=scene, quality=quality, estimator=estimator,
-                        effects=effects, zoning=zoning)
-    problem = build_problem(mesh, material, quality=quality, tau=tau, seed=seed, settings=scene.settings(),
-                            occlusion=plan.on("occlusion"))
-    return material, scene, constraint, Scorer(problem, objective), plan
+    plan = plan_effects(mesh, setup.material, command=command, scenario=setup.scenario, quality=setup.quality,
+                        estimator=setup.estimator, effects=setup.effect_overrides, zoning=setup.zoning)
+    problem = build_problem(mesh, setup.material, quality=setup.quality, tau=setup.tau, seed=setup.seed,
+                            settings=setup.scenario.settings(), occlusion=plan.on("occlusion"))
+    return Scorer(problem, setup.objective), plan
 
 
 def recommend_orientation(
@@ -351,6 +398,7 @@ def recommend_orientation(
     estimator: str = "auto",
     effects: Mapping[str, Any] | None = None,
     zoning: Any = None,
+    setup: FlashSetup | None = None,
 ) -> Recommendation:
     """Find the lamella normal (mesh frame) that maximises the flash objective.
 
@@ -384,6 +432,9 @@ def recommend_orientation(
     zoning: colour zones (``"smooth"``, ``"sharp"``, a :class:`~labcut.rendering.zoning.Zoning`,
         docs/zoning.md): the render estimator answers, weighing each zone's flash as the viewers
         see it (starting from a coarse map of rendered zoned flash).
+    setup: the whole question at once, validated (:meth:`FlashSetup.build
+        <labcut.orientation.setup.FlashSetup.build>`, what the CLI passes); then the arguments it
+        holds (material to zoning above, but not ``optimizer`` and ``progress``) stay unset.
 
     Returns a :class:`Recommendation`: normal (unit, z >= 0), tilt and azimuth, score and all
     metrics, the tolerance (degrees the cutter may miss and keep 90 % of the score), distinct
@@ -396,9 +447,12 @@ def recommend_orientation(
     start = time.perf_counter()
     report = progress or (lambda stage, fraction: None)
     report("sampling the surface", 0.0)
-    quality = Quality.coerce(quality)
-    material, scene, constraint, scorer, plan = _setup(mesh, material, scenario, lighting, viewing, objective, quality, tau,
-                                                       seed, max_tilt, tilt_axis, "recommend", estimator, effects, zoning)
+    ask = question(setup, material=material, scenario=scenario, lighting=lighting, viewing=viewing, objective=objective,
+                   quality=quality, max_tilt=max_tilt, tilt_axis=tilt_axis, tau=tau, seed=seed, estimator=estimator,
+                   effects=effects, zoning=zoning)
+    material, scene, constraint, quality = ask.material, ask.scenario, ask.constraint, ask.quality
+    objective, tau, seed, zoning = ask.objective, ask.tau, ask.seed, ask.zoning
+    scorer, plan = _setup(mesh, ask, "recommend")
     renders = plan.estimator == "render"
     stage = (lambda fraction: 0.3 * fraction) if renders else (lambda fraction: fraction)
     report("optimising", stage(0.3))
@@ -437,6 +491,8 @@ def recommend_orientation(
     by_axis = axis_tolerances(scorer, normal, sample_score, constraint)
     if metrics is None:
         metrics = scorer.metrics(normal)
+    report("error bars", 0.95)
+    bars = uncertainty_for(mesh, ask, scorer.problem, normal, occlusion=plan.on("occlusion"), tolerance_deg=float(tol))
     tilt, az = tilt_azimuth(normal)
     # lamellae parallel to the base score as well as the optimum: that is the instruction
     pole = np.array([0.0, 0.0, 1.0])
@@ -454,10 +510,9 @@ def recommend_orientation(
         optimizer=optimizer, evaluations=scorer.evaluations, seconds=time.perf_counter() - start,
         parallel_within_deg=parallel, workshop=workshop(normal, mesh, scene, parallel=parallel is not None),
         mesh=mesh_provenance(mesh), plan=plan.to_dict(), estimator=plan.estimator or "samples", render=render_stats,
+        uncertainty=bars,
         settings={
-            "material": material.to_dict(), "scenario": scene.to_dict(), "lighting": scene.lights.name,
-            "viewing": scene.views.name, "quality": quality.name, "quality_settings": quality.to_dict(),
-            "max_tilt_deg": constraint.max_tilt_deg, "tilt_axis": constraint.tilt_axis, "tau": tau, "seed": seed,
+            **ask.to_dict(),
             "convex": scorer.problem.convex, "surface_samples": scorer.problem.n_points,
             "triples": scorer.problem.n_triples, "lights": len(scene.lights), "views": len(scene.views),
             "estimator": plan.estimator, "occlusion": plan.on("occlusion"), "inter_reflection": plan.on("inter_reflection"),
@@ -522,6 +577,7 @@ def evaluate_orientation(
     estimator: str = "auto",
     effects: Mapping[str, Any] | None = None,
     zoning: Any = None,
+    setup: FlashSetup | None = None,
 ) -> FlashMetrics:
     """Flash metrics (DESIGN.md §4) of a given lamella normal (mesh frame, axial) under a
     scenario (default ``bench``; ``lighting``/``viewing`` as in :func:`recommend_orientation`).
@@ -529,17 +585,20 @@ def evaluate_orientation(
     ``estimator``/``effects`` as in :func:`recommend_orientation`: with the render estimator the
     metrics come from renders (:class:`~labcut.orientation.render_objective.RenderObjective` at the
     quality's render settings, paths as deep as the plan's inter-reflection asks; with ``zoning``
-    always, each point flashing with its own lamella stack)."""
+    always, each point flashing with its own lamella stack). ``setup``: the question at once, as in
+    :func:`recommend_orientation` (its objective and constraint do not matter here)."""
     from ..rendering.api import normalize_normal
 
     m = normalize_normal(normal)
-    material, scene, _, scorer, plan = _setup(mesh, material, scenario, lighting, viewing, "energy", quality, tau, seed, 90.0,
-                                              None, "evaluate", estimator, effects, zoning)
+    ask = question(setup, material=material, scenario=scenario, lighting=lighting, viewing=viewing, quality=quality, tau=tau,
+                   seed=seed, estimator=estimator, effects=effects, zoning=zoning)
+    material, scene, quality, tau, seed, zoning = ask.material, ask.scenario, ask.quality, ask.tau, ask.seed, ask.zoning
+    scorer, plan = _setup(mesh, ask, "evaluate")
     if plan.estimator == "render":
         from .render_estimator import RENDER_QUALITY
         from .render_objective import RenderObjective
 
-        name = scorer.problem.info.get("quality") or Quality.coerce(quality).name
+        name = scorer.problem.info.get("quality") or quality.name
         q = RENDER_QUALITY.get(name, RENDER_QUALITY["standard"])
         obj = RenderObjective(mesh, material, scene.settings(), tau=tau, resolution=q.resolution, spp=q.spp, seed=seed,
                               max_depth=4 if plan.on("inter_reflection") else 2, zoning=zoning)

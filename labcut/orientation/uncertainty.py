@@ -1,0 +1,322 @@
+"""Error bars of a recommendation: how far the normal and the score may lie from the converged answer.
+
+A recommendation is computed from a finite problem: ``surface_points`` random surface samples
+and a deterministic set of light and view directions per lamp, environment map and viewing
+cone (:class:`~labcut.scene.quality.Quality`). Its answer differs from the converged one
+(infinitely many samples and directions) in two ways, and :func:`estimate_uncertainty`
+measures each on the problem at hand, in a fraction of the recommendation's time:
+
+* **sampling** (random, the surface points): a Poisson bootstrap over the surface points.
+  The pair radiance ``L_s/L_ref`` of every (point, view) pair is computed once at a small
+  stencil of normals around the answer (17 normals within ``r`` degrees, only the triples whose
+  mirror orientation lies near it); each of :data:`BOOTSTRAP` replicates reweights the points
+  with Poisson(1) counts, re-forms the view-weighted objective (projected-area weights
+  renormalised per view, as the estimator does) and fits a quadratic to the stencil: the spread
+  of the fitted peaks is the sampling error of the normal, the spread of the peak values that
+  of the score.
+* **discretisation** (systematic, the directions): the same surface points with half as many
+  directions per lamp, map, cone and ring (:func:`half_directions`) are fitted the same way;
+  the angle between the two peaks and the relative change of the score bound the error of the
+  finer set. The poses of a rocking motion are the exception: a flash lives within a few
+  degrees of pose, so coarse pose sets alias it and halving them says nothing (the benchmark,
+  ``docs/accuracy.md``, found draft's 7 poses of the bench motion 30 % below the converged
+  energy while its half set differed by 2 %). For a scenario that rocks, a problem with twice
+  the poses at a quarter of the surface points (the same number of terms,
+  :func:`finer_poses`) is fitted too; its difference also holds the sampling noise of the
+  fewer points, which makes that part conservative.
+
+The bars are ``sqrt((K σ)² + D²)`` with ``K`` = :data:`COVER` (sampling spread, 2 standard
+deviations of the 2-D peak scatter) and ``D`` the discretisation difference; also added in
+quadrature: the distance between the optimiser's normal and the fitted peak of the full problem
+(optimiser and fit error). ``docs/accuracy.md`` shows that these bars cover the distance to the
+converged reference on the benchmark cases, and ``tests/test_uncertainty.py`` checks it.
+
+Angles in degrees, normals unit vectors in the mesh frame (axial), scores relative (a share of
+the score).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass
+from typing import Any
+
+import numpy as np
+
+from ..errors import ParameterError
+from ..scene.quality import Quality
+from .problem import FlashProblem
+
+#: bootstrap replicates of the sampling spread
+BOOTSTRAP = 32
+#: coverage factor on the sampling spread (standard deviations)
+COVER = 2.0
+#: stencil: rings at these fractions of the fit radius, directions per ring
+RINGS = (0.5, 1.0)
+RING_DIRECTIONS = 8
+
+
+@dataclass(frozen=True)
+class Uncertainty:
+    """Error bars of an answer (about 95 % coverage of the distance to the converged answer).
+
+    ``angle_deg``: angle (degrees) within which the converged normal lies; ``score_rel``: relative
+    error of the score (0.05 = ±5 %). The parts: ``sampling_*`` (bootstrap over the surface
+    points, :data:`COVER` standard deviations), ``discretisation_*`` (difference to half as
+    many light and view directions), ``fit_angle_deg`` (optimiser's normal to the fitted peak);
+    ``radius_deg`` the stencil radius, ``method`` how it was estimated."""
+
+    angle_deg: float
+    score_rel: float
+    sampling_angle_deg: float
+    sampling_score_rel: float
+    discretisation_angle_deg: float
+    discretisation_score_rel: float
+    fit_angle_deg: float
+    radius_deg: float
+    replicates: int
+    method: str = "bootstrap over surface points + half-direction difference"
+
+    def to_dict(self) -> dict[str, Any]:
+        return asdict(self)
+
+    @classmethod
+    def from_dict(cls, data: Any) -> Uncertainty | None:
+        """The inverse of :meth:`to_dict`; None for an empty or missing block (older JSON)."""
+        if not data:
+            return None
+        if not isinstance(data, dict):
+            raise ParameterError("uncertainty must be a JSON object")
+        try:
+            values: dict[str, Any] = {k: float(data[k]) for k in cls.__dataclass_fields__ if k not in ("replicates", "method")}
+            values["replicates"] = int(data["replicates"])
+            if "method" in data:
+                values["method"] = str(data["method"])
+            return cls(**values)
+        except (KeyError, TypeError, ValueError) as exc:
+            raise ParameterError(f"uncertainty: bad or missing field ({exc})") from None
+
+    def scaled(self, factor: float) -> Uncertainty:
+        """The same bars times ``factor`` (for tests and calibration studies)."""
+        f = float(factor)
+        return Uncertainty(self.angle_deg * f, self.score_rel * f, self.sampling_angle_deg * f, self.sampling_score_rel * f,
+                           self.discretisation_angle_deg * f, self.discretisation_score_rel * f, self.fit_angle_deg * f,
+                           self.radius_deg, self.replicates, self.method)
+
+
+def half_directions(quality: Quality) -> Quality:
+    """``quality`` with half as many directions per lamp, environment map, viewing cone and ring,
+    and half the rocking poses (at least one each); the surface samples are kept."""
+    def half(n: int) -> int:
+        return max(1, (n + 1) // 2)
+
+    def half_rock(k: int) -> int:
+        # a rocking motion of k steps has k - k % 2 poses besides the rest pose, an even number
+        # (Scenario.poses: a symmetric line); half of them, rounded to an even number >= 2
+        moved = k - k % 2
+        return max(2, 2 * round(moved / 4))
+
+    return quality.replace(lamp_samples=half(quality.lamp_samples), env_samples=half(quality.env_samples),
+                           cone_views=half(quality.cone_views), ring_views=half(quality.ring_views),
+                           rock_steps=tuple(half_rock(s) for s in quality.rock_steps))
+
+
+def finer_poses(quality: Quality) -> Quality:
+    """``quality`` with twice the moved poses of each rocking line and a quarter of the surface
+    samples (the same number of terms): the rocking motion's quadrature is the one direction
+    set whose coarse error the half-direction difference cannot see (a flash lives within a
+    few degrees of pose; at draft's 15° pose spacing both the coarse and the half set alias it)."""
+    def double(k: int) -> int:
+        moved = k - k % 2
+        return 2 * moved + 1
+
+    return quality.replace(surface_points=max(500, quality.surface_points // 4),
+                           rock_steps=tuple(double(s) for s in quality.rock_steps))
+
+
+def tangent_basis(m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Two unit vectors orthogonal to the unit vector ``m`` and to each other."""
+    helper = np.array([1.0, 0.0, 0.0]) if abs(m[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    e1 = np.cross(m, helper)
+    e1 /= np.linalg.norm(e1)
+    return e1, np.cross(m, e1)
+
+
+def stencil(m: np.ndarray, radius_deg: float) -> tuple[np.ndarray, np.ndarray]:
+    """Normals around ``m`` (the centre and :data:`RINGS` rings) and their tangent-plane
+    coordinates (degrees, along :func:`tangent_basis`)."""
+    e1, e2 = tangent_basis(m)
+    xy = [(0.0, 0.0)]
+    for k, frac in enumerate(RINGS):
+        for j in range(RING_DIRECTIONS):
+            phi = 2.0 * math.pi * (j + 0.5 * k) / RING_DIRECTIONS
+            xy.append((frac * radius_deg * math.cos(phi), frac * radius_deg * math.sin(phi)))
+    xy_a = np.array(xy)
+    theta = np.radians(np.hypot(xy_a[:, 0], xy_a[:, 1]))
+    phi = np.arctan2(xy_a[:, 1], xy_a[:, 0])
+    normals = (np.cos(theta)[:, None] * m[None, :]
+               + np.sin(theta)[:, None] * (np.cos(phi)[:, None] * e1[None, :] + np.sin(phi)[:, None] * e2[None, :]))
+    return normals, xy_a
+
+
+def fit_peaks(xy: np.ndarray, values: np.ndarray, radius_deg: float) -> tuple[np.ndarray, np.ndarray]:
+    """Peaks of quadratics fitted to rows of ``values`` (R, K) over stencil coordinates ``xy``
+    (K, 2): ``(peaks (R, 2) in degrees, peak values (R,))``. A fit that is not concave, or
+    whose peak lies beyond the stencil, falls back on the best stencil point."""
+    x, y = xy[:, 0], xy[:, 1]
+    design = np.stack([np.ones_like(x), x, y, x * x, x * y, y * y], axis=1)
+    coef = np.linalg.lstsq(design, values.T, rcond=None)[0].T  # (R, 6)
+    peaks = np.empty((len(values), 2))
+    heights = np.empty(len(values))
+    for i, c in enumerate(coef):
+        hess = np.array([[2 * c[3], c[4]], [c[4], 2 * c[5]]])
+        best = int(np.argmax(values[i]))
+        ok = np.all(np.linalg.eigvalsh(hess) < 0.0)
+        p = -np.linalg.solve(hess, c[1:3]) if ok else xy[best]
+        if not ok or np.hypot(*p) > radius_deg:
+            p = xy[best]
+            heights[i] = values[i, best]
+        else:
+            heights[i] = c[0] + c[1] * p[0] + c[2] * p[1] + c[3] * p[0] ** 2 + c[4] * p[0] * p[1] + c[5] * p[1] ** 2
+        peaks[i] = p
+    return peaks, heights
+
+
+def pair_radiance(problem: FlashProblem, normals: np.ndarray) -> np.ndarray:
+    """``L_s/L_ref`` of every (point, view) pair at each normal (P, K), float64, summed over the
+    triples whose mirror orientation lies within the lobe's reach of the normals (terms below
+    ``exp(-12.5)`` of the lobe's peak are dropped)."""
+    normals = np.asarray(normals, dtype=np.float64)
+    centre = normals[0]
+    spread = float(np.degrees(np.arccos(np.clip(np.abs(normals @ centre), 0.0, 1.0))).max())
+    reach = math.radians(spread) + 5.0 / math.sqrt(max(problem.kappa, 1e-6))
+    h = problem.h
+    cos_c = np.abs(h @ centre.astype(np.float32))
+    near = np.nonzero(cos_c >= math.cos(min(reach, math.pi / 2)))[0]
+    n_pairs = int(problem.pair_view.size)
+    out = np.zeros((n_pairs, len(normals)))
+    if near.size == 0:
+        return out
+    # float32, normal-major (K, n): the lobe of every near triple at every stencil normal
+    d = normals.astype(np.float32) @ h[near].T
+    np.abs(d, out=d)
+    d -= np.float32(1.0)
+    d *= np.float32(problem.kappa)
+    np.exp(d, out=d)
+    d *= (np.float32(problem.q_norm) * problem.c[near])[None, :]
+    pairs = problem.pair[near]
+    if np.all(pairs[1:] >= pairs[:-1]):  # triples sorted by pair (build_problem's order): one segmented sum
+        first = np.flatnonzero(np.r_[True, pairs[1:] != pairs[:-1]])
+        out[pairs[first]] = np.add.reduceat(d, first, axis=1, dtype=np.float64).T
+    else:
+        for k in range(len(normals)):
+            out[:, k] = np.bincount(pairs, weights=d[k], minlength=n_pairs)
+    return out
+
+
+def objective_values(problem: FlashProblem, radiance: np.ndarray, point_weights: np.ndarray, objective: str) -> np.ndarray:
+    """The objective at each stencil normal for each set of surface-point weights (R, n_points):
+    (R, K). Weights 1 give the problem's own estimator (DESIGN.md §4's metrics)."""
+    pw = problem.pair_weight.astype(np.float64)
+    pv = problem.pair_view
+    pp = problem.info.get("pair_point")
+    pp = np.arange(pw.size) if pp is None else np.asarray(pp)  # without points: a bootstrap over pairs
+    order = np.argsort(pv, kind="stable")
+    bounds = np.searchsorted(pv[order], np.arange(problem.view_weight.size + 1))
+    flash = (radiance >= problem.tau).astype(np.float64)
+    R, K = point_weights.shape[0], radiance.shape[1]
+    energy = np.zeros((R, K))
+    area = np.zeros((R, K))
+    intensity = np.zeros((R, K))
+    for v, wv in enumerate(problem.view_weight):
+        seg = order[bounds[v]:bounds[v + 1]]
+        if seg.size == 0 or wv <= 0:
+            continue
+        a = point_weights[:, pp[seg]] * pw[seg][None, :]  # (R, n)
+        den = np.maximum(a.sum(axis=1, keepdims=True), 1e-300)
+        e_v = (a @ radiance[seg]) / den
+        energy += wv * e_v
+        if objective != "energy":
+            ar_v = (a @ flash[seg]) / den
+            in_v = (a @ (radiance[seg] * flash[seg])) / den
+            area += wv * ar_v
+            intensity += wv * np.where(ar_v > 1e-12, in_v / np.maximum(ar_v, 1e-12), 0.0)
+    if objective == "energy":
+        return energy
+    if objective == "area":
+        return area
+    if objective == "intensity":
+        return intensity
+    return np.sqrt(np.maximum(area * intensity, 0.0))
+
+
+def _point_count(problem: FlashProblem) -> int:
+    pp = problem.info.get("pair_point")
+    return int(problem.n_points if pp is not None else problem.pair_view.size)
+
+
+def estimate_uncertainty(problem: FlashProblem, normal: Any, objective: str = "energy", *,
+                         coarse: FlashProblem | None = None, fine: FlashProblem | None = None,
+                         tolerance_deg: float | None = None,
+                         replicates: int = BOOTSTRAP, seed: int = 0) -> Uncertainty:
+    """Error bars of the answer ``normal`` (unit, mesh frame) of ``problem`` (module docstring).
+
+    ``coarse``: the same surface points with half the directions (:func:`half_directions`);
+    ``fine``: twice the rocking poses at a quarter of the points (:func:`finer_poses`, for a
+    scenario that rocks); each None: that discretisation part left out (they add in quadrature). ``tolerance_deg``: the answer's tolerance, which sets the
+    stencil radius (half of it, within 0.3-3°)."""
+    m = np.asarray(normal, dtype=np.float64)
+    if m.shape != (3,) or not np.all(np.isfinite(m)) or not np.linalg.norm(m) > 0:
+        raise ParameterError(f"normal must be three finite numbers, not all zero, got {normal!r}")
+    m = m / np.linalg.norm(m)
+    if not isinstance(replicates, int) or replicates < 4:
+        raise ParameterError(f"replicates must be a whole number >= 4, got {replicates!r}")
+    radius = float(np.clip(0.5 * (tolerance_deg if tolerance_deg and math.isfinite(tolerance_deg) else 3.0), 0.3, 3.0))
+    normals, xy = stencil(m, radius)
+    rad = pair_radiance(problem, normals)
+    rng = np.random.default_rng(seed + 7919)
+    weights = np.vstack([np.ones(_point_count(problem)), rng.poisson(1.0, (replicates, _point_count(problem)))]).astype(np.float64)
+    values = objective_values(problem, rad, weights, objective)
+    peaks, heights = fit_peaks(xy, values, radius)
+    base_peak, base_height = peaks[0], heights[0]
+    boot = peaks[1:]
+    spread = float(np.sqrt(np.mean(np.sum((boot - boot.mean(axis=0)) ** 2, axis=1))))
+    scale = abs(base_height) if base_height != 0 else 1.0
+    score_sd = float(np.std(heights[1:], ddof=1) / scale)
+    fit = float(np.hypot(*base_peak))
+    d_angle = d_score = 0.0
+    for other in (coarse, fine):
+        if other is None:
+            continue
+        o_vals = objective_values(other, pair_radiance(other, normals), np.ones((1, _point_count(other))), objective)
+        o_peak, o_height = fit_peaks(xy, o_vals, radius)
+        d_angle = math.hypot(d_angle, float(np.hypot(*(o_peak[0] - base_peak))))
+        d_score = math.hypot(d_score, float(abs(o_height[0] - base_height) / scale))
+    s_angle, s_score = COVER * spread, COVER * score_sd
+    return Uncertainty(
+        angle_deg=float(math.sqrt(s_angle ** 2 + d_angle ** 2 + fit ** 2)),
+        score_rel=float(math.sqrt(s_score ** 2 + d_score ** 2)),
+        sampling_angle_deg=s_angle, sampling_score_rel=s_score,
+        discretisation_angle_deg=d_angle, discretisation_score_rel=d_score,
+        fit_angle_deg=fit, radius_deg=radius, replicates=int(replicates),
+    )
+
+
+def uncertainty_for(mesh: Any, setup: Any, problem: FlashProblem, normal: Any, *, occlusion: bool | None,
+                    tolerance_deg: float | None) -> Uncertainty:
+    """:func:`estimate_uncertainty` of a recommendation asked as ``setup`` (a
+    :class:`~labcut.orientation.setup.FlashSetup`) whose sample problem is ``problem``: builds
+    the half-direction problem of the same question (:meth:`FlashSetup.at_quality
+    <labcut.orientation.setup.FlashSetup.at_quality>` with :func:`half_directions`)."""
+    from .problem import build_problem
+
+    def build(q: Quality) -> FlashProblem:
+        other = setup.at_quality(q)
+        return build_problem(mesh, setup.material, quality=other.quality, tau=setup.tau, seed=setup.seed,
+                             settings=other.scenario.settings(), occlusion=occlusion)
+
+    coarse = build(half_directions(setup.quality))
+    rocks = setup.scenario.rock_deg > 0.0 or setup.scenario.sway_deg > 0.0
+    fine = build(finer_poses(setup.quality)) if rocks else None
+    return estimate_uncertainty(problem, normal, setup.objective, coarse=coarse, fine=fine, tolerance_deg=tolerance_deg,
+                                seed=setup.seed)

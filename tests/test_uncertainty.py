@@ -1,0 +1,130 @@
+"""Error bars of a recommendation (labcut.orientation.uncertainty).
+
+The bars must cover the distance to a converged answer (a much finer problem of the same
+question), and must not be so wide that they say nothing. The pieces are checked against
+exact answers: the quadratic peak fit on a known quadratic, the half-direction quality.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+import labcut
+from labcut.errors import ParameterError
+from labcut.orientation.recommend import Recommendation
+from labcut.orientation.setup import FlashSetup
+from labcut.orientation.uncertainty import (
+    Uncertainty,
+    estimate_uncertainty,
+    fit_peaks,
+    half_directions,
+    stencil,
+)
+from labcut.scene.quality import Quality
+
+
+def _angle(a, b) -> float:
+    return math.degrees(math.acos(min(1.0, abs(float(np.dot(a, b))))))
+
+
+@pytest.fixture(scope="module")
+def oval():
+    return labcut.load_mesh("meshes/oval-16x12-low.ply")
+
+
+def test_fit_peaks_finds_the_peak_of_a_quadratic():
+    xy = stencil(np.array([0.0, 0.0, 1.0]), 2.0)[1]
+    peak = np.array([0.4, -0.3])
+    d = xy - peak
+    values = 5.0 - 0.7 * d[:, 0] ** 2 - 0.2 * d[:, 0] * d[:, 1] - 1.1 * d[:, 1] ** 2
+    peaks, heights = fit_peaks(xy, values[None, :], 2.0)
+    assert np.allclose(peaks[0], peak, atol=1e-9)
+    assert heights[0] == pytest.approx(5.0, abs=1e-9)
+    # a bowl (no maximum) falls back on the best stencil point
+    peaks, heights = fit_peaks(xy, -values[None, :], 2.0)
+    assert heights[0] == pytest.approx(float((-values).max()))
+
+
+def test_half_directions_halves_every_direction_count_and_keeps_the_points():
+    q = Quality.coerce("standard")
+    h = half_directions(q)
+    assert h.surface_points == q.surface_points
+    assert (h.lamp_samples, h.env_samples, h.cone_views, h.ring_views) == (7, 32, 7, 10)
+    assert h.rock_steps == (4, 2)
+    one = half_directions(q.replace(lamp_samples=1, cone_views=1, rock_steps=(2, 2)))
+    assert (one.lamp_samples, one.cone_views, one.rock_steps) == (1, 1, (2, 2))
+
+
+def test_every_recommendation_carries_error_bars_in_its_json_and_repr(oval, tmp_path):
+    rec = labcut.recommend_orientation(oval, "blue", scenario="bench", quality="draft")
+    u = rec.uncertainty
+    assert isinstance(u, Uncertainty)
+    assert 0.0 < u.angle_deg < rec.tolerance_deg
+    assert 0.0 < u.score_rel < 0.5
+    # the parts add in quadrature
+    assert u.angle_deg == pytest.approx(math.sqrt(u.sampling_angle_deg ** 2 + u.discretisation_angle_deg ** 2
+                                                  + u.fit_angle_deg ** 2))
+    assert f"± {u.angle_deg:.1f}°" in repr(rec)
+    data = rec.to_dict()
+    assert data["uncertainty"]["angle_deg"] == pytest.approx(u.angle_deg)
+    back = Recommendation.load(rec.save(tmp_path / "rec.json"))
+    assert back.uncertainty == u
+    assert back.angle_error_deg == pytest.approx(u.angle_deg)
+
+
+def test_the_sampling_bar_shrinks_with_more_surface_points(oval):
+    """Four times the surface samples: the bootstrap spread of the normal about halves."""
+    setup = FlashSetup.build("blue", "bench", quality="draft")
+    few = labcut.recommend_orientation(oval, setup=setup)
+    many = labcut.recommend_orientation(oval, setup=FlashSetup.build(
+        "blue", "bench", quality=Quality.coerce("draft").replace(surface_points=12000)))
+    ratio = many.uncertainty.sampling_angle_deg / few.uncertainty.sampling_angle_deg
+    assert 0.3 < ratio < 0.8
+
+
+def _converged(mesh, scenario: str) -> np.ndarray:
+    """A much finer problem of the same question: 8x draft's surface samples, 3-4x its directions."""
+    q = Quality.coerce("high").replace(surface_points=24000)
+    return labcut.recommend_orientation(mesh, "blue", scenario=scenario, quality=q, seed=101)
+
+
+@pytest.mark.parametrize("scenario", ["bench", "pendant"])
+def test_the_bars_cover_the_distance_to_a_converged_answer(oval, scenario):
+    """Draft answers of four seeds: each bar covers its distance to the converged normal and score
+    (about 95 % coverage each: at most one miss of the eight in the two scenarios would already be
+    unusual, so every one must hold); and the bars are not vacuous (below the tolerance)."""
+    ref = _converged(oval, scenario)
+    for seed in range(4):
+        rec = labcut.recommend_orientation(oval, "blue", scenario=scenario, quality="draft", seed=seed)
+        u = rec.uncertainty
+        assert _angle(rec.normal, ref.normal) <= u.angle_deg + ref.uncertainty.angle_deg, (seed, u)
+        assert abs(rec.score / ref.score - 1.0) <= u.score_rel + ref.uncertainty.score_rel, (seed, u)
+        assert u.angle_deg < rec.tolerance_deg
+
+
+def test_a_bar_too_narrow_would_miss():
+    """The coverage test can fail: bars shrunk 10x do not cover the draft answers' distances."""
+    mesh = labcut.load_mesh("meshes/oval-16x12-low.ply")
+    ref = _converged(mesh, "pendant")
+    misses = 0
+    for seed in range(4):
+        rec = labcut.recommend_orientation(mesh, "blue", scenario="pendant", quality="draft", seed=seed)
+        small = rec.uncertainty.scaled(0.1)
+        misses += _angle(rec.normal, ref.normal) > small.angle_deg
+    assert misses >= 2
+
+
+def test_bad_inputs_are_one_line_errors(oval):
+    setup = FlashSetup.build("blue", "bench", quality="draft")
+    from labcut.orientation.recommend import _setup
+
+    scorer, _ = _setup(oval, setup)
+    with pytest.raises(ParameterError, match="normal must be"):
+        estimate_uncertainty(scorer.problem, [0.0, 0.0, 0.0])
+    with pytest.raises(ParameterError, match="replicates"):
+        estimate_uncertainty(scorer.problem, [0.0, 0.0, 1.0], replicates=2)
+    with pytest.raises(ParameterError, match="uncertainty"):
+        Uncertainty.from_dict({"angle_deg": 1.0})
