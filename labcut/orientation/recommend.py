@@ -399,6 +399,7 @@ def recommend_orientation(
     effects: Mapping[str, Any] | None = None,
     zoning: Any = None,
     setup: FlashSetup | None = None,
+    time_budget: float | None = None,
 ) -> Recommendation:
     """Find the lamella normal (mesh frame) that maximises the flash objective.
 
@@ -432,6 +433,10 @@ def recommend_orientation(
     zoning: colour zones (``"smooth"``, ``"sharp"``, a :class:`~labcut.rendering.zoning.Zoning`,
         docs/zoning.md): the render estimator answers, weighing each zone's flash as the viewers
         see it (starting from a coarse map of rendered zoned flash).
+    time_budget: seconds the call may take: the most accurate quality predicted to fit on this
+        machine replaces ``quality`` (:mod:`labcut.orientation.budget`; the choice is in
+        ``settings["time_budget"]``). Below the cheapest setting's prediction the cheapest runs,
+        with a one-line :class:`~labcut.errors.LabcutWarning`.
     setup: the whole question at once, validated (:meth:`FlashSetup.build
         <labcut.orientation.setup.FlashSetup.build>`, what the CLI passes); then the arguments it
         holds (material to zoning above, but not ``optimizer`` and ``progress``) stay unset.
@@ -450,6 +455,9 @@ def recommend_orientation(
     ask = question(setup, material=material, scenario=scenario, lighting=lighting, viewing=viewing, objective=objective,
                    quality=quality, max_tilt=max_tilt, tilt_axis=tilt_axis, tau=tau, seed=seed, estimator=estimator,
                    effects=effects, zoning=zoning)
+    budget = None
+    if time_budget is not None:
+        ask, budget = _within_budget(mesh, ask, time_budget, quality_given=not _is_default(quality, "standard"))
     material, scene, constraint, quality = ask.material, ask.scenario, ask.constraint, ask.quality
     objective, tau, seed, zoning = ask.objective, ask.tau, ask.seed, ask.zoning
     scorer, plan = _setup(mesh, ask, "recommend")
@@ -517,9 +525,28 @@ def recommend_orientation(
             "triples": scorer.problem.n_triples, "lights": len(scene.lights), "views": len(scene.views),
             "estimator": plan.estimator, "occlusion": plan.on("occlusion"), "inter_reflection": plan.on("inter_reflection"),
             "zoning": render_stats.get("zoning"),
+            "time_budget": None if budget is None else budget.to_dict(),
         },
         scenario=scene,
     )
+
+
+def _within_budget(mesh: Any, ask: FlashSetup, time_budget: Any, *, quality_given: bool) -> tuple[FlashSetup, Any]:
+    """``ask`` at the most accurate quality predicted to fit ``time_budget`` seconds
+    (:func:`labcut.orientation.budget.choose`), and the choice."""
+    import warnings
+
+    from ..errors import LabcutWarning
+    from ..planner import is_convex
+    from .budget import choose
+
+    if quality_given:
+        raise ParameterError("give quality or time_budget, not both (the budget chooses the quality)")
+    occlusion = ask.effect_overrides.get("occlusion", not is_convex(mesh))
+    choice = choose(time_budget, ask.scene_spec, bool(occlusion))
+    if choice.note:
+        warnings.warn(choice.note, LabcutWarning, stacklevel=3)
+    return ask.at_quality(choice.quality), choice
 
 
 def _no_flash(objective: str, scene: Scenario, tau: float) -> None:

@@ -56,7 +56,7 @@ def _key() -> str:
 
     from .. import __version__
 
-    return f"labcut {__version__} numpy {np.__version__} cpus {os.cpu_count()} v1"
+    return f"labcut {__version__} numpy {np.__version__} cpus {os.cpu_count()} v2 (with error bars)"
 
 
 def _path() -> Any:

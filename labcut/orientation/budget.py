@@ -1,0 +1,93 @@
+"""``time_budget=``: the most accurate quality predicted to fit a time budget (issue 17 §3).
+
+A ladder of :class:`~labcut.Quality` settings, cheapest first (:func:`ladder`: below ``draft``,
+``draft``, between the presets, ``standard``, ``high`` and beyond it), each more accurate than the
+one before in every knob the accuracy study (``docs/accuracy.md``) found to matter: surface
+samples, directions per lamp and viewing cone, rocking poses, map spacing and optimiser budget.
+The time of a recommendation at each rung is predicted from this machine's calibration of the
+sample estimator (:func:`labcut.orientation.timing.predict_sample_seconds`: measured once per
+machine, labcut and numpy version, and kept in the user cache) for the scene's own poses, lights
+and viewers, with occlusion where the plan has it; :func:`choose` takes the last rung predicted
+to fit.
+
+A budget below the cheapest rung's prediction is not refused: the cheapest rung runs, and
+:attr:`BudgetChoice.note` says so in one line (the CLI prints it as a ``note:``). A budget that is
+not a positive finite number of seconds is a :class:`~labcut.errors.ParameterError`.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass
+from typing import Any
+
+from ..errors import ParameterError
+from ..scene.quality import Quality
+from ..validation import check_number
+
+
+def ladder() -> list[Quality]:
+    """The budget's rungs, cheapest first; each is named (``budget-0`` ... or a preset's name)."""
+    d, s, h = (Quality.PRESETS[k] for k in ("draft", "standard", "high"))
+
+    def mid(a: Quality, b: Quality, name: str) -> Quality:
+        geo = lambda x, y: int(round(math.sqrt(x * y)))  # noqa: E731
+        odd = lambda x, y: geo(x, y) | 1  # noqa: E731  (odd direction counts keep the centre direction)
+        return a.replace(name=name, surface_points=geo(a.surface_points, b.surface_points),
+                         lamp_samples=odd(a.lamp_samples, b.lamp_samples), env_samples=geo(a.env_samples, b.env_samples),
+                         cone_views=odd(a.cone_views, b.cone_views), ring_views=geo(a.ring_views, b.ring_views),
+                         rock_steps=(odd(a.rock_steps[0], b.rock_steps[0]), geo(a.rock_steps[1], b.rock_steps[1])),
+                         map_spacing_deg=round(math.sqrt(a.map_spacing_deg * b.map_spacing_deg), 2),
+                         nlopt_evals=geo(a.nlopt_evals, b.nlopt_evals), gradient_starts=geo(a.gradient_starts, b.gradient_starts))
+
+    below = d.replace(name="budget-0", surface_points=1500, lamp_samples=5, env_samples=16, cone_views=5, ring_views=8,
+                      rock_steps=(3, 2), map_spacing_deg=5.0, nlopt_evals=100, gradient_starts=6)
+    beyond = h.replace(name="budget-6", surface_points=48000, lamp_samples=37, cone_views=37, ring_views=60,
+                       rock_steps=(25, 8), map_spacing_deg=1.0)
+    return [below, d, mid(d, s, "budget-2"), s, mid(s, h, "budget-4"), h, beyond]
+
+
+@dataclass(frozen=True)
+class BudgetChoice:
+    """What :func:`choose` picked: the quality, its predicted seconds, the budget (seconds), each
+    rung's prediction, and a one-line note when even the cheapest rung is predicted to overrun."""
+
+    quality: Quality
+    predicted_seconds: float
+    budget_seconds: float
+    rungs: tuple[tuple[str, float], ...]
+    note: str | None = None
+
+    def to_dict(self) -> dict[str, Any]:
+        out = asdict(self)
+        out["quality"] = self.quality.name
+        out["rungs"] = [{"quality": n, "predicted_seconds": t} for n, t in self.rungs]
+        return out
+
+
+def check_budget(value: Any) -> float:
+    """A time budget in seconds: a finite number > 0 (one-line error otherwise)."""
+    return float(check_number(value, "time budget", 0.0, 86_400.0, low_open=True, unit="s"))
+
+
+def choose(budget: Any, scene_spec: tuple[Any, Any, Any], occlusion: bool) -> BudgetChoice:
+    """The most accurate rung of :func:`ladder` predicted to fit ``budget`` seconds for the scene
+    ``scene_spec`` (``(scenario, lighting, viewing)`` as asked), occlusion as planned."""
+    from ..scene import resolve_scene
+    from .timing import predict_sample_seconds
+
+    seconds = check_budget(budget)
+    rungs = []
+    for q in ladder():
+        scene = resolve_scene(*scene_spec, q)
+        rungs.append((q, predict_sample_seconds(scene.settings(), q.surface_points, occlusion)))
+    fitting = [(q, t) for q, t in rungs if t <= seconds]
+    named = tuple((q.name, float(t)) for q, t in rungs)
+    if fitting:
+        q, t = fitting[-1]
+        return BudgetChoice(q, float(t), seconds, named)
+    q, t = rungs[0]
+    return BudgetChoice(q, float(t), seconds, named,
+                        note=f"a time budget of {seconds:g} s is below the cheapest setting's predicted {t:.2g} s on this "
+                             f"machine: running that ({q.name}) anyway")
+
