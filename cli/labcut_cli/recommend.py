@@ -61,8 +61,14 @@ def _answer_table(rec, name: str, scene) -> Table:
     shop = rec.workshop
     table.add_row("orientation", rec.description)
     table.add_row("when sawing or dopping", shop["text"])
-    table.add_row("tilt, azimuth", f"{rec.tilt_deg:.1f}° from the face-up axis (+Z); azimuth {rec.azimuth_deg:.0f}° "
+    bar = rec.uncertainty
+    tilt = f"{rec.tilt_deg:.1f}°" + ("" if bar is None else f" ± {bar.angle_deg:.1f}°")
+    table.add_row("tilt, azimuth", f"{tilt} from the face-up axis (+Z); azimuth {rec.azimuth_deg:.0f}° "
                                    "(from +X: 0° right, 90° back, 180° left, 270° front)")
+    if bar is not None:
+        table.add_row("error bars", f"the converged normal lies within {bar.angle_deg:.1f}° of this one and the "
+                                    f"{rec.objective} score within ±{bar.score_rel:.0%} (about 95 %; sampling "
+                                    f"±{bar.sampling_angle_deg:.1f}°, directions ±{bar.discretisation_angle_deg:.1f}°)")
     table.add_row("tolerance", f"±{rec.tolerance_deg:.1f}° in any direction keeps 90 % of the {rec.objective} score "
                                f"(±{ax['front_back_deg']:.1f}° front-to-back, ±{ax['left_right_deg']:.1f}° side-to-side)")
     table.add_row("lamella normal", f"{rec.normal[0]:+.3f}, {rec.normal[1]:+.3f}, {rec.normal[2]:+.3f} (mesh frame)")
@@ -85,6 +91,27 @@ def parse_exposure(text: str) -> float | None:
     if not (math.isfinite(value) and value > 0):
         raise ParameterError(f"--exposure must be auto or a finite number > 0, got {text!r}")
     return value
+
+
+def _question(material: Any, scenario: str | None, lighting: str | None, viewing: str | None, quality: str,
+              estimator: str, effect: list[str] | None, zoning: str | None, **rest: Any) -> Any:
+    """The command's :class:`~labcut.orientation.setup.FlashSetup`, built (and so checked) once
+    from its options, before the mesh is read; errors name the options."""
+    from labcut.errors import ParameterError
+    from labcut.orientation.setup import FlashSetup
+
+    effects = po.check(estimator, effect)
+    zone = m.build_zoning(zoning, material)
+    try:
+        return FlashSetup.build(material, scenario, lighting, viewing, quality=quality, estimator=estimator,
+                                effects=effects, zoning=zone, **rest)
+    except ParameterError as exc:
+        text = str(exc)
+        for word in ("objective", "quality", "max_tilt", "tilt axis", "seed"):
+            if text.startswith(word):
+                text = "--" + word.replace("_", "-").replace(" ", "-") + text[len(word):]
+                break
+        raise ParameterError(text) from None
 
 
 def render_summary(result: Any, path: Path | str) -> dict[str, Any]:
@@ -129,12 +156,18 @@ def recommend_orientation(
     max_tilt: Annotated[float, typer.Option("--max-tilt", help="Largest allowed tilt of the lamella normal, degrees.")] = 90.0,
     tilt_axis: Annotated[Optional[str], typer.Option("--tilt-axis", help="Only tilt about this horizontal axis X,Y,Z.")] = None,
     seed: Annotated[int, typer.Option(help="Seed of the surface sampling.", min=0)] = 0,
+    time_budget: Annotated[Optional[float], typer.Option(
+        "--time-budget", metavar="SECONDS",
+        help="Seconds the recommendation may take: the most accurate quality predicted to fit on this machine replaces "
+             "--quality (docs/accuracy.md); below the cheapest setting's prediction that one runs, with a note.")] = None,
     json_path: Annotated[Optional[str], typer.Option("--json", help="Write the result as JSON ('-' for stdout).")] = None,
     render_path: Annotated[Optional[Path], typer.Option("--render", help="Render the stone at the recommended orientation (.png/.exr), after the answer is written.")] = None,
     map_path: Annotated[Optional[Path], typer.Option("--map", help="Write a polar map of the score over the hemisphere (.png).")] = None,
     spp: Annotated[int, typer.Option(help="Samples per pixel of --render.", min=1)] = 64,
     resolution: Annotated[int, typer.Option(help="Width and height of --render in pixels.", min=8, max=8192)] = 512,
     exposure: Exposure = "auto",
+    look: so.Look = "studio",
+    denoise: so.Denoise = None,
     estimator: po.Estimator = "auto",
     effect: po.Effect = None,
     plan: po.Plan = False,
@@ -149,8 +182,7 @@ def recommend_orientation(
     import labcut
     from labcut.errors import ParameterError
     from labcut.fileio import check_output_path
-    from labcut.orientation.optimize import OPTIMIZERS, Constraint
-    from labcut.orientation.scoring import OBJECTIVES
+    from labcut.orientation.optimize import OPTIMIZERS
 
     from .progress import progress_bar
 
@@ -161,38 +193,49 @@ def recommend_orientation(
         check_output_path(render_path, (".png", ".exr"))
     if map_path is not None:
         check_output_path(map_path, (".png",))
-    if objective not in OBJECTIVES:
-        raise ParameterError(f"--objective must be one of {', '.join(OBJECTIVES)}, got {objective!r}")
     if optimizer not in OPTIMIZERS:
         raise ParameterError(f"--optimizer must be one of {', '.join(OPTIMIZERS)}, got {optimizer!r}")
     exposure_value = parse_exposure(exposure)
-    effects = po.check(estimator, effect)
-    axis = parse_vector(tilt_axis, "--tilt-axis") if tilt_axis else None
-    Constraint(max_tilt, axis)
-    scene = so.resolve(scenario, lighting, viewing, quality)
     material = m.build_material(preset, peak, an, material_file, d_a=d_a, d_b=d_b, sigma_a=sigma_a, sigma_b=sigma_b,
                                 n_a=n_a, n_b=n_b, n_surface=n_surface, pairs=pairs, spread_deg=spread)
-    zone = m.build_zoning(zoning, material)
+    # the whole question, checked once (FlashSetup.build); the library takes it as it is
+    setup = _question(material, scenario, lighting, viewing, quality, estimator, effect, zoning, objective=objective,
+                      max_tilt=max_tilt, tilt_axis=parse_vector(tilt_axis, "--tilt-axis") if tilt_axis else None, seed=seed)
+    scene, zone = setup.scenario, setup.zoning
+    if time_budget is not None:
+        from labcut.orientation.budget import check_budget
+
+        check_budget(time_budget)
+        if quality != "standard":
+            raise ParameterError("give --quality or --time-budget, not both (the budget chooses the quality)")
     mo.check_mesh_options(units, up_axis, size)
     mesh = mo.load(mesh_path, units, up_axis, size=size)
-    if plan or plan_only or effects or estimator != "auto" or zone is not None:  # a bad combination fails before the work
+    if plan or plan_only or setup.effects or estimator != "auto" or zone is not None:  # a bad combination fails before the work
         from labcut.planner import plan_effects
 
-        the_plan = plan_effects(mesh, material, command="recommend", scenario=scene, quality=quality,
-                                estimator=estimator, effects=effects, zoning=zone, predict=plan or plan_only)
+        the_plan = plan_effects(mesh, material, command="recommend", scenario=scene, quality=setup.quality,
+                                estimator=estimator, effects=setup.effect_overrides, zoning=zone, predict=plan or plan_only)
     if plan or plan_only:
         po.show(the_plan, mesh_path.name, to_stderr=json_path == "-")
         if plan_only:
             po.finish_plan_only(the_plan, json_path)
             return
 
-    with progress_bar("recommending", "%") as update:
+    import warnings
+
+    from labcut.errors import LabcutWarning
+
+    with progress_bar("recommending", "%") as update, warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", LabcutWarning)
         rec = labcut.recommend_orientation(
-            mesh, material, scenario=scene, objective=objective, quality=quality,
-            optimizer=optimizer, max_tilt=max_tilt, tilt_axis=axis, seed=seed,
-            progress=lambda stage, fraction: update(int(round(100 * fraction)), 100),
-            estimator=estimator, effects=effects, zoning=zone,
+            mesh, setup=setup, optimizer=optimizer, progress=lambda stage, fraction: update(int(round(100 * fraction)), 100),
+            time_budget=time_budget,
         )
+    for w in caught:
+        if issubclass(w.category, LabcutWarning):
+            err_console.print(f"note: {w.message}", highlight=False, soft_wrap=True)
+        else:
+            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
     data = rec.to_dict()
     data["mesh"]["path"] = str(mesh_path)
     if render_path is not None:
@@ -230,6 +273,11 @@ def recommend_orientation(
             console.print(table)
         console.print(f"{rec.optimizer}: {rec.evaluations} evaluations, {rec.seconds:.2f} s; "
                       f"{rec.settings['triples']} (point, light, view) triples")
+        if rec.settings.get("time_budget"):
+            b = rec.settings["time_budget"]
+            console.print(f"time budget {b['budget_seconds']:g} s: quality {b['quality']} (predicted {b['predicted_seconds']:.2f} s, "
+                          f"took {rec.seconds:.2f} s; its error bars ±{rec.uncertainty.angle_deg:.1f}°, "
+                          f"±{rec.uncertainty.score_rel:.0%})", highlight=False)
         if rec.estimator == "render":
             r = rec.render
             console.print(f"render estimator ({r['integrator']}, depth {r['max_depth']}, {r['resolution']}² px, {r['spp']} spp): "
@@ -245,7 +293,7 @@ def recommend_orientation(
     try:
         with progress_bar("rendering", "samples/pixel") as update:
             result = labcut.render(mesh, material, rec.normal, scenario=rec.scenario, spp=spp, resolution=resolution,
-                                   progress=update, zoning=zone)
+                                   progress=update, zoning=zone, look=so.look_spec(look), denoise=denoise)
         with all_or_nothing() as written:
             result.save(render_path, exposure_value)
             written.append(Path(render_path))
@@ -302,24 +350,22 @@ def evaluate_orientation(
     if json_path not in (None, "-"):
         check_output_path(json_path, (".json",))
     m_vec = normalize_normal(parse_vector(normal, "--normal"))
-    effects = po.check(estimator, effect)
     material = m.build_material(preset, peak, an, material_file, d_a=d_a, d_b=d_b, sigma_a=sigma_a, sigma_b=sigma_b,
                                 n_a=n_a, n_b=n_b, n_surface=n_surface, pairs=pairs, spread_deg=spread)
-    scene = so.resolve(scenario, lighting, viewing, quality)
-    zone = m.build_zoning(zoning, material)
+    setup = _question(material, scenario, lighting, viewing, quality, estimator, effect, zoning)
+    scene = setup.scenario
     mo.check_mesh_options(units, up_axis, size)
     mesh = mo.load(mesh_path, units, up_axis, size=size)
     from labcut.planner import plan_effects
 
-    the_plan = plan_effects(mesh, material, command="evaluate", scenario=scene, quality=quality, estimator=estimator,
-                            effects=effects, zoning=zone)
+    the_plan = plan_effects(mesh, material, command="evaluate", scenario=scene, quality=setup.quality, estimator=estimator,
+                            effects=setup.effect_overrides, zoning=setup.zoning)
     if plan or plan_only:
         po.show(the_plan, mesh_path.name, to_stderr=json_path == "-")
         if plan_only:
             po.finish_plan_only(the_plan, json_path)
             return
-    metrics = labcut.evaluate_orientation(mesh, m_vec, material, scenario=scene, quality=quality, estimator=estimator,
-                                          effects=effects, zoning=zone)
+    metrics = labcut.evaluate_orientation(mesh, m_vec, setup=setup)
     provenance = {**mesh_provenance(mesh), "path": str(mesh_path)}
     data = {"normal": m_vec.tolist(), "frame": FRAME, "scenario": scene.to_dict(), "material": material.to_dict(),
             "mesh": provenance, **metrics_dict(metrics), "metric_definitions": METRIC_DEFINITIONS,

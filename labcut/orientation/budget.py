@@ -10,6 +10,12 @@ machine, labcut and numpy version, and kept in the user cache) for the scene's o
 and viewers, with occlusion where the plan has it; :func:`choose` takes the last rung predicted
 to fit.
 
+The calibration adapts: after each budgeted recommendation the ratio of its actual to its
+predicted seconds updates a correction factor (a geometric running mean, one for stones with
+occlusion and one without, kept in the user cache beside the calibration and reset when it is
+measured again), so a machine that runs slower or faster than its calibration, or meshes whose
+shadow rays cost more than the calibration's, are predicted better the next time.
+
 A budget below the cheapest rung's prediction is not refused: the cheapest rung runs, and
 :attr:`BudgetChoice.note` says so in one line (the CLI prints it as a ``note:``). A budget that is
 not a positive finite number of seconds is a :class:`~labcut.errors.ParameterError`.
@@ -57,6 +63,9 @@ class BudgetChoice:
     budget_seconds: float
     rungs: tuple[tuple[str, float], ...]
     note: str | None = None
+    #: the adaptive correction the predictions include (:func:`correction`), and whether occlusion was counted
+    correction: float = 1.0
+    occlusion: bool = False
 
     def to_dict(self) -> dict[str, Any]:
         out = asdict(self)
@@ -70,6 +79,51 @@ def check_budget(value: Any) -> float:
     return float(check_number(value, "time budget", 0.0, 86_400.0, low_open=True, unit="s"))
 
 
+#: weight of the newest run in the correction's geometric running mean; the correction's range
+ADAPT = 0.5
+CORRECTION_RANGE = (0.2, 5.0)
+
+
+def corrections_path() -> Any:
+    """Where the corrections are kept (the user cache)."""
+    from ..fileio import cache_path
+
+    return cache_path("time-budget-corrections.json")
+
+
+def _corrections() -> tuple[Any, dict[str, Any]]:
+    from ..fileio import read_cache
+    from .timing import sample_timing
+
+    path = corrections_path()
+    data = read_cache(path) or {}
+    key = sample_timing().key
+    if data.get("key") != key:
+        data = {"key": key}
+    return path, data
+
+
+def correction(occlusion: bool) -> float:
+    """The factor this machine's recent budgeted runs put on the calibration's prediction."""
+    _, data = _corrections()
+    return float(data.get("occlusion" if occlusion else "plain", 1.0))
+
+
+def record(occlusion: bool, predicted_seconds: float, actual_seconds: float) -> float:
+    """Fold one run (predicted seconds before correction, actual seconds) into the correction; returns it."""
+    from ..fileio import write_cache
+
+    path, data = _corrections()
+    name = "occlusion" if occlusion else "plain"
+    if not (predicted_seconds > 0 and actual_seconds > 0 and math.isfinite(predicted_seconds) and math.isfinite(actual_seconds)):
+        return float(data.get(name, 1.0))
+    old = float(data.get(name, 1.0))
+    new = math.exp((1.0 - ADAPT) * math.log(old) + ADAPT * math.log(actual_seconds / predicted_seconds))
+    data[name] = float(min(max(new, CORRECTION_RANGE[0]), CORRECTION_RANGE[1]))
+    write_cache(path, data)
+    return data[name]
+
+
 def choose(budget: Any, scene_spec: tuple[Any, Any, Any], occlusion: bool) -> BudgetChoice:
     """The most accurate rung of :func:`ladder` predicted to fit ``budget`` seconds for the scene
     ``scene_spec`` (``(scenario, lighting, viewing)`` as asked), occlusion as planned."""
@@ -77,17 +131,18 @@ def choose(budget: Any, scene_spec: tuple[Any, Any, Any], occlusion: bool) -> Bu
     from .timing import predict_sample_seconds
 
     seconds = check_budget(budget)
+    factor = correction(occlusion)
     rungs = []
     for q in ladder():
         scene = resolve_scene(*scene_spec, q)
-        rungs.append((q, predict_sample_seconds(scene.settings(), q.surface_points, occlusion)))
+        rungs.append((q, factor * predict_sample_seconds(scene.settings(), q.surface_points, occlusion)))
     fitting = [(q, t) for q, t in rungs if t <= seconds]
     named = tuple((q.name, float(t)) for q, t in rungs)
     if fitting:
         q, t = fitting[-1]
-        return BudgetChoice(q, float(t), seconds, named)
+        return BudgetChoice(q, float(t), seconds, named, correction=factor, occlusion=occlusion)
     q, t = rungs[0]
     return BudgetChoice(q, float(t), seconds, named,
                         note=f"a time budget of {seconds:g} s is below the cheapest setting's predicted {t:.2g} s on this "
-                             f"machine: running that ({q.name}) anyway")
+                             f"machine: running that ({q.name}) anyway", correction=factor, occlusion=occlusion)
 

@@ -512,6 +512,10 @@ def recommend_orientation(
     elif tilt < 0.5:
         parallel = float(tol)
     report("done", 1.0)
+    if budget is not None:  # the calibration learns from this run (orientation/budget.py)
+        from .budget import record
+
+        record(budget.occlusion, budget.predicted_seconds / budget.correction, time.perf_counter() - start)
     return Recommendation(
         normal=normal, tilt_deg=tilt, azimuth_deg=az, score=float(score), objective=objective, metrics=metrics,
         tolerance_deg=float(tol), tolerance_by_axis=by_axis, runners_up=runners, map_normals=map_normals, map_scores=map_scores,

@@ -26,7 +26,8 @@ measures each on the problem at hand, in a fraction of the recommendation's time
   fewer points, which makes that part conservative.
 
 The bars are ``sqrt((K σ)² + D²)`` with ``K`` = :data:`COVER` (sampling spread, 2 standard
-deviations of the 2-D peak scatter) and ``D`` the discretisation difference; also added in
+deviations of the 2-D peak scatter) and ``D`` the discretisation differences, each scaled to the
+error it implies (:data:`DIRECTION_FACTOR`, :data:`POSE_FACTOR`, calibrated by the study); also added in
 quadrature: the distance between the optimiser's normal and the fitted peak of the full problem
 (optimiser and fit error). ``docs/accuracy.md`` shows that these bars cover the distance to the
 converged reference on the benchmark cases, and ``tests/test_uncertainty.py`` checks it.
@@ -51,6 +52,14 @@ from .problem import FlashProblem
 BOOTSTRAP = 32
 #: coverage factor on the sampling spread (standard deviations)
 COVER = 2.0
+#: the error of a direction set over its difference to half as many directions, and of a pose set
+#: over its difference to twice as many poses: calibrated by the accuracy study (docs/accuracy.md,
+#: three cases, knobs varied against a converged reference): the errors fall by 1.6-2.5x per
+#: doubling of the lamp directions and by 1.7-2.5x per doubling of the poses, so a difference
+#: understates the error by up to 1/(r - 1) = 1.5 (directions, half vs full) and r/(r - 1) = 2.5
+#: (poses, full vs double)
+DIRECTION_FACTOR = 1.5
+POSE_FACTOR = 2.5
 #: stencil: rings at these fractions of the fit radius, directions per ring
 RINGS = (0.5, 1.0)
 RING_DIRECTIONS = 8
@@ -285,13 +294,13 @@ def estimate_uncertainty(problem: FlashProblem, normal: Any, objective: str = "e
     score_sd = float(np.std(heights[1:], ddof=1) / scale)
     fit = float(np.hypot(*base_peak))
     d_angle = d_score = 0.0
-    for other in (coarse, fine):
+    for other, factor in ((coarse, DIRECTION_FACTOR), (fine, POSE_FACTOR)):
         if other is None:
             continue
         o_vals = objective_values(other, pair_radiance(other, normals), np.ones((1, _point_count(other))), objective)
         o_peak, o_height = fit_peaks(xy, o_vals, radius)
-        d_angle = math.hypot(d_angle, float(np.hypot(*(o_peak[0] - base_peak))))
-        d_score = math.hypot(d_score, float(abs(o_height[0] - base_height) / scale))
+        d_angle = math.hypot(d_angle, factor * float(np.hypot(*(o_peak[0] - base_peak))))
+        d_score = math.hypot(d_score, factor * float(abs(o_height[0] - base_height) / scale))
     s_angle, s_score = COVER * spread, COVER * score_sd
     return Uncertainty(
         angle_deg=float(math.sqrt(s_angle ** 2 + d_angle ** 2 + fit ** 2)),

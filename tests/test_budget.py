@@ -1,0 +1,104 @@
+"""``time_budget=`` / ``--time-budget`` (labcut.orientation.budget)."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import pytest
+
+import labcut
+from labcut.errors import LabcutWarning, ParameterError
+from labcut.orientation.budget import choose, correction, ladder, record
+
+
+def test_the_ladder_gets_more_accurate_in_every_knob():
+    rungs = ladder()
+    assert [q.name for q in rungs][1::2] == ["draft", "standard", "high"]
+    for a, b in zip(rungs, rungs[1:]):
+        assert b.surface_points > a.surface_points
+        assert b.lamp_samples >= a.lamp_samples and b.cone_views >= a.cone_views
+        assert b.rock_steps[0] >= a.rock_steps[0] and b.rock_steps[1] >= a.rock_steps[1]
+        assert b.map_spacing_deg <= a.map_spacing_deg
+        assert b.nlopt_evals >= a.nlopt_evals
+
+
+@pytest.fixture(autouse=True)
+def _own_corrections(monkeypatch, tmp_path):
+    """Each test starts with no learnt correction (its own corrections file)."""
+    monkeypatch.setattr("labcut.orientation.budget.corrections_path", lambda: tmp_path / "corrections.json")
+
+
+def _fake_timing(monkeypatch, per_point: float):
+    """Predicted seconds proportional to the surface points (a machine of known speed)."""
+    monkeypatch.setattr("labcut.orientation.timing.predict_sample_seconds",
+                        lambda settings, points, occlusion: per_point * points * (2.0 if occlusion else 1.0))
+
+
+def test_the_prediction_learns_from_runs(monkeypatch):
+    """A machine twice as slow as its calibration: after a few runs the choice steps down a rung."""
+    _fake_timing(monkeypatch, 1e-4)
+    assert choose(1.0, ("bench", None, None), False).quality.name == "standard"
+    for _ in range(4):
+        record(False, 0.8, 1.6)
+    assert correction(False) == pytest.approx(2.0, rel=0.07)
+    assert correction(True) == 1.0  # the other kind is not touched
+    c = choose(1.0, ("bench", None, None), False)
+    assert c.quality.name == "budget-2" and c.correction == pytest.approx(correction(False))
+    record(False, 0.0, 1.0)  # nonsense is ignored
+    record(False, 1.0, math.nan)
+    assert correction(False) == pytest.approx(c.correction)
+
+
+def test_the_most_accurate_rung_that_fits_is_chosen(monkeypatch):
+    _fake_timing(monkeypatch, 1e-4)  # standard (8000 points) 0.8 s, high (24000) 2.4 s
+    assert choose(1.0, ("bench", None, None), False).quality.name == "standard"
+    assert choose(2.5, ("bench", None, None), False).quality.name == "high"
+    assert choose(2.3, ("bench", None, None), False).quality.name == "budget-4"
+    # occlusion doubles the cost here: one rung down
+    assert choose(1.0, ("bench", None, None), True).quality.name == "budget-2"
+    c = choose(100.0, ("bench", None, None), False)
+    assert c.quality.name == "budget-6" and c.note is None and c.predicted_seconds <= 100.0
+
+
+def test_an_impossible_budget_runs_the_cheapest_and_says_so(monkeypatch):
+    _fake_timing(monkeypatch, 1e-4)
+    c = choose(0.01, ("bench", None, None), False)
+    assert c.quality.name == "budget-0"
+    assert c.note is not None and "\n" not in c.note and "below the cheapest" in c.note
+
+
+@pytest.mark.parametrize("bad", [0, -1.0, math.nan, math.inf, "soon", True])
+def test_a_bad_budget_is_a_parameter_error(bad):
+    with pytest.raises(ParameterError, match="time budget"):
+        choose(bad, ("bench", None, None), False)
+
+
+def test_recommend_with_a_budget_records_the_choice(monkeypatch):
+    _fake_timing(monkeypatch, 1e-4)
+    mesh = labcut.load_mesh("meshes/oval-16x12-low.ply")
+    rec = labcut.recommend_orientation(mesh, "blue", scenario="bench", time_budget=0.35)
+    b = rec.settings["time_budget"]
+    assert b["quality"] == "draft" and rec.settings["quality"] == "draft" and rec.settings["surface_samples"] == 3000
+    assert rec.uncertainty is not None
+    with pytest.warns(LabcutWarning, match="below the cheapest"):
+        labcut.recommend_orientation(mesh, "blue", scenario="bench", time_budget=0.01)
+    with pytest.raises(ParameterError, match="not both"):
+        labcut.recommend_orientation(mesh, "blue", quality="draft", time_budget=1.0)
+
+
+def test_cli_time_budget(cli, tmp_path):
+    out = tmp_path / "rec.json"
+    r = cli("recommend-orientation", "meshes/oval-16x12-low.ply", "--time-budget", "0.001", "--json", str(out))
+    assert r.returncode == 0, r.stderr
+    notes = [ln for ln in r.stderr.splitlines() if ln.startswith("note:")]
+    assert len(notes) == 1 and "below the cheapest" in notes[0]
+    data = json.loads(out.read_text())
+    assert data["settings"]["time_budget"]["quality"] == "budget-0"
+    assert "± " in r.stdout  # the error bars are printed
+    for bad, msg in ((("--time-budget", "0"),), "time budget"), ((("--time-budget", "1", "--quality", "draft"),), "not both"):
+        r = cli("recommend-orientation", "meshes/oval-16x12-low.ply", *bad[0])
+        assert r.returncode == 2
+        lines = [ln for ln in r.stderr.strip().splitlines() if ln]
+        assert len(lines) == 1 and msg in lines[0] and "Traceback" not in r.stderr
+
