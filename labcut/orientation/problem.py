@@ -139,6 +139,29 @@ def _visibility(mesh: Any, origins: np.ndarray, normals: np.ndarray, dirs: np.nd
     return ~np.array(hit, dtype=bool).reshape(n, d)
 
 
+def _smooth_split(mesh: Any, angle_deg: float) -> Any:
+    """``trimesh.graph.smooth_shade`` of ``mesh`` at ``angle_deg``, kept in the mesh's own cache
+    (trimesh drops it when the vertices or faces change): a recommendation builds up to three
+    problems of one mesh (the answer and its error bars)."""
+    key = f"labcut_smooth_split_{float(angle_deg):.6g}"
+    cache = getattr(mesh, "_cache", None)
+    try:
+        hit = cache[key] if cache is not None else None  # trimesh's Cache: None when missing or stale
+    except Exception:  # noqa: BLE001 - a cache that cannot be read: shade again
+        hit = None
+    if hit is not None:
+        return hit
+    import trimesh  # (lazy: importing trimesh pulls scipy)
+
+    split = trimesh.graph.smooth_shade(mesh, angle=math.radians(angle_deg))
+    try:
+        if cache is not None:
+            cache[key] = split
+    except Exception:  # noqa: BLE001 - not cached: the next build shades again
+        pass
+    return split
+
+
 def build_problem(
     mesh: Any,
     material: Labradorite,
@@ -181,7 +204,7 @@ def build_problem(
     # 30°; same surface, its own face order), so both estimators shade alike
     from ..rendering.scene import shading_angle_deg
 
-    split = trimesh.graph.smooth_shade(mesh, angle=math.radians(shading_angle_deg(mesh)))
+    split = _smooth_split(mesh, shading_angle_deg(mesh))
     area_faces = split.area_faces
     ok = np.isfinite(area_faces) & (area_faces > 0)
     if not np.any(ok):
