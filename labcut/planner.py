@@ -31,7 +31,16 @@ Effects (all directions in the mesh frame, mm, +Z face-up):
     flash metrics are luminance ratios, from a table that integrates the spectrum exactly at every
     angle (mono); renders are RGB unless spectral or mono is asked for, spectral with a polariser.
 ``zoning``
-    colour zones (docs/zoning.md) are simulated in renders when asked for.
+    colour zones (docs/zoning.md), when asked for (``--zoning``): in renders, and for
+    ``recommend``/``evaluate`` through the render estimator (each point flashes with its own
+    lamella stack, which the surface samples cannot carry).
+
+The estimator (``recommend``, ``evaluate``; ``compare`` always ranks with the samples and says
+what that leaves out): ``render`` where the scene needs what the surface samples cannot carry
+(inter-reflection on, a zoned stone, or an environment map seen past the parts of a non-convex
+stone: the samples see the map through a few directions shared by every surface point, each
+blocked or not, which misses the light a carving's parts let through from the rest of the map),
+``samples`` otherwise.
 """
 
 from __future__ import annotations
@@ -47,8 +56,11 @@ from .errors import ParameterError
 COMMANDS = ("render", "recommend", "evaluate", "compare")
 EFFECTS = ("occlusion", "inter_reflection", "environment", "polarisation", "colour", "zoning")
 ESTIMATORS = ("auto", "samples", "render")
-#: an effect whose predicted change of the flash energy stays below this share is left off
-#: (the scale of a standard recommendation's own score error: docs/accuracy.md)
+#: the stated tolerance of the planner's "off" decisions: an effect whose measured or bounded
+#: change of the flash energy stays below this share of it is left off. A fixed number, not yet
+#: the answer's own error bar; tests/test_planner_off.py checks every "off" of the bundled stones
+#: and scenarios against it, and docs/planner.md ("The tolerance") gives the seed-to-seed
+#: spread of a recommendation's score it is set against (benchmarks/planner.py measures it)
 INTERREFLECTION_TOLERANCE = 0.02
 #: the effects a user may switch with ``effects=`` / ``--effect NAME=on|off`` (the others follow
 #: from the scene and from their own options: lighting, --mode, --polarizer, --zoning)
@@ -115,7 +127,9 @@ class EffectPlan:
             out.append(f"{'estimator':17} {self.estimator}  — {self.estimator_why}"
                        + (f" (predicted {t:.1f} s; {costs})" if t is not None else ""))
         elif self.predicted_seconds:
-            out.append("predicted: " + ", ".join(f"{k} ~{v:.1f} s" for k, v in self.predicted_seconds.items()))
+            where = self.facts.get("predicted_for")
+            out.append(f"{'predicted':17} " + ", ".join(f"{k} ~{v:.1f} s" for k, v in self.predicted_seconds.items())
+                       + (f" ({where})" if where else ""))
         return out
 
     def __repr__(self) -> str:
@@ -283,7 +297,7 @@ def check_effects(effects: Mapping[str, Any] | None) -> dict[str, bool]:
         if key not in SWITCHABLE:
             how = {"environment": "the lighting (an .exr/.hdr map or a map preset: ceiling, sky)",
                    "polarisation": "--polarizer (renders only)", "colour": "--mode (renders only)",
-                   "zoning": "--zoning (renders only)"}[key]
+                   "zoning": "--zoning (render, recommend-orientation, evaluate-orientation)"}[key]
             raise ParameterError(f"effect {key.replace('_', '-')!r} follows from {how}; it cannot be switched on its own")
         if isinstance(value, str):
             if value.lower() not in ("on", "off", "true", "false", "yes", "no"):
@@ -322,14 +336,23 @@ def plan_effects(
     max_depth: int | None = None,
     effects: Mapping[str, Any] | None = None,
     predict: bool = True,
+    resolution: int | None = None,
+    spp: int | None = None,
+    views: int = 1,
+    look: str = "diagram",
 ) -> EffectPlan:
     """Decide which effects ``command`` simulates for a stone in a scene (module docstring).
 
     ``estimator`` (``recommend``/``evaluate``/``compare``): ``auto`` lets the planner choose,
     ``samples``/``render`` force one. ``mode``/``polarizer_deg``/``zoning``/``max_depth``: a
     render's request. ``effects``: ``{"occlusion": bool, "inter_reflection": bool}`` overrides.
-    ``predict``: for ``recommend``, the predicted seconds of each estimator on this machine
-    (calibrated once, a few seconds, then cached: :mod:`labcut.orientation.timing`).
+    ``predict``: the predicted seconds of each choice on this machine (calibrated once, a few
+    seconds, then cached: :mod:`labcut.orientation.timing`, :func:`evaluate_timing`,
+    :func:`render_command_timing`): for ``recommend`` and ``evaluate`` each estimator's, for
+    ``compare`` the sample estimator's recommendation of the cut (its curves and renders come on
+    top), for ``render`` the render at ``resolution``² px (default 512), ``spp`` samples per pixel
+    (default 64), ``views`` views (default 1) and ``look`` (``diagram`` or ``studio``), as
+    ``facts["predicted_for"]`` says.
 
     Raises :class:`~labcut.errors.ParameterError` for combinations the scene cannot have (a
     polariser with mono colour, inter-reflection in a convex stone, an unknown effect ...).
@@ -356,6 +379,13 @@ def plan_effects(
     if estimator not in ESTIMATORS:
         raise ParameterError(f"estimator must be one of {', '.join(ESTIMATORS)}, got {estimator!r}")
     forced = check_effects(effects)
+    from .validation import check_number
+
+    resolution = None if resolution is None else check_number(resolution, "resolution", 8, 8192, integer=True)
+    spp = None if spp is None else check_number(spp, "spp (samples per pixel)", 1, 1 << 16, integer=True)
+    views = check_number(views, "views", 1, 10_000, integer=True)
+    if look not in ("diagram", "studio"):
+        raise ParameterError(f"look must be diagram or studio, got {look!r}")
     material = Labradorite.coerce(material)
     scene = resolve_scene(scenario, lighting, viewing, quality)
     rendering = command == "render"
@@ -488,12 +518,18 @@ def plan_effects(
                                   ("" if rendering else ": the render estimator weighs each zone's flash as the viewers see it"),
                                   f"colour zones asked for ({label})"))
     else:
-        decisions.append(Decision("zoning", False, "", "a uniform material" + ("" if rendering else
-                                  " (zoning is a render option)")))
+        decisions.append(Decision("zoning", False, "", "a uniform material" + ("" if command == "compare" else
+                                  " (--zoning asks for colour zones)")))
 
     # estimator -----------------------------------------------------------------
     chosen: str | None = None
     est_why = ""
+    n_map = len(scene.lights) - scene.lights.n_lamps
+    # an environment map seen past the parts of a carving: the samples see the map through n_map
+    # directions shared by every surface point, each blocked or not (docs/planner.md measures it)
+    env_occ = bool(envs) and occ_on and not convex
+    if env_occ:
+        facts["map_directions"] = n_map
     if not rendering:
         if estimator == "render":
             chosen, est_why = "render", "asked for"
@@ -501,10 +537,16 @@ def plan_effects(
             chosen, est_why = "samples", "asked for"
             if ir_on:
                 est_why += f"; it cannot carry inter-reflection (up to {bound:.1%} of the energy is left out)"
+            if env_occ:
+                est_why += f"; it sees the environment map past the stone's parts through {n_map} directions only (approximate)"
         elif zoning is not None:
             chosen, est_why = "render", "a zoned stone: each point flashes with its own lamella stack, which only renders carry"
         elif ir_on:
             chosen, est_why = "render", "inter-reflection is on and only renders carry it"
+        elif env_occ:
+            chosen, est_why = "render", (f"an environment map seen past the parts of a non-convex stone: the surface samples see "
+                                         f"it through {n_map} directions, each blocked or not for every point; renders trace "
+                                         "what each point sees of the whole map")
         else:
             chosen, est_why = "samples", "every effect on is one the surface samples carry"
         if command == "compare" and chosen == "render":
@@ -512,30 +554,210 @@ def plan_effects(
                 raise ParameterError("compare runs the sample estimator (many cuts and curves); "
                                      "use --estimator samples, or recommend-orientation --estimator render per cut")
             chosen = "samples"
-            est_why = (f"compare ranks many cuts with the sample estimator; inter-reflection (up to {bound:.1%} of the "
-                       "flash energy) is left out: recommend-orientation --estimator render per cut carries it")
+            missing = ([f"inter-reflection (up to {bound:.1%} of the flash energy)"] if ir_on else []) + (
+                [f"the environment map past the stone's parts beyond its {n_map} sampled directions"] if env_occ else [])
+            est_why = (f"compare ranks many cuts with the sample estimator; {' and '.join(missing)} "
+                       f"{'are' if len(missing) > 1 else 'is'} left out: "
+                       "recommend-orientation --estimator render per cut carries it")
             decisions = [Decision(d.effect, False, "", f"left out: compare ranks with the sample estimator ({d.why})",
-                                  d.forced, d.bound) if d.effect == "inter_reflection" else d for d in decisions]
-    predicted = _predicted_seconds(scene, command, occ_on, ir_on, convex) if predict and command == "recommend" else {}
+                                  d.forced, d.bound) if d.effect == "inter_reflection" and d.on else d for d in decisions]
+    predicted: dict[str, float] = {}
+    if predict:
+        if rendering:
+            size = (512 if resolution is None else resolution, 64 if spp is None else spp, views)
+            facts["predicted_for"] = f"{size[0]}² px, {size[1]} spp, {size[2]} view{'s' if size[2] != 1 else ''}, {look} look"
+            integrator = "path" if ir_on or max_depth is not None else "direct"
+            predicted = _predicted_render_seconds(facts["mode"], polarizer_deg is not None, integrator, *size, look)
+        else:
+            predicted = _predicted_seconds(scene, command, occ_on, ir_on, convex, zoning is not None)
     return EffectPlan(command, tuple(decisions), chosen, est_why, predicted, convex, facts)
 
 
-def _predicted_seconds(scene: Any, command: str, occlusion: bool, inter_reflection: bool, convex: bool) -> dict[str, float]:
-    """Predicted seconds of each estimator for a recommendation on this machine (calibrated:
-    :func:`labcut.orientation.timing.predict_sample_seconds`,
-    :func:`labcut.orientation.render_estimator.predict_render_seconds`); the render estimator
-    starts from the sample estimator's answer, so its time includes the samples'."""
+def _predicted_seconds(scene: Any, command: str, occlusion: bool, inter_reflection: bool, convex: bool,
+                       zoned: bool = False) -> dict[str, float]:
+    """Predicted seconds of each estimator on this machine (calibrated:
+    :func:`labcut.orientation.timing.predict_sample_seconds`, :func:`evaluate_timing`,
+    :func:`labcut.orientation.render_estimator.predict_render_seconds`).
+
+    ``recommend``: the render estimator starts from the sample estimator's answer, so its time
+    includes the samples'; a zoned stone's starts from a coarse map of renders over the whole
+    hemisphere (:attr:`~labcut.orientation.render_estimator.RenderQuality.coarse_deg` apart),
+    counted here. ``evaluate``: building the sample problem and scoring one normal; the render
+    estimator builds the same problem, then renders every view once. ``compare``: the sample
+    estimator's recommendation of the cut under the scenario (the curves and renders come on top)."""
     from .orientation.timing import calibrating, predict_sample_seconds
 
-    if calibrating():
+    if calibrating() or _CALIBRATING:
         return {}
+    from .orientation.optimize import Constraint, hemisphere_grid
     from .orientation.render_estimator import RENDER_QUALITY, predict_render_seconds
 
     settings = scene.settings()
     q = scene.quality
-    samples = predict_sample_seconds(settings, q.surface_points, occlusion)
     rq = RENDER_QUALITY.get(q.name, RENDER_QUALITY["standard"])
     n_views = sum(len(st.views) for st in settings)
     depth = 4 if inter_reflection else 2
-    render = samples + predict_render_seconds(n_views, rq.resolution, rq.spp, convex, rq.iterations, 0, depth)
+    if command == "evaluate":
+        samples = predict_evaluate_seconds(settings, q.surface_points, occlusion)
+        one = predict_render_seconds(n_views, rq.resolution, rq.spp, convex, 1, 0, depth)
+        two = predict_render_seconds(n_views, rq.resolution, rq.spp, convex, 2, 0, depth)
+        return {"samples": samples, "render": samples + max(one - (two - one), 0.0)}  # no L-BFGS step: one primal per view
+    samples = predict_sample_seconds(settings, q.surface_points, occlusion)
+    if command == "compare":
+        return {"samples": samples}
+    coarse = len(hemisphere_grid(rq.coarse_deg, Constraint(90.0))) if zoned else 0
+    render = samples + predict_render_seconds(n_views, rq.resolution, rq.spp, convex, rq.iterations, coarse, depth)
     return {"samples": samples, "render": render}
+
+
+# ---------------------------------------------------------------------- calibrations of the other commands
+_CALIBRATING = False
+_EVAL_TIMING: dict[str, float] | None = None
+_RENDER_TIMING: dict[str, tuple[float, float]] = {}
+
+
+def _evaluate_key() -> str:
+    import os
+
+    from . import __version__
+
+    return f"labcut {__version__} numpy {np.__version__} cpus {os.cpu_count()} evaluate v1"
+
+
+def evaluate_timing(refresh: bool = False) -> dict[str, float]:
+    """The sample estimator's evaluation (build the problem, score one normal) on this machine:
+    ``{"fixed", "per_term", "per_ray"}`` seconds, fitted as
+    :func:`labcut.orientation.timing.measure_sample_timing` fits a recommendation's, from three
+    timed evaluations of a 16 x 12 mm oval cabochon under the bench scenario (draft, standard,
+    draft with occlusion forced on); measured once (about a second) and kept in the user cache
+    (``planner-evaluate-timing.json``), again when labcut's or numpy's version or the CPU count differ."""
+    global _EVAL_TIMING, _CALIBRATING
+    key = _evaluate_key()
+    if _EVAL_TIMING is not None and _EVAL_TIMING.get("key") == key and not refresh:  # type: ignore[comparison-overlap]
+        return _EVAL_TIMING
+    import copy
+    import time
+
+    from .fileio import cache_path, read_cache, write_cache
+
+    path = cache_path("planner-evaluate-timing.json")
+    data = None if refresh else read_cache(path)
+    if data is not None and data.get("key") == key:
+        try:
+            _EVAL_TIMING = {"fixed": float(data["fixed"]), "per_term": float(data["per_term"]),
+                            "per_ray": float(data["per_ray"]), "key": key}  # type: ignore[dict-item]
+            return _EVAL_TIMING
+        except (KeyError, TypeError, ValueError):
+            pass  # an older layout: measure
+    from .geometry.cabochon import cabochon
+    from .orientation.recommend import evaluate_orientation
+    from .orientation.timing import work
+    from .scene import resolve_scene
+
+    mesh = cabochon(outline="oval", length=16.0, width=12.0, dome="medium")
+    hidden = copy.deepcopy(mesh)
+    hidden.metadata.setdefault("labcut", {})["convex"] = False
+    rows = []
+    _CALIBRATING = True
+    try:
+        evaluate_orientation(mesh, (0.05, 0.02, 1.0), quality="draft")  # warm: imports and kernels
+        for m, quality, occl in ((mesh, "draft", False), (mesh, "standard", False), (hidden, "draft", True)):
+            scene = resolve_scene("bench", quality=quality)
+            terms, rays = work(scene.settings(), scene.quality.surface_points)
+            best = float("inf")
+            for _ in range(2):
+                t = time.perf_counter()
+                evaluate_orientation(m, (0.05, 0.02, 1.0), quality=quality)
+                best = min(best, time.perf_counter() - t)
+            rows.append((terms, rays if occl else 0.0, best))
+    finally:
+        _CALIBRATING = False
+    (t0, _, s0), (t1, _, s1), (t2, r2, s2) = rows
+    per_term = max((s1 - s0) / (t1 - t0), 0.0) if t1 != t0 else 0.0
+    fixed = max(s0 - per_term * t0, 0.0)
+    per_ray = max((s2 - s0) / r2, 0.0) if r2 > 0 else 0.0
+    _EVAL_TIMING = {"fixed": fixed, "per_term": per_term, "per_ray": per_ray, "key": key}  # type: ignore[dict-item]
+    write_cache(path, dict(_EVAL_TIMING))
+    return _EVAL_TIMING
+
+
+def predict_evaluate_seconds(settings: Sequence[Any], surface_points: int, occlusion: bool) -> float:
+    """Predicted wall seconds of a sample-estimator evaluation on this machine (:func:`evaluate_timing`)."""
+    from .orientation.timing import work
+
+    t = evaluate_timing()
+    terms, rays = work(settings, surface_points)
+    return float(t["fixed"] + t["per_term"] * terms + (t["per_ray"] * rays if occlusion else 0.0))
+
+
+#: the two image sizes (px, spp) a render's calibration times
+_RENDER_CAL = ((64, 4), (192, 32))
+
+
+def render_command_timing(mode: str, polarised: bool, integrator: str, look: str = "diagram",
+                          refresh: bool = False) -> tuple[float, float]:
+    """``(fixed, per_sample)`` seconds of :func:`labcut.render` on this machine for one colour
+    ``mode``, with or without a polariser, with the ``direct`` or the ``path`` integrator: two
+    timed renders of a 10 mm sphere (the scenario ``bench``, the ``look``, :data:`_RENDER_CAL`
+    sizes; the ``path`` integrator to depth 4, the carvings' default), each after one warm-up.
+    Measured once per key (a second or two) and kept in the user cache (``planner-render-timing.json``),
+    again when Mitsuba's or labcut's version or the CPU count differ."""
+    global _CALIBRATING
+    import os
+    import time
+
+    import mitsuba as mi
+
+    from . import __version__
+    from .fileio import cache_path, read_cache, write_cache
+
+    key = f"{mode} {'polarised' if polarised else 'plain'} {integrator} {look} | mitsuba {mi.__version__} labcut {__version__} cpus {os.cpu_count()} v1"
+    if key in _RENDER_TIMING and not refresh:
+        return _RENDER_TIMING[key]
+    path = cache_path("planner-render-timing.json")
+    stored = read_cache(path) or {}
+    if key in stored and not refresh:
+        try:
+            _RENDER_TIMING[key] = (float(stored[key][0]), float(stored[key][1]))
+            return _RENDER_TIMING[key]
+        except (TypeError, ValueError, IndexError, KeyError):
+            pass
+    import trimesh
+
+    from .physics.material import Labradorite
+    from .rendering.api import render
+
+    sphere = trimesh.creation.icosphere(subdivisions=3, radius=5.0)
+    sphere.metadata["labcut"] = {"convex": True}
+    kw = dict(scenario="bench", mode=mode, polarizer_deg=30.0 if polarised else None,
+              max_depth=4 if integrator == "path" else None, look=look)
+    mat = Labradorite()
+    rows = []
+    _CALIBRATING = True
+    try:
+        for res, n in _RENDER_CAL:
+            render(sphere, mat, (0.05, 0.02, 1.0), resolution=res, spp=n, **kw)  # warm: kernels
+            t = time.perf_counter()
+            render(sphere, mat, (0.05, 0.02, 1.0), resolution=res, spp=n, **kw)
+            rows.append((res * res * n, time.perf_counter() - t))
+    finally:
+        _CALIBRATING = False
+    (n0, s0), (n1, s1) = rows
+    per_sample = max((s1 - s0) / (n1 - n0), 0.0)
+    value = (max(s0 - per_sample * n0, 0.0), per_sample)
+    _RENDER_TIMING[key] = value
+    stored[key] = list(value)
+    write_cache(path, dict(list(stored.items())[-64:]))
+    return value
+
+
+def _predicted_render_seconds(mode: str, polarised: bool, integrator: str, resolution: int, spp: int,
+                              views: int, look: str = "diagram") -> dict[str, float]:
+    """Predicted seconds of a render (:func:`render_command_timing`): ``views`` x (fixed +
+    per sample x resolution² x spp)."""
+    from .orientation.timing import calibrating
+
+    if _CALIBRATING or calibrating():
+        return {}
+    fixed, per_sample = render_command_timing(mode, polarised, integrator, look)
+    return {"render": float(views * (fixed + per_sample * resolution * resolution * spp))}

@@ -93,3 +93,54 @@ def test_bad_combinations_are_one_line_errors(args, message, tmp_path):
     assert message in res.stderr and "Traceback" not in res.output
     assert len(res.stderr.strip().splitlines()) == 1, res.stderr
     assert not (tmp_path / "x.png").exists()
+
+
+def test_plans_show_the_predicted_seconds_of_evaluate_render_and_compare(tmp_path):
+    """--plan-only of every command prints the predicted time of its choices, and writes it."""
+    ev = tmp_path / "ev.json"
+    res = run("evaluate-orientation", OVAL, "--normal", "0,0,1", "--quality", "draft", "--plan-only", "--json", str(ev))
+    assert res.exit_code == 0, res.output
+    assert "predicted" in res.output and "samples ~" in res.output and "render ~" in res.output
+    p = json.loads(ev.read_text())["plan"]["predicted_seconds"]
+    assert set(p) == {"samples", "render"} and 0 < p["samples"] < p["render"]
+    rj = tmp_path / "r.json"
+    res = run("render", OVAL, "-o", str(tmp_path / "x.png"), "--plan-only", "--json", str(rj))
+    assert res.exit_code == 0, res.output
+    text = " ".join(res.output.split())
+    assert "predicted render ~" in text and "512² px, 64 spp, 1 view" in text
+    assert json.loads(rj.read_text())["plan"]["predicted_seconds"]["render"] > 0
+    cj = tmp_path / "c.json"
+    res = run("compare", OVAL, BIPLANE, "--quality", "draft", "--plan-only", "--json", str(cj))
+    assert res.exit_code == 0, res.output
+    for p in json.loads(cj.read_text())["plans"]:
+        assert p["plan"]["predicted_seconds"]["samples"] > 0, p["cut"]
+
+
+def test_a_full_render_json_holds_the_effect_plan(tmp_path):
+    out = tmp_path / "r.json"
+    res = run("render", BIPLANE, "-o", str(tmp_path / "x.png"), "--resolution", "24", "--spp", "1", "--look", "diagram",
+              "--json", str(out))
+    assert res.exit_code == 0, res.output
+    data = json.loads(out.read_text())
+    effects = data["plan"]["effects"]
+    assert effects["command"] == "render" and effects["estimator"] is None and effects["convex"] is False
+    on = {k: v["on"] for k, v in effects["effects"].items()}
+    assert on == {"occlusion": True, "inter_reflection": True, "environment": False, "polarisation": False,
+                  "colour": True, "zoning": False}
+    assert effects["effects"]["colour"]["how"] == "rgb"
+    assert data["plan"]["integrator"] == "path" and (tmp_path / "x.png").exists()
+
+
+def test_a_full_compare_json_holds_each_cuts_plan(tmp_path):
+    out = tmp_path / "cmp.json"
+    res = run("compare", "cab:oval,16x12,low,res=48", BIPLANE, "--scenario", "bench", "--quality", "draft",
+              "--resolution", "16", "--spp", "1", "--json", str(out), cwd=tmp_path)
+    assert res.exit_code == 0, res.output
+    data = json.loads(out.read_text())
+    plans = {c["name"]: c["scenarios"]["bench"]["best"]["plan"] for c in data["cuts"]}  # each recommendation's plan
+    assert len(plans) == 2 and all(p["command"] == "compare" for p in plans.values())
+    convex, carving = (next(p for p in plans.values() if p["convex"] is flag) for flag in (True, False))
+    assert convex["estimator"] == carving["estimator"] == "samples"
+    assert not convex["effects"]["occlusion"]["on"] and carving["effects"]["occlusion"]["on"]
+    assert not carving["effects"]["inter_reflection"]["on"] and "left out" in carving["estimator_why"]
+    assert carving["predicted_seconds"]["samples"] > 0 and convex["predicted_seconds"]["samples"] > 0

@@ -243,3 +243,44 @@ def test_polarisation_left_off_is_within_the_tolerance_and_matches_a_direct_comp
 def test_hemispherical_fresnel_matches_its_closed_form():
     """n = 1.5: the cosine-weighted hemispherical reflectance is 0.0918 (Walter et al.; exact integral)."""
     assert hemispherical_fresnel(1.5, 4096) == pytest.approx(0.0918, abs=5e-4)
+
+
+# ---------------------------------------------------------------------- predicted time of each choice
+def test_every_command_predicts_the_seconds_of_its_choices(oval, biplane):
+    from labcut.orientation.optimize import Constraint, hemisphere_grid
+    from labcut.orientation.render_estimator import RENDER_QUALITY, predict_render_seconds
+    from labcut.scene import resolve_scene
+
+    rec = plan_effects(oval, scenario="display", quality="draft").predicted_seconds
+    ev = plan_effects(oval, scenario="display", quality="draft", command="evaluate").predicted_seconds
+    assert set(rec) == set(ev) == {"samples", "render"}
+    assert 0 < ev["samples"] < rec["samples"] and 0 < ev["render"] < rec["render"]  # one normal, no optimiser
+    cmp = plan_effects(biplane, scenario="bench", quality="draft", command="compare").predicted_seconds
+    assert set(cmp) == {"samples"} and cmp["samples"] > 0
+    # a zoned stone's render estimator starts from a coarse map of renders: counted
+    zoned = plan_effects(oval, scenario="display", quality="draft", zoning="smooth").predicted_seconds
+    views = sum(len(st.views) for st in resolve_scene("display", quality="draft").settings())
+    rq = RENDER_QUALITY["draft"]
+    coarse = len(hemisphere_grid(rq.coarse_deg, Constraint(90.0)))
+    extra = (predict_render_seconds(views, rq.resolution, rq.spp, True, rq.iterations, coarse, 2)
+             - predict_render_seconds(views, rq.resolution, rq.spp, True, rq.iterations, 0, 2))
+    assert zoned["render"] == pytest.approx(rec["render"] + extra, rel=1e-6) and extra > 0
+    # a render: at the size asked for, in proportion to the samples
+    small = plan_effects(oval, command="render", resolution=64, spp=4)
+    big = plan_effects(oval, command="render", resolution=256, spp=64)
+    assert 0 < small.predicted_seconds["render"] < big.predicted_seconds["render"]
+    assert big.facts["predicted_for"] == "256² px, 64 spp, 1 view, diagram look"
+    assert "predicted" in big.lines()[-1] and "256² px" in big.lines()[-1]
+    assert plan_effects(oval, command="render", predict=False).predicted_seconds == {}
+    with pytest.raises(ParameterError, match="resolution"):
+        plan_effects(oval, command="render", resolution=0)
+
+
+def test_zoning_messages_say_where_zones_apply(oval):
+    """Zoning is simulated by renders and by the render estimator (recommend, evaluate), not by compare."""
+    for command in ("recommend", "evaluate", "render"):
+        why = plan_effects(oval, command=command, predict=False)["zoning"].why
+        assert "render option" not in why and "--zoning" in why, command
+    with pytest.raises(ParameterError, match="recommend-orientation, evaluate-orientation") as info:
+        plan_effects(oval, effects={"zoning": True})
+    assert "renders only" not in str(info.value)

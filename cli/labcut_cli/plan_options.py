@@ -30,7 +30,9 @@ def check(estimator: str, effect: list[str] | None) -> dict[str, bool]:
 
 
 def show(plan: Any, subject: str, *, to_stderr: bool = False) -> None:
-    """Print the plan: one line per effect, then the estimator and the predicted time."""
+    """Print the plan: one line per effect, then the estimator and the predicted seconds of each
+    choice (recommend, evaluate: each estimator; compare: the samples' recommendation of the cut;
+    render: the render, at the size the plan names)."""
     from rich.markup import escape
 
     from .root import console, err_console

@@ -562,7 +562,7 @@ def plan_comparison(
 
     switches = check_effects(effects)
     plans = {(cut.name, sc.name): plan_effects(cut.mesh, lab, command="compare", scenario=sc, quality=quality,
-                                               effects=switches, predict=False)
+                                               effects=switches, predict=True)
              for cut in resolved for sc in scens}
     return ComparisonPlan(resolved, lab, scens, ref, quality, seed, res, n_spp, max(1, n_spp // 2), quality.strip_angles_deg,
                           effects=switches, effect_plans=plans)

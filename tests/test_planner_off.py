@@ -1,0 +1,140 @@
+"""Each "off" decision of the effect planner (labcut.planner, docs/planner.md) checked for the
+bundled stones and scenarios: switched on, the effect changes the answer by less than the
+planner's stated tolerance (:data:`labcut.planner.INTERREFLECTION_TOLERANCE`, 2 % of the flash
+energy); and the one place where the samples cannot carry the scene, an environment map seen
+past the parts of a carving, is where the planner picks the render estimator. Draft quality,
+few surface points: the claims are about the effects, not about the optimiser."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import labcut
+from labcut.planner import INTERREFLECTION_TOLERANCE as TOL
+from labcut.planner import plan_effects
+
+MESHES = Path(__file__).resolve().parents[1] / "meshes"
+CONVEX = sorted(p.name for p in MESHES.glob("*.ply") if p.name != "carving-biplane.ply")
+SCENARIOS = ("bench", "ring", "pendant", "outdoor", "display")
+
+
+def angle_deg(a, b) -> float:
+    return math.degrees(math.acos(min(1.0, abs(float(np.dot(a, b))))))
+
+
+@pytest.fixture(autouse=True, scope="module")
+def fresh_pilot_cache(tmp_path_factory):
+    """Pilot renders measured here, not read from an earlier run's cache."""
+    import labcut.planner as planner
+
+    mp = pytest.MonkeyPatch()
+    mp.setattr(planner, "_pilot_cache_path", lambda: tmp_path_factory.mktemp("cache") / "planner-pilot.json")
+    mp.setattr(planner, "_PILOT_CACHE", {})
+    yield
+    mp.undo()
+
+
+_MESH_CACHE: dict[str, object] = {}
+
+
+def mesh(name: str):
+    if name not in _MESH_CACHE:
+        _MESH_CACHE[name] = labcut.load_mesh(MESHES / name)
+    return _MESH_CACHE[name]
+
+
+def test_the_bundled_stones_are_the_ones_the_planner_calls_convex():
+    assert len(CONVEX) >= 10
+    for name in CONVEX:
+        assert plan_effects(mesh(name), scenario="bench", quality="draft", predict=False).convex, name
+    assert not plan_effects(mesh("carving-biplane.ply"), scenario="bench", quality="draft", predict=False).convex
+
+
+@pytest.mark.parametrize("scenario", SCENARIOS)
+@pytest.mark.parametrize("name", CONVEX)
+def test_occlusion_left_off_for_a_convex_stone_moves_neither_normal_nor_energy(name, scenario):
+    """Shadow rays switched on (as the planner would for a carving) against the planner's "off":
+    over the draft score map of the whole hemisphere, the best normal stays where it is and no
+    energy changes by more than the tolerance (for a convex stone no shadow ray can be blocked)."""
+    from labcut.orientation.optimize import Constraint, hemisphere_grid
+    from labcut.orientation.problem import build_problem
+    from labcut.orientation.scoring import Scorer
+    from labcut.scene import resolve_scene
+
+    stone = mesh(name)
+    plan = plan_effects(stone, scenario=scenario, quality="draft", predict=False)
+    assert not plan.on("occlusion") and plan["occlusion"].bound == 0.0
+    assert not plan.on("inter_reflection") and plan.estimator == "samples"
+    settings = resolve_scene(scenario, quality="draft").settings()
+    grid = hemisphere_grid(8.0, Constraint(90.0))
+    lab = labcut.Labradorite()
+    off, on = (Scorer(build_problem(stone, lab, quality="draft", settings=settings, n_points=600, occlusion=occl),
+                      "energy").scores(grid) for occl in (plan.on("occlusion"), True))
+    assert off.max() > 0
+    assert float(np.max(np.abs(on - off))) <= TOL * float(off.max())
+    assert angle_deg(grid[int(np.argmax(on))], grid[int(np.argmax(off))]) < 1.0
+
+
+@pytest.mark.parametrize("scenario", ["bench", "ring", "outdoor", "display"])
+def test_inter_reflection_left_off_for_the_biplane_changes_its_energy_less_than_the_tolerance(scenario):
+    """Where the pilot renders leave light between the biplane's parts off, the render estimator
+    with paths of depth 4 (every lobe carries light between the parts) scores the planner's
+    answer and the face-up normal within the tolerance of direct lighting, as a share of the
+    answer's flash (the share the pilot measures). (How far the normal moves: display, in
+    tests/test_planner.py; the benchmark, docs/planner.md.)"""
+    biplane = mesh("carving-biplane.ply")
+    plan = plan_effects(biplane, scenario=scenario, quality="draft", predict=False)
+    assert plan.on("occlusion") and not plan.on("inter_reflection")
+    assert plan.facts["interreflection_measured"] < TOL
+    answer = labcut.recommend_orientation(biplane, scenario=scenario, quality="draft").normal
+    kw = dict(scenario=scenario, quality="draft", estimator="render")
+    off = [labcut.evaluate_orientation(biplane, n, **kw).flash_energy for n in (answer, (0.0, 0.0, 1.0))]
+    on = [labcut.evaluate_orientation(biplane, n, effects={"inter_reflection": True}, **kw).flash_energy
+          for n in (answer, (0.0, 0.0, 1.0))]
+    assert off[0] > 0
+    assert max(abs(a - b) for a, b in zip(on, off)) < TOL * off[0], (on, off)
+    assert on != off  # the deeper paths did add light
+
+
+def test_the_pendant_turns_inter_reflection_on_for_the_biplane():
+    """The one bundled scenario whose pilot renders put the biplane's inter-reflection above the
+    tolerance (its rocking poses tilt the wings towards the lamps)."""
+    plan = plan_effects(mesh("carving-biplane.ply"), scenario="pendant", quality="draft", predict=False)
+    assert plan.on("inter_reflection") and plan.facts["interreflection_measured"] > TOL and plan.estimator == "render"
+
+
+def test_an_environment_map_past_a_carvings_parts_needs_the_render_estimator():
+    """The office ceiling (a map, ring scenario) seen past the biplane's wings: the sample
+    estimator sees it through 32 directions at draft quality, each blocked or not for every point,
+    and its answer loses more than the tolerance of the flash that renders of the whole map find
+    (and sits degrees away); so the planner picks the render estimator, whose answer it is."""
+    biplane = mesh("carving-biplane.ply")
+    plan = plan_effects(biplane, scenario="ring", quality="draft", predict=False)
+    assert plan.on("occlusion") and plan.on("environment") and not plan.on("inter_reflection")
+    assert plan.estimator == "render" and "environment map" in plan.estimator_why
+    assert plan.facts["map_directions"] == 32
+    samples = labcut.recommend_orientation(biplane, scenario="ring", quality="draft", estimator="samples")
+    renders = labcut.recommend_orientation(biplane, scenario="ring", quality="draft")
+    assert renders.estimator == "render" and renders.render["max_depth"] == 2
+    at_samples = labcut.evaluate_orientation(biplane, samples.normal, scenario="ring", quality="draft").flash_energy
+    loss = 1.0 - at_samples / renders.score
+    assert loss > TOL, loss
+    assert angle_deg(samples.normal, renders.normal) > 2.0
+    # occlusion switched off (the user's choice): the samples answer, and say nothing is missing
+    free = plan_effects(biplane, scenario="ring", quality="draft", predict=False, effects={"occlusion": False})
+    assert free.estimator == "samples"
+    forced = plan_effects(biplane, scenario="ring", quality="draft", predict=False, estimator="samples")
+    assert "32 directions only" in forced.estimator_why
+    cmp = plan_effects(biplane, scenario="ring", quality="draft", predict=False, command="compare")
+    assert cmp.estimator == "samples" and "environment map" in cmp.estimator_why and "left out" in cmp.estimator_why
+
+
+def test_a_convex_stone_under_a_map_keeps_the_samples():
+    """No part of a convex stone hides the map from another: the samples carry it."""
+    for scenario in ("ring", "outdoor"):
+        plan = plan_effects(mesh("oval-16x12-low.ply"), scenario=scenario, quality="draft", predict=False)
+        assert plan.on("environment") and plan.estimator == "samples", scenario
