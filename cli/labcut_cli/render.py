@@ -7,6 +7,7 @@ from typing import Annotated, Optional
 
 import typer
 
+from . import look_options as lo
 from . import materials as m
 from . import meshes as mo
 from . import plan_options as po
@@ -88,8 +89,8 @@ def render(
     polarizer: Annotated[Optional[float], typer.Option(help="Look through a linear polarizer at this angle (degrees).")] = None,
     zoning: Annotated[Optional[str], typer.Option(help="Colour zones: smooth, sharp, or a zoning .json file (docs/zoning.md).")] = None,
     schiller_only: Annotated[bool, typer.Option("--schiller-only", help="Render only the schiller flash (no glare, no body).")] = False,
-    look: Annotated[str, typer.Option(help="studio: a photograph on a table under the scenario's lamps (area lights, tent, AgX, denoised); diagram: the plain physics view.")] = "studio",
-    denoise: Annotated[Optional[bool], typer.Option("--denoise/--no-denoise", help="OIDN denoising with albedo and normal AOVs (default: on in the studio look).")] = None,
+    look: lo.Look = "studio",
+    denoise: lo.Denoise = None,
     animate: Annotated[Optional[str], typer.Option(help="Animate: rock (tilted ±30° in the hand) or turntable (a full turn, for carvings); writes .webp or .gif.")] = None,
     frames: Annotated[int, typer.Option(help="Frames of an animation.", min=2, max=360)] = 36,
     rock_deg: Annotated[float, typer.Option(help="Rocking amplitude of --animate rock, degrees.")] = 30.0,
@@ -127,11 +128,7 @@ def render(
     check_output_path(output, ANIMATION_SUFFIXES if animate else IMAGE_SUFFIXES)
     if json_path not in (None, "-"):
         check_output_path(json_path, (".json",))
-    from labcut.rendering.studio import Studio, resolve_look
-
-    look_spec = resolve_look(look)
-    if look_spec is not None:
-        look_spec = Studio(seed=seed)
+    look_spec = lo.spec(look, seed)
     material = m.build_material(preset, peak, an, material_file, d_a=d_a, d_b=d_b, sigma_a=sigma_a, sigma_b=sigma_b,
                                 n_a=n_a, n_b=n_b, n_surface=n_surface, pairs=pairs, spread_deg=spread)
     lamella = parse_normal(normal)
@@ -164,7 +161,7 @@ def render(
     from labcut.rendering.api import plan_render
 
     plan_render(_Probe(), None, mode, polarizer, ("schiller",) if schiller_only else ("surface", "schiller", "body"),
-                look=look_spec or "diagram", denoise=denoise)  # e.g. --denoise with --mode mono: fail before the mesh loads
+                look=look_spec, denoise=denoise)  # e.g. --denoise with --mode mono: fail before the mesh loads
     mesh = mo.load(mesh_path, units, up_axis, size=size)
     if plan or plan_only:
         from labcut.planner import plan_effects
@@ -178,13 +175,13 @@ def render(
     lobes = ("schiller",) if schiller_only else ("surface", "schiller", "body")
     if animate is not None:
         _animate(mesh_path, mesh, material, lamella, scene, animate, frames, rock_deg, fps, spp, resolution, exposure_value,
-                 look_spec or "diagram", denoise, zoning_spec, seed, output, json_path)
+                 look_spec, denoise, zoning_spec, seed, output, json_path)
         return
     with progress_bar("rendering", "samples/pixel") as update:
         result = labcut.render(
             mesh, material, lamella, scenario=scene, view=view_spec, spp=spp, resolution=resolution,
             mode=mode, polarizer_deg=polarizer, lobes=lobes, progress=update, zoning=zoning_spec, exposure=exposure_value,
-            look=look_spec or "diagram", denoise=denoise, seed=seed,
+            look=look_spec, denoise=denoise, seed=seed,
         )
     summary = {
         "output": str(output),
