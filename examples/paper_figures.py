@@ -11,10 +11,13 @@ Series (one PNG each, see docs/gallery.md):
 * fig09-10-zoning  smooth (Fig. 9) and sharp (Fig. 10) colour zoning on a cube top and a sphere
 * fig12-cabochons  zoned oval and round cabochons
 * fig13-biplane    the biplane carving with two lamella orientations
+* studio           presentation renders (studio look): the zoned oval, the biplane and the SRB
+                 design at their recommended orientations, and the oval rocking (WebP and GIF)
 
-Each panel is a linear RGB render; a series shares one exposure (so brightness differences
+Each panel of the paper's series is a linear RGB render; a series shares one exposure (so brightness differences
 are real) and is tonemapped with labcut's hue-preserving curve. ``--quick`` renders tiny
-images (a smoke test). Defaults take about 2-3 minutes on 2 CPU cores (LLVM).
+images (a smoke test). The studio series is written by ``RenderResult.save`` (AgX tone
+curve, exposure metered from the lights). Defaults take about 2-3 minutes on 2 CPU cores (LLVM).
 """
 
 from __future__ import annotations
@@ -201,6 +204,35 @@ def fig13_biplane(s: Settings, out: Path) -> None:
     sheet(shade(panels), labels, "Fig. 13 — the biplane carving, two lamella orientations (studio light, path traced)", out / "fig13-biplane.png", panel_in=3.2)
 
 
+def studio(s: Settings, out: Path) -> None:
+    """Presentation renders in the studio look (docs/gallery.md "Studio presentation renders"):
+    each stone at the lamella orientation ``recommend_orientation`` picks (draft quality) under
+    the ``bench`` scenario, rendered from its main view; and a rocking animation of the oval."""
+    from labcut.rendering.animate import animate
+
+    blue = Labradorite.preset("blue")
+    res, spp = (48, 8) if s.quick else (360, 64)
+    stones = [
+        ("studio-oval-zoned", mesh("oval-16x12-low"), Zoning.preset("smooth", blue, scale_mm=4.0, seed=3)),
+        ("studio-biplane", mesh("carving-biplane"), None),
+        ("studio-srb", labcut.load_mesh(MESHES / "designs" / "SRB.asc"), None),
+    ]
+    rec = None
+    for name, m, zoning in stones:
+        r = labcut.recommend_orientation(m, blue, scenario="bench", quality="draft")
+        rec = rec or r
+        res_ = labcut.render(m, blue, r.normal, scenario=r.scenario, spp=spp, resolution=res, look="studio", zoning=zoning,
+                             output=out / f"{name}.png")
+        print(f"  {name}: normal ({', '.join(f'{x:+.3f}' for x in r.normal)}) = {r.description}; "
+              f"{res_.seconds:.1f} s; exposure {res_.exposure_ev:+.2f} EV", flush=True)
+    frames, ares, aspp = (3, 32, 4) if s.quick else (24, 200, 16)
+    anim = animate(stones[0][1], blue, rec.normal, motion="rock", frames=frames, scenario=rec.scenario, spp=aspp,
+                   resolution=ares)
+    for suffix in (".webp", ".gif"):
+        anim.save(out / f"studio-oval-rock{suffix}")
+    print(f"  studio-oval-rock: {frames} frames, {anim.seconds:.1f} s, exposure {anim.exposure_ev:+.2f} EV for all", flush=True)
+
+
 SERIES = {
     "fig06": fig06_lut,
     "fig07": fig07_anorthite,
@@ -208,6 +240,7 @@ SERIES = {
     "fig09-10": fig09_10_zoning,
     "fig12": fig12_cabochons,
     "fig13": fig13_biplane,
+    "studio": studio,
 }
 
 
