@@ -9,7 +9,13 @@ warm, then timed):
   estimator with paths of depth 4 through every lobe;
 * the estimator: samples vs render where both apply (a convex stone), and the plan's
   predicted seconds of each next to the measured ones;
-* renders: direct lighting vs a path tracer for a convex stone, and RGB vs spectral vs mono.
+* renders: direct lighting vs a path tracer for a convex stone, and RGB vs spectral vs mono;
+* an environment map seen past a carving's parts: the sample estimator's answer against the
+  render estimator's (the planner's choice), and the same for a convex oval;
+* the planner's own cost: the pilot renders from a cold cache, the self-view rays, and each
+  calibration of the predicted seconds, measured from nothing;
+* the predicted seconds of evaluate, render and a zoned recommendation against measured ones;
+* the tolerance: the seed-to-seed spread of a recommendation's score at the benchmark's quality.
 
 Writes the tables between the ``BENCHMARK`` markers of docs/planner.md::
 
@@ -58,20 +64,59 @@ def main() -> None:
     from labcut.orientation.render_estimator import render_timing
     from labcut.orientation.timing import sample_timing
 
+    import tempfile
+
+    import labcut.planner as planner
+    from labcut.planner import evaluate_timing, render_command_timing
+    from labcut.rendering.rays import self_view_fraction
+    from labcut.scene import resolve_scene
+
     labcut.recommend_orientation(labcut.cabochon(outline="oval", length=16, width=12, dome="medium"), quality="draft")  # warm
-    sample_timing(refresh=True)  # calibrate the predictions here, as quiet as the measurements
-    render_timing(refresh=True)
+    own: list[str] = []  # the planner's own cost
+    # calibrate the predictions here, as quiet as the measurements, and time each calibration
+    for label, fn in (("calibration: sample estimator (4 recommendations of an oval)", lambda: sample_timing(refresh=True)),
+                      ("calibration: render estimator (2 integrators x 2 sizes)", lambda: render_timing(refresh=True)),
+                      ("calibration: evaluate (7 evaluations of an oval)", lambda: evaluate_timing(refresh=True)),
+                      ("calibration: render command, rgb direct diagram (4 renders of a sphere)",
+                       lambda: render_command_timing("rgb", False, "direct", "diagram", refresh=True))):
+        t = time.perf_counter()
+        fn()
+        own.append(f"| {label} | {time.perf_counter() - t:.2f} s | once per machine (user cache) |")
     oval = labcut.load_mesh(ROOT / "meshes" / "oval-16x12-low.ply")
     biplane = labcut.load_mesh(ROOT / "meshes" / "carving-biplane.ply")
     lab = labcut.Labradorite.preset("blue")
     rows: list[str] = []
+    t = time.perf_counter()
+    f = self_view_fraction(biplane)
+    own.append(f"| self-view rays, biplane carving (sky share {f:.0%}) | {time.perf_counter() - t:.2f} s | every plan of a carving |")
+    with tempfile.TemporaryDirectory() as tmp:  # pilot renders from a cold cache, then from the cache
+        keep = planner._pilot_cache_path
+        planner._pilot_cache_path = lambda: Path(tmp) / "planner-pilot.json"
+        try:
+            for scen in ("display", "ring"):
+                planner._PILOT_CACHE.clear()
+                t = time.perf_counter()
+                plan_effects(biplane, lab, scenario=scen, quality=q, predict=False)
+                cold = time.perf_counter() - t
+                t = time.perf_counter()
+                plan_effects(biplane, lab, scenario=scen, quality=q, predict=False)
+                warm = time.perf_counter() - t
+                own.append(f"| plan, biplane carving, {scen}: pilot renders from a cold cache | {cold:.2f} s | "
+                           f"once per stone, material and scene (then {warm:.2f} s from the cache) |")
+        finally:
+            planner._pilot_cache_path = keep
+    for scen in ("display", "pendant"):
+        t = time.perf_counter()
+        plan_effects(oval, lab, scenario=scen, quality=q)
+        own.append(f"| plan, oval cabochon, {scen} (calibrations cached) | {time.perf_counter() - t:.3f} s | every command |")
 
     # 1. occlusion on a convex stone --------------------------------------------------------
     hidden = copy.deepcopy(oval)
     hidden.metadata.setdefault("labcut", {})["convex"] = False
     for scen in ("bench", "pendant"):
         t_off, a = timed(lambda: labcut.recommend_orientation(oval, lab, scenario=scen, quality=q))
-        t_on, b = timed(lambda: labcut.recommend_orientation(hidden, lab, scenario=scen, quality=q))
+        # the samples with shadow rays (a "non-convex" stone under a map would get the render estimator)
+        t_on, b = timed(lambda: labcut.recommend_orientation(hidden, lab, scenario=scen, quality=q, estimator="samples"))
         rows.append(f"| occlusion, oval cabochon, {scen} | off (convex: exact) | {t_off:.2f} s | on (forced) | {t_on:.2f} s "
                     f"| {t_on / t_off:.1f}x | {angle(a.normal, b.normal):.2f}° | {abs(b.score / a.score - 1):.2%} |")
 
@@ -103,6 +148,59 @@ def main() -> None:
         p = plan.predicted_seconds
         pred_rows.append(f"| biplane carving, {scen} | {p['samples']:.2f} s | {t_s:.2f} s | {p['render']:.1f} s | (row above: depth 4) |")
 
+    # 3b. an environment map seen past the parts of a carving -----------------------------
+    cases = [("biplane carving", biplane, "ring", q), ("biplane carving", biplane, "outdoor", q), ("oval cabochon", oval, "ring", q)]
+    if q != "standard":
+        cases.append(("biplane carving", biplane, "ring", "standard"))
+    for name, stone, scen, mq in cases:
+        if mq != q:  # the same row at standard quality, run once (its times are not warm)
+            name = f"{name} ({mq} quality, run once)"
+            plan = plan_effects(stone, lab, scenario=scen, quality=mq)
+            main = resolve_scene(scen, quality=mq).main_setting()
+            n_map = len(main.lights) - main.lights.n_lamps
+            t = time.perf_counter()
+            a = labcut.recommend_orientation(stone, lab, scenario=scen, quality=mq, estimator="samples")
+            t_s = time.perf_counter() - t
+            t = time.perf_counter()
+            b = labcut.recommend_orientation(stone, lab, scenario=scen, quality=mq, estimator="render")
+            t_r = time.perf_counter() - t
+            at_a = labcut.evaluate_orientation(stone, a.normal, lab, scenario=scen, quality=mq, estimator="render").flash_energy
+            rows.append(f"| map past the parts, {name}, {scen} ({n_map} map directions) | render (planner) | {t_r:.2f} s "
+                        f"| samples | {t_s:.2f} s | {t_s / t_r:.1f}x | {angle(a.normal, b.normal):.2f}° | {1 - at_a / b.score:.2%} † |")
+            continue
+        plan = plan_effects(stone, lab, scenario=scen, quality=q)
+        main = resolve_scene(scen, quality=q).main_setting()
+        n_map = len(main.lights) - main.lights.n_lamps
+        t_s, a = timed(lambda: labcut.recommend_orientation(stone, lab, scenario=scen, quality=q, estimator="samples"))
+        t_r, b = timed(lambda: labcut.recommend_orientation(stone, lab, scenario=scen, quality=q, estimator="render"))
+        at_a = labcut.evaluate_orientation(stone, a.normal, lab, scenario=scen, quality=q, estimator="render").flash_energy
+        rows.append(f"| map past the parts, {name}, {scen} ({n_map} map directions) "
+                    f"| {plan.estimator} (planner) | {t_r if plan.estimator == 'render' else t_s:.2f} s "
+                    f"| {'samples' if plan.estimator == 'render' else 'render'} | {t_s if plan.estimator == 'render' else t_r:.2f} s "
+                    f"| {(t_s / t_r) if plan.estimator == 'render' else (t_r / t_s):.1f}x | {angle(a.normal, b.normal):.2f}° "
+                    f"| {1 - at_a / b.score:.2%} † |")
+        if plan.estimator == "render":
+            pred_rows.append(f"| {name}, {scen} (recommend) | {plan.predicted_seconds['samples']:.2f} s | {t_s:.2f} s "
+                             f"| {plan.predicted_seconds['render']:.1f} s | {t_r:.1f} s |")
+    # predicted against measured: evaluate, and a zoned recommendation
+    for name, stone, scen in (("oval cabochon", oval, "display"), ("biplane carving", biplane, "ring")):
+        plan = plan_effects(stone, lab, command="evaluate", scenario=scen, quality=q)
+        n = (0.1, 0.05, 1.0)
+        t_s, _ = timed(lambda: labcut.evaluate_orientation(stone, n, lab, scenario=scen, quality=q, estimator="samples"))
+        t_r, _ = timed(lambda: labcut.evaluate_orientation(stone, n, lab, scenario=scen, quality=q, estimator="render"))
+        p = plan.predicted_seconds
+        pred_rows.append(f"| {name}, {scen} (evaluate) | {p['samples']:.2f} s | {t_s:.2f} s | {p['render']:.1f} s | {t_r:.1f} s |")
+    plan = plan_effects(oval, lab, scenario="display", quality=q, zoning="smooth")
+    t_z, _ = timed(lambda: labcut.recommend_orientation(oval, lab, scenario="display", quality=q, zoning="smooth"))
+    pred_rows.append(f"| oval cabochon, display, zoned (recommend: coarse map of renders) | {plan.predicted_seconds['samples']:.2f} s "
+                     f"| – | {plan.predicted_seconds['render']:.1f} s | {t_z:.1f} s |")
+
+    # 3c. the tolerance: the seed-to-seed spread of a recommendation's score ------------------
+    spread = []
+    for scen in ("bench", "display"):
+        scores = [labcut.recommend_orientation(oval, lab, scenario=scen, quality=q, seed=s).score for s in range(5)]
+        spread.append(f"{scen} {np.std(scores, ddof=1) / np.mean(scores):.1%}")
+
     # 4. renders: integrator and colour -----------------------------------------------------
     normal = (0.05, -0.02, 1.0)
     kw = dict(scenario="bench", resolution=256, spp=32, check_flash=False, look="diagram")
@@ -118,6 +216,13 @@ def main() -> None:
                 f"| {t_sp / t_rgb:.1f}x | – | – |")
     rows.append(f"| render colour, oval, 256² 32 spp | mono (asked) | {t_mono:.2f} s | rgb | {t_rgb:.2f} s "
                 f"| {t_rgb / t_mono:.1f}x | – | – |")
+    render_pred = []
+    for stone_name, stone, res, spp, look in (("oval cabochon", oval, 256, 32, "diagram"), ("oval cabochon", oval, 512, 64, "diagram"),
+                                              ("biplane carving", biplane, 256, 32, "diagram")):
+        plan = plan_effects(stone, lab, command="render", scenario="bench", resolution=res, spp=spp, look=look)
+        t_x, _ = timed(lambda: labcut.render(stone, lab, normal, scenario="bench", resolution=res, spp=spp, look=look))
+        render_pred.append(f"| {stone_name}, {plan.facts['mode']} {'path' if plan.on('inter_reflection') else 'direct'}, "
+                           f"{plan.facts['predicted_for']} | {plan.predicted_seconds['render']:.2f} s | {t_x:.2f} s |")
 
     table = "\n".join([
         f"Measured with `.venv/bin/python benchmarks/planner.py --quality {q}` on {platform.processor() or platform.machine()}, "
@@ -130,11 +235,30 @@ def main() -> None:
         "|---|---|---|---|---|---|---|---|",
         *rows,
         "",
-        "Predicted (the plan's `predicted_seconds`, calibrated on this machine) against measured seconds of a recommendation:",
+        "† map rows: the share of the flash the render estimator finds that the sample estimator's answer loses, as the "
+        "render estimator scores it (the normal the renders move: the angle column).",
+        "",
+        "Predicted (the plan's `predicted_seconds`, calibrated on this machine) against measured seconds of a recommendation "
+        "or an evaluation:",
         "",
         "| stone, scenario | samples predicted | samples measured | render predicted | render measured |",
         "|---|---|---|---|---|",
         *pred_rows,
+        "",
+        "Predicted against measured seconds of a render (`labcut.render`, bench scenario):",
+        "",
+        "| stone, render | predicted | measured |",
+        "|---|---|---|",
+        *render_pred,
+        "",
+        "The planner's own cost (the plan, before any command runs):",
+        "",
+        "| what | time | paid |",
+        "|---|---|---|",
+        *own,
+        "",
+        f"The tolerance: the seed-to-seed spread (standard deviation / mean over seeds 0-4) of the oval cabochon's "
+        f"recommended score at {q} quality: {', '.join(spread)}.",
     ])
     out = Path(args.out)
     text = out.read_text()
