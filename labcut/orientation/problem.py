@@ -119,24 +119,11 @@ def _smooth_normals(split: Any, face_idx: np.ndarray, bary: np.ndarray) -> np.nd
 
 
 def _visibility(mesh: Any, origins: np.ndarray, normals: np.ndarray, dirs: np.ndarray) -> np.ndarray:
-    """(N, D) bool: the ray from each point towards each distant direction escapes the mesh."""
-    import drjit as dr
-    import mitsuba as mi
+    """(N, D) bool: the ray from each point towards each distant direction escapes the mesh
+    (:func:`labcut.rendering.rays.escapes`, one cached ray scene per mesh)."""
+    from ..rendering.rays import escapes
 
-    from ..backend import set_variant
-    from ..rendering.scene import to_mitsuba_mesh
-
-    set_variant("rgb")
-    scene = mi.load_dict({"type": "scene", "stone": to_mitsuba_mesh(mesh, mi.load_dict({"type": "diffuse"}))})
-    scale = float(np.linalg.norm(mesh.extents))
-    eps = 1e-4 * scale
-    n, d = len(origins), len(dirs)
-    o = np.repeat(origins + eps * normals, d, axis=0)
-    w = np.tile(dirs, (n, 1))
-    ray = mi.Ray3f(mi.Point3f(o[:, 0], o[:, 1], o[:, 2]), mi.Vector3f(w[:, 0], w[:, 1], w[:, 2]))
-    hit = scene.ray_test(ray)
-    dr.eval(hit)
-    return ~np.array(hit, dtype=bool).reshape(n, d)
+    return escapes(mesh, origins, normals, dirs)
 
 
 def _smooth_split(mesh: Any, angle_deg: float) -> Any:

@@ -31,12 +31,12 @@ def escapes_paired(mesh: Any, origins: np.ndarray, dirs: np.ndarray) -> np.ndarr
     import mitsuba as mi
 
     from ..backend import set_variant
-    from .scene import to_mitsuba_mesh
+    from .scene import ray_scene
 
     o = np.asarray(origins, dtype=np.float64).reshape(-1, 3)
     w = np.asarray(dirs, dtype=np.float64).reshape(-1, 3)
     set_variant("rgb")
-    scene = mi.load_dict({"type": "scene", "stone": to_mitsuba_mesh(mesh, mi.load_dict({"type": "diffuse"}))})
+    scene = ray_scene(mesh)  # the bare triangles, built once per mesh
     ray = mi.Ray3f(mi.Point3f(o[:, 0], o[:, 1], o[:, 2]), mi.Vector3f(w[:, 0], w[:, 1], w[:, 2]))
     hit = scene.ray_test(ray)
     dr.eval(hit)

@@ -122,6 +122,39 @@ def to_mitsuba_mesh(mesh: Any, bsdf: Any, smooth_angle_deg: float | None = None)
     return m
 
 
+def ray_scene(mesh: Any) -> Any:
+    """A Mitsuba scene of the mesh's bare triangles for ray queries (shadow and view rays): no
+    shading normals, no BSDF to speak of. Built once per mesh and Mitsuba variant and kept in the
+    mesh's trimesh cache (dropped when its vertices or faces change): a flash problem asks it
+    two queries per pose, and a recommendation with error bars builds three problems."""
+    import drjit as dr
+    import mitsuba as mi
+
+    key = f"labcut_ray_scene_{mi.variant()}"
+    cache = getattr(mesh, "_cache", None)
+    try:
+        hit = cache[key] if cache is not None else None
+    except Exception:  # noqa: BLE001 - a cache that cannot be read: build again
+        hit = None
+    if hit is not None:
+        return hit
+    v = np.ascontiguousarray(mesh.vertices, dtype=np.float32)
+    f = np.ascontiguousarray(mesh.faces, dtype=np.uint32)
+    m = mi.Mesh("stone", vertex_count=len(v), face_count=len(f), has_vertex_normals=False, props=mi.Properties())
+    params = mi.traverse(m)
+    params["vertex_positions"] = dr.ravel(mi.Point3f(v[:, 0], v[:, 1], v[:, 2]))
+    params["faces"] = dr.ravel(mi.Vector3u(f[:, 0], f[:, 1], f[:, 2]))
+    params.update()
+    m.set_bsdf(mi.load_dict({"type": "diffuse"}))
+    scene = mi.load_dict({"type": "scene", "stone": m})
+    try:
+        if cache is not None:
+            cache[key] = scene
+    except Exception:  # noqa: BLE001 - not cached: the next query builds again
+        pass
+    return scene
+
+
 def camera(mesh: Any, view: CameraView, resolution: int, perspective: bool = False, fov_deg: float = 25.0,
            *, margin: float = 1.0, far_radii: float = 2.0, rfilter: str = "gaussian") -> dict[str, Any]:
     """A sensor dict looking at the mesh's bounding sphere from ``view.direction`` (mesh frame),
