@@ -102,3 +102,32 @@ def test_cli_time_budget(cli, tmp_path):
         lines = [ln for ln in r.stderr.strip().splitlines() if ln]
         assert len(lines) == 1 and msg in lines[0] and "Traceback" not in r.stderr
 
+
+
+def test_render_budget_picks_the_most_samples_that_fit(monkeypatch):
+    from labcut.rendering.budget import MAX_SPP, choose_spp
+
+    # 0.1 s fixed + 1e-7 s per sample: at 100² px one spp costs 1 ms
+    monkeypatch.setattr("labcut.planner.render_command_timing", lambda mode, polarised, integrator, look="diagram": (0.1, 1e-7))
+    c = choose_spp(0.5, mode="rgb", polarised=False, integrator="direct", resolution=100, views=1)
+    assert c.spp == 256 and c.predicted_seconds <= 0.5 and c.note is None  # 512 spp would be 0.61 s
+    assert choose_spp(0.5, mode="rgb", polarised=False, integrator="direct", resolution=100, views=2).spp == 128
+    assert choose_spp(8e4, mode="rgb", polarised=False, integrator="direct", resolution=100, views=1).spp == MAX_SPP
+    low = choose_spp(0.05, mode="rgb", polarised=False, integrator="direct", resolution=100, views=1)
+    assert low.spp == 1 and "below the predicted" in low.note
+    with pytest.raises(ParameterError, match="time budget"):
+        choose_spp(-2, mode="rgb", polarised=False, integrator="direct", resolution=100, views=1)
+
+
+def test_render_with_a_budget(monkeypatch, cli, tmp_path):
+    monkeypatch.setattr("labcut.planner.render_command_timing", lambda mode, polarised, integrator, look="diagram": (0.0, 1e-6))
+    mesh = labcut.load_mesh("meshes/oval-16x12-low.ply")
+    r = labcut.render(mesh, labcut.Labradorite.preset("blue"), (0, 0, 1), resolution=32, time_budget=0.02, check_flash=False)
+    assert r.spp == 16 and r.budget["spp"] == 16  # 32² px x 16 spp x 1e-6 s = 0.016 s
+    out = tmp_path / "r.png"
+    res = cli("render", "meshes/oval-16x12-low.ply", "-o", str(out), "--resolution", "16", "--time-budget", "1e-9",
+              "--look", "diagram")
+    assert res.returncode == 0, res.stderr
+    assert [ln for ln in res.stderr.splitlines() if ln.startswith("note:")] and out.exists()
+    res = cli("render", "meshes/oval-16x12-low.ply", "-o", str(tmp_path / "x.png"), "--time-budget", "2", "--spp", "8")
+    assert res.returncode == 2 and "not both" in res.stderr and not (tmp_path / "x.png").exists()

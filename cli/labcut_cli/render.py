@@ -13,7 +13,7 @@ from . import meshes as mo
 from . import plan_options as po
 from . import scene_options as so
 from .recommend import print_render_notes
-from .root import all_or_nothing, app, console, parse_vector, write_json
+from .root import all_or_nothing, app, console, err_console, parse_vector, write_json
 
 STILL_SUFFIXES = (".png", ".exr")
 ANIMATION_SUFFIXES = (".webp", ".gif")
@@ -84,6 +84,10 @@ def render(
     viewing: so.Viewing = None,
     view: Annotated[str, typer.Option(help="Camera: main (the scenario's main viewer), face-up, orbit, or TILT,AZIMUTH in degrees from the face.")] = "main",
     spp: Annotated[int, typer.Option(help="Samples per pixel.", min=1)] = 64,
+    time_budget: Annotated[Optional[float], typer.Option(
+        "--time-budget", metavar="SECONDS",
+        help="Seconds the render may take: the most samples per pixel (a power of two) predicted to fit on this machine "
+             "replace --spp; below 1 spp's prediction 1 spp runs, with a note.")] = None,
     resolution: Annotated[int, typer.Option(help="Image width and height in pixels.", min=8, max=8192)] = 512,
     mode: Annotated[str, typer.Option(help="Colour transport: rgb, spectral or mono.")] = "rgb",
     polarizer: Annotated[Optional[float], typer.Option(help="Look through a linear polarizer at this angle (degrees).")] = None,
@@ -157,6 +161,14 @@ def render(
             raise ParameterError(f"--fps must lie in [1, 60], got {fps}")
         if view != "main" or polarizer is not None or mode != "rgb" or schiller_only:
             raise ParameterError("--animate renders the scenario's main view in rgb: leave out --view, --polarizer, --mode and --schiller-only")
+    if time_budget is not None:
+        from labcut.orientation.budget import check_budget
+
+        check_budget(time_budget)
+        if animate is not None:
+            raise ParameterError("--time-budget chooses the samples per pixel of one image: give --spp for an animation")
+        if spp != 64:
+            raise ParameterError("give --spp or --time-budget, not both (the budget chooses the samples per pixel)")
     mo.check_mesh_options(units, up_axis, size)
     from labcut.rendering.api import plan_render
 
@@ -177,12 +189,20 @@ def render(
         _animate(mesh_path, mesh, material, lamella, scene, animate, frames, rock_deg, fps, spp, resolution, exposure_value,
                  look_spec, denoise, zoning_spec, seed, output, json_path)
         return
-    with progress_bar("rendering", "samples/pixel") as update:
+    import warnings
+
+    from labcut.errors import LabcutWarning
+
+    with progress_bar("rendering", "samples/pixel") as update, warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", LabcutWarning)
         result = labcut.render(
             mesh, material, lamella, scenario=scene, view=view_spec, spp=spp, resolution=resolution,
             mode=mode, polarizer_deg=polarizer, lobes=lobes, progress=update, zoning=zoning_spec, exposure=exposure_value,
-            look=look_spec, denoise=denoise, seed=seed,
+            look=look_spec, denoise=denoise, seed=seed, time_budget=time_budget,
         )
+    for w in caught:
+        if issubclass(w.category, LabcutWarning):
+            err_console.print(f"note: {w.message}", highlight=False, soft_wrap=True)
     summary = {
         "output": str(output),
         "mesh": {**result.mesh, "path": str(mesh_path)},
@@ -191,6 +211,7 @@ def render(
         "scenario": result.scenario,
         "plan": result.plan.to_dict(),
         "spp": result.spp,
+        "time_budget": result.budget or None,
         "resolution": resolution,
         "seconds": result.seconds,
         "samples_per_second": result.samples_per_second,
@@ -225,6 +246,9 @@ def render(
                      else "linear HDR, no exposure")
     console.print(f"{result.spp} spp at {resolution}², {result.seconds:.1f} s ({result.samples_per_second / 1e6:.2f} Msamples/s); "
                   f"{exposure_text}")
+    if result.budget:
+        console.print(f"time budget {result.budget['budget_seconds']:g} s: {result.spp} spp (predicted "
+                      f"{result.budget['predicted_seconds']:.2f} s, took {result.seconds:.2f} s)", highlight=False)
 
 
 class _Probe:

@@ -101,6 +101,8 @@ class RenderResult:
     tonemap: str = "hue"
     exposure_metering: str = "image"
     studio: dict[str, Any] = field(default_factory=dict)
+    #: ``time_budget=``'s choice (:class:`labcut.rendering.budget.SppChoice` as a dict), or empty
+    budget: dict[str, Any] = field(default_factory=dict)
 
     @property
     def exposure_ev(self) -> float:
@@ -390,6 +392,7 @@ def render(
     check_flash: bool = True,
     look: Any = "diagram",
     denoise: bool | None = None,
+    time_budget: float | None = None,
 ) -> RenderResult:
     """Render ``mesh`` (mm, +Z face-up) cut from ``material`` with lamellae normal to ``lamella_normal``.
 
@@ -403,6 +406,10 @@ def render(
     view: the camera: ``main`` (the scenario's main viewer) | ``face-up`` | ``orbit`` (8 views tiled
         4 x 2) | (tilt°, azimuth°) in the mesh frame.
     spp: samples per pixel (>= 1); rendered in passes so ``progress(done, total)`` can report.
+    time_budget: seconds the render may take: the most samples per pixel (a power of two) predicted
+        to fit on this machine replace ``spp`` (:mod:`labcut.rendering.budget`; below 1 spp's
+        prediction 1 spp runs with a one-line :class:`~labcut.errors.LabcutWarning`); the choice
+        is in ``RenderResult.budget``.
     mode: ``rgb`` | ``mono`` | ``spectral``; ``polarizer_deg`` renders polarized and returns the
         intensity through an ideal linear polarizer at that angle (0° = transmission axis along
         the image's horizontal).
@@ -460,7 +467,19 @@ def render(
     setting = scenario_used.main_setting()
     views = camera_views(view, setting)
     # validate the plan (denoise with a polarizer or mono, bad lobes) before any work
-    plan_render(mesh, setting.lights, mode, polarizer_deg, lobes, max_depth, look=look, denoise=denoise)
+    rplan = plan_render(mesh, setting.lights, mode, polarizer_deg, lobes, max_depth, look=look, denoise=denoise)
+    budget = None
+    if time_budget is not None:
+        import warnings
+
+        from ..errors import LabcutWarning
+        from .budget import choose_spp
+
+        budget = choose_spp(time_budget, mode=mode, polarised=polarizer_deg is not None, integrator=rplan.integrator,
+                            resolution=int(resolution), views=len(views), look=rplan.look)
+        if budget.note:
+            warnings.warn(budget.note, LabcutWarning, stacklevel=2)
+        spp = budget.spp
     from ..planner import plan_effects
 
     effect_plan = plan_effects(mesh, material, command="render", scenario=scenario_used, mode=None if mode == "rgb" else mode,
@@ -527,6 +546,7 @@ def render(
         tonemap="hue" if studio is None else "agx",
         exposure_metering="image" if studio is None else "incident",
         studio=studio_info,
+        budget={} if budget is None else budget.to_dict(),
     )
     if check_flash:
         result.flash, result.notes = flash_by_view(mesh, material, lamella_normal, setting, views)
