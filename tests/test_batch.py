@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 import labcut
-from labcut.batch import read_catalog, run
+from labcut.batch import Defaults, read_catalog, run
 from labcut.batch.store import ResultStore
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -80,13 +80,15 @@ def test_results_are_those_of_direct_calls(client, folder):
         assert np.array_equal(stored["map"]["score"], want.map_scores)
 
 
-def test_a_failing_row_is_recorded_and_the_rest_finish(folder):
+def test_a_failing_row_is_recorded_and_the_rest_finish(folder, monkeypatch):
     """On the embedded LocalCluster (client None): one worker, started and closed by run()."""
+    monkeypatch.delenv("MALLOC_TRIM_THRESHOLD_", raising=False)  # a nanny of the module's cluster put it in os.environ
     (folder / "m" / "broken.ply").write_text("ply\nformat ascii 1.0\nthis is not a mesh\n")
     (folder / "c.csv").write_text("name,cut,quality\ncube,m/cube.ply,draft\nbroken,m/broken.ply,draft\n")
     result = run(folder / "c.csv", out=folder / "r.parquet", workers=1)
     assert (result.ran, result.failed) == (2, 1) and len(result.workers) == 1
     assert result.workers[0]["threads"] == len(os.sched_getaffinity(0))  # one worker: every core for Dr.Jit
+    assert result.workers[0]["malloc_trim_threshold"] is None  # not Dask's 65536: rows 1.6-1.8x slower with it
     assert result.startup_seconds > 0
     good, bad = result.records()
     assert good["status"] == "ok" and good["error"] is None and good["tilt_deg"] is not None
@@ -168,9 +170,97 @@ def test_cli_batch_on_a_scheduler_with_report(client, folder, cli):
     assert "cube" in html.read_text() and "srb" in (folder / "report-2.html").read_text()
     assert "data:image/png;base64," in html.read_text()
     assert "Rows" in proc.stdout and "1 failed" in proc.stdout
+    # the fixture's scheduler has its HTTP server (metrics) but no dashboard pages: no link to a 404
+    assert data["dashboard"] is None and "Dask dashboard" not in proc.stderr
+    assert "warning: the workers run with MALLOC_TRIM_THRESHOLD_=" in proc.stderr  # the fixture's plain LocalCluster (Dask default)
     again = cli("batch", str(folder / "small.csv"), "--out", str(out), "--quality", "draft", "--preset", "blue",
                 "--scheduler", address, "--json", "-")
     assert again.returncode == 1
     assert (json.loads(again.stdout)["skipped"], json.loads(again.stdout)["ran"]) == (3, 0)
     down = cli("batch", str(folder / "small.csv"), "--out", str(folder / "other.parquet"), "--scheduler", "tcp://127.0.0.1:9")
     assert down.returncode == 2 and "cannot reach the Dask scheduler" in down.stderr and len(down.stderr.strip().splitlines()) == 1
+
+
+def test_cli_batch_on_the_embedded_cluster_writes_report_and_parquet(folder, cli, monkeypatch):
+    """``labcut batch CATALOG --out --html`` end to end as a user runs it (no --scheduler): the
+    embedded cluster's dashboard link (bokeh is a dependency), the report page, the Parquet rows."""
+    import pyarrow.parquet as pq
+
+    monkeypatch.delenv("MALLOC_TRIM_THRESHOLD_", raising=False)  # as in a fresh shell (a nanny here may have set it)
+
+    (folder / "tiny.csv").write_text("name,cut,scenario\ncube,m/cube.ply,bench\ncube,m/cube.ply,pendant\n")
+    out, html = folder / "r.parquet", folder / "report.html"
+    proc = cli("batch", str(folder / "tiny.csv"), "--out", str(out), "--html", str(html), "--quality", "draft", "--workers", "1")
+    assert proc.returncode == 0, proc.stderr
+    assert "Traceback" not in proc.stderr
+    assert "2 of 2 row(s) to run on 1 local worker(s)" in proc.stderr
+    links = [line for line in proc.stderr.splitlines() if line.startswith("Dask dashboard: ")]
+    assert len(links) == 1 and links[0].split(": ", 1)[1].startswith("http://") and links[0].endswith("/status"), proc.stderr
+    page = html.read_text()
+    assert "cube" in page and "data:image/png;base64," in page and "pendant" in page
+    keys = [r.key for r in read_catalog(folder / "tiny.csv", Defaults(quality="draft")).rows]
+    records = pq.read_table(out).to_pylist()  # any Parquet reader: the folder of parts
+    assert sorted(r["key"] for r in records) == sorted(keys)
+    assert [r["status"] for r in records] == ["ok", "ok"] and {r["scenario"] for r in records} == {"bench", "pendant"}
+    assert all(r["tilt_deg"] is not None and r["flash_energy"] > 0 for r in records)
+    assert "2: 2 run now, 0 already stored, 0 failed" in proc.stdout and str(html) in proc.stdout
+    assert "MALLOC_TRIM_THRESHOLD_" not in proc.stderr  # the embedded cluster's workers start without it
+
+
+class FakeClient:
+    """What ``_client`` asks of a given ``distributed.Client``: its workers' addresses, whether
+    each already has its node cache (``client.run``), and the plugins registered."""
+
+    def __init__(self, addresses, has_cache=False):
+        self.addresses, self.has_cache, self.plugins = list(addresses), has_cache, []
+
+    def scheduler_info(self, **_):
+        return {"workers": {a: {} for a in self.addresses}}
+
+    def run(self, fn):
+        return {a: self.has_cache for a in self.addresses}
+
+    def register_plugin(self, plugin):
+        self.plugins.append(plugin)
+
+
+@pytest.mark.parametrize("addresses, node_cache, has_cache, registered", [
+    (["tcp://127.0.0.1:40001", "tcp://127.0.0.1:40002"], None, False, False),  # all on this machine: the driver's cache
+    (["tcp://localhost:40001", "tcp://[::1]:40002"], None, False, False),
+    (["tcp://127.0.0.1:40001", "tcp://10.1.2.3:40002"], None, False, True),   # a worker elsewhere: one folder per node
+    (["tls://node7.cluster:40001"], None, False, True),
+    (["tcp://10.1.2.3:40002"], None, True, False),                             # already set up: no second restart
+    (["tcp://10.1.2.3:40002"], False, False, False),                           # --no-node-cache
+    (["tcp://127.0.0.1:40001"], True, False, True),                            # --node-cache
+])
+def test_node_cache_is_registered_when_workers_are_elsewhere(addresses, node_cache, has_cache, registered):
+    from labcut.batch.plugin import NodeKernelCache
+    from labcut.batch.runner import _client
+
+    fake = FakeClient(addresses, has_cache)
+    with _client(fake, 1, node_cache) as (cl, embedded, _):
+        assert cl is fake and not embedded
+    assert [type(p) for p in fake.plugins] == ([NodeKernelCache] if registered else [])
+
+
+def test_node_kernel_cache_plugin_restarts_workers_into_their_own_folder(tmp_path):
+    """The nanny plugin on a real (1-worker) cluster: the worker comes back with DRJIT_CACHE_DIR
+    set to ``root/<host name>``, a folder that exists, before Dr.Jit is imported there."""
+    import logging
+    import socket
+
+    from distributed import Client, LocalCluster
+
+    from labcut.batch.plugin import NodeKernelCache, node_cache_dir
+
+    root = tmp_path / "nodes"
+    with LocalCluster(n_workers=1, threads_per_worker=1, processes=True, dashboard_address=":0",  # any free port
+                      silence_logs=logging.ERROR) as cluster, Client(cluster) as c:
+        before = set(c.run(os.getpid).values())
+        c.register_plugin(NodeKernelCache(str(root)))
+        c.wait_for_workers(1, timeout=60)
+        seen = c.run(lambda: (os.getpid(), os.environ.get("DRJIT_CACHE_DIR"), "drjit" in __import__("sys").modules))
+    [(pid, folder, drjit_loaded)] = seen.values()
+    assert pid not in before  # the worker was restarted (a new process)
+    assert folder == str(root / socket.gethostname()) == node_cache_dir(str(root))
+    assert Path(folder).is_dir() and not drjit_loaded

@@ -179,3 +179,11 @@ def test_cli_malformed_catalogue_exits_2_before_any_work(folder, cli):
     proc = cli("batch", str(write(folder / "good.csv", "cut\nm/cube.ply\n")), "--out", str(out), "--workers", "2",
                "--scheduler", "tcp://127.0.0.1:1")
     assert proc.returncode == 2 and "--workers sizes the embedded cluster" in proc.stderr
+
+
+@pytest.mark.parametrize("name, rows", [("catalog.csv", 12), ("catalog.yaml", 13), ("catalog-demo.csv", 6)])
+def test_bundled_catalogues_are_valid(name, rows):
+    """The catalogues the docs, README and ``make demo`` run: every file they name exists."""
+    cat = read_catalog(ROOT / "examples" / name, Defaults(quality="draft"))
+    assert len(cat.rows) == rows and len({r.key for r in cat.rows}) == rows
+    assert all(r.path is None or Path(r.path).is_file() for r in cat.rows)

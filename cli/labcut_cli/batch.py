@@ -123,7 +123,8 @@ def batch(
 
     client = connect(scheduler) if scheduler is not None else None
     try:
-        with progress_bar("batch", "rows") as update:
+        # with --html the bar also counts the report's per-cut comparisons (run on the workers after the rows)
+        with progress_bar("batch", "rows + report cuts" if html_path is not None else "rows") as update:
             result = run(cat, client, out=out, workers=workers, html=html_path, retry_failed=retry_failed,
                          threads_per_worker=threads, node_cache=node_cache, progress=update, on_start=started)
     except KeyboardInterrupt:
@@ -143,6 +144,11 @@ def batch(
         console.print(summary_table(result))
         for line in result.report_errors:
             err_console.print(f"[bold yellow]warning:[/] {line}", highlight=False, soft_wrap=True)
+        trimmed = sorted({str(w["malloc_trim_threshold"]) for w in result.workers if w.get("malloc_trim_threshold")})
+        if trimmed:  # a cluster of the user's started with Dask's default (labcut.batch.runner.TRIM_KEY)
+            err_console.print(f"[bold yellow]warning:[/] the workers run with MALLOC_TRIM_THRESHOLD_={'/'.join(trimmed)} "
+                              "(Dask's nanny default), which makes rows 1.6-1.8x slower; docs/batch.md, "
+                              "'On a real Dask cluster', shows the Dask config that unsets it", highlight=False, soft_wrap=True)
         if json_path is not None:
             console.print(f"summary JSON written to {json_path}")
     if result.failed:

@@ -82,6 +82,8 @@ class LabcutWorkerPlugin(WorkerPlugin):
         worker.labcut_setup = {  # read back by the driver (worker_info)
             "host": socket.gethostname(), "threads": threads, "variant": variant,
             "kernel_cache": os.environ.get("DRJIT_CACHE_DIR"), "setup_seconds": time.perf_counter() - start,
+            # Dask's nanny default, 65536, slows rows down (labcut.batch.runner.TRIM_KEY); None: glibc's own
+            "malloc_trim_threshold": os.environ.get("MALLOC_TRIM_THRESHOLD_"),
         }
 
 

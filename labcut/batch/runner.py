@@ -246,7 +246,7 @@ class BatchResult:
     :data:`labcut.batch.store.COLUMNS`, by row); ``ran``: rows computed now; ``skipped``: rows
     found in the store; ``failed``: rows stored with an error; ``seconds``: wall time of the
     whole run; ``startup_seconds``: starting the embedded cluster and setting up its workers
-    (0 with a given client); ``workers``: what each worker's plugin set (host, threads,
+    (0 with a given client); ``workers``: what each worker's plugin set (host, threads, malloc trim threshold,
     variant, kernel cache); ``dashboard``: Dask's dashboard link, when it serves one;
     ``reports``: ``(path, group label)`` of each HTML report written."""
 
@@ -299,6 +299,15 @@ def default_workers(rows: int) -> int:
     return max(1, min(cores(), rows))
 
 
+#: Dask's nanny starts each worker with ``MALLOC_TRIM_THRESHOLD_=65536`` (this config key), which
+#: turns off glibc's adaptive mmap threshold: every NumPy temporary over 128 KiB is then mapped and
+#: unmapped again, and a row runs 1.6-1.8x slower than without it (docs/batch.md,
+#: "Throughput and memory"). The embedded cluster's workers start without it (None unsets it);
+#: a variable set in the driver's environment is still inherited (as it is when a nanny of another
+#: cluster in the same process has put Dask's value there: the CLI then warns).
+TRIM_KEY = "distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_"
+
+
 @contextlib.contextmanager
 def _client(client: Any, workers: int, node_cache: bool) -> Any:
     """Yield ``(client, embedded?, startup seconds)``: the given client, or a new LocalCluster."""
@@ -315,12 +324,14 @@ def _client(client: Any, workers: int, node_cache: bool) -> Any:
     import importlib.util
     import logging
 
+    import dask
     from distributed import Client, LocalCluster
 
     env = {k: os.environ[k] for k in ("DRJIT_CACHE_DIR", "DRJIT_LIBLLVM_PATH", "LABCUT_BACKEND") if k in os.environ}
     has_dashboard = importlib.util.find_spec("bokeh") is not None
-    cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, silence_logs=logging.ERROR,
-                           dashboard_address=":0" if has_dashboard else None, env=env)
+    with dask.config.set({TRIM_KEY: None}):  # read once by each nanny when created; a restarted worker gets the same
+        cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, silence_logs=logging.ERROR,
+                               dashboard_address=":0" if has_dashboard else None, env=env)
     try:
         with Client(cluster) as own:
             yield own, True, time.perf_counter() - start
@@ -494,9 +505,20 @@ def _takes_n_workers(client: Any) -> bool:
 
 
 def _dashboard(client: Any) -> str | None:
-    """Dask's dashboard link, when the scheduler serves one (it needs bokeh installed)."""
+    """Dask's dashboard link, when the scheduler serves one (it needs bokeh installed there). A
+    scheduler always has an HTTP server on its "dashboard" port (metrics, health), without the
+    dashboard's pages (``/status`` is not found) unless bokeh's application is attached to it."""
+
+    def serves_bokeh(dask_scheduler: Any) -> bool:  # on the scheduler; a local function: pickled by value
+        try:
+            from bokeh.server.tornado import BokehTornado
+        except ImportError:
+            return False
+        app = getattr(dask_scheduler, "http_application", None)
+        return any(isinstance(a, BokehTornado) for a in getattr(app, "applications", None) or [])
+
     try:
-        served = "dashboard" in (client.scheduler_info().get("services") or {})
+        served = "dashboard" in (client.scheduler_info().get("services") or {}) and client.run_on_scheduler(serves_bokeh)
         link = client.dashboard_link if served else None
     except Exception:  # no dashboard served
         return None
