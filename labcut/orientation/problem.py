@@ -126,29 +126,6 @@ def _visibility(mesh: Any, origins: np.ndarray, normals: np.ndarray, dirs: np.nd
     return escapes(mesh, origins, normals, dirs)
 
 
-def _smooth_split(mesh: Any, angle_deg: float) -> Any:
-    """``trimesh.graph.smooth_shade`` of ``mesh`` at ``angle_deg``, kept in the mesh's own cache
-    (trimesh drops it when the vertices or faces change): a recommendation builds up to three
-    problems of one mesh (the answer and its error bars)."""
-    key = f"labcut_smooth_split_{float(angle_deg):.6g}"
-    cache = getattr(mesh, "_cache", None)
-    try:
-        hit = cache[key] if cache is not None else None  # trimesh's Cache: None when missing or stale
-    except Exception:  # noqa: BLE001 - a cache that cannot be read: shade again
-        hit = None
-    if hit is not None:
-        return hit
-    import trimesh  # (lazy: importing trimesh pulls scipy)
-
-    split = trimesh.graph.smooth_shade(mesh, angle=math.radians(angle_deg))
-    try:
-        if cache is not None:
-            cache[key] = split
-    except Exception:  # noqa: BLE001 - not cached: the next build shades again
-        pass
-    return split
-
-
 def build_problem(
     mesh: Any,
     material: Labradorite,
@@ -189,9 +166,9 @@ def build_problem(
     count = int(n_points or quality.surface_points)
     # sample the smooth-shaded copy the renderer uses (split along edges sharper than
     # 30°; same surface, its own face order), so both estimators shade alike
-    from ..rendering.scene import shading_angle_deg
+    from ..rendering.scene import shading_angle_deg, smooth_split
 
-    split = _smooth_split(mesh, shading_angle_deg(mesh))
+    split = smooth_split(mesh, shading_angle_deg(mesh))
     area_faces = split.area_faces
     ok = np.isfinite(area_faces) & (area_faces > 0)
     if not np.any(ok):

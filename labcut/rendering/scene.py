@@ -97,6 +97,30 @@ def shading_angle_deg(mesh: Any) -> float:
     return FACETED_ANGLE_DEG if info.get("faceted") else SMOOTH_ANGLE_DEG
 
 
+def smooth_split(mesh: Any, angle_deg: float) -> Any:
+    """``trimesh.graph.smooth_shade`` of ``mesh`` at ``angle_deg`` (split along edges sharper than
+    it), kept in the mesh's own trimesh cache (dropped when its vertices or faces change): the
+    renderer, the flash problem (three per recommendation with its error bars) and the planner's
+    pilot renders all shade the same mesh."""
+    import trimesh
+
+    key = f"labcut_smooth_split_{float(angle_deg):.6g}"
+    cache = getattr(mesh, "_cache", None)
+    try:
+        hit = cache[key] if cache is not None else None  # trimesh's Cache: None when missing or stale
+    except Exception:  # noqa: BLE001 - a cache that cannot be read: shade again
+        hit = None
+    if hit is not None:
+        return hit
+    split = trimesh.graph.smooth_shade(mesh, angle=math.radians(angle_deg))
+    try:
+        if cache is not None:
+            cache[key] = split
+    except Exception:  # noqa: BLE001 - not cached: the next caller shades again
+        pass
+    return split
+
+
 def to_mitsuba_mesh(mesh: Any, bsdf: Any, smooth_angle_deg: float | None = None) -> Any:
     """A Mitsuba mesh of a ``trimesh.Trimesh`` (mm), smooth-shaded except across sharp edges.
 
@@ -105,10 +129,9 @@ def to_mitsuba_mesh(mesh: Any, bsdf: Any, smooth_angle_deg: float | None = None)
     """
     import drjit as dr
     import mitsuba as mi
-    import trimesh
 
     angle = shading_angle_deg(mesh) if smooth_angle_deg is None else float(smooth_angle_deg)
-    split = trimesh.graph.smooth_shade(mesh, angle=math.radians(angle))
+    split = smooth_split(mesh, angle)
     v = np.ascontiguousarray(split.vertices, dtype=np.float32)
     f = np.ascontiguousarray(split.faces, dtype=np.uint32)
     n = np.ascontiguousarray(split.vertex_normals, dtype=np.float32)
