@@ -135,6 +135,7 @@ def compromise_table(cmp: Any) -> Table:
 
 
 @app.command("compare")
+@m.takes_material
 def compare(
     cuts: Cuts,
     scenario: Scenarios = None,
@@ -142,19 +143,7 @@ def compare(
     units: mo.Units = "auto",
     up_axis: mo.UpAxis = "auto",
     size: mo.Size = None,
-    preset: m.Preset = None,
-    peak: m.Peak = None,
-    an: m.Anorthite = None,
-    material_file: m.MaterialFile = None,
-    d_a: m.DA = None,
-    d_b: m.DB = None,
-    sigma_a: m.SA = None,
-    sigma_b: m.SB = None,
-    n_a: m.NA = None,
-    n_b: m.NB = None,
-    n_surface: m.NS = None,
-    pairs: m.Pairs = None,
-    spread: m.SPREAD = None,
+    material: Any = None,  # the material options (materials.takes_material)
     quality: Annotated[str, typer.Option(help="draft, standard or high: of the recommendations, curves and renders.")] = "standard",
     seed: Annotated[int, typer.Option(help="Seed of the surface sampling and the renders.", min=0)] = 0,
     resolution: Annotated[Optional[int], typer.Option(help="Size of the renders in pixels (default by quality: 96, 128, 256).")] = None,
@@ -185,8 +174,6 @@ def compare(
 
         raise ParameterError("compare runs the sample estimator (many cuts and curves); "
                              "use --estimator samples, or recommend-orientation --estimator render per cut")
-    material = m.build_material(preset, peak, an, material_file, d_a=d_a, d_b=d_b, sigma_a=sigma_a, sigma_b=sigma_b,
-                                n_a=n_a, n_b=n_b, n_surface=n_surface, pairs=pairs, spread_deg=spread)
     unit_arg, up = mo.check_mesh_options(units, up_axis, size)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", LabcutWarning)

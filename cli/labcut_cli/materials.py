@@ -32,6 +32,55 @@ Pairs = Annotated[Optional[int], typer.Option("--pairs", help="Number of lamella
 LAYER_KEYS = ("d_a", "d_b", "sigma_a", "sigma_b", "n_a", "n_b", "n_surface", "pairs", "spread_deg")
 
 
+#: every material option of a command, in the order ``--help`` lists them: (parameter name, typer annotation)
+OPTIONS: tuple[tuple[str, Any], ...] = (
+    ("preset", Preset), ("peak", Peak), ("an", Anorthite), ("material_file", MaterialFile), ("d_a", DA), ("d_b", DB),
+    ("sigma_a", SA), ("sigma_b", SB), ("n_a", NA), ("n_b", NB), ("n_surface", NS), ("pairs", Pairs), ("spread", SPREAD),
+)
+
+
+def takes_material(func: Any = None, *, without: tuple[str, ...] = ()) -> Any:
+    """Give a typer command the material options once, in one place (``without``: options it has
+    no use for, e.g. ``("spread",)`` for ``spectrum``, which has no directions).
+
+    The command declares ``material: Any = None`` where the options belong; typer sees the options
+    of :data:`OPTIONS` there instead, and the command receives the :class:`labcut.Labradorite`
+    they describe (:func:`build_material`, checked before the command's body runs: a bad value is
+    the usual one-line error)."""
+    import functools
+    import inspect
+
+    if func is None:
+        return lambda f: takes_material(f, without=without)
+    options = tuple((n, a) for n, a in OPTIONS if n not in without)
+    sig = inspect.signature(func, eval_str=True)  # real annotations: typer reads the Options in them
+    if "material" not in sig.parameters:
+        raise TypeError(f"{func.__name__} must declare a 'material' parameter for takes_material")
+    names = [n for n, _ in options]
+    params: list[inspect.Parameter] = []
+    for name, param in sig.parameters.items():
+        if name == "material":
+            params += [inspect.Parameter(n, inspect.Parameter.POSITIONAL_OR_KEYWORD, default=None, annotation=a)
+                       for n, a in options]
+        else:
+            params.append(param)
+
+    @functools.wraps(func)
+    def command(*args: Any, **kwargs: Any) -> Any:
+        bound = {n: kwargs.pop(n, None) for n, _ in OPTIONS}
+        material = build_material(bound["preset"], bound["peak"], bound["an"], bound["material_file"],
+                                  d_a=bound["d_a"], d_b=bound["d_b"], sigma_a=bound["sigma_a"], sigma_b=bound["sigma_b"],
+                                  n_a=bound["n_a"], n_b=bound["n_b"], n_surface=bound["n_surface"], pairs=bound["pairs"],
+                                  spread_deg=bound["spread"])
+        return func(*args, material=material, **kwargs)
+
+    annotations = {k: v for k, v in getattr(func, "__annotations__", {}).items() if k != "material"}
+    annotations.update(dict(options))
+    command.__annotations__ = annotations
+    command.__signature__ = sig.replace(parameters=params)  # type: ignore[attr-defined]
+    return command
+
+
 def material_block(data: Any, source: str) -> dict[str, Any]:
     """The material parameters in a JSON document: a ``Labradorite.to_dict``, or labcut's own
     outputs that carry one (``material`` of spectrum/render JSON, ``settings.material`` of a

@@ -129,24 +129,13 @@ def print_render_notes(result: Any) -> None:
 
 
 @app.command("recommend-orientation")
+@m.takes_material
 def recommend_orientation(
     mesh_path: Annotated[Path, typer.Argument(metavar="MESH", help="Stone mesh: STL, OBJ, PLY, OFF, GLB/GLTF, 3MF.")],
     units: mo.Units = "auto",
     up_axis: mo.UpAxis = "auto",
     size: mo.Size = None,
-    preset: m.Preset = None,
-    peak: m.Peak = None,
-    an: m.Anorthite = None,
-    material_file: m.MaterialFile = None,
-    d_a: m.DA = None,
-    d_b: m.DB = None,
-    sigma_a: m.SA = None,
-    sigma_b: m.SB = None,
-    n_a: m.NA = None,
-    n_b: m.NB = None,
-    n_surface: m.NS = None,
-    pairs: m.Pairs = None,
-    spread: m.SPREAD = None,
+    material: Any = None,  # the material options (materials.takes_material)
     scenario: so.Scenario = None,
     lighting: so.Lighting = None,
     viewing: so.Viewing = None,
@@ -196,8 +185,6 @@ def recommend_orientation(
     if optimizer not in OPTIMIZERS:
         raise ParameterError(f"--optimizer must be one of {', '.join(OPTIMIZERS)}, got {optimizer!r}")
     exposure_value = parse_exposure(exposure)
-    material = m.build_material(preset, peak, an, material_file, d_a=d_a, d_b=d_b, sigma_a=sigma_a, sigma_b=sigma_b,
-                                n_a=n_a, n_b=n_b, n_surface=n_surface, pairs=pairs, spread_deg=spread)
     # the whole question, checked once (FlashSetup.build); the library takes it as it is
     setup = _question(material, scenario, lighting, viewing, quality, estimator, effect, zoning, objective=objective,
                       max_tilt=max_tilt, tilt_axis=parse_vector(tilt_axis, "--tilt-axis") if tilt_axis else None, seed=seed)
@@ -311,25 +298,14 @@ def recommend_orientation(
 
 
 @app.command("evaluate-orientation")
+@m.takes_material
 def evaluate_orientation(
     mesh_path: Annotated[Path, typer.Argument(metavar="MESH", help="Stone mesh: STL, OBJ, PLY, OFF, GLB/GLTF, 3MF.")],
     normal: Annotated[str, typer.Option("--normal", "-n", help="Lamella normal X,Y,Z in the mesh frame (+Z face-up, -Y front).")] = "0,0,1",
     units: mo.Units = "auto",
     up_axis: mo.UpAxis = "auto",
     size: mo.Size = None,
-    preset: m.Preset = None,
-    peak: m.Peak = None,
-    an: m.Anorthite = None,
-    material_file: m.MaterialFile = None,
-    d_a: m.DA = None,
-    d_b: m.DB = None,
-    sigma_a: m.SA = None,
-    sigma_b: m.SB = None,
-    n_a: m.NA = None,
-    n_b: m.NB = None,
-    n_surface: m.NS = None,
-    pairs: m.Pairs = None,
-    spread: m.SPREAD = None,
+    material: Any = None,  # the material options (materials.takes_material)
     scenario: so.Scenario = None,
     lighting: so.Lighting = None,
     viewing: so.Viewing = None,
@@ -350,8 +326,6 @@ def evaluate_orientation(
     if json_path not in (None, "-"):
         check_output_path(json_path, (".json",))
     m_vec = normalize_normal(parse_vector(normal, "--normal"))
-    material = m.build_material(preset, peak, an, material_file, d_a=d_a, d_b=d_b, sigma_a=sigma_a, sigma_b=sigma_b,
-                                n_a=n_a, n_b=n_b, n_surface=n_surface, pairs=pairs, spread_deg=spread)
     setup = _question(material, scenario, lighting, viewing, quality, estimator, effect, zoning)
     scene = setup.scenario
     mo.check_mesh_options(units, up_axis, size)

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Annotated, Optional
+from typing import Annotated, Any, Optional
 
 import typer
 
@@ -59,6 +59,7 @@ def parse_normal(text: str) -> tuple[float, ...]:
 
 
 @app.command()
+@m.takes_material
 def render(
     mesh_path: Annotated[Path, typer.Argument(metavar="MESH", help="Stone mesh: STL, OBJ, PLY, OFF, GLB/GLTF, 3MF.")],
     output: Annotated[Path, typer.Option("--output", "-o", "--out", help="File to write (required): .png (tonemapped) or .exr (linear HDR); with --animate .webp or .gif.")],
@@ -66,19 +67,7 @@ def render(
     units: mo.Units = "auto",
     up_axis: mo.UpAxis = "auto",
     size: mo.Size = None,
-    preset: m.Preset = None,
-    peak: m.Peak = None,
-    an: m.Anorthite = None,
-    material_file: m.MaterialFile = None,
-    d_a: m.DA = None,
-    d_b: m.DB = None,
-    n_a: m.NA = None,
-    n_b: m.NB = None,
-    n_surface: m.NS = None,
-    sigma_a: m.SA = None,
-    sigma_b: m.SB = None,
-    pairs: m.Pairs = None,
-    spread: m.SPREAD = None,
+    material: Any = None,  # the material options (materials.takes_material)
     scenario: so.Scenario = None,
     lighting: so.Lighting = None,
     viewing: so.Viewing = None,
@@ -133,8 +122,6 @@ def render(
     if json_path not in (None, "-"):
         check_output_path(json_path, (".json",))
     look_spec = lo.spec(look, seed)
-    material = m.build_material(preset, peak, an, material_file, d_a=d_a, d_b=d_b, sigma_a=sigma_a, sigma_b=sigma_b,
-                                n_a=n_a, n_b=n_b, n_surface=n_surface, pairs=pairs, spread_deg=spread)
     lamella = parse_normal(normal)
     zoning_spec = m.build_zoning(zoning, material)
     view_spec: str | tuple[float, float] = view

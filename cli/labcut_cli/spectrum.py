@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
-from typing import Annotated, Optional
+from typing import Annotated, Any, Optional
 
 import typer
 from rich.table import Table
@@ -18,19 +18,9 @@ def _fmt(x: float, spec: str) -> str:
 
 
 @app.command()
+@m.takes_material(without=("spread",))
 def spectrum(
-    preset: m.Preset = None,
-    peak: m.Peak = None,
-    an: m.Anorthite = None,
-    material_file: m.MaterialFile = None,
-    d_a: m.DA = None,
-    d_b: m.DB = None,
-    sigma_a: m.SA = None,
-    sigma_b: m.SB = None,
-    n_a: m.NA = None,
-    n_b: m.NB = None,
-    n_surface: m.NS = None,
-    pairs: m.Pairs = None,
+    material: Any = None,  # the material options (materials.takes_material)
     angles: Annotated[str, typer.Option(help="Internal angles to the lamella normal, degrees, comma-separated.")] = "0,15,30,45",
     plot: Annotated[Optional[Path], typer.Option("--plot", "-o", help="Write the reflectance plot to this PNG (none unless asked).")] = None,
     no_plot: Annotated[bool, typer.Option("--no-plot", help="Do not write a plot, even with --plot.")] = False,
@@ -48,10 +38,6 @@ def spectrum(
     from labcut.fileio import check_output_path
     from labcut.physics.summary import check_angles, spectrum_summary
 
-    material = m.build_material(
-        preset, peak, an, material_file, d_a=d_a, d_b=d_b, sigma_a=sigma_a, sigma_b=sigma_b,
-        n_a=n_a, n_b=n_b, n_surface=n_surface, pairs=pairs,
-    )
     try:
         angle_list = [float(a) for a in angles.split(",") if a.strip()]
     except ValueError:
