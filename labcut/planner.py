@@ -635,9 +635,6 @@ def evaluate_timing(refresh: bool = False) -> dict[str, float]:
     key = _evaluate_key()
     if _EVAL_TIMING is not None and _EVAL_TIMING.get("key") == key and not refresh:  # type: ignore[comparison-overlap]
         return _EVAL_TIMING
-    import copy
-    import time
-
     from .fileio import cache_path, read_cache, write_cache
 
     path = cache_path("planner-evaluate-timing.json")
@@ -649,33 +646,15 @@ def evaluate_timing(refresh: bool = False) -> dict[str, float]:
             return _EVAL_TIMING
         except (KeyError, TypeError, ValueError):
             pass  # an older layout: measure
-    from .geometry.cabochon import cabochon
     from .orientation.recommend import evaluate_orientation
-    from .orientation.timing import work
-    from .scene import resolve_scene
+    from .orientation.timing import time_three
 
-    mesh = cabochon(outline="oval", length=16.0, width=12.0, dome="medium")
-    hidden = copy.deepcopy(mesh)
-    hidden.metadata.setdefault("labcut", {})["convex"] = False
-    rows = []
     _CALIBRATING = True
     try:
-        evaluate_orientation(mesh, (0.05, 0.02, 1.0), quality="draft")  # warm: imports and kernels
-        for m, quality, occl in ((mesh, "draft", False), (mesh, "standard", False), (hidden, "draft", True)):
-            scene = resolve_scene("bench", quality=quality)
-            terms, rays = work(scene.settings(), scene.quality.surface_points)
-            best = float("inf")
-            for _ in range(2):
-                t = time.perf_counter()
-                evaluate_orientation(m, (0.05, 0.02, 1.0), quality=quality)
-                best = min(best, time.perf_counter() - t)
-            rows.append((terms, rays if occl else 0.0, best))
+        fixed, per_term, per_ray = time_three(lambda m, quality: evaluate_orientation(m, (0.05, 0.02, 1.0), quality=quality),
+                                              repeats=2)
     finally:
         _CALIBRATING = False
-    (t0, _, s0), (t1, _, s1), (t2, r2, s2) = rows
-    per_term = max((s1 - s0) / (t1 - t0), 0.0) if t1 != t0 else 0.0
-    fixed = max(s0 - per_term * t0, 0.0)
-    per_ray = max((s2 - s0) / r2, 0.0) if r2 > 0 else 0.0
     _EVAL_TIMING = {"fixed": fixed, "per_term": per_term, "per_ray": per_ray, "key": key}  # type: ignore[dict-item]
     write_cache(path, dict(_EVAL_TIMING))
     return _EVAL_TIMING

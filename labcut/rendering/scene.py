@@ -97,28 +97,33 @@ def shading_angle_deg(mesh: Any) -> float:
     return FACETED_ANGLE_DEG if info.get("faceted") else SMOOTH_ANGLE_DEG
 
 
-def smooth_split(mesh: Any, angle_deg: float) -> Any:
-    """``trimesh.graph.smooth_shade`` of ``mesh`` at ``angle_deg`` (split along edges sharper than
-    it), kept in the mesh's own trimesh cache (dropped when its vertices or faces change): the
-    renderer, the flash problem (three per recommendation with its error bars) and the planner's
-    pilot renders all shade the same mesh."""
-    import trimesh
-
-    key = f"labcut_smooth_split_{float(angle_deg):.6g}"
+def mesh_cached(mesh: Any, key: str, build: Any) -> Any:
+    """``build()``, kept under ``key`` in the mesh's own trimesh cache (trimesh drops it when the
+    vertices or faces change), so work derived from one mesh is done once per mesh."""
     cache = getattr(mesh, "_cache", None)
     try:
         hit = cache[key] if cache is not None else None  # trimesh's Cache: None when missing or stale
-    except Exception:  # noqa: BLE001 - a cache that cannot be read: shade again
+    except Exception:  # noqa: BLE001 - a cache that cannot be read: build again
         hit = None
     if hit is not None:
         return hit
-    split = trimesh.graph.smooth_shade(mesh, angle=math.radians(angle_deg))
+    value = build()
     try:
         if cache is not None:
-            cache[key] = split
-    except Exception:  # noqa: BLE001 - not cached: the next caller shades again
+            cache[key] = value
+    except Exception:  # noqa: BLE001 - not cached: the next caller builds again
         pass
-    return split
+    return value
+
+
+def smooth_split(mesh: Any, angle_deg: float) -> Any:
+    """``trimesh.graph.smooth_shade`` of ``mesh`` at ``angle_deg`` (split along edges sharper than
+    it), once per mesh (:func:`mesh_cached`): the renderer, the flash problem (three per
+    recommendation with its error bars) and the planner's pilot renders all shade the same mesh."""
+    import trimesh
+
+    return mesh_cached(mesh, f"labcut_smooth_split_{float(angle_deg):.6g}",
+                       lambda: trimesh.graph.smooth_shade(mesh, angle=math.radians(angle_deg)))
 
 
 def to_mitsuba_mesh(mesh: Any, bsdf: Any, smooth_angle_deg: float | None = None) -> Any:
@@ -147,35 +152,24 @@ def to_mitsuba_mesh(mesh: Any, bsdf: Any, smooth_angle_deg: float | None = None)
 
 def ray_scene(mesh: Any) -> Any:
     """A Mitsuba scene of the mesh's bare triangles for ray queries (shadow and view rays): no
-    shading normals, no BSDF to speak of. Built once per mesh and Mitsuba variant and kept in the
-    mesh's trimesh cache (dropped when its vertices or faces change): a flash problem asks it
-    two queries per pose, and a recommendation with error bars builds three problems."""
+    shading normals, no BSDF to speak of. Built once per mesh and Mitsuba variant
+    (:func:`mesh_cached`): a flash problem asks it two queries per pose, and a recommendation
+    with error bars builds three problems."""
     import drjit as dr
     import mitsuba as mi
 
-    key = f"labcut_ray_scene_{mi.variant()}"
-    cache = getattr(mesh, "_cache", None)
-    try:
-        hit = cache[key] if cache is not None else None
-    except Exception:  # noqa: BLE001 - a cache that cannot be read: build again
-        hit = None
-    if hit is not None:
-        return hit
-    v = np.ascontiguousarray(mesh.vertices, dtype=np.float32)
-    f = np.ascontiguousarray(mesh.faces, dtype=np.uint32)
-    m = mi.Mesh("stone", vertex_count=len(v), face_count=len(f), has_vertex_normals=False, props=mi.Properties())
-    params = mi.traverse(m)
-    params["vertex_positions"] = dr.ravel(mi.Point3f(v[:, 0], v[:, 1], v[:, 2]))
-    params["faces"] = dr.ravel(mi.Vector3u(f[:, 0], f[:, 1], f[:, 2]))
-    params.update()
-    m.set_bsdf(mi.load_dict({"type": "diffuse"}))
-    scene = mi.load_dict({"type": "scene", "stone": m})
-    try:
-        if cache is not None:
-            cache[key] = scene
-    except Exception:  # noqa: BLE001 - not cached: the next query builds again
-        pass
-    return scene
+    def build() -> Any:
+        v = np.ascontiguousarray(mesh.vertices, dtype=np.float32)
+        f = np.ascontiguousarray(mesh.faces, dtype=np.uint32)
+        m = mi.Mesh("stone", vertex_count=len(v), face_count=len(f), has_vertex_normals=False, props=mi.Properties())
+        params = mi.traverse(m)
+        params["vertex_positions"] = dr.ravel(mi.Point3f(v[:, 0], v[:, 1], v[:, 2]))
+        params["faces"] = dr.ravel(mi.Vector3u(f[:, 0], f[:, 1], f[:, 2]))
+        params.update()
+        m.set_bsdf(mi.load_dict({"type": "diffuse"}))
+        return mi.load_dict({"type": "scene", "stone": m})
+
+    return mesh_cached(mesh, f"labcut_ray_scene_{mi.variant()}", build)
 
 
 def camera(mesh: Any, view: CameraView, resolution: int, perspective: bool = False, fov_deg: float = 25.0,
