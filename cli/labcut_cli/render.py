@@ -214,16 +214,8 @@ def render(
         "flash_by_view": result.flash,
         "notes": result.notes,
     }
-    if zoning_spec is not None:
-        summary["zoning"] = zoning_spec.to_dict()
-    with all_or_nothing() as written:
-        result.save(output)
-        written.append(Path(output))
-        if json_path == "-":
-            typer.echo(json.dumps(summary, indent=2))
-            return
-        if json_path is not None:
-            write_json(json_path, summary)
+    if _write(result, output, summary, json_path, zoning_spec):
+        return
     mo.print_provenance(mesh, mesh_path.name)
     console.print(f"[bold]{output}[/]: {'; '.join(result.plan.reasons)}")
     print_render_notes(result)
@@ -236,6 +228,24 @@ def render(
     if result.budget:
         console.print(f"time budget {result.budget['budget_seconds']:g} s: {result.spp} spp (predicted "
                       f"{result.budget['predicted_seconds']:.2f} s, took {result.seconds:.2f} s)", highlight=False)
+
+
+def _write(made: Any, output: Path, summary: dict[str, Any], json_path: Optional[str], zoning_spec: Any) -> bool:
+    """Save a render or an animation and its JSON summary, all or nothing; True when the JSON went
+    to stdout (then nothing else is printed)."""
+    import json
+
+    if zoning_spec is not None:
+        summary["zoning"] = zoning_spec.to_dict()
+    with all_or_nothing() as written:
+        made.save(output)
+        written.append(Path(output))
+        if json_path == "-":
+            typer.echo(json.dumps(summary, indent=2))
+            return True
+        if json_path is not None:
+            write_json(json_path, summary)
+    return False
 
 
 class _Probe:
@@ -280,16 +290,8 @@ def _animate(mesh_path: Path, mesh, material, lamella, scene, motion: str, frame
         "studio": anim.studio,
         "notes": anim.notes,
     }
-    if zoning_spec is not None:
-        summary["zoning"] = zoning_spec.to_dict()
-    with all_or_nothing() as written:
-        anim.save(output)
-        written.append(Path(output))
-        if json_path == "-":
-            typer.echo(json.dumps(summary, indent=2))
-            return
-        if json_path is not None:
-            write_json(json_path, summary)
+    if _write(anim, output, summary, json_path, zoning_spec):
+        return
     console.print(f"[bold]{output}[/]: {len(anim.frames)} frames of {motion}, {'; '.join(anim.plan.reasons)}")
     print_render_notes(anim)
     console.print(f"{anim.spp} spp at {resolution}², {anim.seconds:.1f} s; exposure {anim.exposure:.3g} = {anim.exposure_ev:+.2f} EV "
