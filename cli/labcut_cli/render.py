@@ -166,7 +166,9 @@ def render(
         from labcut.planner import plan_effects
 
         the_plan = plan_effects(mesh, material, command="render", scenario=scene, mode=None if mode == "rgb" else mode,
-                                polarizer_deg=polarizer, zoning=zoning_spec)
+                                polarizer_deg=polarizer, zoning=zoning_spec, resolution=resolution, spp=spp,
+                                views=len(camera_views(view_spec, scene.main_setting())),
+                                look="diagram" if look_spec == "diagram" else "studio")
         po.show(the_plan, mesh_path.name, to_stderr=json_path == "-")
         if plan_only:
             po.finish_plan_only(the_plan, json_path)
