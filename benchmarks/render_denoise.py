@@ -12,6 +12,13 @@ with ``labcut.render(..., look="studio")`` from the scenario's main view at a sm
 * Rows: raw and denoised at 16, 32, 64 spp, raw at 256 and 1024 spp, and "equal time": the raw
   spp that takes as long as each denoised render (from a straight-line fit of the raw rows'
   wall time against spp).
+* Variants of the denoised 32 spp row (same colour samples, same seeds): the auxiliaries traced
+  at the colour's 32 spp and prefiltered by OIDN (``cleanAux`` off: the first version), no
+  auxiliaries, and against the one Gaussian reference: as rendered, and blurred after denoising
+  by a Gaussian of 0.5 px (the raw render's pixel filter; the box reference blurred the same is
+  compared with the Gaussian one too, to show how far the two pipelines' converged images differ).
+* Where the error is: raw 32 and 1024 spp and denoised 32 spp (seed 0) over the stone, its
+  silhouette and the table (:func:`regions`).
 * RMSE: on the **tone-mapped** image (the PNG's values: the render's metered exposure, the AgX
   curve, sRGB-encoded, in [0, 1]; what a client sees), all three channels of every pixel; the
   linear RMSE relative to the reference's mean is given too. Each is the mean over
@@ -36,6 +43,7 @@ import numpy as np
 
 import labcut
 from labcut.rendering.api import build_scene, render_pass
+from labcut.rendering.denoise import aux_scene, denoise, trace_aux
 from labcut.rendering.tonemap import agx
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -64,6 +72,69 @@ def box_reference(mesh, material, normal, setting, resolution: int, spp: int) ->
     for k in range(passes):
         accum += np.array(render_pass(scene, 16, 9_000_000 + k), dtype=np.float64)[..., :3]
     return accum / passes
+
+
+def gaussian_blur(image: np.ndarray, sigma: float = 0.5) -> np.ndarray:
+    from scipy.ndimage import gaussian_filter
+
+    return np.stack([gaussian_filter(image[..., i], sigma, mode="nearest", truncate=2.0 / sigma) for i in range(3)], -1)
+
+
+def regions(mesh, scene, resolution: int) -> dict[str, np.ndarray]:
+    """Pixel masks: the stone (fully covered by it), its silhouette (partly), the table (not at all),
+    from tracing the camera at the stone alone (white diffuse, albedo AOV: its coverage)."""
+    import mitsuba as mi
+
+    from labcut.rendering.scene import to_mitsuba_mesh
+
+    white = to_mitsuba_mesh(mesh, mi.load_dict({"type": "diffuse", "reflectance": {"type": "rgb", "value": 1.0}}))
+    only = mi.load_dict({"type": "scene", "sensor": scene.sensors()[0], "stone": white,
+                         "integrator": {"type": "aov", "aovs": "a:albedo"}})
+    cover = np.array(render_pass(only, 256, 1), dtype=np.float64)[..., 0]
+    return {"stone": cover > 0.999, "silhouette": (cover > 0.001) & (cover <= 0.999), "table": cover <= 0.001}
+
+
+def region_rmse(image: np.ndarray, reference: np.ndarray, masks: dict, exposure: float) -> dict[str, tuple[float, float]]:
+    """Per region: (RMSE of the display values, share of the image's squared error)."""
+    se = ((display(image, exposure) - display(reference, exposure)) ** 2).mean(axis=-1)
+    return {k: (float(np.sqrt(se[m].mean())), float(se[m].sum() / se.sum())) for k, m in masks.items()}
+
+
+def variants(mesh, material, normal, scenario, resolution: int, reps: int, exposure: float, ref: dict):
+    """RMSE (tone-mapped, mean over seeds) of the denoised 32 spp render's variants (module docstring),
+    and where the error is (seed 0; :func:`regions`)."""
+    scene, _ = build_scene(mesh, material, normal, scenario.main_setting(), "main", resolution, look="studio", denoise=True)
+    aux_only = aux_scene(scene)
+    out: dict[str, list[float]] = {}
+    for seed in range(reps):
+        colour = sum(np.array(render_pass(scene, 16, seed * 100003 + k), dtype=np.float64) for k in range(2)) / 2.0
+        clean = trace_aux(scene, seed=seed)
+        noisy = np.array(render_pass(aux_only, 32, 4_000_000 + seed), dtype=np.float64)
+        now = denoise(colour, clean[..., :3], clean[..., 3:6])
+        rows = {
+            "as rendered (auxiliaries at 128 spp, cleanAux on), against the box reference": (now, ref[True]),
+            "auxiliaries at the colour's 32 spp, cleanAux off (the first version), against the box reference":
+                (denoise(colour, noisy[..., :3], noisy[..., 3:6], clean_aux=False), ref[True]),
+            "no auxiliaries, against the box reference": (denoise(colour), ref[True]),
+            "as rendered, against the Gaussian reference": (now, ref[False]),
+            "as rendered, blurred by a 0.5 px Gaussian after denoising, against the Gaussian reference":
+                (gaussian_blur(now), ref[False]),
+        }
+        for name, (image, reference) in rows.items():
+            out.setdefault(name, []).append(rmse(display(image, exposure), display(reference, exposure)))
+    masks = regions(mesh, scene, resolution)
+    raw = {spp: labcut.render(mesh, material, normal, scenario=scenario, spp=spp, resolution=resolution, look="studio",
+                              denoise=False, seed=0, check_flash=False).image for spp in (32, 1024)}
+    colour = sum(np.array(render_pass(scene, 16, k), dtype=np.float64) for k in range(2)) / 2.0
+    clean = trace_aux(scene, seed=0)
+    split = {"raw 32 spp": region_rmse(raw[32], ref[False], masks, exposure),
+             "raw 1024 spp": region_rmse(raw[1024], ref[False], masks, exposure),
+             "denoised 32 spp": region_rmse(denoise(colour, clean[..., :3], clean[..., 3:6]), ref[True], masks, exposure)}
+    split["pixels"] = {k: (float("nan"), float(m.mean())) for k, m in masks.items()}
+    result = [(name, statistics.fmean(v)) for name, v in out.items()]
+    result.append(("the box reference blurred the same, against the Gaussian reference (no denoising)",
+                   rmse(display(gaussian_blur(ref[True]), exposure), display(ref[False], exposure))))
+    return result, split
 
 
 def main() -> None:
@@ -121,6 +192,9 @@ def main() -> None:
         row = measure(spp, False)
         row["matches"] = d["spp"]
         equal.append(row)
+    var, split = variants(mesh, material, normal, rec.scenario, res, reps, exposure, ref)
+    for name, value in var:
+        print(f"  variant: {name}: {value:.4f}", flush=True)
     total = time.perf_counter() - t_all
 
     by = {(r["spp"], r["denoised"]): r for r in raw + den}
@@ -159,12 +233,45 @@ def main() -> None:
               "| denoised | its RMSE | its time (s) | raw spp in that time | raw RMSE | raw time (s) |", "|---|---|---|---|---|---|"]
     for d, e in zip(den, equal):
         lines.append(f"| {d['spp']} spp | {d['rmse']:.4f} | {d['seconds']:.2f} | {e['spp']} | {e['rmse']:.4f} | {e['seconds']:.2f} |")
+    lines += ["", "Variants of the denoised 32 spp row (its colour samples and seeds; RMSE tone-mapped, mean of "
+              f"{reps} seeds; raw 1024 spp against the Gaussian reference: {r1024['rmse']:.4f}):", "",
+              "| denoised 32 spp | RMSE | / raw 1024 spp |", "|---|---|---|"]
+    for name, value in var:
+        lines.append(f"| {name} | {value:.4f} | {value / r1024['rmse']:.2f}x |")
+    lines += ["", "Where the error is (seed 0; each against its reference as above; stone: pixels fully covered by the stone, "
+              "silhouette: partly, table: not at all; RMSE of the display values in the region, and its share of the "
+              "image's squared error):", "", "| | " + " | ".join(split["pixels"]) + " |", "|---|---|---|---|"]
+    lines.append("| share of the pixels | " + " | ".join(f"{v[1]:.1%}" for v in split["pixels"].values()) + " |")
+    for name in ("raw 32 spp", "raw 1024 spp", "denoised 32 spp"):
+        lines.append(f"| {name} | " + " | ".join(f"{r:.4f} ({sh:.0%})" for r, sh in split[name].values()) + " |")
     lines += [
         "",
         f"Target (issue 15): denoised 32 spp within 2x the RMSE of raw 1024 spp at a fraction of its time. Measured: "
         f"{d32['rmse']:.4f} vs {r1024['rmse']:.4f}, **{ratio:.2f}x** the RMSE, in 1/{speed:.0f} of the time "
         f"({d32['seconds']:.2f} s vs {r1024['seconds']:.2f} s): **{'met' if met else 'not met'}**"
         f" (linear: {d32['rmse_linear'] / r1024['rmse_linear']:.2f}x).",
+        "",
+        "What changed (the first version measured 3.24x): the albedo and normal were traced by an `aov` integrator "
+        "wrapped around the real one, so at the colour's spp, and OIDN prefiltered them (`cleanAux` off). They are now "
+        "traced in a pass of their own (`labcut.rendering.denoise.trace_aux`: the `aov` integrator alone over the same "
+        "camera and shapes, 128 spp whatever the colour's count, first hits only, box-filtered so pixel-averaged across "
+        "the silhouette) and given to OIDN as noise-free (`cleanAux` on); the variants table above is the evidence. "
+        "Checked and left as they were: the albedo (the stone's body plus its face-on flash colour, the table's "
+        "reflectance, 0 on a miss; in [0, 1]) and the normal (shading normal in the mesh frame, the scene's world "
+        "frame; unit length); HDR denoising of the linear image (`inputScale` set to the render's exposure changed "
+        "nothing measurable, denoising the tone-mapped image in LDR was worse); quality `high`.",
+        "",
+        "Why the target is still not met (the table above): most of a raw render's error is the grey table's noise, "
+        "which OIDN removes almost entirely; what is left after denoising is on the stone and its silhouette. As we read it, the schiller's "
+        "noise over the face at 32 spp is too strong for OIDN to tell from the face's fine texture (the albedo carries "
+        "the body texture and a face-on flash colour, not the view-dependent flash), and the dark rim inside the "
+        "silhouette, which neither auxiliary image shows, is smeared; a flat albedo over the stone and clamping the "
+        "brightest samples before denoising were tried and did not help. The two "
+        "references are fair to each pipeline (each against what it converges to; the box one is the noisier at equal spp, "
+        "which raises the denoised rows a little); against the one Gaussian reference, "
+        "the denoised render is penalised for its sharper box reconstruction, and blurring it afterwards by the raw "
+        "filter's Gaussian brings it closer but still not within 2x, and softens what the client sees, so renders are "
+        "not blurred.",
         "",
     ]
     section = "\n".join(lines)

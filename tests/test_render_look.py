@@ -121,6 +121,23 @@ def test_denoised_low_spp_matches_raw_at_16x_the_samples(oval):
     assert rmse(display(raw(4, 9_000_000), e), ref) > 2.0 * err_dn  # the same 4 spp, not denoised
 
 
+def test_denoiser_auxiliaries_are_noise_free(oval):
+    """The albedo and normal a denoised render hands OIDN (with cleanAux on) come from a pass of
+    their own at many samples: two seeds agree far better than two 1 spp passes do."""
+    from labcut.rendering.api import build_scene
+    from labcut.rendering.denoise import AUX_SPP, trace_aux
+
+    mesh, material, rec = oval
+    scene, _ = build_scene(mesh, material, rec.normal, rec.scenario.main_setting(), "main", 48, look="studio", denoise=True)
+    a, b = trace_aux(scene, seed=0), trace_aux(scene, seed=1)
+    assert a.shape == (48, 48, 6) and AUX_SPP >= 64
+    assert 0.0 <= a[..., :3].min() and a[..., :3].max() <= 1.0
+    length = np.linalg.norm(a[..., 3:], axis=-1)
+    assert np.all(length <= 1.0 + 1e-4) and np.median(length) > 0.999  # unit normals (averaged at the silhouette)
+    one = rmse(trace_aux(scene, spp=1, seed=0), trace_aux(scene, spp=1, seed=1))
+    assert rmse(a, b) < 0.25 * one, (rmse(a, b), one)
+
+
 def test_rock_animation_one_exposure_webp_and_gif(oval, tmp_path, monkeypatch):
     from PIL import Image
 

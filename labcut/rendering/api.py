@@ -294,9 +294,9 @@ def build_scene(
     (docs/zoning.md); its noise is baked over the mesh's bounding box.
 
     ``look``: ``"diagram"`` (default) or ``"studio"`` / a :class:`~labcut.rendering.studio.Studio`
-    (module docstring). ``denoise``: as :func:`plan_render`; when on, the integrator is wrapped in
-    Mitsuba's ``aov`` integrator and each pixel carries albedo and normal after its colour
-    (:data:`labcut.rendering.denoise.AOVS`).
+    (module docstring). ``denoise``: as :func:`plan_render`; when on, the film uses a box pixel
+    filter (the colour only; :func:`labcut.rendering.denoise.trace_aux` traces the albedo and
+    normal the denoiser wants from this scene in a pass of their own).
     """
     import mitsuba as mi
 
@@ -335,10 +335,6 @@ def build_scene(
         integ.update({"emitter_samples": 1, "bsdf_samples": 1})
     if plan.polarizer_deg is not None:
         integ = {"type": "stokes", "nested": integ}
-    if plan.denoise:
-        from .denoise import AOVS
-
-        integ = {"type": "aov", "aovs": AOVS, "colour": integ}
     if studio is None:
         sensor = camera(mesh, cams[0], int(resolution), perspective)
         lights = emitters(setting.lights)
@@ -483,7 +479,8 @@ def render(
     from ..planner import plan_effects
 
     effect_plan = plan_effects(mesh, material, command="render", scenario=scenario_used, mode=None if mode == "rgb" else mode,
-                               polarizer_deg=polarizer_deg, zoning=zoning, max_depth=max_depth).to_dict()
+                               polarizer_deg=polarizer_deg, zoning=zoning, max_depth=max_depth, resolution=int(resolution),
+                               spp=int(spp), views=len(views), look=rplan.look).to_dict()
     total = int(spp) * len(views)
     per_pass = max(1, min(int(spp), 16))
     done = 0
@@ -514,8 +511,10 @@ def render(
             image = accum / float(spp)
             if plan.denoise:
                 from .denoise import denoise as _denoise
+                from .denoise import trace_aux
 
-                image = _denoise(image[..., :3], image[..., 3:6], image[..., 6:9])
+                aux = trace_aux(scene, seed=seed)  # noise-free albedo and normal (cleanAux)
+                image = _denoise(image[..., :3], aux[..., :3], aux[..., 3:6])
             if plan.polarizer_deg is not None:
                 image = _polarizer_intensity(image, plan.polarizer_deg)
             if image.shape[-1] == 1:  # mono film: luminance, shown grey
