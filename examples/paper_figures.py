@@ -1,6 +1,10 @@
 """Reproduce the figures of Weidlich & Wilkie 2009 with labcut; write labelled contact sheets.
 
-    .venv/bin/python examples/paper_figures.py [--out docs/gallery] [--quick] [--only fig07 fig08 ...]
+    .venv/bin/python examples/paper_figures.py [--out docs/gallery] [--quick] [--only fig07 fig08 ...] [--page PATH]
+
+A full run (no ``--only``) also writes the whole gallery page, each image beside its caption
+(default: ``<out>.md`` next to the folder, so ``--out docs/gallery`` rewrites docs/gallery.md;
+the page's text is the template :data:`PAGE` below, with this run's measured exposures).
 
 Series (one PNG each, see docs/gallery.md):
 
@@ -23,6 +27,7 @@ curve, exposure metered from the lights). Defaults take about 2-3 minutes on 2 C
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 import time
 from pathlib import Path
@@ -44,6 +49,8 @@ from labcut.rendering.zoning import Zoning  # noqa: E402
 
 MESHES = ROOT / "meshes"
 UP = (0.0, 0.0, 1.0)
+#: what this run measured, for the page (the studio series fills it)
+FACTS: dict[str, str] = {}
 
 
 class Settings:
@@ -225,11 +232,16 @@ def studio(s: Settings, out: Path) -> None:
                              output=out / f"{name}.png")
         print(f"  {name}: normal ({', '.join(f'{x:+.3f}' for x in r.normal)}) = {r.description}; "
               f"{res_.seconds:.1f} s; exposure {res_.exposure_ev:+.2f} EV", flush=True)
+        FACTS[f"{name.replace('-', '_')}_normal"] = "(" + ", ".join(f"{x:+.3f}" for x in r.normal) + ")"
+        FACTS["studio_ev"] = f"{res_.exposure_ev:+.2f}"
+        FACTS["studio_size"] = f"{res} x {res} px, {spp} spp"
     frames, ares, aspp = (3, 32, 4) if s.quick else (24, 200, 16)
     anim = animate(stones[0][1], blue, rec.normal, motion="rock", frames=frames, scenario=rec.scenario, spp=aspp,
                    resolution=ares)
     for suffix in (".webp", ".gif"):
         anim.save(out / f"studio-oval-rock{suffix}")
+        FACTS[f"rock_{suffix[1:]}"] = f"{(out / f'studio-oval-rock{suffix}').stat().st_size / 1000:.0f} kB"
+    FACTS["rock"] = f"{frames} frames at {ares} x {ares} px, {aspp} spp each"
     print(f"  studio-oval-rock: {frames} frames, {anim.seconds:.1f} s, exposure {anim.exposure_ev:+.2f} EV for all", flush=True)
 
 
@@ -244,11 +256,131 @@ SERIES = {
 }
 
 
+# ---------------------------------------------------------------------- the page
+COMMAND = ".venv/bin/python examples/paper_figures.py --out docs/gallery"
+
+#: docs/gallery.md: (heading, introduction, [(image, alt text, caption)]); {key}s are :data:`FACTS`
+PAGE: list[tuple[str, str, list[tuple[str, str, str]]]] = [
+    ("Fig. 6 / 11: the zoning lookup table", "", [
+        ("fig06-lut.png", "LUT",
+         "The two zoning presets (docs/zoning.md). Top: the flash colour at normal incidence of the parameter set the "
+         "LUT gives for each noise value x; black bars are the unblended ranges, the rest is blended linearly in the "
+         "parameters (`smooth`) or switched at the middle of the gap (`sharp`: here the ranges touch). Bottom: a slice "
+         "of the baked, equalised noise grid mapped through the LUT. No rendering is involved."),
+    ]),
+    ("Fig. 7: anorthite content", "", [
+        ("fig07-anorthite.png", "anorthite series",
+         "The top face of `meshes/cube-10.ply`, lamellae parallel to it, diffuse sky (`lighting=\"sky\"`), viewed "
+         "face-up and cropped to the face, for `Labradorite.from_anorthite(46 … 60)`. As in the paper the dominant "
+         "colour moves to longer wavelengths with the anorthite content (thicker lamellae): blue, cyan, green, gold, "
+         "orange, red (first-order peaks at 447, 492, 537, 582, 627 and 673 nm); at An58 and An60 the peak (718, "
+         "763 nm) leaves the visible range and the colour fades to a reddish grey. Labels: the lamella period and the "
+         "CIE dominant wavelength of the flash at normal incidence."),
+    ]),
+    ("Fig. 8: thickness variance", "", [
+        ("fig08-variance.png", "variance series",
+         "The same cube top for a material peaking at 500 nm with σa = 1, 10, 20, 30, 40, 50, 80 nm and σb = 16 nm "
+         "(the paper's values). The hue stays put and the colour desaturates to grey as the stack becomes irregular; "
+         "the labels give the excitation purity of the flash colour."),
+    ]),
+    ("Fig. 9 and 10: smooth and sharp colour zoning", "", [
+        ("fig09-10-zoning.png", "zoning",
+         "The `smooth` and `sharp` zoning presets (blue, green and gold parameter sets, "
+         "`Zoning.preset(name, scale_mm=3.5)`) on the cube top and on `meshes/sphere-10.ply` seen from above under the "
+         "sky. Both presets use the same noise seed, so the zones sit in the same places: `smooth` (2 octaves, wide "
+         "blended ranges) gives soft transitions like the paper's Labradorite (Fig. 9), `sharp` (5 octaves, no blended "
+         "ranges) ragged, hard-edged zones like its Spectrolite (Fig. 10). On the sphere only the cap whose surface is "
+         "near the lamella plane flashes."),
+    ]),
+    ("Fig. 12: zoned cabochons", "", [
+        ("fig12-cabochons.png", "cabochons",
+         "`meshes/oval-16x12-medium.ply`, `oval-16x12-high.ply` and `round-12-high.ply` with zoning (`scale_mm=4`, "
+         "seed 3), lamellae parallel to the base, sky light, seen 20° from the top. As the paper notes for its Fig. 12, "
+         "curved stones show the zones over a smaller, less intense area than flat cube faces: the flash covers the "
+         "part of the dome that is close to parallel to the lamellae."),
+    ]),
+    ("Fig. 13: the biplane carving, two lamella orientations", "", [
+        ("fig13-biplane.png", "biplane",
+         "`meshes/carving-biplane.ply` (non-convex: path traced, 3 bounces), blue material, studio lighting, seen from "
+         "40° tilt. Left: lamellae parallel to the wings, which flash. Right: lamellae tilted 55° toward the front: "
+         "the wings are grey and the flash moves to the fuselage side, tail and wheels. As the paper says, no change "
+         "of lighting or view moves the flash of one orientation to where the other one has it; choosing the "
+         "orientation for a carving is what `labcut.recommend_orientation` is for."),
+    ]),
+    ("Studio presentation renders",
+     "What a designer would show a client: the studio look (docs/rendering.md, \"The studio look\"); `--only studio` "
+     "renders just these images (the page is rewritten by a full run only). `RenderResult.save` writes them, with "
+     "the AgX curve and the exposure metered from the lights, the same {studio_ev} EV for all: the stones' brightness "
+     "differences are real. Each stone is blue labradorite at the lamella orientation `labcut.recommend_orientation` "
+     "picks at draft quality under the `bench` scenario, seen from the bench's main viewer, {studio_size}, denoised.", [
+        ("studio-oval-zoned.png", "zoned oval",
+         "`meshes/oval-16x12-low.ply`, lamella normal {studio_oval_zoned_normal} (parallel to the base: the "
+         "recommendation), with the `smooth` colour zoning on the blue material (`Zoning.preset(\"smooth\", blue, "
+         "scale_mm=4, seed=3)`): blue, green and gold zones under the lamp, the lamp's near-white mirror image at the "
+         "top of the dome, dark inclusions, the dark rim where the dome turns away from the lamp, and the soft contact "
+         "shadow on the grey table."),
+        ("studio-biplane.png", "biplane",
+         "`meshes/carving-biplane.ply` (non-convex: path traced), lamella normal {studio_biplane_normal} (tilted a few "
+         "degrees towards the front): the wings flash blue, the fuselage (its surfaces far from the lamella plane) "
+         "stays the dark grey-green body with the tent's reflections along it."),
+        ("studio-srb.png", "SRB",
+         "The faceted design `meshes/designs/SRB.asc` (a standard round brilliant, 10 mm), lamella normal "
+         "{studio_srb_normal} (tilted a few degrees towards the front): the table facet and the crown facets near it "
+         "flash, the steeper crown facets show the dark body and mirror the tent and the lamp."),
+        ("studio-oval-rock.webp", "rocking oval",
+         "The oval (no zoning) rocked ±30° front-to-back under the fixed lamp, {rock}, one exposure for every frame: "
+         "the flash fills the dome at rest, goes out as the stone tilts away (a thin band lingers at the rim facing "
+         "the lamp) and comes back, as it does in the hand; the lamp's highlight moves to the dome's edge. Animated "
+         "WebP ({rock_webp}); the same as a GIF: [studio-oval-rock.gif]({gif}) ({rock_gif})."),
+    ]),
+]
+
+HEADER = """# Gallery: the paper's figures, rendered by labcut
+
+This page and every image on it are written by one command (edit the template, `PAGE` in
+`examples/paper_figures.py`, not this file):
+
+```sh
+{command}
+```
+
+({minutes:.0f} min on {cores} CPU cores, Mitsuba LLVM; `--quick` makes tiny smoke-test images, `--only fig07 fig08`
+re-renders some series without rewriting the page.)
+
+Renders that reproduce the result figures of Weidlich & Wilkie 2009 with the `labradorite` BSDF and labcut's
+bundled meshes, then presentation renders in the studio look. Each sheet of the paper's figures is one series
+(RGB variant); its panels share one exposure, so differences in brightness are real, and are tonemapped with
+labcut's hue-preserving curve (`labcut.rendering.images.tonemap`). Renders include all three lobes (surface glare,
+schiller, grey body) unless noted. The paper's images are gamut-mapped spectral renders; ours are linear-sRGB
+renders whose reflectance tables come from the same spectral model, so the hues agree but the exact saturation
+does not.
+"""
+
+
+def write_page(out: Path, page: Path, seconds: float) -> None:
+    """Write the gallery page (:data:`PAGE`): each image in a table row beside its caption."""
+    rel = Path(os.path.relpath(out.resolve(), page.parent.resolve())).as_posix()
+    facts = dict(FACTS, gif=f"{rel}/studio-oval-rock.gif")
+    lines = [HEADER.format(command=COMMAND, minutes=max(1.0, seconds / 60.0), cores=os.cpu_count())]
+    for heading, intro, images in PAGE:
+        lines += [f"## {heading}", ""]
+        if intro:
+            lines += [intro.format(**facts), ""]
+        lines += ["| image | what it shows |", "|---|---|"]
+        for name, alt, caption in images:
+            assert (out / name).exists(), f"{out / name} missing"
+            lines.append(f"| ![{alt}]({rel}/{name}) | {caption.format(**facts)} |")
+        lines.append("")
+    page.write_text("\n".join(lines))
+    print(f"page       -> {page}")
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=Path, default=ROOT / "docs" / "gallery", help="output folder (default docs/gallery)")
     parser.add_argument("--quick", action="store_true", help="tiny, noisy images: a smoke test")
-    parser.add_argument("--only", nargs="*", choices=sorted(SERIES), help="render only these series")
+    parser.add_argument("--only", nargs="*", choices=sorted(SERIES), help="render only these series (the page is not rewritten)")
+    parser.add_argument("--page", type=Path, default=None, help="the gallery page a full run writes (default: <out>.md)")
     args = parser.parse_args(argv)
     settings = Settings(args.quick)
     args.out.mkdir(parents=True, exist_ok=True)
@@ -258,6 +390,8 @@ def main(argv: list[str] | None = None) -> int:
         SERIES[key](settings, args.out)
         print(f"{key:10s} {time.perf_counter() - start:6.1f} s", flush=True)
     print(f"all        {time.perf_counter() - total:6.1f} s -> {args.out}")
+    if not args.only:
+        write_page(args.out, args.page or args.out.with_name(args.out.name + ".md"), time.perf_counter() - total)
     return 0
 
 
