@@ -382,7 +382,7 @@ def plan_effects(
     from .validation import check_number
 
     resolution = None if resolution is None else check_number(resolution, "resolution", 8, 8192, integer=True)
-    spp = None if spp is None else check_number(spp, "spp (samples per pixel)", 1, 1 << 16, integer=True)
+    spp = None if spp is None else check_number(spp, "spp (samples per pixel)", 1, 1 << 30, integer=True)  # as labcut.render: no practical limit
     views = check_number(views, "views", 1, 10_000, integer=True)
     if look not in ("diagram", "studio"):
         raise ParameterError(f"look must be diagram or studio, got {look!r}")

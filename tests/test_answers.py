@@ -151,7 +151,7 @@ def test_ctrl_c_during_the_render_leaves_the_answer(tmp_path):
     time.sleep(1.0)
     proc.send_signal(signal.SIGINT)
     _, err = proc.communicate(timeout=120)
-    assert proc.returncode == 130 and "Traceback" not in err
+    assert proc.returncode == 130 and "Traceback" not in err, err
     assert json.loads(js.read_text())["normal"]
     assert not png.exists() and not [p for p in tmp_path.iterdir() if p.name.startswith(".")]
 

@@ -8,7 +8,6 @@ row failed); Ctrl-C keeps every finished row. docs/batch.md.
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 from typing import Annotated, Any, Optional
 

@@ -135,14 +135,13 @@ def compromise_table(cmp: Any) -> Table:
 
 
 @app.command("compare")
+@mo.takes_mesh_options
 @m.takes_material
 def compare(
     cuts: Cuts,
     scenario: Scenarios = None,
     reference: Annotated[str, typer.Option("--reference", help="The cut every other is normalised to: its position (1 = the first CUT) or its name.")] = "1",
-    units: mo.Units = "auto",
-    up_axis: mo.UpAxis = "auto",
-    size: mo.Size = None,
+    mesh_options: Any = None,  # --units, --up-axis, --size (meshes.takes_mesh_options)
     material: Any = None,  # the material options (materials.takes_material)
     quality: Annotated[str, typer.Option(help="draft, standard or high: of the recommendations, curves and renders.")] = "standard",
     seed: Annotated[int, typer.Option(help="Seed of the surface sampling and the renders.", min=0)] = 0,
@@ -174,7 +173,7 @@ def compare(
 
         raise ParameterError("compare runs the sample estimator (many cuts and curves); "
                              "use --estimator samples, or recommend-orientation --estimator render per cut")
-    unit_arg, up = mo.check_mesh_options(units, up_axis, size)
+    unit_arg, up, size = mesh_options.units_arg, mesh_options.up, mesh_options.size
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", LabcutWarning)
         plan = plan_comparison(cuts, material, scenario or ["bench"], reference=_reference(reference, len(cuts)), quality=quality,

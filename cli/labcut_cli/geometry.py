@@ -172,11 +172,10 @@ def cabochon(
 
 
 @app.command("inspect")
+@mo.takes_mesh_options
 def inspect_mesh(
     mesh_path: Annotated[Path, typer.Argument(metavar="MESH", help="STL, OBJ, PLY, OFF, GLB/GLTF or 3MF file.")],
-    units: mo.Units = "auto",
-    up_axis: mo.UpAxis = "auto",
-    size: mo.Size = None,
+    mesh_options: Any = None,  # --units, --up-axis, --size (meshes.takes_mesh_options)
     recentre: Annotated[bool, typer.Option(help="Centre on the Z axis with the base on z = 0.")] = True,
     repair: Annotated[bool, typer.Option(help="Repair what can be repaired (else any defect is an error).")] = True,
     json_path: Annotated[Optional[Path], typer.Option("--json", help="Also write the summary as JSON to this file ('-' for stdout).")] = None,
@@ -188,8 +187,7 @@ def inspect_mesh(
     to_stdout = json_path is not None and str(json_path) == "-"
     if json_path is not None and not to_stdout:
         check_output_path(json_path, (".json",))
-    mo.check_mesh_options(units, up_axis, size)
-    mesh = mo.load(mesh_path, units, up_axis, size=size, recentre=recentre, repair=repair)
+    mesh = mesh_options.load(mesh_path, recentre=recentre, repair=repair)
     summary = summarize(mesh, mesh_path.name)
     if not to_stdout:
         info = mesh.metadata["labcut"]

@@ -40,45 +40,20 @@ OPTIONS: tuple[tuple[str, Any], ...] = (
 
 
 def takes_material(func: Any = None, *, without: tuple[str, ...] = ()) -> Any:
-    """Give a typer command the material options once, in one place (``without``: options it has
-    no use for, e.g. ``("spread",)`` for ``spectrum``, which has no directions).
-
-    The command declares ``material: Any = None`` where the options belong; typer sees the options
-    of :data:`OPTIONS` there instead, and the command receives the :class:`labcut.Labradorite`
-    they describe (:func:`build_material`, checked before the command's body runs: a bad value is
-    the usual one-line error)."""
-    import functools
-    import inspect
+    """Give a typer command the material options (:data:`OPTIONS`) once, in one place: the command
+    declares ``material: Any = None`` and receives the :class:`labcut.Labradorite` they describe
+    (:func:`build_material`). ``without``: options it has no use for (``("spread",)`` for
+    ``spectrum``, which has no directions)."""
+    from .groups import option_group
 
     if func is None:
         return lambda f: takes_material(f, without=without)
-    options = tuple((n, a) for n, a in OPTIONS if n not in without)
-    sig = inspect.signature(func, eval_str=True)  # real annotations: typer reads the Options in them
-    if "material" not in sig.parameters:
-        raise TypeError(f"{func.__name__} must declare a 'material' parameter for takes_material")
-    names = [n for n, _ in options]
-    params: list[inspect.Parameter] = []
-    for name, param in sig.parameters.items():
-        if name == "material":
-            params += [inspect.Parameter(n, inspect.Parameter.POSITIONAL_OR_KEYWORD, default=None, annotation=a)
-                       for n, a in options]
-        else:
-            params.append(param)
 
-    @functools.wraps(func)
-    def command(*args: Any, **kwargs: Any) -> Any:
-        bound = {n: kwargs.pop(n, None) for n, _ in OPTIONS}
-        material = build_material(bound["preset"], bound["peak"], bound["an"], bound["material_file"],
-                                  d_a=bound["d_a"], d_b=bound["d_b"], sigma_a=bound["sigma_a"], sigma_b=bound["sigma_b"],
-                                  n_a=bound["n_a"], n_b=bound["n_b"], n_surface=bound["n_surface"], pairs=bound["pairs"],
-                                  spread_deg=bound["spread"])
-        return func(*args, material=material, **kwargs)
+    def build(preset=None, peak=None, an=None, material_file=None, spread=None, **layers):  # noqa: ANN001, ANN202
+        return build_material(preset, peak, an, material_file, spread_deg=spread, **layers)
 
-    annotations = {k: v for k, v in getattr(func, "__annotations__", {}).items() if k != "material"}
-    annotations.update(dict(options))
-    command.__annotations__ = annotations
-    command.__signature__ = sig.replace(parameters=params)  # type: ignore[attr-defined]
-    return command
+    options = [(n, a, None) for n, a in OPTIONS if n not in without]
+    return option_group("material", options, build)(func)
 
 
 def material_block(data: Any, source: str) -> dict[str, Any]:

@@ -5,6 +5,7 @@ loader that reports what it did: warnings on stderr, repairs with the answer, pr
 from __future__ import annotations
 
 import warnings
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Annotated, Any, Optional
 
@@ -40,6 +41,35 @@ Size = Annotated[
         rich_help_panel="Mesh",
     ),
 ]
+
+@dataclass(frozen=True)
+class MeshOptions:
+    """``--units``, ``--up-axis`` and ``--size`` of a command, checked (:func:`check_mesh_options`):
+    ``units_arg`` and ``up`` as ``load_mesh`` takes them; :meth:`load` reads a mesh with them."""
+
+    units: str = "auto"
+    up_axis: str = "auto"
+    size: float | None = None
+    units_arg: str | float = "auto"
+    up: str = "auto"
+
+    def load(self, path: Path, **kwargs: Any) -> Any:
+        return load(path, self.units, self.up_axis, size=self.size, **kwargs)
+
+
+def _mesh_options(units: str = "auto", up_axis: str = "auto", size: float | None = None) -> MeshOptions:
+    unit_arg, up = check_mesh_options(units, up_axis, size)
+    return MeshOptions(units, up_axis, size, unit_arg, up)
+
+
+def takes_mesh_options(func: Any) -> Any:
+    """Give a typer command ``--units``, ``--up-axis`` and ``--size`` once: the command declares
+    ``mesh_options: Any = None`` and receives the checked :class:`MeshOptions`."""
+    from .groups import option_group
+
+    return option_group("mesh_options", (("units", Units, "auto"), ("up_axis", UpAxis, "auto"), ("size", Size, None)),
+                        _mesh_options)(func)
+
 
 #: files at least this large get a progress bar while they load (bytes)
 PROGRESS_BYTES = 2_000_000

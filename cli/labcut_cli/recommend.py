@@ -129,12 +129,11 @@ def print_render_notes(result: Any) -> None:
 
 
 @app.command("recommend-orientation")
+@mo.takes_mesh_options
 @m.takes_material
 def recommend_orientation(
     mesh_path: Annotated[Path, typer.Argument(metavar="MESH", help="Stone mesh: STL, OBJ, PLY, OFF, GLB/GLTF, 3MF.")],
-    units: mo.Units = "auto",
-    up_axis: mo.UpAxis = "auto",
-    size: mo.Size = None,
+    mesh_options: Any = None,  # --units, --up-axis, --size (meshes.takes_mesh_options)
     material: Any = None,  # the material options (materials.takes_material)
     scenario: so.Scenario = None,
     lighting: so.Lighting = None,
@@ -195,8 +194,7 @@ def recommend_orientation(
         check_budget(time_budget)
         if quality != "standard":
             raise ParameterError("give --quality or --time-budget, not both (the budget chooses the quality)")
-    mo.check_mesh_options(units, up_axis, size)
-    mesh = mo.load(mesh_path, units, up_axis, size=size)
+    mesh = mesh_options.load(mesh_path)
     if plan or plan_only or setup.effects or estimator != "auto" or zone is not None:  # a bad combination fails before the work
         from labcut.planner import plan_effects
 
@@ -298,13 +296,12 @@ def recommend_orientation(
 
 
 @app.command("evaluate-orientation")
+@mo.takes_mesh_options
 @m.takes_material
 def evaluate_orientation(
     mesh_path: Annotated[Path, typer.Argument(metavar="MESH", help="Stone mesh: STL, OBJ, PLY, OFF, GLB/GLTF, 3MF.")],
     normal: Annotated[str, typer.Option("--normal", "-n", help="Lamella normal X,Y,Z in the mesh frame (+Z face-up, -Y front).")] = "0,0,1",
-    units: mo.Units = "auto",
-    up_axis: mo.UpAxis = "auto",
-    size: mo.Size = None,
+    mesh_options: Any = None,  # --units, --up-axis, --size (meshes.takes_mesh_options)
     material: Any = None,  # the material options (materials.takes_material)
     scenario: so.Scenario = None,
     lighting: so.Lighting = None,
@@ -328,8 +325,7 @@ def evaluate_orientation(
     m_vec = normalize_normal(parse_vector(normal, "--normal"))
     setup = _question(material, scenario, lighting, viewing, quality, estimator, effect, zoning)
     scene = setup.scenario
-    mo.check_mesh_options(units, up_axis, size)
-    mesh = mo.load(mesh_path, units, up_axis, size=size)
+    mesh = mesh_options.load(mesh_path)
     from labcut.planner import plan_effects
 
     the_plan = plan_effects(mesh, material, command="evaluate", scenario=scene, quality=setup.quality, estimator=estimator,

@@ -59,14 +59,13 @@ def parse_normal(text: str) -> tuple[float, ...]:
 
 
 @app.command()
+@mo.takes_mesh_options
 @m.takes_material
 def render(
     mesh_path: Annotated[Path, typer.Argument(metavar="MESH", help="Stone mesh: STL, OBJ, PLY, OFF, GLB/GLTF, 3MF.")],
     output: Annotated[Path, typer.Option("--output", "-o", "--out", help="File to write (required): .png (tonemapped) or .exr (linear HDR); with --animate .webp or .gif.")],
     normal: Annotated[str, typer.Option("--normal", "-n", help="Lamella normal X,Y,Z in the mesh frame (axial; +Z face-up, -Y front), or a recommend-orientation --json file.")] = "0,0,1",
-    units: mo.Units = "auto",
-    up_axis: mo.UpAxis = "auto",
-    size: mo.Size = None,
+    mesh_options: Any = None,  # --units, --up-axis, --size (meshes.takes_mesh_options)
     material: Any = None,  # the material options (materials.takes_material)
     scenario: so.Scenario = None,
     lighting: so.Lighting = None,
@@ -100,8 +99,6 @@ def render(
     Simulates only what the request needs: RGB unless --mode spectral/mono, polarized
     only with --polarizer, direct lighting for convex stones, a path tracer for carvings.
     """
-    import json
-
     import labcut
     from labcut.fileio import check_output_path
     from labcut.rendering.images import IMAGE_SUFFIXES
@@ -156,12 +153,11 @@ def render(
             raise ParameterError("--time-budget chooses the samples per pixel of one image: give --spp for an animation")
         if spp != 64:
             raise ParameterError("give --spp or --time-budget, not both (the budget chooses the samples per pixel)")
-    mo.check_mesh_options(units, up_axis, size)
     from labcut.rendering.api import plan_render
 
     plan_render(_Probe(), None, mode, polarizer, ("schiller",) if schiller_only else ("surface", "schiller", "body"),
                 look=look_spec, denoise=denoise)  # e.g. --denoise with --mode mono: fail before the mesh loads
-    mesh = mo.load(mesh_path, units, up_axis, size=size)
+    mesh = mesh_options.load(mesh_path)
     if plan or plan_only:
         from labcut.planner import plan_effects
 
@@ -261,8 +257,6 @@ def _animate(mesh_path: Path, mesh, material, lamella, scene, motion: str, frame
              spp: int, resolution: int, exposure_value, look, denoise, zoning_spec, seed: int, output: Path,
              json_path: Optional[str]) -> None:
     """``labcut render --animate``: every frame under one exposure, the file written once all are done."""
-    import json
-
     from labcut.geometry.meshio import provenance
     from labcut.rendering.animate import animate
     from labcut.rendering.api import normalize_normal
