@@ -4,6 +4,7 @@
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Annotated, Any, Optional
 
 import typer
@@ -17,6 +18,25 @@ Estimator = Annotated[str, typer.Option(
                         "render: Mitsuba renders optimised with Dr.Jit gradients, carries light between the parts of a carving).")]
 Effect = Annotated[Optional[list[str]], typer.Option(
     "--effect", help=f"Override the planner: NAME=on|off for {', '.join(x.replace('_', '-') for x in SWITCHABLE)} (repeatable).")]
+
+
+@dataclass(frozen=True)
+class PlanRequest:
+    """The planner's options of a command: ``--estimator``, ``--effect`` (as given), ``--plan``, ``--plan-only``."""
+
+    estimator: str = "auto"
+    effect: Optional[list[str]] = None
+    plan: bool = False
+    plan_only: bool = False
+
+
+def takes_plan_options(func: Any) -> Any:
+    """Give a typer command ``--estimator``, ``--effect``, ``--plan`` and ``--plan-only`` once: the
+    command declares ``plan_options: Any = None`` and receives a :class:`PlanRequest`."""
+    from .groups import option_group
+
+    return option_group("plan_options", (("estimator", Estimator, "auto"), ("effect", Effect, None), ("plan", Plan, False),
+                                         ("plan_only", PlanOnly, False)), PlanRequest)(func)
 
 
 def check(estimator: str, effect: list[str] | None) -> dict[str, bool]:

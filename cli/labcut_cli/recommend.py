@@ -130,6 +130,7 @@ def print_render_notes(result: Any) -> None:
 
 @app.command("recommend-orientation")
 @mo.takes_mesh_options
+@po.takes_plan_options
 @m.takes_material
 def recommend_orientation(
     mesh_path: Annotated[Path, typer.Argument(metavar="MESH", help="Stone mesh: STL, OBJ, PLY, OFF, GLB/GLTF, 3MF.")],
@@ -156,10 +157,7 @@ def recommend_orientation(
     exposure: Exposure = "auto",
     look: so.Look = "studio",
     denoise: so.Denoise = None,
-    estimator: po.Estimator = "auto",
-    effect: po.Effect = None,
-    plan: po.Plan = False,
-    plan_only: po.PlanOnly = False,
+    plan_options: Any = None,  # --estimator, --effect, --plan, --plan-only (plan_options.takes_plan_options)
     zoning: m.ZoningOpt = None,
 ) -> None:
     """Find the lamella orientation that makes MESH flash most, and how precisely it must be cut.
@@ -167,6 +165,7 @@ def recommend_orientation(
     Angles: tilt from the face-up axis (+Z); azimuth from +X (the stone's right) towards +Y
     (its back): 0° right, 90° back, 180° left, 270° front (-Y).
     """
+    estimator, effect, plan, plan_only = plan_options.estimator, plan_options.effect, plan_options.plan, plan_options.plan_only
     import labcut
     from labcut.errors import ParameterError
     from labcut.fileio import check_output_path
@@ -297,6 +296,7 @@ def recommend_orientation(
 
 @app.command("evaluate-orientation")
 @mo.takes_mesh_options
+@po.takes_plan_options
 @m.takes_material
 def evaluate_orientation(
     mesh_path: Annotated[Path, typer.Argument(metavar="MESH", help="Stone mesh: STL, OBJ, PLY, OFF, GLB/GLTF, 3MF.")],
@@ -308,13 +308,11 @@ def evaluate_orientation(
     viewing: so.Viewing = None,
     quality: Quality = "standard",
     json_path: Annotated[Optional[str], typer.Option("--json", help="Write the metrics as JSON ('-' for stdout).")] = None,
-    estimator: po.Estimator = "auto",
-    effect: po.Effect = None,
-    plan: po.Plan = False,
-    plan_only: po.PlanOnly = False,
+    plan_options: Any = None,  # --estimator, --effect, --plan, --plan-only (plan_options.takes_plan_options)
     zoning: m.ZoningOpt = None,
 ) -> None:
     """Flash metrics of MESH cut with its lamella plane normal to --normal."""
+    estimator, effect, plan, plan_only = plan_options.estimator, plan_options.effect, plan_options.plan, plan_options.plan_only
     import labcut
     from labcut.fileio import check_output_path
     from labcut.orientation.recommend import METRIC_DEFINITIONS, FRAME, mesh_provenance, metrics_dict
