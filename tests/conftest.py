@@ -59,3 +59,16 @@ def variant():
     yield use
     if previous is not None and mi.variant() != previous:
         mi.set_variant(previous)
+
+
+@pytest.fixture(scope="module")
+def fresh_pilot_cache(tmp_path_factory):
+    """The effect planner's pilot renders measured in this module, not read from an earlier run's
+    cache (its own cache file and an empty in-process cache)."""
+    import labcut.planner as planner
+
+    mp = pytest.MonkeyPatch()
+    mp.setattr(planner, "_pilot_cache_path", lambda: tmp_path_factory.mktemp("cache") / "planner-pilot.json")
+    mp.setattr(planner, "_PILOT_CACHE", {})
+    yield
+    mp.undo()

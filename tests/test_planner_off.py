@@ -27,15 +27,8 @@ def angle_deg(a, b) -> float:
 
 
 @pytest.fixture(autouse=True, scope="module")
-def fresh_pilot_cache(tmp_path_factory):
-    """Pilot renders measured here, not read from an earlier run's cache."""
-    import labcut.planner as planner
-
-    mp = pytest.MonkeyPatch()
-    mp.setattr(planner, "_pilot_cache_path", lambda: tmp_path_factory.mktemp("cache") / "planner-pilot.json")
-    mp.setattr(planner, "_PILOT_CACHE", {})
-    yield
-    mp.undo()
+def _pilots_measured_here(fresh_pilot_cache):
+    """Every test here measures its pilot renders (conftest.fresh_pilot_cache)."""
 
 
 _MESH_CACHE: dict[str, object] = {}

@@ -132,21 +132,29 @@ def to_mitsuba_mesh(mesh: Any, bsdf: Any, smooth_angle_deg: float | None = None)
     Edges sharper than ``smooth_angle_deg`` (default :func:`shading_angle_deg`: 30°, or
     0.5° for faceted designs) keep flat shading; curved domes get interpolated vertex normals.
     """
+    angle = shading_angle_deg(mesh) if smooth_angle_deg is None else float(smooth_angle_deg)
+    split = smooth_split(mesh, angle)
+    m = _mitsuba_mesh(split.vertices, split.faces, split.vertex_normals)
+    m.set_bsdf(bsdf)
+    return m
+
+
+def _mitsuba_mesh(vertices: Any, faces: Any, normals: Any = None) -> Any:
+    """A Mitsuba mesh of vertex positions (mm), triangles and optional vertex normals (float32 arrays)."""
     import drjit as dr
     import mitsuba as mi
 
-    angle = shading_angle_deg(mesh) if smooth_angle_deg is None else float(smooth_angle_deg)
-    split = smooth_split(mesh, angle)
-    v = np.ascontiguousarray(split.vertices, dtype=np.float32)
-    f = np.ascontiguousarray(split.faces, dtype=np.uint32)
-    n = np.ascontiguousarray(split.vertex_normals, dtype=np.float32)
-    m = mi.Mesh("stone", vertex_count=len(v), face_count=len(f), has_vertex_normals=True, props=mi.Properties())
+    v = np.ascontiguousarray(vertices, dtype=np.float32)
+    f = np.ascontiguousarray(faces, dtype=np.uint32)
+    m = mi.Mesh("stone", vertex_count=len(v), face_count=len(f), has_vertex_normals=normals is not None,
+                props=mi.Properties())
     params = mi.traverse(m)
     params["vertex_positions"] = dr.ravel(mi.Point3f(v[:, 0], v[:, 1], v[:, 2]))
     params["faces"] = dr.ravel(mi.Vector3u(f[:, 0], f[:, 1], f[:, 2]))
-    params["vertex_normals"] = dr.ravel(mi.Vector3f(n[:, 0], n[:, 1], n[:, 2]))
+    if normals is not None:
+        n = np.ascontiguousarray(normals, dtype=np.float32)
+        params["vertex_normals"] = dr.ravel(mi.Vector3f(n[:, 0], n[:, 1], n[:, 2]))
     params.update()
-    m.set_bsdf(bsdf)
     return m
 
 
@@ -155,17 +163,10 @@ def ray_scene(mesh: Any) -> Any:
     shading normals, no BSDF to speak of. Built once per mesh and Mitsuba variant
     (:func:`mesh_cached`): a flash problem asks it two queries per pose, and a recommendation
     with error bars builds three problems."""
-    import drjit as dr
     import mitsuba as mi
 
     def build() -> Any:
-        v = np.ascontiguousarray(mesh.vertices, dtype=np.float32)
-        f = np.ascontiguousarray(mesh.faces, dtype=np.uint32)
-        m = mi.Mesh("stone", vertex_count=len(v), face_count=len(f), has_vertex_normals=False, props=mi.Properties())
-        params = mi.traverse(m)
-        params["vertex_positions"] = dr.ravel(mi.Point3f(v[:, 0], v[:, 1], v[:, 2]))
-        params["faces"] = dr.ravel(mi.Vector3u(f[:, 0], f[:, 1], f[:, 2]))
-        params.update()
+        m = _mitsuba_mesh(mesh.vertices, mesh.faces)
         m.set_bsdf(mi.load_dict({"type": "diffuse"}))
         return mi.load_dict({"type": "scene", "stone": m})
 
