@@ -144,6 +144,8 @@ def main() -> None:
     parser.add_argument("--ref-spp", type=int, default=REF_SPP, help="samples per pixel of the references (a multiple of 16)")
     parser.add_argument("--out", default=str(ROOT / "docs" / "render-performance.md"))
     args = parser.parse_args()
+    if args.ref_spp < 16 or args.ref_spp % 16:
+        parser.error(f"--ref-spp must be a multiple of 16, got {args.ref_spp}")
     res, reps, ref_spp = args.resolution, args.repeats, args.ref_spp
     t_all = time.perf_counter()
     mesh = labcut.load_mesh(MESH)

@@ -158,6 +158,12 @@ def is_convex(mesh: Any) -> bool:
     return bool(is_convex_mesh(mesh))
 
 
+def occlusion_on(convex: bool, forced: Mapping[str, bool]) -> bool:
+    """The planner's occlusion rule: on for a stone that is not convex, unless ``forced``
+    (checked overrides, :func:`check_effects`) says otherwise."""
+    return bool(forced.get("occlusion", not convex))
+
+
 def hemispherical_fresnel(eta: float, samples: int = 512) -> float:
     """Cosine-weighted mean of the unpolarised Fresnel reflectance from air into index ``eta``."""
     from .physics import schiller
@@ -410,7 +416,7 @@ def plan_effects(
     # occlusion ---------------------------------------------------------------
     if "occlusion" in forced and forced["occlusion"] and convex:
         raise ParameterError("occlusion cannot be switched on for a convex stone: no part of it can hide another")
-    occ_on = forced.get("occlusion", not convex)
+    occ_on = occlusion_on(convex, forced)
     if rendering:
         occ_on = True
         decisions.append(Decision("occlusion", True, "ray tracing", "a renderer traces every ray; it costs nothing extra",
@@ -738,5 +744,12 @@ def _predicted_render_seconds(mode: str, polarised: bool, integrator: str, resol
 
     if _CALIBRATING or calibrating():
         return {}
+    return {"render": render_seconds(mode, polarised, integrator, resolution, spp, views, look)}
+
+
+def render_seconds(mode: str, polarised: bool, integrator: str, resolution: int, spp: int, views: int,
+                   look: str = "diagram") -> float:
+    """Predicted wall seconds of :func:`labcut.render` on this machine: ``views`` x (fixed + per
+    sample x resolution² x spp), from :func:`render_command_timing`."""
     fixed, per_sample = render_command_timing(mode, polarised, integrator, look)
-    return {"render": float(views * (fixed + per_sample * resolution * resolution * spp))}
+    return float(views * (fixed + per_sample * resolution * resolution * spp))

@@ -183,7 +183,7 @@ def test_cli_malformed_catalogue_exits_2_before_any_work(folder, cli):
 
 @pytest.mark.parametrize("name, rows", [("catalog.csv", 12), ("catalog.yaml", 13), ("catalog-demo.csv", 6)])
 def test_bundled_catalogues_are_valid(name, rows):
-    """The catalogues the docs, README and ``make demo`` run: every file they name exists."""
+    """The catalogues the docs, README and ``make demo`` run read without error (read_catalog
+    refuses a row whose file is missing), with the rows they are documented to have, each once."""
     cat = read_catalog(ROOT / "examples" / name, Defaults(quality="draft"))
     assert len(cat.rows) == rows and len({r.key for r in cat.rows}) == rows
-    assert all(r.path is None or Path(r.path).is_file() for r in cat.rows)

@@ -87,16 +87,12 @@ def test_the_sampling_bar_shrinks_with_more_surface_points(oval):
 
 
 @functools.lru_cache(maxsize=None)
-def _converged_of(scenario: str):
+def _converged(scenario: str):
+    """A much finer problem of the same question (the bundled oval): 8x draft's surface samples,
+    3-4x its directions and poses (computed once per scenario)."""
     q = Quality.coerce("high").replace(surface_points=24000)
     mesh = labcut.load_mesh("meshes/oval-16x12-low.ply")
     return labcut.recommend_orientation(mesh, "blue", scenario=scenario, quality=q, seed=101)
-
-
-def _converged(mesh, scenario: str):
-    """A much finer problem of the same question (the bundled oval): 8x draft's surface samples,
-    3-4x its directions and poses (computed once per scenario)."""
-    return _converged_of(scenario)
 
 
 @pytest.mark.parametrize("scenario", ["bench", "pendant"])
@@ -104,7 +100,7 @@ def test_the_bars_cover_the_distance_to_a_converged_answer(oval, scenario):
     """Draft answers of four seeds: each bar covers its distance to the converged normal and score
     (about 95 % coverage each: at most one miss of the eight in the two scenarios would already be
     unusual, so every one must hold); and the bars are not vacuous (below the tolerance)."""
-    ref = _converged(oval, scenario)
+    ref = _converged(scenario)
     for seed in range(4):
         rec = labcut.recommend_orientation(oval, "blue", scenario=scenario, quality="draft", seed=seed)
         u = rec.uncertainty
@@ -117,7 +113,7 @@ def test_the_bars_cover_the_distance_to_a_converged_answer(oval, scenario):
 def test_a_bar_too_narrow_would_miss():
     """The coverage test can fail: bars shrunk 10x do not cover the draft answers' distances."""
     mesh = labcut.load_mesh("meshes/oval-16x12-low.ply")
-    ref = _converged(mesh, "pendant")
+    ref = _converged("pendant")
     misses = 0
     for seed in range(4):
         rec = labcut.recommend_orientation(mesh, "blue", scenario="pendant", quality="draft", seed=seed)

@@ -16,8 +16,9 @@ from rich.table import Table
 from . import materials as m
 from . import meshes as mo
 from . import plan_options as po
+from . import look_options as lo
 from . import scene_options as so
-from .root import all_or_nothing, app, console, err_console, parse_vector, write_json
+from .root import all_or_nothing, app, console, err_console, notes_after, parse_vector, write_json
 
 Quality = Annotated[str, typer.Option(help="draft, standard or high.")]
 Exposure = Annotated[str, typer.Option("--exposure", help="Exposure of the PNG: auto (from the image) or a multiplier > 0.")]
@@ -140,7 +141,7 @@ def recommend_orientation(
     lighting: so.Lighting = None,
     viewing: so.Viewing = None,
     objective: Annotated[str, typer.Option(help="energy, area, intensity or balanced.")] = "energy",
-    quality: Quality = "standard",
+    quality: Annotated[Optional[str], typer.Option(help="draft, standard (the default) or high; not with --time-budget.")] = None,
     optimizer: Annotated[str, typer.Option(help="nlopt, gradient or grid.")] = "nlopt",
     max_tilt: Annotated[float, typer.Option("--max-tilt", help="Largest allowed tilt of the lamella normal, degrees.")] = 90.0,
     tilt_axis: Annotated[Optional[str], typer.Option("--tilt-axis", help="Only tilt about this horizontal axis X,Y,Z.")] = None,
@@ -155,8 +156,8 @@ def recommend_orientation(
     spp: Annotated[int, typer.Option(help="Samples per pixel of --render.", min=1)] = 64,
     resolution: Annotated[int, typer.Option(help="Width and height of --render in pixels.", min=8, max=8192)] = 512,
     exposure: Exposure = "auto",
-    look: so.Look = "studio",
-    denoise: so.Denoise = None,
+    look: lo.Look = "studio",
+    denoise: lo.Denoise = None,
     plan_options: Any = None,  # --estimator, --effect, --plan, --plan-only (plan_options.takes_plan_options)
     zoning: m.ZoningOpt = None,
 ) -> None:
@@ -183,6 +184,9 @@ def recommend_orientation(
     if optimizer not in OPTIMIZERS:
         raise ParameterError(f"--optimizer must be one of {', '.join(OPTIMIZERS)}, got {optimizer!r}")
     exposure_value = parse_exposure(exposure)
+    if time_budget is not None and quality is not None:
+        raise ParameterError("give --quality or --time-budget, not both (the budget chooses the quality)")
+    quality = quality or "standard"
     # the whole question, checked once (FlashSetup.build); the library takes it as it is
     setup = _question(material, scenario, lighting, viewing, quality, estimator, effect, zoning, objective=objective,
                       max_tilt=max_tilt, tilt_axis=parse_vector(tilt_axis, "--tilt-axis") if tilt_axis else None, seed=seed)
@@ -191,8 +195,6 @@ def recommend_orientation(
         from labcut.orientation.budget import check_budget
 
         check_budget(time_budget)
-        if quality != "standard":
-            raise ParameterError("give --quality or --time-budget, not both (the budget chooses the quality)")
     mesh = mesh_options.load(mesh_path)
     if plan or plan_only or setup.effects or estimator != "auto" or zone is not None:  # a bad combination fails before the work
         from labcut.planner import plan_effects
@@ -205,21 +207,11 @@ def recommend_orientation(
             po.finish_plan_only(the_plan, json_path)
             return
 
-    import warnings
-
-    from labcut.errors import LabcutWarning
-
-    with progress_bar("recommending", "%") as update, warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always", LabcutWarning)
+    with notes_after(), progress_bar("recommending", "%") as update:
         rec = labcut.recommend_orientation(
             mesh, setup=setup, optimizer=optimizer, progress=lambda stage, fraction: update(int(round(100 * fraction)), 100),
             time_budget=time_budget,
         )
-    for w in caught:
-        if issubclass(w.category, LabcutWarning):
-            err_console.print(f"note: {w.message}", highlight=False, soft_wrap=True)
-        else:
-            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
     data = rec.to_dict()
     data["mesh"]["path"] = str(mesh_path)
     if render_path is not None:
@@ -277,7 +269,7 @@ def recommend_orientation(
     try:
         with progress_bar("rendering", "samples/pixel") as update:
             result = labcut.render(mesh, material, rec.normal, scenario=rec.scenario, spp=spp, resolution=resolution,
-                                   progress=update, zoning=zone, look=so.look_spec(look), denoise=denoise)
+                                   progress=update, zoning=zone, look=lo.spec(look), denoise=denoise)
         with all_or_nothing() as written:
             result.save(render_path, exposure_value)
             written.append(Path(render_path))

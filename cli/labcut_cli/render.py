@@ -13,7 +13,7 @@ from . import meshes as mo
 from . import plan_options as po
 from . import scene_options as so
 from .recommend import print_render_notes
-from .root import all_or_nothing, app, console, err_console, parse_vector, write_json
+from .root import all_or_nothing, app, console, notes_after, parse_vector, write_json
 
 STILL_SUFFIXES = (".png", ".exr")
 ANIMATION_SUFFIXES = (".webp", ".gif")
@@ -71,7 +71,7 @@ def render(
     lighting: so.Lighting = None,
     viewing: so.Viewing = None,
     view: Annotated[str, typer.Option(help="Camera: main (the scenario's main viewer), face-up, orbit, or TILT,AZIMUTH in degrees from the face.")] = "main",
-    spp: Annotated[int, typer.Option(help="Samples per pixel.", min=1)] = 64,
+    spp: Annotated[Optional[int], typer.Option(help="Samples per pixel (default 64); not with --time-budget.", min=1)] = None,
     time_budget: Annotated[Optional[float], typer.Option(
         "--time-budget", metavar="SECONDS",
         help="Seconds the render may take: the most samples per pixel (a power of two) predicted to fit on this machine "
@@ -151,8 +151,9 @@ def render(
         check_budget(time_budget)
         if animate is not None:
             raise ParameterError("--time-budget chooses the samples per pixel of one image: give --spp for an animation")
-        if spp != 64:
+        if spp is not None:
             raise ParameterError("give --spp or --time-budget, not both (the budget chooses the samples per pixel)")
+    spp = 64 if spp is None else spp
     from labcut.rendering.api import plan_render
 
     plan_render(_Probe(), None, mode, polarizer, ("schiller",) if schiller_only else ("surface", "schiller", "body"),
@@ -164,7 +165,7 @@ def render(
         the_plan = plan_effects(mesh, material, command="render", scenario=scene, mode=None if mode == "rgb" else mode,
                                 polarizer_deg=polarizer, zoning=zoning_spec, resolution=resolution, spp=spp,
                                 views=len(camera_views(view_spec, scene.main_setting())),
-                                look="diagram" if look_spec == "diagram" else "studio")
+                                look=look)
         po.show(the_plan, mesh_path.name, to_stderr=json_path == "-")
         if plan_only:
             po.finish_plan_only(the_plan, json_path)
@@ -174,20 +175,12 @@ def render(
         _animate(mesh_path, mesh, material, lamella, scene, animate, frames, rock_deg, fps, spp, resolution, exposure_value,
                  look_spec, denoise, zoning_spec, seed, output, json_path)
         return
-    import warnings
-
-    from labcut.errors import LabcutWarning
-
-    with progress_bar("rendering", "samples/pixel") as update, warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always", LabcutWarning)
+    with notes_after(), progress_bar("rendering", "samples/pixel") as update:
         result = labcut.render(
             mesh, material, lamella, scenario=scene, view=view_spec, spp=spp, resolution=resolution,
             mode=mode, polarizer_deg=polarizer, lobes=lobes, progress=update, zoning=zoning_spec, exposure=exposure_value,
             look=look_spec, denoise=denoise, seed=seed, time_budget=time_budget,
         )
-    for w in caught:
-        if issubclass(w.category, LabcutWarning):
-            err_console.print(f"note: {w.message}", highlight=False, soft_wrap=True)
     summary = {
         "output": str(output),
         "mesh": {**result.mesh, "path": str(mesh_path)},

@@ -58,6 +58,24 @@ def all_or_nothing() -> Iterator[list[Path]]:
         raise
 
 
+@contextlib.contextmanager
+def notes_after() -> Iterator[None]:
+    """Hold labcut's warnings (:class:`~labcut.errors.LabcutWarning`) of the block and print each as
+    one ``note:`` line on stderr after it (not inside a progress bar); other warnings go on as usual."""
+    import warnings
+
+    from labcut.errors import LabcutWarning
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", LabcutWarning)
+        yield
+    for w in caught:
+        if issubclass(w.category, LabcutWarning):
+            err_console.print(f"note: {w.message}", highlight=False, soft_wrap=True)
+        else:
+            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+
+
 def write_json(path: str, data: Any) -> None:
     """Write ``data`` as indented JSON, atomically; ``-`` prints it to stdout."""
     from labcut.fileio import atomic_output

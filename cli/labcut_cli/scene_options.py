@@ -13,9 +13,6 @@ import typer
 from labcut.scene.presets import LIGHTING, VIEWING
 from labcut.scene.scenario import SCENARIOS
 
-from .look_options import Denoise, Look  # noqa: F401  (how a render looks: also a scene option)
-from .look_options import spec as look_spec  # noqa: F401
-
 Scenario = Annotated[
     Optional[str],
     typer.Option(help=f"How the stone is lit, worn and seen: {SCENARIOS.choices()} (default: bench)."),

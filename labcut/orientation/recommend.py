@@ -374,7 +374,8 @@ def _setup(mesh: Any, setup: FlashSetup, command: str = "recommend") -> tuple[Sc
 
     validate_mesh(mesh)
     plan = plan_effects(mesh, setup.material, command=command, scenario=setup.scenario, quality=setup.quality,
-                        estimator=setup.estimator, effects=setup.effect_overrides, zoning=setup.zoning)
+                        estimator=setup.estimator, effects=setup.effect_overrides, zoning=setup.zoning,
+                        predict=command == "recommend")  # a recommendation's JSON holds its predicted seconds
     problem = build_problem(mesh, setup.material, quality=setup.quality, tau=setup.tau, seed=setup.seed,
                             settings=setup.scenario.settings(), occlusion=plan.on("occlusion"))
     return Scorer(problem, setup.objective), plan
@@ -541,13 +542,12 @@ def _within_budget(mesh: Any, ask: FlashSetup, time_budget: Any, *, quality_give
     import warnings
 
     from ..errors import LabcutWarning
-    from ..planner import is_convex
+    from ..planner import is_convex, occlusion_on
     from .budget import choose
 
     if quality_given:
         raise ParameterError("give quality or time_budget, not both (the budget chooses the quality)")
-    occlusion = ask.effect_overrides.get("occlusion", not is_convex(mesh))
-    choice = choose(time_budget, ask.scene_spec, bool(occlusion))
+    choice = choose(time_budget, ask.scene_spec, occlusion_on(is_convex(mesh), ask.effect_overrides))
     if choice.note:
         warnings.warn(choice.note, LabcutWarning, stacklevel=3)
     return ask.at_quality(choice.quality), choice

@@ -19,8 +19,8 @@ measures each on the problem at hand, in a fraction of the recommendation's time
   the angle between the two peaks and the relative change of the score bound the error of the
   finer set. The poses of a rocking motion are the exception: a flash lives within a few
   degrees of pose, so coarse pose sets alias it and halving them says nothing (the benchmark,
-  ``docs/accuracy.md``, found draft's 7 poses of the bench motion 30 % below the converged
-  energy while its half set differed by 2 %). For a scenario that rocks, a problem with twice
+  ``docs/accuracy.md``, finds the oval's energy with 3 and with 5 front-to-back poses within 3 %
+  of each other, both a third below the converged energy). For a scenario that rocks, a problem with twice
   the poses at a quarter of the surface points (the same number of terms,
   :func:`finer_poses`) is fitted too; its difference also holds the sampling noise of the
   fewer points, which makes that part conservative.

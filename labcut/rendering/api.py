@@ -480,7 +480,8 @@ def render(
 
     effect_plan = plan_effects(mesh, material, command="render", scenario=scenario_used, mode=None if mode == "rgb" else mode,
                                polarizer_deg=polarizer_deg, zoning=zoning, max_depth=max_depth, resolution=int(resolution),
-                               spp=int(spp), views=len(views), look=rplan.look).to_dict()
+                               spp=int(spp), views=len(views), look=rplan.look,
+                               predict=False).to_dict()  # what the render did; --plan predicts beforehand
     total = int(spp) * len(views)
     per_pass = max(1, min(int(spp), 16))
     done = 0

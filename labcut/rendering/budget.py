@@ -35,13 +35,12 @@ class SppChoice:
 def choose_spp(budget: Any, *, mode: str, polarised: bool, integrator: str, resolution: int, views: int,
                look: str = "diagram") -> SppChoice:
     """The largest power-of-two spp whose predicted render time fits ``budget`` seconds."""
-    from ..planner import render_command_timing
+    from ..planner import render_seconds
 
     seconds = check_budget(budget)
-    fixed, per_sample = render_command_timing(mode, polarised, integrator, look)
 
     def predict(spp: int) -> float:
-        return float(views * (fixed + per_sample * resolution * resolution * spp))
+        return render_seconds(mode, polarised, integrator, resolution, spp, views, look)
 
     spp = 1
     while spp * 2 <= MAX_SPP and predict(spp * 2) <= seconds:

@@ -25,7 +25,6 @@ import numpy as np
 from ..errors import BackendError
 
 AOVS = "albedo:albedo,nn:sh_normal"
-AOV_CHANNELS = 6  # albedo RGB, normal XYZ
 #: samples per pixel of the auxiliary pass (first hits only: about 0.08 s at 160 x 160 on 2 cores)
 AUX_SPP = 128
 
@@ -55,8 +54,8 @@ def trace_aux(scene: Any, spp: int = AUX_SPP, seed: int = 0) -> np.ndarray:
     from .api import render_pass
 
     aux = aux_scene(scene)
-    per = min(int(spp), 64)
-    passes = max(1, int(spp) // per)
+    passes = -(-int(spp) // 64)  # passes of at most 64 samples, together at least ``spp``
+    per = -(-int(spp) // passes)
     acc = None
     for k in range(passes):
         img = np.array(render_pass(aux, per, seed * 7919 + 1_000_003 + k), dtype=np.float64)
