@@ -96,7 +96,8 @@ def test_cli_time_budget(cli, tmp_path):
     data = json.loads(out.read_text())
     assert data["settings"]["time_budget"]["quality"] == "budget-0"
     assert "± " in r.stdout  # the error bars are printed
-    for bad, msg in ((("--time-budget", "0"),), "time budget"), ((("--time-budget", "1", "--quality", "draft"),), "not both"):
+    for bad, msg in ((("--time-budget", "0"),), "time budget"), ((("--time-budget", "1", "--quality", "draft"),), "not both"),
+                     ((("--time-budget", "1", "--quality", "standard"),), "not both")):
         r = cli("recommend-orientation", "meshes/oval-16x12-low.ply", *bad[0])
         assert r.returncode == 2
         lines = [ln for ln in r.stderr.strip().splitlines() if ln]
@@ -129,5 +130,6 @@ def test_render_with_a_budget(monkeypatch, cli, tmp_path):
               "--look", "diagram")
     assert res.returncode == 0, res.stderr
     assert [ln for ln in res.stderr.splitlines() if ln.startswith("note:")] and out.exists()
-    res = cli("render", "meshes/oval-16x12-low.ply", "-o", str(tmp_path / "x.png"), "--time-budget", "2", "--spp", "8")
-    assert res.returncode == 2 and "not both" in res.stderr and not (tmp_path / "x.png").exists()
+    for spp in ("8", "64"):  # also the default, given explicitly
+        res = cli("render", "meshes/oval-16x12-low.ply", "-o", str(tmp_path / "x.png"), "--time-budget", "2", "--spp", spp)
+        assert res.returncode == 2 and "not both" in res.stderr and not (tmp_path / "x.png").exists()
