@@ -96,7 +96,7 @@ def test_cli_time_budget(cli, tmp_path):
     data = json.loads(out.read_text())
     assert data["settings"]["time_budget"]["quality"] == "budget-0"
     assert "± " in r.stdout  # the error bars are printed
-    for bad, msg in ((("--time-budget", "0"),), "time budget"), ((("--time-budget", "1", "--quality", "draft"),), "not both"),
+    for bad, msg in (((("--time-budget", "0"),), "time budget"), ((("--time-budget", "1", "--quality", "draft"),), "not both"),
                      ((("--time-budget", "1", "--quality", "standard"),), "not both")):
         r = cli("recommend-orientation", "meshes/oval-16x12-low.ply", *bad[0])
         assert r.returncode == 2
