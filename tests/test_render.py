@@ -143,8 +143,10 @@ def test_invalid_normal(cab, normal):
 
 
 def test_invalid_arguments(cab, tmp_path):
-    with pytest.raises(ParameterError):
-        labcut.render(cab, "blue", resolution=16, spp=1)
+    with pytest.raises(ParameterError, match="material must be"):
+        labcut.render(cab, 42, resolution=16, spp=1)
+    with pytest.raises(ParameterError, match="preset"):
+        labcut.render(cab, "sparkly", resolution=16, spp=1)
     with pytest.raises(ParameterError):
         labcut.render(cab, Labradorite(), lighting="disco", resolution=16, spp=1)
     with pytest.raises(ParameterError):

@@ -54,7 +54,8 @@ class MeshOptions:
     up: str = "auto"
 
     def load(self, path: Path, **kwargs: Any) -> Any:
-        return load(path, self.units, self.up_axis, size=self.size, **kwargs)
+        """Read ``path`` with these (already checked) options: :func:`read`."""
+        return read(path, self.units_arg, self.up, self.size, **kwargs)
 
 
 def _mesh_options(units: str = "auto", up_axis: str = "auto", size: float | None = None) -> MeshOptions:
@@ -96,10 +97,15 @@ def check_mesh_options(units: str, up_axis: str, size: float | None = None) -> t
 def load(mesh_path: Path, units: str = "auto", up_axis: str = "auto", size: float | None = None, **kwargs: Any) -> Any:
     """``labcut.load_mesh`` for a command: its warnings as ``warning:`` lines on stderr, a
     progress bar (stderr) for large files; ``size`` is a GemCad design's girdle width (mm)."""
+    unit_arg, up = check_mesh_options(units, up_axis, size)
+    return read(mesh_path, unit_arg, up, size, **kwargs)
+
+
+def read(mesh_path: Path, unit_arg: str | float, up: str, size: float | None = None, **kwargs: Any) -> Any:
+    """:func:`load` with options :func:`check_mesh_options` already checked (``unit_arg``, ``up``)."""
     from labcut.errors import LabcutWarning
     from labcut.geometry.meshio import load_mesh
 
-    unit_arg, up = check_mesh_options(units, up_axis, size)
     big = Path(mesh_path).is_file() and Path(mesh_path).stat().st_size >= PROGRESS_BYTES
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", LabcutWarning)

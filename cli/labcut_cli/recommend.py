@@ -191,16 +191,23 @@ def recommend_orientation(
     setup = _question(material, scenario, lighting, viewing, quality, estimator, effect, zoning, objective=objective,
                       max_tilt=max_tilt, tilt_axis=parse_vector(tilt_axis, "--tilt-axis") if tilt_axis else None, seed=seed)
     scene, zone = setup.scenario, setup.zoning
+    render_ask = None
+    if render_path is not None:  # the render's request, checked once too, before the long work
+        from labcut.rendering.setup import RenderSetup
+
+        render_ask = RenderSetup.build(setup.material, scene, spp=spp, resolution=resolution, zoning=zone,
+                                       exposure=exposure_value, look=lo.spec(look), denoise=denoise)
     if time_budget is not None:
         from labcut.orientation.budget import check_budget
 
         check_budget(time_budget)
     mesh = mesh_options.load(mesh_path)
+    the_plan = None
     if plan or plan_only or setup.effects or estimator != "auto" or zone is not None:  # a bad combination fails before the work
         from labcut.planner import plan_effects
 
         the_plan = plan_effects(mesh, material, command="recommend", scenario=scene, quality=setup.quality,
-                                estimator=estimator, effects=setup.effect_overrides, zoning=zone, predict=plan or plan_only)
+                                estimator=estimator, effects=setup.effect_overrides, zoning=zone, predict=True)
     if plan or plan_only:
         po.show(the_plan, mesh_path.name, to_stderr=json_path == "-")
         if plan_only:
@@ -210,7 +217,7 @@ def recommend_orientation(
     with notes_after(), progress_bar("recommending", "%") as update:
         rec = labcut.recommend_orientation(
             mesh, setup=setup, optimizer=optimizer, progress=lambda stage, fraction: update(int(round(100 * fraction)), 100),
-            time_budget=time_budget,
+            time_budget=time_budget, plan=None if time_budget is not None else the_plan,  # planned once
         )
     data = rec.to_dict()
     data["mesh"]["path"] = str(mesh_path)
@@ -268,10 +275,12 @@ def recommend_orientation(
         return
     try:
         with progress_bar("rendering", "samples/pixel") as update:
-            result = labcut.render(mesh, material, rec.normal, scenario=rec.scenario, spp=spp, resolution=resolution,
-                                   progress=update, zoning=zone, look=lo.spec(look), denoise=denoise)
+            from labcut.rendering.api import normalize_normal, render_setup
+
+            assert render_ask is not None
+            result = render_setup(mesh, render_ask.replace(scenario=rec.scenario), normalize_normal(rec.normal), progress=update)
         with all_or_nothing() as written:
-            result.save(render_path, exposure_value)
+            result.save(render_path)
             written.append(Path(render_path))
             if json_path not in (None, "-"):
                 data["render"] = render_summary(result, render_path)
@@ -325,7 +334,7 @@ def evaluate_orientation(
         if plan_only:
             po.finish_plan_only(the_plan, json_path)
             return
-    metrics = labcut.evaluate_orientation(mesh, m_vec, setup=setup)
+    metrics = labcut.evaluate_orientation(mesh, m_vec, setup=setup, plan=the_plan)  # planned once, above
     provenance = {**mesh_provenance(mesh), "path": str(mesh_path)}
     data = {"normal": m_vec.tolist(), "frame": FRAME, "scenario": scene.to_dict(), "material": material.to_dict(),
             "mesh": provenance, **metrics_dict(metrics), "metric_definitions": METRIC_DEFINITIONS,

@@ -15,6 +15,7 @@ from . import scene_options as so
 from .recommend import print_render_notes
 from .root import all_or_nothing, app, console, notes_after, parse_vector, write_json
 
+
 STILL_SUFFIXES = (".png", ".exr")
 ANIMATION_SUFFIXES = (".webp", ".gif")
 
@@ -99,92 +100,60 @@ def render(
     Simulates only what the request needs: RGB unless --mode spectral/mono, polarized
     only with --polarizer, direct lighting for convex stones, a path tracer for carvings.
     """
-    import labcut
     from labcut.fileio import check_output_path
+    from labcut.rendering.api import normalize_normal, render_setup
+    from labcut.rendering.setup import LOBES, Motion, RenderSetup
     from labcut.rendering.images import IMAGE_SUFFIXES
 
     from .progress import progress_bar
 
     from labcut.errors import ParameterError
 
+    move = None
     if animate is not None:
-        if animate.strip().lower() not in ("rock", "turntable"):
-            raise ParameterError(f"--animate must be rock or turntable, got {animate!r}")
-        animate = animate.strip().lower()
+        move = _option_error(lambda: Motion.build(animate, frames, rock_deg, fps))
         if output.suffix.lower() not in ANIMATION_SUFFIXES:
             raise ParameterError(f"an animation is written as .webp or .gif, not {output.name!r}")
+        if view != "main" or polarizer is not None or mode != "rgb" or schiller_only:
+            raise ParameterError("--animate renders the scenario's main view in rgb: leave out --view, --polarizer, --mode and --schiller-only")
+        if time_budget is not None:
+            raise ParameterError("--time-budget chooses the samples per pixel of one image: give --spp for an animation")
     elif output.suffix.lower() in ANIMATION_SUFFIXES:
         raise ParameterError(f"{output.name!r} is an animation file: add --animate rock or --animate turntable")
     check_output_path(output, ANIMATION_SUFFIXES if animate else IMAGE_SUFFIXES)
     if json_path not in (None, "-"):
         check_output_path(json_path, (".json",))
-    look_spec = lo.spec(look, seed)
-    lamella = parse_normal(normal)
+    lamella = normalize_normal(parse_normal(normal))
     zoning_spec = m.build_zoning(zoning, material)
     view_spec: str | tuple[float, float] = view
     if "," in view:
         view_spec = parse_vector(view, "--view", length=2)  # type: ignore[assignment]
-    from labcut.backend import variant_name
-    from labcut.rendering.api import normalize_normal
-    from labcut.rendering.scene import camera_views
-
-    normalize_normal(lamella)  # validate everything before the long work starts
-    import math
-
-    if polarizer is not None and not math.isfinite(polarizer):
-        raise ParameterError(f"--polarizer must be a finite angle in degrees, got {polarizer}")
-    exposure_value = parse_exposure(exposure)
     scene = so.resolve(scenario, lighting, viewing)
-    camera_views(view_spec, scene.main_setting())
-    variant_name(mode, polarizer is not None and mode != "rgb")
-    if animate is not None:
-        from labcut.rendering.animate import frame_angles
-
-        frame_angles(animate, frames, rock_deg)
-        if not (math.isfinite(fps) and 1.0 <= fps <= 60.0):
-            raise ParameterError(f"--fps must lie in [1, 60], got {fps}")
-        if view != "main" or polarizer is not None or mode != "rgb" or schiller_only:
-            raise ParameterError("--animate renders the scenario's main view in rgb: leave out --view, --polarizer, --mode and --schiller-only")
-    if time_budget is not None:
-        from labcut.orientation.budget import check_budget
-
-        check_budget(time_budget)
-        if animate is not None:
-            raise ParameterError("--time-budget chooses the samples per pixel of one image: give --spp for an animation")
-        if spp is not None:
-            raise ParameterError("give --spp or --time-budget, not both (the budget chooses the samples per pixel)")
-    spp = 64 if spp is None else spp
-    from labcut.rendering.api import plan_render
-
-    plan_render(_Probe(), None, mode, polarizer, ("schiller",) if schiller_only else ("surface", "schiller", "body"),
-                look=look_spec, denoise=denoise)  # e.g. --denoise with --mode mono: fail before the mesh loads
+    # the whole request, checked once (RenderSetup.build), before the mesh loads; the library takes it as it is
+    setup = _option_error(lambda: RenderSetup.build(
+        material, scene, view=view_spec, spp=spp, time_budget=time_budget, resolution=resolution, mode=mode,
+        polarizer_deg=polarizer, lobes=("schiller",) if schiller_only else LOBES, seed=seed, zoning=zoning_spec,
+        exposure=parse_exposure(exposure), look=lo.spec(look, seed), denoise=denoise))
     mesh = mesh_options.load(mesh_path)
     if plan or plan_only:
         from labcut.planner import plan_effects
 
         the_plan = plan_effects(mesh, material, command="render", scenario=scene, mode=None if mode == "rgb" else mode,
-                                polarizer_deg=polarizer, zoning=zoning_spec, resolution=resolution, spp=spp,
-                                views=len(camera_views(view_spec, scene.main_setting())),
-                                look=look)
+                                polarizer_deg=polarizer, zoning=zoning_spec, resolution=resolution, spp=setup.spp,
+                                views=len(setup.cameras), look=setup.look)
         po.show(the_plan, mesh_path.name, to_stderr=json_path == "-")
         if plan_only:
             po.finish_plan_only(the_plan, json_path)
             return
-    lobes = ("schiller",) if schiller_only else ("surface", "schiller", "body")
-    if animate is not None:
-        _animate(mesh_path, mesh, material, lamella, scene, animate, frames, rock_deg, fps, spp, resolution, exposure_value,
-                 look_spec, denoise, zoning_spec, seed, output, json_path)
+    if move is not None:
+        _animate(mesh_path, mesh, lamella, setup, move, output, json_path)
         return
     with notes_after(), progress_bar("rendering", "samples/pixel") as update:
-        result = labcut.render(
-            mesh, material, lamella, scenario=scene, view=view_spec, spp=spp, resolution=resolution,
-            mode=mode, polarizer_deg=polarizer, lobes=lobes, progress=update, zoning=zoning_spec, exposure=exposure_value,
-            look=look_spec, denoise=denoise, seed=seed, time_budget=time_budget,
-        )
+        result = render_setup(mesh, setup, lamella, progress=update)
     summary = {
         "output": str(output),
         "mesh": {**result.mesh, "path": str(mesh_path)},
-        "normal": [float(x) for x in normalize_normal(lamella)],
+        "normal": [float(x) for x in lamella],
         "material": material.to_dict(),
         "scenario": result.scenario,
         "plan": result.plan.to_dict(),
@@ -239,37 +208,49 @@ def _write(made: Any, output: Path, summary: dict[str, Any], json_path: Optional
     return False
 
 
-class _Probe:
-    """A stand-in mesh for validating a render plan before the mesh is loaded (convex: the plan's
-    checks of mode, polarizer, lobes, look and denoise do not depend on the shape)."""
+#: what a library parameter is called on this command line, for its one-line errors
+_OPTION_NAMES = {"spp": "--spp", "resolution": "--resolution", "mode": "--mode", "polarizer angle": "--polarizer",
+                 "time budget": "--time-budget", "seed": "--seed", "frames": "--frames", "rock amplitude": "--rock-deg",
+                 "fps": "--fps", "motion": "--animate", "exposure": "--exposure", "lobes": "--schiller-only"}
 
-    metadata = {"labcut": {"convex": True}}
+
+def _option_error(build: Any) -> Any:
+    """``build()``, a ParameterError's leading library name replaced by the option's."""
+    from labcut.errors import ParameterError
+
+    try:
+        return build()
+    except ParameterError as exc:
+        text = str(exc)
+        for word, option in _OPTION_NAMES.items():
+            if text.startswith(word + " "):
+                text = option + text[len(word):]
+                break
+        if text.startswith("give spp or a time budget"):
+            text = "give --spp or --time-budget, not both (the budget chooses the samples per pixel)"
+        raise ParameterError(text) from None
 
 
-def _animate(mesh_path: Path, mesh, material, lamella, scene, motion: str, frames: int, rock_deg: float, fps: float,
-             spp: int, resolution: int, exposure_value, look, denoise, zoning_spec, seed: int, output: Path,
-             json_path: Optional[str]) -> None:
+def _animate(mesh_path: Path, mesh, lamella, setup, move, output: Path, json_path: Optional[str]) -> None:
     """``labcut render --animate``: every frame under one exposure, the file written once all are done."""
     from labcut.geometry.meshio import provenance
     from labcut.rendering.animate import animate
-    from labcut.rendering.api import normalize_normal
 
     from .progress import progress_bar
 
-    with progress_bar(f"{motion} animation", "frames") as update:
-        anim = animate(mesh, material, lamella, motion=motion, frames=frames, amplitude_deg=rock_deg, scenario=scene,
-                       spp=spp, resolution=resolution, exposure=exposure_value, look=look, denoise=denoise,
-                       zoning=zoning_spec, fps=fps, seed=seed, progress=update)
+    with progress_bar(f"{move.motion} animation", "frames") as update:
+        anim = animate(mesh, lamella_normal=lamella, motion=move, setup=setup, progress=update)
+    motion = move.motion
     summary = {
         "output": str(output),
         "mesh": {**provenance(mesh), "path": str(mesh_path)},
-        "normal": [float(x) for x in normalize_normal(lamella)],
-        "material": material.to_dict(),
-        "scenario": scene.to_dict(),
+        "normal": [float(x) for x in lamella],
+        "material": setup.material.to_dict(),
+        "scenario": setup.scenario.to_dict(),
         "plan": anim.plan.to_dict(),
         "animation": {"motion": motion, "frames": len(anim.frames), "angles_deg": anim.angles_deg, "fps": anim.fps},
         "spp": anim.spp,
-        "resolution": resolution,
+        "resolution": setup.resolution,
         "seconds": anim.seconds,
         "look": anim.look,
         "exposure": anim.exposure,
@@ -279,9 +260,9 @@ def _animate(mesh_path: Path, mesh, material, lamella, scene, motion: str, frame
         "studio": anim.studio,
         "notes": anim.notes,
     }
-    if _write(anim, output, summary, json_path, zoning_spec):
+    if _write(anim, output, summary, json_path, setup.zoning):
         return
     console.print(f"[bold]{output}[/]: {len(anim.frames)} frames of {motion}, {'; '.join(anim.plan.reasons)}")
     print_render_notes(anim)
-    console.print(f"{anim.spp} spp at {resolution}², {anim.seconds:.1f} s; exposure {anim.exposure:.3g} = {anim.exposure_ev:+.2f} EV "
+    console.print(f"{anim.spp} spp at {setup.resolution}², {anim.seconds:.1f} s; exposure {anim.exposure:.3g} = {anim.exposure_ev:+.2f} EV "
                   f"({anim.exposure_mode}) for every frame; --exposure {anim.exposure:.6g} repeats it")

@@ -366,16 +366,22 @@ def _is_default(value: Any, default: Any) -> bool:
         return False
 
 
-def _setup(mesh: Any, setup: FlashSetup, command: str = "recommend") -> tuple[Scorer, Any]:
-    """Plan the effects of ``setup`` on ``mesh`` (:func:`labcut.planner.plan_effects`) and build the
-    sample estimator's problem as planned: ``(scorer, plan)``."""
+def _setup(mesh: Any, setup: FlashSetup, command: str = "recommend", plan: Any = None) -> tuple[Scorer, Any]:
+    """Plan the effects of ``setup`` on ``mesh`` (:func:`labcut.planner.plan_effects`; ``plan``: one
+    already made for them, used as it is) and build the sample estimator's problem as planned:
+    ``(scorer, plan)``."""
     from ..geometry.meshio import validate_mesh
-    from ..planner import plan_effects
+    from ..planner import EffectPlan, plan_effects
 
     validate_mesh(mesh)
-    plan = plan_effects(mesh, setup.material, command=command, scenario=setup.scenario, quality=setup.quality,
-                        estimator=setup.estimator, effects=setup.effect_overrides, zoning=setup.zoning,
-                        predict=command == "recommend")  # a recommendation's JSON holds its predicted seconds
+    if plan is not None:
+        if not isinstance(plan, EffectPlan) or plan.command != command:
+            raise ParameterError(f"plan must be the labcut.planner.plan_effects(..., command={command!r}) of this mesh "
+                                 f"and question, got {plan!r:.80}")
+    else:
+        plan = plan_effects(mesh, setup.material, command=command, scenario=setup.scenario, quality=setup.quality,
+                            estimator=setup.estimator, effects=setup.effect_overrides, zoning=setup.zoning,
+                            predict=command == "recommend")  # a recommendation's JSON holds its predicted seconds
     problem = build_problem(mesh, setup.material, quality=setup.quality, tau=setup.tau, seed=setup.seed,
                             settings=setup.scenario.settings(), occlusion=plan.on("occlusion"))
     return Scorer(problem, setup.objective), plan
@@ -401,6 +407,7 @@ def recommend_orientation(
     zoning: Any = None,
     setup: FlashSetup | None = None,
     time_budget: float | None = None,
+    plan: Any = None,
 ) -> Recommendation:
     """Find the lamella normal (mesh frame) that maximises the flash objective.
 
@@ -441,6 +448,10 @@ def recommend_orientation(
     setup: the whole question at once, validated (:meth:`FlashSetup.build
         <labcut.orientation.setup.FlashSetup.build>`, what the CLI passes); then the arguments it
         holds (material to zoning above, but not ``optimizer`` and ``progress``) stay unset.
+    plan: the effect plan of this mesh and question already made
+        (:func:`labcut.planner.plan_effects` with ``command="recommend"``, e.g. to show it first, as
+        the CLI does), used as it is instead of planning again; not with ``time_budget`` (which
+        plans at the quality it chooses).
 
     Returns a :class:`Recommendation`: normal (unit, z >= 0), tilt and azimuth, score and all
     metrics, the tolerance (degrees the cutter may miss and keep 90 % of the score), distinct
@@ -458,10 +469,12 @@ def recommend_orientation(
                    effects=effects, zoning=zoning)
     budget = None
     if time_budget is not None:
+        if plan is not None:
+            raise ParameterError("give plan or time_budget, not both (the budget plans at the quality it chooses)")
         ask, budget = _within_budget(mesh, ask, time_budget, quality_given=not _is_default(quality, "standard"))
     material, scene, constraint, quality = ask.material, ask.scenario, ask.constraint, ask.quality
     objective, tau, seed, zoning = ask.objective, ask.tau, ask.seed, ask.zoning
-    scorer, plan = _setup(mesh, ask, "recommend")
+    scorer, plan = _setup(mesh, ask, "recommend", plan)
     renders = plan.estimator == "render"
     stage = (lambda fraction: 0.3 * fraction) if renders else (lambda fraction: fraction)
     report("optimising", stage(0.3))
@@ -609,6 +622,7 @@ def evaluate_orientation(
     effects: Mapping[str, Any] | None = None,
     zoning: Any = None,
     setup: FlashSetup | None = None,
+    plan: Any = None,
 ) -> FlashMetrics:
     """Flash metrics (DESIGN.md §4) of a given lamella normal (mesh frame, axial) under a
     scenario (default ``bench``; ``lighting``/``viewing`` as in :func:`recommend_orientation`).
@@ -617,14 +631,16 @@ def evaluate_orientation(
     metrics come from renders (:class:`~labcut.orientation.render_objective.RenderObjective` at the
     quality's render settings, paths as deep as the plan's inter-reflection asks; with ``zoning``
     always, each point flashing with its own lamella stack). ``setup``: the question at once, as in
-    :func:`recommend_orientation` (its objective and constraint do not matter here)."""
+    :func:`recommend_orientation` (its objective and constraint do not matter here). ``plan``: the
+    effect plan already made (``plan_effects(..., command="evaluate")``), as in
+    :func:`recommend_orientation`."""
     from ..rendering.api import normalize_normal
 
     m = normalize_normal(normal)
     ask = question(setup, material=material, scenario=scenario, lighting=lighting, viewing=viewing, quality=quality, tau=tau,
                    seed=seed, estimator=estimator, effects=effects, zoning=zoning)
     material, scene, quality, tau, seed, zoning = ask.material, ask.scenario, ask.quality, ask.tau, ask.seed, ask.zoning
-    scorer, plan = _setup(mesh, ask, "evaluate")
+    scorer, plan = _setup(mesh, ask, "evaluate", plan)
     if plan.estimator == "render":
         from .render_estimator import RENDER_QUALITY
         from .render_objective import RenderObjective

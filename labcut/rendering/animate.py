@@ -24,12 +24,12 @@ from typing import Any
 import numpy as np
 
 from ..errors import ParameterError
-from ..scene import Scenario, resolve_scene
+from ..scene import Scenario
 from ..scene.directions import rotation
 
-MOTIONS = ("rock", "turntable")
+from .setup import FRAME_LIMITS, MOTIONS, Motion, RenderSetup  # noqa: F401  (re-exported)
+
 ANIMATION_SUFFIXES = (".webp", ".gif")
-FRAME_LIMITS = (2, 360)
 
 
 @dataclass
@@ -62,17 +62,9 @@ class Animation:
 
 
 def frame_angles(motion: str, frames: int, amplitude_deg: float = 30.0) -> list[float]:
-    """The angle of each frame (degrees): a sine rock of ±``amplitude_deg`` or a full turn."""
-    if motion not in MOTIONS:
-        raise ParameterError(f"motion must be one of {', '.join(MOTIONS)}, got {motion!r}")
-    if isinstance(frames, bool) or not (isinstance(frames, int | np.integer) and FRAME_LIMITS[0] <= frames <= FRAME_LIMITS[1]):
-        raise ParameterError(f"frames must be a whole number in [{FRAME_LIMITS[0]}, {FRAME_LIMITS[1]}], got {frames!r}")
-    if not (isinstance(amplitude_deg, int | float) and math.isfinite(amplitude_deg) and 0.0 < amplitude_deg <= 60.0):
-        raise ParameterError(f"rock amplitude must lie in (0, 60] degrees, got {amplitude_deg!r}")
-    k = np.arange(int(frames))
-    if motion == "rock":
-        return [float(a) for a in amplitude_deg * np.sin(2.0 * math.pi * k / frames)]
-    return [float(a) for a in 360.0 * k / frames]
+    """The angle of each frame (degrees): a sine rock of ±``amplitude_deg`` or a full turn
+    (:class:`~labcut.rendering.setup.Motion`)."""
+    return Motion.build(motion, frames, amplitude_deg).angles_deg
 
 
 def posed(scenario: Scenario, motion: str, angle_deg: float) -> Scenario:
@@ -82,14 +74,24 @@ def posed(scenario: Scenario, motion: str, angle_deg: float) -> Scenario:
                     0.0, 0.0, scenario.description, scenario.quality)
 
 
+#: the render and motion arguments of :func:`animate` and their defaults (with ``setup=`` / a
+#: :class:`Motion` they stay at these)
+_ANIMATION_DEFAULTS: dict[str, Any] = {
+    "material": None, "scenario": None, "lighting": None, "viewing": None, "spp": 16, "resolution": 320,
+    "exposure": None, "look": "studio", "denoise": None, "zoning": None, "seed": 0, "frames": 36,
+    "amplitude_deg": 30.0, "fps": 24.0,
+}
+
+
 def animate(
     mesh: Any,
-    material: Any,
+    material: Any = None,
     lamella_normal: Any = (0.0, 0.0, 1.0),
     *,
-    motion: str = "rock",
+    motion: str | Motion = "rock",
     frames: int = 36,
     amplitude_deg: float = 30.0,
+    setup: RenderSetup | None = None,
     scenario: Any = None,
     lighting: Any = None,
     viewing: Any = None,
@@ -107,33 +109,53 @@ def animate(
     """Render ``frames`` frames of ``motion`` (``rock`` | ``turntable``) under the scenario's lights
     from its main view (see the module docstring) and optionally write them to ``output``
     (.webp or .gif). ``progress(done_frames, frames)`` is called after each frame. ``exposure``:
-    a multiplier for every frame (None: the rest pose's automatic exposure, reused for all)."""
-    from .api import render
-    from .tonemap import check_exposure
+    a multiplier for every frame (None: the rest pose's automatic exposure, reused for all).
 
-    angles = frame_angles(motion, frames, amplitude_deg)
-    if exposure is not None:
-        check_exposure(exposure)
-    if not (isinstance(fps, int | float) and math.isfinite(fps) and 1.0 <= fps <= 60.0):
-        raise ParameterError(f"fps must lie in [1, 60], got {fps!r}")
+    ``motion`` may be a validated :class:`~labcut.rendering.setup.Motion` (then ``frames``,
+    ``amplitude_deg`` and ``fps`` are its own), and ``setup`` a validated
+    :class:`~labcut.rendering.setup.RenderSetup` of the rest pose (then ``material`` and the render
+    arguments stay at their defaults): what the CLI passes, checked once."""
+    from ..orientation.recommend import _is_default
+    from .api import render_setup
+
+    asked = {"material": material, "scenario": scenario, "lighting": lighting, "viewing": viewing, "spp": spp,
+             "resolution": resolution, "exposure": exposure, "look": look, "denoise": denoise, "zoning": zoning, "seed": seed}
+    if isinstance(motion, Motion):
+        clash = [k for k, v in {"frames": frames, "amplitude_deg": amplitude_deg, "fps": fps}.items()
+                 if not _is_default(v, _ANIMATION_DEFAULTS[k])]
+        if clash:
+            raise ParameterError(f"motion= is a Motion that holds its frames, amplitude and fps; do not also pass {', '.join(clash)}")
+        move = motion
+    else:
+        move = Motion.build(motion, frames, amplitude_deg, fps)
+    if setup is None:
+        setup = RenderSetup.build(asked.pop("material"), asked.pop("scenario"), asked.pop("lighting"), asked.pop("viewing"),
+                                  **asked)
+    elif not isinstance(setup, RenderSetup):
+        raise ParameterError(f"setup must be a labcut RenderSetup (RenderSetup.build(...)), got {type(setup).__name__}")
+    else:
+        clash = [k for k, v in asked.items() if not _is_default(v, _ANIMATION_DEFAULTS[k])]
+        if clash:
+            raise ParameterError(f"setup= already holds the render request; do not also pass {', '.join(clash)}")
     if output is not None:
         from ..fileio import check_output_path
 
         check_output_path(output, ANIMATION_SUFFIXES)
-    base = resolve_scene(scenario, lighting, viewing)
-    if zoning is not None:
-        from .zoning import resolve as _resolve_zoning
+    from ..geometry.meshio import validate_mesh
+    from .api import normalize_normal
 
-        zoning = _resolve_zoning(zoning, material)
+    validate_mesh(mesh)
+    normal = normalize_normal(lamella_normal)
+    angles = move.angles_deg
     images: list[np.ndarray] = []
     plan = None
-    used = exposure
-    mode = "given" if exposure is not None else "auto"
+    used = setup.exposure
+    mode = "given" if used is not None else "auto"
     tone, look_name, notes, studio = "agx", "studio", [], {}
     start = time.perf_counter()
     for i, angle in enumerate(angles):
-        result = render(mesh, material, lamella_normal, scenario=posed(base, motion, angle), spp=spp, resolution=resolution,
-                        exposure=used, look=look, denoise=denoise, zoning=zoning, seed=seed, check_flash=(i == 0))
+        frame = setup.replace(scenario=posed(setup.scenario, move.motion, angle), exposure=used)
+        result = render_setup(mesh, frame, normal, check_flash=(i == 0))
         if used is None:
             used = result.exposure  # the rest pose's (frame 0: angle 0) automatic exposure, for every frame
         if i == 0:
@@ -142,8 +164,8 @@ def animate(
         if progress is not None:
             progress(i + 1, len(angles))
     assert used is not None
-    anim = Animation(images, motion, angles, float(used), mode, tone, plan, int(spp), time.perf_counter() - start,
-                     float(fps), look_name, notes, studio)
+    anim = Animation(images, move.motion, angles, float(used), mode, tone, plan, int(setup.spp), time.perf_counter() - start,
+                     float(move.fps), look_name, notes, studio)
     if output is not None:
         anim.save(output)
     return anim

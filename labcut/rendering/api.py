@@ -298,32 +298,34 @@ def build_scene(
     filter (the colour only; :func:`labcut.rendering.denoise.trace_aux` traces the albedo and
     normal the denoiser wants from this scene in a pass of their own).
     """
-    import mitsuba as mi
+    from .setup import RenderSetup
 
-    from . import bsdf as _bsdf  # noqa: F401  (registers the plugin)
-
-    if not isinstance(material, Labradorite):
-        raise ParameterError(f"material must be a labcut.Labradorite, got {type(material).__name__}")
-    from .zoning import resolve as _resolve_zoning
-
-    zone = _resolve_zoning(zoning, material)
-    normal = normalize_normal(lamella_normal)
-    if not (isinstance(resolution, int | np.integer) and 8 <= int(resolution) <= 8192):
-        raise ParameterError(f"resolution must be a whole number of pixels in [8, 8192], got {resolution!r}")
     if setting is None:
         setting = resolve_scene().main_setting()
     cams = camera_views(view, setting)
     if len(cams) != 1:
         raise ParameterError("build_scene takes a single view; render() handles 'orbit'")
-    from .studio import resolve_look
+    ask = RenderSetup.build(material, resolution=resolution, mode=mode, polarizer_deg=polarizer_deg, lobes=lobes,
+                            max_depth=max_depth, perspective=perspective, zoning=zoning, look=look, denoise=denoise)
+    return _scene(mesh, ask, normalize_normal(lamella_normal), setting, cams[0], integrator)
 
-    studio = resolve_look(look)
-    plan = plan_render(mesh, setting.lights, mode, polarizer_deg, lobes, max_depth, look=look, denoise=denoise, zoning=zone)
+
+def _scene(mesh: Any, ask: Any, normal: np.ndarray, setting: Setting, cam: CameraView,
+           integrator: str | None = None) -> tuple[Any, RenderPlan]:
+    """The Mitsuba scene of one camera for a validated :class:`~labcut.rendering.setup.RenderSetup`
+    ``ask`` and a unit lamella ``normal`` (checks nothing: :func:`build_scene` and :func:`render` did)."""
+    import mitsuba as mi
+
+    from . import bsdf as _bsdf  # noqa: F401  (registers the plugin)
+
+    studio = ask.studio
+    plan = plan_render(mesh, setting.lights, ask.mode, ask.polarizer_deg, ask.lobes, ask.max_depth, look=ask.look_spec,
+                       denoise=ask.denoise, zoning=ask.zoning)
     baked = None
-    if zone is not None:
-        baked = zone.bake(mesh.bounds)
+    if ask.zoning is not None:
+        baked = ask.zoning.bake(mesh.bounds)
     mi.set_variant(plan.variant)
-    d = bsdf_dict(material, normal, plan.lobes, zoning=baked)
+    d = bsdf_dict(ask.material, normal, plan.lobes, zoning=baked)
     if studio is not None and plan.polarizer_deg is None:
         from .studio import body_grid
 
@@ -336,12 +338,12 @@ def build_scene(
     if plan.polarizer_deg is not None:
         integ = {"type": "stokes", "nested": integ}
     if studio is None:
-        sensor = camera(mesh, cams[0], int(resolution), perspective)
+        sensor = camera(mesh, cam, ask.resolution, ask.perspective)
         lights = emitters(setting.lights)
     else:
         from .studio import studio_emitters
 
-        sensor = camera(mesh, cams[0], int(resolution), True, studio.fov_deg, margin=studio.margin, far_radii=200.0,
+        sensor = camera(mesh, cam, ask.resolution, True, studio.fov_deg, margin=studio.margin, far_radii=200.0,
                         rfilter="box" if plan.denoise else "gaussian")
         lights, _, _ = studio_emitters(mesh, setting, studio)
     scene_dict: dict[str, Any] = {
@@ -366,14 +368,15 @@ def _polarizer_intensity(image: np.ndarray, angle_deg: float) -> np.ndarray:
 
 def render(
     mesh: Any,
-    material: Labradorite,
+    material: Labradorite | str | None = None,
     lamella_normal: Any = (0.0, 0.0, 1.0),
     *,
+    setup: Any = None,
     scenario: str | Scenario | None = None,
     lighting: Any = None,
     viewing: Any = None,
     view: str | CameraView | tuple[float, float] = "main",
-    spp: int = 64,
+    spp: int | None = None,
     resolution: int = 512,
     mode: str = "rgb",
     polarizer_deg: float | None = None,
@@ -394,6 +397,10 @@ def render(
 
     Parameters
     ----------
+    setup: the whole request at once, validated (:meth:`RenderSetup.build
+        <labcut.rendering.setup.RenderSetup.build>`, what the CLI passes); then ``material`` and
+        the request's arguments below stay at their defaults (``lamella_normal``, ``output``,
+        ``progress`` and ``check_flash`` are not part of it).
     scenario: how the stone is lit, worn and seen (default ``bench``): a name, a JSON file or a
         :class:`~labcut.Scenario`. The render shows its rest pose under its own lights.
     lighting, viewing: replace the scenario's lights / viewers, as in
@@ -401,7 +408,7 @@ def render(
         :data:`labcut.scene.VIEWING`, files, an .exr/.hdr map, ``Lights``/``Views``).
     view: the camera: ``main`` (the scenario's main viewer) | ``face-up`` | ``orbit`` (8 views tiled
         4 x 2) | (tilt°, azimuth°) in the mesh frame.
-    spp: samples per pixel (>= 1); rendered in passes so ``progress(done, total)`` can report.
+    spp: samples per pixel (>= 1; default 64); rendered in passes so ``progress(done, total)`` can report.
     time_budget: seconds the render may take: the most samples per pixel (a power of two) predicted
         to fit on this machine replace ``spp`` (:mod:`labcut.rendering.budget`; below 1 spp's
         prediction 1 spp runs with a one-line :class:`~labcut.errors.LabcutWarning`); the choice
@@ -434,53 +441,84 @@ def render(
     (:func:`labcut.geometry.meshio.validate_mesh`) and :class:`~labcut.errors.ParameterError`
     for bad parameters.
     """
-    import drjit as dr
-
-    from ..geometry.meshio import provenance, validate_mesh
-    from .images import auto_exposure, tonemap
+    from ..geometry.meshio import validate_mesh
 
     validate_mesh(mesh)
-    if not (isinstance(spp, int | np.integer) and spp >= 1):
-        raise ParameterError(f"spp must be a whole number >= 1, got {spp!r}")
-    if exposure is not None:
-        tonemap(np.zeros((1, 1, 3)), exposure)  # validates: finite and > 0
-    if polarizer_deg is not None and not (isinstance(polarizer_deg, int | float) and math.isfinite(polarizer_deg)):
-        raise ParameterError(f"polarizer angle must be a finite number of degrees, got {polarizer_deg!r}")
+    ask = render_question(setup, material=material, scenario=scenario, lighting=lighting, viewing=viewing, view=view,
+                          spp=spp, resolution=resolution, mode=mode, polarizer_deg=polarizer_deg, lobes=lobes,
+                          max_depth=max_depth, perspective=perspective, seed=seed, zoning=zoning, exposure=exposure,
+                          look=look, denoise=denoise, time_budget=time_budget)
+    normal = normalize_normal(lamella_normal)
     if output is not None:
         from ..fileio import check_output_path
 
         check_output_path(output, (".png", ".exr"))
-    if zoning is not None:
-        from .zoning import resolve as _resolve_zoning
+    result = render_setup(mesh, ask, normal, progress=progress, check_flash=check_flash)
+    if output is not None:
+        result.save(output)
+    return result
 
-        if not isinstance(material, Labradorite):
-            raise ParameterError(f"material must be a labcut.Labradorite, got {type(material).__name__}")
-        zoning = _resolve_zoning(zoning, material)  # validate (and build presets) once, before rendering
-    from .studio import resolve_look
 
-    studio = resolve_look(look)
-    scenario_used = resolve_scene(scenario, lighting, viewing)
+#: the request's arguments of :func:`render` and their defaults: with ``setup=`` they stay at these
+_REQUEST_DEFAULTS: dict[str, Any] = {
+    "material": None, "scenario": None, "lighting": None, "viewing": None, "view": "main", "spp": None,
+    "resolution": 512, "mode": "rgb", "polarizer_deg": None, "lobes": LOBES, "max_depth": None, "perspective": False,
+    "seed": 0, "zoning": None, "exposure": None, "look": "diagram", "denoise": None, "time_budget": None,
+}
+
+
+def render_question(setup: Any = None, **asked: Any) -> Any:
+    """The :class:`~labcut.rendering.setup.RenderSetup` of a call: ``setup`` itself, or one built
+    (and so validated) from the loose arguments ``asked`` (names of :data:`_REQUEST_DEFAULTS`).
+    Both at once is an error: the setup holds the request."""
+    from ..orientation.recommend import _is_default
+    from .setup import RenderSetup
+
+    if setup is None:
+        return RenderSetup.build(asked.pop("material", None), asked.pop("scenario", None), asked.pop("lighting", None),
+                                 asked.pop("viewing", None), **asked)
+    if not isinstance(setup, RenderSetup):
+        raise ParameterError(f"setup must be a labcut RenderSetup (RenderSetup.build(...)), got {type(setup).__name__}")
+    clash = [k for k, v in asked.items() if not _is_default(v, _REQUEST_DEFAULTS[k])]
+    if clash:
+        raise ParameterError(f"setup= already holds the render request; do not also pass {', '.join(clash)}")
+    return setup
+
+
+def render_setup(mesh: Any, ask: Any, normal: np.ndarray, *, progress: Callable[[int, int], None] | None = None,
+                 check_flash: bool = True) -> RenderResult:
+    """:func:`render` of a validated mesh, :class:`~labcut.rendering.setup.RenderSetup` ``ask`` and
+    unit lamella ``normal`` (checks nothing again); the result is not saved."""
+    import drjit as dr
+
+    from ..geometry.meshio import provenance
+    from .images import auto_exposure
+
+    studio = ask.studio
+    scenario_used = ask.scenario
     setting = scenario_used.main_setting()
-    views = camera_views(view, setting)
-    # validate the plan (denoise with a polarizer or mono, bad lobes) before any work
-    rplan = plan_render(mesh, setting.lights, mode, polarizer_deg, lobes, max_depth, look=look, denoise=denoise)
+    views = list(ask.cameras)
+    rplan = plan_render(mesh, setting.lights, ask.mode, ask.polarizer_deg, ask.lobes, ask.max_depth, look=ask.look_spec,
+                        denoise=ask.denoise)
+    spp = ask.spp
     budget = None
-    if time_budget is not None:
+    if ask.time_budget is not None:
         import warnings
 
         from ..errors import LabcutWarning
         from .budget import choose_spp
 
-        budget = choose_spp(time_budget, mode=mode, polarised=polarizer_deg is not None, integrator=rplan.integrator,
-                            resolution=int(resolution), views=len(views), look=rplan.look)
+        budget = choose_spp(ask.time_budget, mode=ask.mode, polarised=ask.polarizer_deg is not None,
+                            integrator=rplan.integrator, resolution=ask.resolution, views=len(views), look=rplan.look)
         if budget.note:
-            warnings.warn(budget.note, LabcutWarning, stacklevel=2)
+            warnings.warn(budget.note, LabcutWarning, stacklevel=3)
         spp = budget.spp
     from ..planner import plan_effects
 
-    effect_plan = plan_effects(mesh, material, command="render", scenario=scenario_used, mode=None if mode == "rgb" else mode,
-                               polarizer_deg=polarizer_deg, zoning=zoning, max_depth=max_depth, resolution=int(resolution),
-                               spp=int(spp), views=len(views), look=rplan.look,
+    effect_plan = plan_effects(mesh, ask.material, command="render", scenario=scenario_used,
+                               mode=None if ask.mode == "rgb" else ask.mode, polarizer_deg=ask.polarizer_deg,
+                               zoning=ask.zoning, max_depth=ask.max_depth, resolution=ask.resolution, spp=int(spp),
+                               views=len(views), look=rplan.look,
                                predict=False).to_dict()  # what the render did; --plan predicts beforehand
     total = int(spp) * len(views)
     per_pass = max(1, min(int(spp), 16))
@@ -490,16 +528,13 @@ def render(
     start = time.perf_counter()
     with _interruptible() as interrupted:
         for v in views:
-            scene, plan = build_scene(
-                mesh, material, lamella_normal, setting, v, resolution, mode, polarizer_deg, lobes, max_depth, perspective,
-                zoning=zoning, look=look, denoise=denoise,
-            )
+            scene, plan = _scene(mesh, ask, normal, setting, v)
             accum = None
             remaining = int(spp)
             k = 0
             while remaining > 0:
                 n = min(per_pass, remaining)
-                img = render_pass(scene, n, seed * 100003 + k)
+                img = render_pass(scene, n, ask.seed * 100003 + k)
                 if interrupted.is_set():
                     raise KeyboardInterrupt
                 arr = np.array(img, dtype=np.float64) * n
@@ -514,7 +549,7 @@ def render(
                 from .denoise import denoise as _denoise
                 from .denoise import trace_aux
 
-                aux = trace_aux(scene, seed=seed)  # noise-free albedo and normal (cleanAux)
+                aux = trace_aux(scene, seed=ask.seed)  # noise-free albedo and normal (cleanAux)
                 image = _denoise(image[..., :3], aux[..., :3], aux[..., 3:6])
             if plan.polarizer_deg is not None:
                 image = _polarizer_intensity(image, plan.polarizer_deg)
@@ -537,6 +572,7 @@ def render(
     else:
         auto, studio_info = studio_exposure(mesh, setting, studio, views)
     plan = dataclasses.replace(plan, effects=effect_plan)
+    exposure = ask.exposure
     result = RenderResult(
         image, plan, int(spp), seconds, [v.name for v in views], scenario_used.to_dict(),
         exposure=float(exposure) if exposure is not None else auto,
@@ -549,9 +585,7 @@ def render(
         budget={} if budget is None else budget.to_dict(),
     )
     if check_flash:
-        result.flash, result.notes = flash_by_view(mesh, material, lamella_normal, setting, views)
-    if output is not None:
-        result.save(output)
+        result.flash, result.notes = flash_by_view(mesh, ask.material, normal, setting, views)
     return result
 
 
