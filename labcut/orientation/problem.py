@@ -101,6 +101,9 @@ class FlashProblem:
     convex: bool
     n_points: int
     info: dict[str, Any] = field(default_factory=dict)
+    #: the surface samples it was built from (:func:`surface_samples`): the error bars' coarse
+    #: problem (same points, half the directions) is built from them again
+    samples: SurfaceSamples | None = field(default=None, repr=False, compare=False)
 
     @property
     def n_triples(self) -> int:
@@ -116,6 +119,71 @@ def _smooth_normals(split: Any, face_idx: np.ndarray, bary: np.ndarray) -> np.nd
     vn = split.vertex_normals[split.faces[face_idx]]
     n = np.einsum("ij,ijk->ik", bary, vn)
     return n / np.linalg.norm(n, axis=1, keepdims=True)
+
+
+@dataclass(frozen=True)
+class SurfaceSamples:
+    """Area-uniform samples of a stone's smooth-shaded surface (:func:`surface_samples`)."""
+
+    points: np.ndarray  # (N, 3) positions, mesh frame
+    n_geo: np.ndarray  # (N, 3) geometric (face) normals
+    n_sh: np.ndarray  # (N, 3) smooth shading normals, as the renderer shades
+    seed: int
+    convex: bool
+
+    @property
+    def count(self) -> int:
+        return len(self.points)
+
+
+def surface_samples(mesh: Any, count: int, seed: int) -> SurfaceSamples:
+    """``count`` area-uniform samples of the smooth-shaded copy of ``mesh`` the renderer uses
+    (split along edges sharper than the shading angle; same surface, its own face order), drawn
+    from ``numpy.random.default_rng(seed)``. Kept per mesh, count and seed (:func:`labcut.rendering.
+    scene.mesh_cached`): a recommendation's error bars and a repeated question reuse them."""
+    from ..rendering.scene import mesh_cached, shading_angle_deg
+
+    angle = shading_angle_deg(mesh)
+    return mesh_cached(mesh, f"labcut_surface_samples_{float(angle):.6g}_{int(count)}_{int(seed)}",
+                       lambda: _draw_samples(mesh, int(count), int(seed), angle))
+
+
+def _draw_samples(mesh: Any, count: int, seed: int, angle: float) -> SurfaceSamples:
+    from ..rendering.scene import smooth_split
+
+    split = smooth_split(mesh, angle)
+    area_faces = split.area_faces
+    ok = np.isfinite(area_faces) & (area_faces > 0)
+    if not np.any(ok):
+        raise MeshError("the mesh has no face with positive area")
+    rng = np.random.default_rng(seed)
+    prob = np.where(ok, area_faces, 0.0)
+    face_idx = rng.choice(len(area_faces), size=count, p=prob / prob.sum())
+    r1, r2 = rng.random(count), rng.random(count)
+    sq = np.sqrt(r1)
+    bary = np.stack([1 - sq, sq * (1 - r2), sq * r2], axis=1)
+    tri = split.vertices[split.faces[face_idx]]  # = split.triangles[face_idx], without every face's corners
+    points = np.einsum("ij,ijk->ik", bary, tri)
+    n_geo = split.face_normals[face_idx]
+    n_sh = _smooth_normals(split, face_idx, bary)
+
+    info = mesh.metadata.get("labcut", {}) if hasattr(mesh, "metadata") else {}
+    if "convex" in info:
+        convex = bool(info["convex"])
+    else:
+        from ..geometry.meshio import is_convex_mesh
+
+        convex = bool(is_convex_mesh(mesh))
+    for a in (points, n_geo, n_sh):
+        a.setflags(write=False)
+    return SurfaceSamples(points, n_geo, n_sh, seed, convex)
+
+
+def lobe_reach(kappa: float, spread_rad: float = 0.0) -> float:
+    """Angle (radians) beyond which a triple's lobe term is dropped by the error bars' sums
+    (:func:`labcut.orientation.uncertainty.pair_radiance`): ``spread`` (the farthest stencil normal
+    from the centre) plus five lobe widths (terms below ``exp(-12.5)`` of the peak)."""
+    return float(spread_rad) + 5.0 / math.sqrt(max(float(kappa), 1e-6))
 
 
 def _visibility(mesh: Any, origins: np.ndarray, normals: np.ndarray, dirs: np.ndarray) -> np.ndarray:
@@ -138,6 +206,8 @@ def build_problem(
     *,
     settings: list[Setting] | None = None,
     occlusion: bool | None = None,
+    samples: SurfaceSamples | None = None,
+    near: tuple[Any, float] | None = None,
 ) -> FlashProblem:
     """Sample the surface and build every (point, light, view) triple (see the module docstring).
 
@@ -147,6 +217,13 @@ def build_problem(
     views of the same pose; the problem's views are all poses' views, weighted by
     pose weight x view weight. ``occlusion``: test each sample's lights and views for parts of
     the stone in the way (default: when the stone is not convex; the effect planner may switch it).
+
+    ``samples``: surface samples to use (:func:`surface_samples` of this mesh, ``seed`` and point
+    count; by default drawn, or found in the mesh's cache). ``near = (centre, angle_rad)``: keep
+    only the triples whose (axial) mirror orientation lies within ``angle_rad`` of the unit vector
+    ``centre`` (every pair is kept): what the error bars' stencil sums need
+    (:func:`labcut.orientation.uncertainty.pair_radiance`), at a fraction of the cost; such a
+    problem serves only sums near ``centre`` (``info["near"]``).
     """
     import trimesh
 
@@ -164,33 +241,17 @@ def build_problem(
     if not isinstance(mesh, trimesh.Trimesh) or len(mesh.faces) == 0:
         raise MeshError("the mesh is empty or not a trimesh.Trimesh (load it with labcut.load_mesh)")
     count = int(n_points or quality.surface_points)
-    # sample the smooth-shaded copy the renderer uses (split along edges sharper than
-    # 30°; same surface, its own face order), so both estimators shade alike
-    from ..rendering.scene import shading_angle_deg, smooth_split
-
-    split = smooth_split(mesh, shading_angle_deg(mesh))
-    area_faces = split.area_faces
-    ok = np.isfinite(area_faces) & (area_faces > 0)
-    if not np.any(ok):
-        raise MeshError("the mesh has no face with positive area")
-    rng = np.random.default_rng(seed)
-    prob = np.where(ok, area_faces, 0.0)
-    face_idx = rng.choice(len(area_faces), size=count, p=prob / prob.sum())
-    r1, r2 = rng.random(count), rng.random(count)
-    sq = np.sqrt(r1)
-    bary = np.stack([1 - sq, sq * (1 - r2), sq * r2], axis=1)
-    tri = split.triangles[face_idx]
-    points = np.einsum("ij,ijk->ik", bary, tri)
-    n_geo = split.face_normals[face_idx]
-    n_sh = _smooth_normals(split, face_idx, bary)
-
-    info = mesh.metadata.get("labcut", {}) if hasattr(mesh, "metadata") else {}
-    if "convex" in info:
-        convex = bool(info["convex"])
-    else:
-        from ..geometry.meshio import is_convex_mesh
-
-        convex = bool(is_convex_mesh(mesh))
+    if samples is None:
+        samples = surface_samples(mesh, count, int(seed))
+    elif samples.count != count or samples.seed != int(seed):
+        raise ParameterError(f"the samples given hold {samples.count} points of seed {samples.seed}, "
+                             f"the problem asks {count} of seed {int(seed)}")
+    points, n_geo, n_sh, convex = samples.points, samples.n_geo, samples.n_sh, samples.convex
+    cull = None
+    if near is not None:
+        centre = np.asarray(near[0], dtype=np.float64).reshape(3)
+        centre = centre / np.linalg.norm(centre)
+        cull = (centre, math.cos(min(float(near[1]), math.pi / 2)))
 
     table = luminance_table(material)
     total_irradiance = [float(st.lights.weights.sum()) for st in settings]
@@ -208,6 +269,7 @@ def build_problem(
         h_k, c_k, pair_k, pi, pv, pw = _setting_triples(
             st.lights.directions, st.lights.weights / total_irradiance[k], st.views.directions,
             points, n_geo, n_sh, mesh, (convex if occlusion is None else not occlusion), material.n_surface, table, l_ref, count,
+            cull,
         )
         h_parts += h_k
         c_parts += c_k
@@ -218,7 +280,9 @@ def build_problem(
         vw_parts.append(pose_w[k] * st.views.weights)
         pair_offset += len(pi)
         view_offset += len(st.views.weights)
-    if not c_parts or not any(float(part.sum()) > 0.0 for part in c_parts):
+    if near is not None and not c_parts:  # nothing mirrors near the centre: a problem without triples
+        h_parts, c_parts, pair_parts = [np.zeros((0, 3), np.float32)], [np.zeros(0, np.float32)], [np.zeros(0, np.int32)]
+    elif not c_parts or not any(float(part.sum()) > 0.0 for part in c_parts):
         raise ParameterError(
             "no light reaches a part of the stone that a viewer sees: check that the lights are above "
             "the surfaces the views look at (+Z is face-up)"
@@ -241,13 +305,16 @@ def build_problem(
         convex=convex,
         n_points=count,
         info={"l_ref": l_ref, "pairs": int(pair_offset), "triples": int(c.size), "poses": len(settings),
-              "pair_point": np.concatenate(pp_parts).astype(np.int32)},
+              "pair_point": np.concatenate(pp_parts).astype(np.int32),
+              **({} if near is None else {"near": (cull[0].tolist(), float(near[1]))})},
+        samples=samples,
     )
 
 
-def _setting_triples(L, E, V, points, n_geo, n_sh, mesh, convex, eta, table, l_ref, count):
+def _setting_triples(L, E, V, points, n_geo, n_sh, mesh, convex, eta, table, l_ref, count, cull=None):
     """Triples of one pose: per chunk lists of h, c, pair index; and per pair its point,
-    view and projected-area weight (summing to 1 within each view)."""
+    view and projected-area weight (summing to 1 within each view). ``cull = (centre, cos)``:
+    only the triples with ``|h·centre| >= cos`` (their values as without the cull)."""
     # facing and visibility: point x view, point x light
     face_v = (n_geo @ V.T > 1e-6) & (n_sh @ V.T > 1e-6)
     lit = (n_geo @ L.T > 1e-6) & (n_sh @ L.T > 1e-6) & (E[None, :] > 0)
@@ -272,7 +339,9 @@ def _setting_triples(L, E, V, points, n_geo, n_sh, mesh, convex, eta, table, l_r
         if q1 == q0:
             continue
         c_pi = pi[q0:q1]
-        lit_i, lit_l = np.nonzero(lit[p0:p1])
+        seen = np.zeros(p1 - p0, dtype=bool)  # points a view of this pose sees: only their lights matter
+        seen[c_pi - p0] = True
+        lit_i, lit_l = np.nonzero(lit[p0:p1] & seen[:, None])
         lit_i = lit_i + p0
         counts = np.bincount(lit_i - p0, minlength=p1 - p0)
         starts = np.concatenate([[0], np.cumsum(counts)[:-1]])
@@ -284,15 +353,46 @@ def _setting_triples(L, E, V, points, n_geo, n_sh, mesh, convex, eta, table, l_r
         lit_of_t = np.repeat(starts[c_pi - p0], reps) + offs  # index into this chunk's lit (point, light)
 
         # refraction and Fresnel per (point, light) and per (point, view), then gathered per triple
-        a_lit, etl_lit = light_terms(n_sh[lit_i], L[lit_l], E[lit_l], eta)
+        # (:func:`triple_terms`, with a·n and b·n taken once per (point, light) and per pair)
+        n_lit = n_sh[lit_i]
+        a_lit, etl_lit = light_terms(n_lit, L[lit_l], E[lit_l], eta)
+        an_lit = NUMPY.dot(a_lit, n_lit)
+        del n_lit
         n_pair = n_sh[c_pi]
         b_pair, t_v_pair = view_terms(n_pair, V[pv[q0:q1]], eta)
+        bn_pair = NUMPY.dot(b_pair, n_pair)
         local = pair_of_t - q0
-        h, w = triple_terms(a_lit[lit_of_t], etl_lit[lit_of_t], b_pair[local], t_v_pair[local], n_pair[local], eta, table)
-        c = w / l_ref
-        h = np.where(h[:, 2:3] < 0.0, -h, h)  # axial: fold into the upper hemisphere
-        finite = np.isfinite(c) & np.all(np.isfinite(h), axis=1)
-        c_parts.append(np.where(finite, c, 0.0).astype(np.float32))
-        h_parts.append(np.where(finite[:, None], h, np.array([0.0, 0.0, 1.0])).astype(np.float32))
+        a_t = a_lit[lit_of_t]
+        s_t = a_t + b_pair[local]
+        ss = NUMPY.dot(s_t, s_t)
+        if cull is not None:  # only the triples whose mirror orientation lies near the centre
+            cx, cy, cz = cull[0]
+            dot = s_t[:, 0] * cx + s_t[:, 1] * cy + s_t[:, 2] * cz  # no BLAS call (threads next to Dr.Jit's wait)
+            keep = np.abs(dot) >= cull[1] * np.sqrt(ss)
+            del dot
+            pair_of_t, lit_of_t, local = pair_of_t[keep], lit_of_t[keep], local[keep]
+            a_t, s_t, ss = a_t[keep], s_t[keep], ss[keep]
+            if pair_of_t.size == 0:
+                continue
+        # lobe.mirror_terms and triple_terms, term by term
+        h = NUMPY.scale(s_t, 1.0 / np.sqrt(np.maximum(ss, NUMPY.tiny)))
+        del s_t, ss
+        cos_l = np.abs(NUMPY.dot(a_t, h))
+        del a_t
+        max_ab = np.maximum(an_lit[lit_of_t], bn_pair[local])
+        r_y = np.interp(np.clip(cos_l, 0.0, 1.0), table[0], table[1])
+        c = lobe.schiller_factor(etl_lit[lit_of_t], t_v_pair[local], cos_l, max_ab, eta, NUMPY) * r_y
+        del cos_l, max_ab, r_y
+        c /= l_ref
+        down = h[:, 2] < 0.0
+        if down.any():  # axial: fold into the upper hemisphere
+            h[down] = -h[down]
+        if np.isfinite(c).all() and np.isfinite(h).all():
+            c_parts.append(c.astype(np.float32))
+            h_parts.append(h.astype(np.float32))
+        else:
+            finite = np.isfinite(c) & np.all(np.isfinite(h), axis=1)
+            c_parts.append(np.where(finite, c, 0.0).astype(np.float32))
+            h_parts.append(np.where(finite[:, None], h, np.array([0.0, 0.0, 1.0])).astype(np.float32))
         pair_parts.append(pair_of_t.astype(np.int32))
     return h_parts, c_parts, pair_parts, pi, pv, pair_weight

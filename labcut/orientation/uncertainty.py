@@ -60,6 +60,9 @@ COVER = 2.0
 #: (poses, full vs double)
 DIRECTION_FACTOR = 1.5
 POSE_FACTOR = 2.5
+#: the error bars' partial problems hold the triples this far (radians) beyond the stencil sums'
+#: reach (:func:`uncertainty_for`): float32 rounding of the mirror orientations stays far below it
+NEAR_MARGIN_RAD = 1e-3
 #: stencil: rings at these fractions of the fit radius, directions per ring
 RINGS = (0.5, 1.0)
 RING_DIRECTIONS = 8
@@ -197,30 +200,51 @@ def pair_radiance(problem: FlashProblem, normals: np.ndarray) -> np.ndarray:
     ``exp(-12.5)`` of the lobe's peak are dropped)."""
     normals = np.asarray(normals, dtype=np.float64)
     centre = normals[0]
-    spread = float(np.degrees(np.arccos(np.clip(np.abs(normals @ centre), 0.0, 1.0))).max())
-    reach = math.radians(spread) + 5.0 / math.sqrt(max(problem.kappa, 1e-6))
+    reach = _reach(problem.kappa, normals)
+    built = problem.info.get("near")
+    if built is not None:  # a problem of the triples near some centre only (build_problem(near=...))
+        off = math.acos(min(1.0, abs(float(np.dot(np.asarray(built[0]), centre)))))
+        if off + reach > float(built[1]):
+            raise ParameterError(f"this problem holds only the triples within {math.degrees(built[1]):.2f}° of "
+                                 f"{built[0]}: too few for sums {math.degrees(off + reach):.2f}° around the normals given")
     h = problem.h
-    cos_c = np.abs(h @ centre.astype(np.float32))
+    c32 = centre.astype(np.float32)
+    cos_c = np.abs(h[:, 0] * c32[0] + h[:, 1] * c32[1] + h[:, 2] * c32[2])  # no BLAS (threads next to Dr.Jit's wait)
     near = np.nonzero(cos_c >= math.cos(min(reach, math.pi / 2)))[0]
     n_pairs = int(problem.pair_view.size)
     out = np.zeros((n_pairs, len(normals)))
     if near.size == 0:
         return out
-    # float32, normal-major (K, n): the lobe of every near triple at every stencil normal
-    d = normals.astype(np.float32) @ h[near].T
+    # float32, triple-major (n, K): the lobe of every near triple at every stencil normal, the
+    # products as fixed multiply-adds (no BLAS: the same sums whatever the machine's threads)
+    hn = h[near]
+    n32 = normals.astype(np.float32)
+    d = np.multiply(hn[:, 0:1], n32[None, :, 0])
+    d += hn[:, 1:2] * n32[None, :, 1]
+    d += hn[:, 2:3] * n32[None, :, 2]
+    del hn
     np.abs(d, out=d)
     d -= np.float32(1.0)
     d *= np.float32(problem.kappa)
     np.exp(d, out=d)
-    d *= (np.float32(problem.q_norm) * problem.c[near])[None, :]
+    d *= (np.float32(problem.q_norm) * problem.c[near])[:, None]
     pairs = problem.pair[near]
     if np.all(pairs[1:] >= pairs[:-1]):  # triples sorted by pair (build_problem's order): one segmented sum
         first = np.flatnonzero(np.r_[True, pairs[1:] != pairs[:-1]])
-        out[pairs[first]] = np.add.reduceat(d, first, axis=1, dtype=np.float64).T
+        out[pairs[first]] = np.add.reduceat(d, first, axis=0, dtype=np.float64)
     else:
         for k in range(len(normals)):
-            out[:, k] = np.bincount(pairs, weights=d[k], minlength=n_pairs)
+            out[:, k] = np.bincount(pairs, weights=d[:, k], minlength=n_pairs)
     return out
+
+
+def _reach(kappa: float, normals: np.ndarray) -> float:
+    """The angle (radians) from ``normals[0]`` within which :func:`pair_radiance` sums triples."""
+    from .problem import lobe_reach
+
+    centre = normals[0]
+    spread = float(np.degrees(np.arccos(np.clip(np.abs(normals @ centre), 0.0, 1.0))).max())
+    return lobe_reach(kappa, math.radians(spread))
 
 
 def objective_values(problem: FlashProblem, radiance: np.ndarray, point_weights: np.ndarray, objective: str) -> np.ndarray:
@@ -237,17 +261,22 @@ def objective_values(problem: FlashProblem, radiance: np.ndarray, point_weights:
     energy = np.zeros((R, K))
     area = np.zeros((R, K))
     intensity = np.zeros((R, K))
+    lit = np.any(radiance > 0.0, axis=1)  # pairs with any radiance: the only ones in the numerators (tau > 0)
+    n_w = point_weights.shape[1]
     for v, wv in enumerate(problem.view_weight):
         seg = order[bounds[v]:bounds[v + 1]]
         if seg.size == 0 or wv <= 0:
             continue
-        a = point_weights[:, pp[seg]] * pw[seg][None, :]  # (R, n)
-        den = np.maximum(a.sum(axis=1, keepdims=True), 1e-300)
-        e_v = (a @ radiance[seg]) / den
+        # the view's projected area under each replicate's weights: Σ_pairs w(point) x pair weight
+        area_w = np.bincount(pp[seg], weights=pw[seg], minlength=n_w)
+        den = np.maximum(np.einsum("rn,n->r", point_weights, area_w)[:, None], 1e-300)
+        seg = seg[lit[seg]]
+        a = point_weights[:, pp[seg]] * pw[seg][None, :]  # (R, n), products without BLAS threads
+        e_v = np.einsum("rn,nk->rk", a, radiance[seg]) / den
         energy += wv * e_v
         if objective != "energy":
-            ar_v = (a @ flash[seg]) / den
-            in_v = (a @ (radiance[seg] * flash[seg])) / den
+            ar_v = np.einsum("rn,nk->rk", a, flash[seg]) / den
+            in_v = np.einsum("rn,nk->rk", a, radiance[seg] * flash[seg]) / den
             area += wv * ar_v
             intensity += wv * np.where(ar_v > 1e-12, in_v / np.maximum(ar_v, 1e-12), 0.0)
     if objective == "energy":
@@ -262,6 +291,11 @@ def objective_values(problem: FlashProblem, radiance: np.ndarray, point_weights:
 def _point_count(problem: FlashProblem) -> int:
     pp = problem.info.get("pair_point")
     return int(problem.n_points if pp is not None else problem.pair_view.size)
+
+
+def stencil_radius(tolerance_deg: float | None) -> float:
+    """The stencil radius (degrees) for an answer of tolerance ``tolerance_deg``: half of it, within 0.3-3°."""
+    return float(np.clip(0.5 * (tolerance_deg if tolerance_deg and math.isfinite(tolerance_deg) else 3.0), 0.3, 3.0))
 
 
 def estimate_uncertainty(problem: FlashProblem, normal: Any, objective: str = "energy", *,
@@ -280,7 +314,7 @@ def estimate_uncertainty(problem: FlashProblem, normal: Any, objective: str = "e
     m = m / np.linalg.norm(m)
     if not isinstance(replicates, int) or replicates < 4:
         raise ParameterError(f"replicates must be a whole number >= 4, got {replicates!r}")
-    radius = float(np.clip(0.5 * (tolerance_deg if tolerance_deg and math.isfinite(tolerance_deg) else 3.0), 0.3, 3.0))
+    radius = stencil_radius(tolerance_deg)
     normals, xy = stencil(m, radius)
     rad = pair_radiance(problem, normals)
     rng = np.random.default_rng(seed + 7919)
@@ -316,13 +350,26 @@ def uncertainty_for(mesh: Any, setup: Any, problem: FlashProblem, normal: Any, *
     """:func:`estimate_uncertainty` of a recommendation asked as ``setup`` (a
     :class:`~labcut.orientation.setup.FlashSetup`) whose sample problem is ``problem``: builds
     the half-direction problem of the same question (:meth:`FlashSetup.at_quality
-    <labcut.orientation.setup.FlashSetup.at_quality>` with :func:`half_directions`)."""
+    <labcut.orientation.setup.FlashSetup.at_quality>` with :func:`half_directions`) and, for a
+    scenario that rocks, the finer-pose one (:func:`finer_poses`).
+
+    Both are built only as far as the stencil sums need them (:func:`build_problem`'s ``near``:
+    the triples within reach of the stencil around ``normal``, every pair), the half-direction
+    one from the answer's own surface samples (it keeps the points): the bars are those of the
+    whole problems (the sums drop the other triples anyway) at a fraction of the cost."""
     from .problem import build_problem
+
+    m = np.asarray(normal, dtype=np.float64)
+    m = m / np.linalg.norm(m)
+    normals, _ = stencil(m, stencil_radius(tolerance_deg))
+    near = (m, _reach(problem.kappa, normals) + NEAR_MARGIN_RAD)
 
     def build(q: Quality) -> FlashProblem:
         other = setup.at_quality(q)
+        count = other.quality.surface_points
+        samples = problem.samples if problem.samples is not None and problem.samples.count == count else None
         return build_problem(mesh, setup.material, quality=other.quality, tau=setup.tau, seed=setup.seed,
-                             settings=other.scenario.settings(), occlusion=occlusion)
+                             settings=other.scenario.settings(), occlusion=occlusion, samples=samples, near=near)
 
     coarse = build(half_directions(setup.quality))
     rocks = setup.scenario.rock_deg > 0.0 or setup.scenario.sway_deg > 0.0

@@ -1,0 +1,91 @@
+"""The error bars' fast path (issue 17 §4) gives the bars of the whole problems.
+
+``uncertainty_for`` builds its half-direction and finer-pose problems only as far as the stencil
+sums need them (``build_problem(near=...)``) and the half-direction one from the answer's own
+surface samples; the bars must equal those of the fully built problems, and the partial problems'
+sums those of the whole ones.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import labcut
+from labcut.errors import ParameterError
+from labcut.orientation.problem import build_problem, surface_samples
+from labcut.orientation.setup import FlashSetup
+from labcut.orientation.uncertainty import (
+    NEAR_MARGIN_RAD,
+    _reach,
+    estimate_uncertainty,
+    finer_poses,
+    half_directions,
+    pair_radiance,
+    stencil,
+    stencil_radius,
+    uncertainty_for,
+)
+
+MESHES = Path(__file__).resolve().parents[1] / "meshes"
+
+
+@pytest.fixture(scope="module")
+def oval():
+    return labcut.load_mesh(MESHES / "oval-16x12-low.ply")
+
+
+def _full(mesh, setup, quality, occlusion=None):
+    other = setup.at_quality(quality)
+    return build_problem(mesh, setup.material, quality=other.quality, tau=setup.tau, seed=setup.seed,
+                         settings=other.scenario.settings(), occlusion=occlusion)
+
+
+@pytest.mark.parametrize("scenario, objective, normal", [
+    ("bench", "energy", (0.06, -0.01, 1.0)),  # rocks: half-direction and finer-pose problems
+    ("pendant", "area", (0.0, 0.1, 1.0)),
+    ("ring", "balanced", (0.1, 0.05, 1.0)),
+])
+def test_reused_error_bars_equal_the_direct_computation(oval, scenario, objective, normal):
+    setup = FlashSetup.build("blue", scenario, quality="draft", objective=objective)
+    problem = _full(oval, setup, setup.quality)
+    got = uncertainty_for(oval, setup, problem, normal, occlusion=None, tolerance_deg=3.0)
+    rocks = setup.scenario.rock_deg > 0.0 or setup.scenario.sway_deg > 0.0
+    want = estimate_uncertainty(problem, normal, objective, coarse=_full(oval, setup, half_directions(setup.quality)),
+                                fine=_full(oval, setup, finer_poses(setup.quality)) if rocks else None,
+                                tolerance_deg=3.0, seed=setup.seed)
+    assert got == want
+
+
+def test_a_near_problem_sums_what_the_whole_problem_sums(oval):
+    setup = FlashSetup.build("blue", "bench", quality="draft")
+    whole = _full(oval, setup, half_directions(setup.quality))
+    m = np.array([0.05, -0.02, 1.0])
+    m /= np.linalg.norm(m)
+    normals, _ = stencil(m, stencil_radius(2.0))
+    reach = _reach(whole.kappa, normals)
+    part = build_problem(oval, setup.material, quality=half_directions(setup.quality), tau=setup.tau, seed=setup.seed,
+                         settings=setup.at_quality(half_directions(setup.quality)).scenario.settings(),
+                         near=(m, reach + NEAR_MARGIN_RAD))
+    assert 0 < part.n_triples < 0.75 * whole.n_triples  # it keeps fewer triples ...
+    np.testing.assert_array_equal(part.pair_weight, whole.pair_weight)  # ... and every pair
+    np.testing.assert_array_equal(pair_radiance(part, normals), pair_radiance(whole, normals))
+    # a normal beyond what the partial problem holds is refused, not summed short
+    far = stencil(np.array([0.5, 0.0, 1.0]) / math.hypot(0.5, 1.0), 1.0)[0]
+    with pytest.raises(ParameterError, match="holds only the triples"):
+        pair_radiance(part, far)
+
+
+def test_given_samples_build_the_same_problem(oval):
+    setup = FlashSetup.build("blue", "bench", quality="draft")
+    settings = setup.scenario.settings()
+    a = build_problem(oval, setup.material, quality="draft", settings=settings, seed=3)
+    fresh = surface_samples(oval.copy(), setup.quality.surface_points, 3)  # drawn again, not the cached ones
+    b = build_problem(oval, setup.material, quality="draft", settings=settings, seed=3, samples=fresh)
+    for name in ("h", "c", "pair", "pair_view", "pair_weight", "view_weight"):
+        np.testing.assert_array_equal(getattr(a, name), getattr(b, name))
+    with pytest.raises(ParameterError, match="samples given"):
+        build_problem(oval, setup.material, quality="draft", settings=settings, seed=4, samples=fresh)
