@@ -60,3 +60,23 @@ def unit_vector(value: Any, name: str) -> np.ndarray:
         raise ParameterError(f"{name} must not be the zero vector")
     v = v / scale
     return v / np.linalg.norm(v)
+
+
+def is_default(value: Any, default: Any) -> bool:
+    """Whether an argument was left at its default: ``None`` is only ``None``; a number or string
+    equal to the default counts; an array or object that does not compare is not the default."""
+    if value is None or default is None:
+        return value is default
+    try:
+        return bool(value == default) and type(value) in (type(default), int, float)
+    except Exception:  # noqa: BLE001 - an array or object that does not compare: not the default
+        return False
+
+
+def given_besides(asked: dict[str, Any], defaults: dict[str, Any], holder: str) -> None:
+    """Refuse arguments passed beside an object that already holds them: every ``asked`` value
+    must be its ``defaults`` entry, else a one-line ParameterError naming ``holder`` (e.g.
+    ``"setup= already holds the render request"``) and the arguments given."""
+    clash = [k for k, v in asked.items() if not is_default(v, defaults[k])]
+    if clash:
+        raise ParameterError(f"{holder}; do not also pass {', '.join(clash)}")

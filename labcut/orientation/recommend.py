@@ -12,6 +12,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import ParameterError
+from ..validation import given_besides, is_default
 from ..physics.material import Labradorite
 from ..scene import Lights, Scenario, Views, resolve_scene
 from ..scene.quality import Quality
@@ -351,19 +352,8 @@ def question(setup: FlashSetup | None = None, **asked: Any) -> FlashSetup:
                                 **{k: v for k, v in asked.items() if k not in ("material", "scenario", "lighting", "viewing")})
     if not isinstance(setup, FlashSetup):
         raise ParameterError(f"setup must be a labcut FlashSetup (FlashSetup.build(...)), got {type(setup).__name__}")
-    clash = [k for k, v in asked.items() if not _is_default(v, _QUESTION_DEFAULTS[k])]
-    if clash:
-        raise ParameterError(f"setup= already holds the question; do not also pass {', '.join(clash)}")
+    given_besides(asked, _QUESTION_DEFAULTS, "setup= already holds the question")
     return setup
-
-
-def _is_default(value: Any, default: Any) -> bool:
-    if value is None or default is None:
-        return value is default
-    try:
-        return bool(value == default) and type(value) in (type(default), int, float)
-    except Exception:  # noqa: BLE001 - an array or object that does not compare: not the default
-        return False
 
 
 def _setup(mesh: Any, setup: FlashSetup, command: str = "recommend", plan: Any = None) -> tuple[Scorer, Any]:
@@ -471,7 +461,7 @@ def recommend_orientation(
     if time_budget is not None:
         if plan is not None:
             raise ParameterError("give plan or time_budget, not both (the budget plans at the quality it chooses)")
-        ask, budget = _within_budget(mesh, ask, time_budget, quality_given=not _is_default(quality, "standard"))
+        ask, budget = _within_budget(mesh, ask, time_budget, quality_given=not is_default(quality, "standard"))
     material, scene, constraint, quality = ask.material, ask.scenario, ask.constraint, ask.quality
     objective, tau, seed, zoning = ask.objective, ask.tau, ask.seed, ask.zoning
     scorer, plan = _setup(mesh, ask, "recommend", plan)

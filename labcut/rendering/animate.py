@@ -115,16 +115,14 @@ def animate(
     ``amplitude_deg`` and ``fps`` are its own), and ``setup`` a validated
     :class:`~labcut.rendering.setup.RenderSetup` of the rest pose (then ``material`` and the render
     arguments stay at their defaults): what the CLI passes, checked once."""
-    from ..orientation.recommend import _is_default
+    from ..validation import given_besides
     from .api import render_setup
 
     asked = {"material": material, "scenario": scenario, "lighting": lighting, "viewing": viewing, "spp": spp,
              "resolution": resolution, "exposure": exposure, "look": look, "denoise": denoise, "zoning": zoning, "seed": seed}
     if isinstance(motion, Motion):
-        clash = [k for k, v in {"frames": frames, "amplitude_deg": amplitude_deg, "fps": fps}.items()
-                 if not _is_default(v, _ANIMATION_DEFAULTS[k])]
-        if clash:
-            raise ParameterError(f"motion= is a Motion that holds its frames, amplitude and fps; do not also pass {', '.join(clash)}")
+        given_besides({"frames": frames, "amplitude_deg": amplitude_deg, "fps": fps}, _ANIMATION_DEFAULTS,
+                      "motion= is a Motion that holds its frames, amplitude and fps")
         move = motion
     else:
         move = Motion.build(motion, frames, amplitude_deg, fps)
@@ -134,9 +132,7 @@ def animate(
     elif not isinstance(setup, RenderSetup):
         raise ParameterError(f"setup must be a labcut RenderSetup (RenderSetup.build(...)), got {type(setup).__name__}")
     else:
-        clash = [k for k, v in asked.items() if not _is_default(v, _ANIMATION_DEFAULTS[k])]
-        if clash:
-            raise ParameterError(f"setup= already holds the render request; do not also pass {', '.join(clash)}")
+        given_besides(asked, _ANIMATION_DEFAULTS, "setup= already holds the render request")
     if output is not None:
         from ..fileio import check_output_path
 

@@ -269,17 +269,16 @@ def build_scene(
     view: Any = "main",
     resolution: int = 512,
     mode: str = "rgb",
-    polarizer_deg: float | None = None,
-    lobes: Sequence[str] = LOBES,
-    max_depth: int | None = None,
-    perspective: bool = False,
-    integrator: str | None = None,
     *,
-    zoning: Any = None,
-    look: Any = "diagram",
-    denoise: bool | None = None,
+    integrator: str | None = None,
+    **request: Any,
 ) -> tuple[Any, RenderPlan]:
     """The Mitsuba scene for one camera (selects the plan's variant). Returns (scene, plan).
+
+    ``request``: the other arguments of the render request, as
+    :meth:`RenderSetup.build <labcut.rendering.setup.RenderSetup.build>` takes them
+    (``polarizer_deg``, ``lobes``, ``max_depth``, ``perspective``, ``zoning``, ``look``,
+    ``denoise``); the lights and camera come from ``setting`` and ``view``.
 
     ``setting``: the lights and main view in the mesh frame (a scenario's
     :meth:`~labcut.Scenario.main_setting`; default: the ``bench`` scenario's rest pose).
@@ -305,8 +304,10 @@ def build_scene(
     cams = camera_views(view, setting)
     if len(cams) != 1:
         raise ParameterError("build_scene takes a single view; render() handles 'orbit'")
-    ask = RenderSetup.build(material, resolution=resolution, mode=mode, polarizer_deg=polarizer_deg, lobes=lobes,
-                            max_depth=max_depth, perspective=perspective, zoning=zoning, look=look, denoise=denoise)
+    bad = sorted(set(request) - {"polarizer_deg", "lobes", "max_depth", "perspective", "zoning", "look", "denoise"})
+    if bad:
+        raise ParameterError(f"build_scene takes no {', '.join(bad)} (the camera and lights come from setting and view)")
+    ask = RenderSetup.build(material, resolution=resolution, mode=mode, **request)
     return _scene(mesh, ask, normalize_normal(lamella_normal), setting, cams[0], integrator)
 
 
@@ -471,7 +472,7 @@ def render_question(setup: Any = None, **asked: Any) -> Any:
     """The :class:`~labcut.rendering.setup.RenderSetup` of a call: ``setup`` itself, or one built
     (and so validated) from the loose arguments ``asked`` (names of :data:`_REQUEST_DEFAULTS`).
     Both at once is an error: the setup holds the request."""
-    from ..orientation.recommend import _is_default
+    from ..validation import given_besides
     from .setup import RenderSetup
 
     if setup is None:
@@ -479,9 +480,7 @@ def render_question(setup: Any = None, **asked: Any) -> Any:
                                  asked.pop("viewing", None), **asked)
     if not isinstance(setup, RenderSetup):
         raise ParameterError(f"setup must be a labcut RenderSetup (RenderSetup.build(...)), got {type(setup).__name__}")
-    clash = [k for k, v in asked.items() if not _is_default(v, _REQUEST_DEFAULTS[k])]
-    if clash:
-        raise ParameterError(f"setup= already holds the render request; do not also pass {', '.join(clash)}")
+    given_besides(asked, _REQUEST_DEFAULTS, "setup= already holds the render request")
     return setup
 
 
