@@ -149,23 +149,38 @@ def surface_samples(mesh: Any, count: int, seed: int) -> SurfaceSamples:
 
 
 def _draw_samples(mesh: Any, count: int, seed: int, angle: float) -> SurfaceSamples:
-    from ..rendering.scene import smooth_split
+    from ..rendering.scene import FAST_SMOOTH_FACES, face_areas, smooth_corner_normals, smooth_split
 
-    split = smooth_split(mesh, angle)
-    area_faces = split.area_faces
+    big = len(mesh.faces) > FAST_SMOOTH_FACES
+    # a big mesh is sampled in its own face order and shaded at the sampled faces only
+    # (smooth_corner_normals); a smaller one on the renderer's split copy (its own face order)
+    split = None if big else smooth_split(mesh, angle)
+    area_faces = face_areas(mesh) if big else split.area_faces
     ok = np.isfinite(area_faces) & (area_faces > 0)
     if not np.any(ok):
         raise MeshError("the mesh has no face with positive area")
     rng = np.random.default_rng(seed)
     prob = np.where(ok, area_faces, 0.0)
-    face_idx = rng.choice(len(area_faces), size=count, p=prob / prob.sum())
+    del area_faces, ok
+    face_idx = rng.choice(len(prob), size=count, p=prob / prob.sum())
+    del prob
     r1, r2 = rng.random(count), rng.random(count)
     sq = np.sqrt(r1)
     bary = np.stack([1 - sq, sq * (1 - r2), sq * r2], axis=1)
-    tri = split.vertices[split.faces[face_idx]]  # = split.triangles[face_idx], without every face's corners
+    if big:
+        import trimesh
+
+        tri = np.asarray(mesh.vertices, dtype=np.float64)[np.asarray(mesh.faces)[face_idx]]
+        unit, valid = trimesh.triangles.normals(tri)
+        n_geo = np.zeros((count, 3))
+        n_geo[valid] = unit
+        n_sh = np.einsum("ij,ijk->ik", bary, smooth_corner_normals(mesh, angle, face_idx))
+        n_sh /= np.linalg.norm(n_sh, axis=1, keepdims=True)
+    else:
+        tri = split.vertices[split.faces[face_idx]]  # = split.triangles[face_idx], without every face's corners
+        n_geo = split.face_normals[face_idx]
+        n_sh = _smooth_normals(split, face_idx, bary)
     points = np.einsum("ij,ijk->ik", bary, tri)
-    n_geo = split.face_normals[face_idx]
-    n_sh = _smooth_normals(split, face_idx, bary)
 
     info = mesh.metadata.get("labcut", {}) if hasattr(mesh, "metadata") else {}
     if "convex" in info:

@@ -52,10 +52,16 @@ def self_view_fraction(mesh: Any, points: int = 1024, directions: int = 64, seed
     by way of another part of it (times that part's reflectance)."""
     import trimesh
 
+    from .scene import sample_surface
+
     rng = np.random.default_rng(seed)
-    pts, face = trimesh.sample.sample_surface(mesh, int(points), seed=int(rng.integers(2**31)))
+    # trimesh.sample.sample_surface's points, without its copies of every face's corners
+    pts, face = sample_surface(mesh, int(points), seed=int(rng.integers(2**31)))
     pts = np.asarray(pts, dtype=np.float64)
-    n = np.asarray(mesh.face_normals[face], dtype=np.float64)
+    # the picked faces' normals (mesh.face_normals[face], without every face's)
+    unit, valid = trimesh.triangles.normals(np.asarray(mesh.vertices, dtype=np.float64)[np.asarray(mesh.faces)[face]])
+    n = np.zeros((len(face), 3))
+    n[valid] = unit
     # a cosine-weighted direction set about +Z, rotated onto each point's normal
     u1, u2 = rng.random(directions), rng.random(directions)
     r, phi = np.sqrt(u1), 2.0 * np.pi * u2

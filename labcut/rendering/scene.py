@@ -126,6 +126,107 @@ def smooth_split(mesh: Any, angle_deg: float) -> Any:
                        lambda: trimesh.graph.smooth_shade(mesh, angle=math.radians(angle_deg)))
 
 
+#: meshes with more triangles than this are shaded for the flash estimator by
+#: :func:`smooth_corner_normals` at the sampled faces (a few million triangles' split copy costs
+#: seconds to build and gigabytes to hold); smaller ones by the split copy the renderer uses
+FAST_SMOOTH_FACES = 200_000
+
+
+def face_areas(mesh: Any, chunk: int = 1 << 20) -> np.ndarray:
+    """Area of every face, as trimesh's ``area_faces`` has it (the same formula, the same values),
+    computed in chunks (no (F, 3, 3) copy of the corners kept) and once per mesh (:func:`mesh_cached`)."""
+    def build() -> np.ndarray:
+        import trimesh
+
+        v = np.asarray(mesh.vertices, dtype=np.float64)
+        f = np.asarray(mesh.faces)
+        out = np.empty(len(f))
+        for s in range(0, len(f), chunk):
+            crosses = trimesh.triangles.cross(v[f[s : s + chunk]])
+            out[s : s + len(crosses)] = np.sqrt((crosses**2).sum(axis=1)) / 2.0
+        out.setflags(write=False)
+        return out
+
+    return mesh_cached(mesh, "labcut_face_areas", build)
+
+
+def sample_surface(mesh: Any, count: int, seed: int) -> tuple[np.ndarray, np.ndarray]:
+    """``trimesh.sample.sample_surface(mesh, count, seed=seed)`` (the same points and faces, from
+    the same random stream) without its copies of every face's corners: the areas come from
+    :func:`face_areas` and only the picked faces' corners are gathered. ``(points, face_index)``."""
+    weight_cum = np.cumsum(face_areas(mesh))
+    random = np.random.default_rng(seed).random
+    face_index = np.searchsorted(weight_cum, random(count) * weight_cum[-1])
+    v = np.asarray(mesh.vertices)
+    f = np.asarray(mesh.faces)[face_index]
+    origins = v[f[:, 0]]
+    vectors = v[f[:, 1:]].copy()
+    vectors -= np.tile(origins, (1, 2)).reshape((-1, 2, 3))
+    lengths = random((len(vectors), 2, 1))
+    lengths[lengths.sum(axis=1).reshape(-1) > 1.0] -= 1.0
+    lengths = np.abs(lengths)
+    return (vectors * lengths).sum(axis=1) + origins, face_index
+
+
+def smooth_corner_normals(mesh: Any, angle_deg: float, face_idx: Any) -> np.ndarray:
+    """(k, 3, 3) smooth shading normals at the three corners of the faces ``face_idx`` of ``mesh``
+    (in its own face order), split along edges sharper than ``angle_deg``, without building a split
+    copy of the whole mesh (:func:`smooth_split`), for a mesh of millions of triangles.
+
+    At a corner (face f, vertex v) the normal is the corner-angle weighted mean of the normals of
+    the faces around v that f reaches across edges at v whose faces' normals differ by less than
+    ``angle_deg`` (trimesh's vertex normals of the split copy: the same weights and tests).
+    trimesh's split goes by connected patches of the whole mesh and keeps large flat facets apart;
+    the two agree wherever the sharp edges around a vertex part the same faces around it (at
+    every vertex of a stone whose creases close into loops), and differ only at the ends of
+    creases in a smooth patch and at the rims of flat facets larger than a tenth of the
+    surface (``tests/test_speed_big.py`` compares them)."""
+    import trimesh
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    faces = np.asarray(mesh.faces, dtype=np.int64)
+    verts = np.asarray(mesh.vertices, dtype=np.float64)
+    face_idx = np.asarray(face_idx, dtype=np.int64).ravel()
+    nv = len(verts)
+    need = np.zeros(nv, dtype=bool)
+    need[faces[face_idx].ravel()] = True
+    # every corner at a needed vertex: (face g, corner c), sorted by face then corner
+    g, c = np.nonzero(need[faces])
+    v = faces[g, c]
+    w1, w2 = faces[g, (c + 1) % 3], faces[g, (c + 2) % 3]
+    inc = np.unique(g)  # incident faces: their normals and corner angles
+    tri = verts[faces[inc]]
+    fn, valid = trimesh.triangles.normals(tri)
+    normals = np.zeros((len(inc), 3))
+    normals[valid] = fn
+    angles = trimesh.triangles.angles(tri)
+    loc = np.searchsorted(inc, g)
+    n_c = normals[loc]
+    ang_c = angles[loc, c]
+    ang_c = np.where(np.einsum("ij,ij->i", n_c, n_c) > 0.5, ang_c, 0.0)  # faces without a normal count for nothing
+    # the fan around each vertex: corners whose faces share an edge (v, w) at it
+    key = np.concatenate([v * nv + w1, v * nv + w2])
+    corner = np.concatenate([np.arange(len(g)), np.arange(len(g))])
+    order = np.argsort(key, kind="stable")
+    ks, cs = key[order], corner[order]
+    same = np.flatnonzero(ks[1:] == ks[:-1])
+    a, b = cs[same], cs[same + 1]
+    keep = a != b
+    a, b = a[keep], b[keep]
+    dots = np.clip(np.einsum("ij,ij->i", n_c[a], n_c[b]), -1.0, 1.0)
+    smooth = np.abs(np.arccos(dots)) < math.radians(angle_deg)
+    a, b = a[smooth], b[smooth]
+    graph = coo_matrix((np.ones(len(a), dtype=np.int8), (a, b)), shape=(len(g), len(g)))
+    _, comp = connected_components(graph, directed=False)
+    summed = np.stack([np.bincount(comp, weights=ang_c * n_c[:, k]) for k in range(3)], axis=1)
+    length = np.sqrt(np.einsum("ij,ij->i", summed, summed))
+    unit = summed / np.where(length > 0, length, 1.0)[:, None]
+    # the corners of the faces asked: their rows among the sorted (face, corner) pairs
+    rows = np.searchsorted(g * 3 + c, (face_idx[:, None] * 3 + np.arange(3)[None, :]).ravel())
+    return unit[comp[rows]].reshape(len(face_idx), 3, 3)
+
+
 def to_mitsuba_mesh(mesh: Any, bsdf: Any, smooth_angle_deg: float | None = None) -> Any:
     """A Mitsuba mesh of a ``trimesh.Trimesh`` (mm), smooth-shaded except across sharp edges.
 
