@@ -102,3 +102,38 @@ def write_cache(path: str | os.PathLike[str], data: dict[str, Any]) -> None:
             tmp.write_text(json.dumps(data, indent=1) + "\n")
     except (OSError, LabcutError):
         pass
+
+
+#: calibrations measured or read in this process: ``(file name, key) -> value``
+_CALIBRATIONS: dict[tuple[str, str], dict[str, Any]] = {}
+
+
+def calibration(name: str, key: str, measure: Any, *, check: Any = None, refresh: bool = False,
+                keep: int = 64) -> dict[str, Any]:
+    """A measurement of this machine, made once and kept: the value of ``key`` in this process,
+    else in the user cache file ``name`` (:func:`cache_path`; up to ``keep`` keys per file, the
+    newest kept), else ``measure()`` (a JSON-able dict), stored under ``key``. ``key`` names what
+    the value depends on (versions, CPU count, the layout): a changed key measures again. ``check``:
+    optional ``check(value)`` raising KeyError/TypeError/ValueError for a stored value of an older
+    layout (then it is measured again). ``refresh`` measures again whatever is kept."""
+    memo = (name, key)
+    if memo in _CALIBRATIONS and not refresh:
+        return _CALIBRATIONS[memo]
+    path = cache_path(name)
+    stored = read_cache(path) or {}
+    value = None if refresh else stored.get(key)
+    if isinstance(value, dict):
+        try:
+            if check is not None:
+                check(value)
+        except (KeyError, TypeError, ValueError, IndexError):
+            value = None
+    else:
+        value = None
+    if value is None:
+        value = dict(measure())
+        stored.pop(key, None)
+        stored[key] = value
+        write_cache(path, dict(list(stored.items())[-keep:]))
+    _CALIBRATIONS[memo] = value
+    return value

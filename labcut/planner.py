@@ -618,8 +618,6 @@ def _predicted_seconds(scene: Any, command: str, occlusion: bool, inter_reflecti
 
 # ---------------------------------------------------------------------- calibrations of the other commands
 _CALIBRATING = False
-_EVAL_TIMING: dict[str, float] | None = None
-_RENDER_TIMING: dict[str, tuple[float, float]] = {}
 
 
 def _evaluate_key() -> str:
@@ -636,34 +634,26 @@ def evaluate_timing(refresh: bool = False) -> dict[str, float]:
     :func:`labcut.orientation.timing.measure_sample_timing` fits a recommendation's, from three
     timed evaluations of a 16 x 12 mm oval cabochon under the bench scenario (draft, standard,
     draft with occlusion forced on); measured once (about a second) and kept in the user cache
-    (``planner-evaluate-timing.json``), again when labcut's or numpy's version or the CPU count differ."""
-    global _EVAL_TIMING, _CALIBRATING
-    key = _evaluate_key()
-    if _EVAL_TIMING is not None and _EVAL_TIMING.get("key") == key and not refresh:  # type: ignore[comparison-overlap]
-        return _EVAL_TIMING
-    from .fileio import cache_path, read_cache, write_cache
+    (:func:`labcut.fileio.calibration`, ``planner-evaluate-timing.json``), again when labcut's or
+    numpy's version or the CPU count differ."""
+    from .fileio import calibration
 
-    path = cache_path("planner-evaluate-timing.json")
-    data = None if refresh else read_cache(path)
-    if data is not None and data.get("key") == key:
+    def measure() -> dict[str, float]:
+        global _CALIBRATING
+        from .orientation.recommend import evaluate_orientation
+        from .orientation.timing import time_three
+
+        _CALIBRATING = True
         try:
-            _EVAL_TIMING = {"fixed": float(data["fixed"]), "per_term": float(data["per_term"]),
-                            "per_ray": float(data["per_ray"]), "key": key}  # type: ignore[dict-item]
-            return _EVAL_TIMING
-        except (KeyError, TypeError, ValueError):
-            pass  # an older layout: measure
-    from .orientation.recommend import evaluate_orientation
-    from .orientation.timing import time_three
+            fixed, per_term, per_ray = time_three(
+                lambda m, quality: evaluate_orientation(m, (0.05, 0.02, 1.0), quality=quality), repeats=2)
+        finally:
+            _CALIBRATING = False
+        return {"fixed": fixed, "per_term": per_term, "per_ray": per_ray}
 
-    _CALIBRATING = True
-    try:
-        fixed, per_term, per_ray = time_three(lambda m, quality: evaluate_orientation(m, (0.05, 0.02, 1.0), quality=quality),
-                                              repeats=2)
-    finally:
-        _CALIBRATING = False
-    _EVAL_TIMING = {"fixed": fixed, "per_term": per_term, "per_ray": per_ray, "key": key}  # type: ignore[dict-item]
-    write_cache(path, dict(_EVAL_TIMING))
-    return _EVAL_TIMING
+    value = calibration("planner-evaluate-timing.json", _evaluate_key(), measure, refresh=refresh,
+                        check=lambda v: [float(v[k]) for k in ("fixed", "per_term", "per_ray")])
+    return {k: float(value[k]) for k in ("fixed", "per_term", "per_ray")}
 
 
 def predict_evaluate_seconds(settings: Sequence[Any], surface_points: int, occlusion: bool) -> float:
@@ -687,53 +677,51 @@ def render_command_timing(mode: str, polarised: bool, integrator: str, look: str
     sizes; the ``path`` integrator to depth 4, the carvings' default), each after one warm-up.
     Measured once per key (a second or two) and kept in the user cache (``planner-render-timing.json``),
     again when Mitsuba's or labcut's version or the CPU count differ."""
-    global _CALIBRATING
     import os
     import time
 
     import mitsuba as mi
 
     from . import __version__
-    from .fileio import cache_path, read_cache, write_cache
+    from .fileio import calibration
 
-    key = f"{mode} {'polarised' if polarised else 'plain'} {integrator} {look} | mitsuba {mi.__version__} labcut {__version__} cpus {os.cpu_count()} v1"
-    if key in _RENDER_TIMING and not refresh:
-        return _RENDER_TIMING[key]
-    path = cache_path("planner-render-timing.json")
-    stored = read_cache(path) or {}
-    if key in stored and not refresh:
+    key = f"{mode} {'polarised' if polarised else 'plain'} {integrator} {look} | mitsuba {mi.__version__} labcut {__version__} cpus {os.cpu_count()} v2"
+
+    def measure() -> dict[str, float]:
+        global _CALIBRATING
+        import trimesh
+
+        from .physics.material import Labradorite
+        from .rendering.api import render
+
+        sphere = trimesh.creation.icosphere(subdivisions=3, radius=5.0)
+        sphere.metadata["labcut"] = {"convex": True}
+        kw = dict(scenario="bench", mode=mode, polarizer_deg=30.0 if polarised else None,
+                  max_depth=4 if integrator == "path" else None, look=look)
+        mat = Labradorite()
+        rows = []
+        _CALIBRATING = True
         try:
-            _RENDER_TIMING[key] = (float(stored[key][0]), float(stored[key][1]))
-            return _RENDER_TIMING[key]
-        except (TypeError, ValueError, IndexError, KeyError):
-            pass
-    import trimesh
+            for res, n in _RENDER_CAL:
+                render(sphere, mat, (0.05, 0.02, 1.0), resolution=res, spp=n, **kw)  # warm: kernels
+                t = time.perf_counter()
+                render(sphere, mat, (0.05, 0.02, 1.0), resolution=res, spp=n, **kw)
+                rows.append((res * res * n, time.perf_counter() - t))
+        finally:
+            _CALIBRATING = False
+        return linear_fit(rows)
 
-    from .physics.material import Labradorite
-    from .rendering.api import render
+    value = calibration("planner-render-timing.json", key, measure, refresh=refresh,
+                        check=lambda v: (float(v["fixed"]), float(v["per_sample"])))
+    return float(value["fixed"]), float(value["per_sample"])
 
-    sphere = trimesh.creation.icosphere(subdivisions=3, radius=5.0)
-    sphere.metadata["labcut"] = {"convex": True}
-    kw = dict(scenario="bench", mode=mode, polarizer_deg=30.0 if polarised else None,
-              max_depth=4 if integrator == "path" else None, look=look)
-    mat = Labradorite()
-    rows = []
-    _CALIBRATING = True
-    try:
-        for res, n in _RENDER_CAL:
-            render(sphere, mat, (0.05, 0.02, 1.0), resolution=res, spp=n, **kw)  # warm: kernels
-            t = time.perf_counter()
-            render(sphere, mat, (0.05, 0.02, 1.0), resolution=res, spp=n, **kw)
-            rows.append((res * res * n, time.perf_counter() - t))
-    finally:
-        _CALIBRATING = False
-    (n0, s0), (n1, s1) = rows
-    per_sample = max((s1 - s0) / (n1 - n0), 0.0)
-    value = (max(s0 - per_sample * n0, 0.0), per_sample)
-    _RENDER_TIMING[key] = value
-    stored[key] = list(value)
-    write_cache(path, dict(list(stored.items())[-64:]))
-    return value
+
+def linear_fit(rows: Sequence[tuple[float, float]]) -> dict[str, float]:
+    """``{"fixed", "per_sample"}`` seconds through two timed runs ``(samples, seconds)`` (the
+    slope and intercept of the line through them, neither below zero)."""
+    (n0, s0), (n1, s1) = rows[0], rows[-1]
+    per_sample = max((s1 - s0) / (n1 - n0), 0.0) if n1 != n0 else 0.0
+    return {"fixed": max(s0 - per_sample * n0, 0.0), "per_sample": per_sample}
 
 
 def _predicted_render_seconds(mode: str, polarised: bool, integrator: str, resolution: int, spp: int,

@@ -143,7 +143,11 @@ def compare(
     reference: Annotated[str, typer.Option("--reference", help="The cut every other is normalised to: its position (1 = the first CUT) or its name.")] = "1",
     mesh_options: Any = None,  # --units, --up-axis, --size (meshes.takes_mesh_options)
     material: Any = None,  # the material options (materials.takes_material)
-    quality: Annotated[str, typer.Option(help="draft, standard or high: of the recommendations, curves and renders.")] = "standard",
+    quality: Annotated[Optional[str], typer.Option(help="draft, standard (the default) or high: of the recommendations, curves and renders; not with --time-budget.")] = None,
+    time_budget: Annotated[Optional[float], typer.Option(
+        "--time-budget", metavar="SECONDS",
+        help="Seconds the whole comparison may take: the most accurate quality predicted to fit on this machine replaces "
+             "--quality (--resolution/--spp, when given, are kept); below the cheapest setting's prediction that one runs, with a note.")] = None,
     seed: Annotated[int, typer.Option(help="Seed of the surface sampling and the renders.", min=0)] = 0,
     resolution: Annotated[Optional[int], typer.Option(help="Size of the renders in pixels (default by quality: 96, 128, 256).")] = None,
     spp: Annotated[Optional[int], typer.Option(help="Samples per pixel of the renders (default by quality: 8, 32, 128).")] = None,
@@ -173,12 +177,16 @@ def compare(
 
         raise ParameterError("compare runs the sample estimator (many cuts and curves); "
                              "use --estimator samples, or recommend-orientation --estimator render per cut")
+    if time_budget is not None and quality is not None:
+        from labcut.errors import ParameterError
+
+        raise ParameterError("give --quality or --time-budget, not both (the budget chooses the quality)")
     unit_arg, up, size = mesh_options.units_arg, mesh_options.up, mesh_options.size
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", LabcutWarning)
-        plan = plan_comparison(cuts, material, scenario or ["bench"], reference=_reference(reference, len(cuts)), quality=quality,
-                               units=unit_arg, up_axis=up, seed=seed, resolution=resolution, spp=spp, effects=effects,
-                               size=size)
+        plan = plan_comparison(cuts, material, scenario or ["bench"], reference=_reference(reference, len(cuts)),
+                               quality=quality or "standard", units=unit_arg, up_axis=up, seed=seed, resolution=resolution,
+                               spp=spp, effects=effects, size=size, time_budget=time_budget)
     for w in caught:
         if issubclass(w.category, LabcutWarning):
             mo.print_warning(str(w.message))
@@ -220,7 +228,15 @@ def compare(
         console.print(scenario_table(cmp, n))
     if len(cmp.scenarios) > 1:
         console.print(compromise_table(cmp))
-    console.print(f"{len(cmp.cuts)} cut(s) x {len(cmp.scenarios)} scenario(s) at {quality} quality in {cmp.seconds:.1f} s")
+    console.print(f"{len(cmp.cuts)} cut(s) x {len(cmp.scenarios)} scenario(s) at {cmp.quality} quality in {cmp.seconds:.1f} s")
+    if cmp.budget:
+        b = cmp.budget
+        bars = [c.scenarios[n].recommendation.uncertainty for c in cmp.cuts for n in cmp.scenario_names]
+        bars = [u for u in bars if u is not None]
+        worst = (f"; its largest error bars ±{max(u.angle_deg for u in bars):.1f}°, ±{max(u.score_rel for u in bars):.0%}"
+                 if bars else "")
+        console.print(f"time budget {b['budget_seconds']:g} s: quality {b['quality']} (predicted {b['predicted_seconds']:.1f} s, "
+                      f"took {cmp.seconds:.1f} s{worst})", highlight=False)
     for label, path in (("report", html_path), ("JSON", json_path), ("CSV", csv_path)):
         if path is not None:
             console.print(f"{label} written to {path}")

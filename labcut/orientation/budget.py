@@ -103,18 +103,28 @@ def _corrections() -> tuple[Any, dict[str, Any]]:
     return path, data
 
 
-def correction(occlusion: bool) -> float:
-    """The factor this machine's recent budgeted runs put on the calibration's prediction."""
+def _kind(kind: bool | str) -> str:
+    """A correction's key: a recommendation's ``occlusion`` / ``plain`` (``kind`` a bool: whether
+    occlusion was counted), or another budgeted command's own name (e.g. ``"compare"``)."""
+    if isinstance(kind, str):
+        return kind
+    return "occlusion" if kind else "plain"
+
+
+def correction(kind: bool | str) -> float:
+    """The factor this machine's recent budgeted runs of ``kind`` (:func:`_kind`) put on the
+    calibration's prediction."""
     _, data = _corrections()
-    return float(data.get("occlusion" if occlusion else "plain", 1.0))
+    return float(data.get(_kind(kind), 1.0))
 
 
-def record(occlusion: bool, predicted_seconds: float, actual_seconds: float) -> float:
-    """Fold one run (predicted seconds before correction, actual seconds) into the correction; returns it."""
+def record(kind: bool | str, predicted_seconds: float, actual_seconds: float) -> float:
+    """Fold one run of ``kind`` (predicted seconds before correction, actual seconds) into its
+    correction; returns it."""
     from ..fileio import write_cache
 
     path, data = _corrections()
-    name = "occlusion" if occlusion else "plain"
+    name = _kind(kind)
     if not (predicted_seconds > 0 and actual_seconds > 0 and math.isfinite(predicted_seconds) and math.isfinite(actual_seconds)):
         return float(data.get(name, 1.0))
     old = float(data.get(name, 1.0))

@@ -365,7 +365,7 @@ def _setup(mesh: Any, setup: FlashSetup, command: str = "recommend", plan: Any =
 
     validate_mesh(mesh)
     if plan is not None:
-        if not isinstance(plan, EffectPlan) or plan.command != command:
+        if not isinstance(plan, EffectPlan) or plan.command not in ((command, "compare") if command == "recommend" else (command,)):
             raise ParameterError(f"plan must be the labcut.planner.plan_effects(..., command={command!r}) of this mesh "
                                  f"and question, got {plan!r:.80}")
     else:

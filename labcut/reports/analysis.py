@@ -166,14 +166,12 @@ def tilted_pose(scenario: Scenario, axis: str, angle_deg: float) -> np.ndarray:
     return rotation(tilt_axes(scenario)[axis], angle_deg) @ scenario.pose
 
 
-def tilt_curve(mesh: Any, material: Any, normal: np.ndarray, scenario: Scenario, quality: Quality | str = "standard",
-               tau: float = 0.1, seed: int = 0) -> TiltCurve:
-    """The tilt-performance curve of a cut at lamella ``normal`` (mesh frame) under ``scenario``.
-
-    One flash problem holds every tilted pose with the main viewer alone, so one evaluation
-    gives the flash per pose (the quality's ``tilt_points`` surface samples: a curve, not a score)."""
-    quality = Quality.coerce(quality)
-    step = quality.tilt_step_deg
+def tilt_settings(scenario: Scenario, quality: Quality | str = "standard") -> tuple[np.ndarray, list[Setting], list[bool]]:
+    """The tilt curve's angles (degrees, the quality's ``tilt_step_deg`` over ±:data:`TILT_RANGE_DEG`)
+    and its settings (mesh frame), front-back tilts then side-to-side, each the scenario's lights
+    with its main viewer alone; and whether that viewer sees the face at each (False: edge-on or from
+    behind, a placeholder view straight at the face stands in)."""
+    step = Quality.coerce(quality).tilt_step_deg
     angles = np.arange(-TILT_RANGE_DEG, TILT_RANGE_DEG + 0.5 * step, step)
     axes = tilt_axes(scenario)
     main = _unit(scenario.views.main)
@@ -187,6 +185,18 @@ def tilt_curve(mesh: Any, material: Any, normal: np.ndarray, scenario: Scenario,
             if not seen[-1]:  # edge-on or from behind: a placeholder view straight at the face, masked below
                 v = np.array([0.0, 0.0, 1.0])
             settings.append(Setting(scenario.lights.rotated(pose.T), Views([v], name="main"), 1.0, pose))
+    return angles, settings, seen
+
+
+def tilt_curve(mesh: Any, material: Any, normal: np.ndarray, scenario: Scenario, quality: Quality | str = "standard",
+               tau: float = 0.1, seed: int = 0) -> TiltCurve:
+    """The tilt-performance curve of a cut at lamella ``normal`` (mesh frame) under ``scenario``.
+
+    One flash problem holds every tilted pose with the main viewer alone, so one evaluation
+    gives the flash per pose (the quality's ``tilt_points`` surface samples: a curve, not a score)."""
+    quality = Quality.coerce(quality)
+    angles, settings, seen = tilt_settings(scenario, quality)
+    axes = tilt_axes(scenario)
     n = len(angles)
     energy = np.zeros(2 * n)
     area = np.zeros(2 * n)

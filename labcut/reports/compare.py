@@ -186,6 +186,8 @@ class Comparison:
     seconds: float
     tau: float = 0.1
     seed: int = 0
+    #: ``time_budget=``'s choice (:class:`labcut.orientation.budget.BudgetChoice` as a dict), or empty
+    budget: dict[str, Any] = field(default_factory=dict)
 
     # ------------------------------------------------------------------ access
     @property
@@ -310,6 +312,7 @@ class Comparison:
             "frame": FRAME,
             "metric_definitions": {**METRIC_DEFINITIONS, **COMPARE_DEFINITIONS},
             "seconds": self.seconds,
+            "time_budget": self.budget or None,
         })
 
     def summary_rows(self) -> list[dict[str, Any]]:
@@ -521,6 +524,8 @@ class ComparisonPlan:
     effects: dict[str, bool] = field(default_factory=dict)
     #: the effect plan of each (cut name, scenario name) (:class:`labcut.planner.EffectPlan`)
     effect_plans: dict[tuple[str, str], Any] = field(default_factory=dict)
+    #: ``time_budget=``'s choice of quality (:class:`labcut.orientation.budget.BudgetChoice`), or None
+    budget: Any = None
 
     @property
     def steps(self) -> int:
@@ -542,12 +547,16 @@ def plan_comparison(
     spp: int | None = None,
     effects: Mapping[str, Any] | None = None,
     size: float | None = None,
+    time_budget: float | None = None,
 ) -> ComparisonPlan:
     """Check every input of :func:`compare_cuts` (each cut parsed, read and validated) without
     starting the long work; a bad one is a one-line :class:`~labcut.errors.ParameterError` or
     :class:`~labcut.errors.MeshError` naming it. Arguments as :func:`compare_cuts`."""
     from ..scene.quality import Quality
+    from ..validation import is_default
 
+    if time_budget is not None and not is_default(quality, "standard"):
+        raise ParameterError("give quality or time_budget, not both (the budget chooses the quality)")
     quality = Quality.coerce(quality)
     seed = check_number(seed, "seed", 0, 2**63 - 1, integer=True)
     res = quality.render_resolution if resolution is None else check_number(resolution, "render resolution (pixels)", 16, 2048, integer=True)
@@ -556,16 +565,35 @@ def plan_comparison(
 
     lab = Labradorite.coerce(material)
     scens = resolve_scenarios(scenarios, quality)
-    resolved = resolve_cuts(cuts, units=units, up_axis=up_axis, size=size)
-    ref = _reference(reference, resolved)
     from ..planner import check_effects, plan_effects
 
     switches = check_effects(effects)
+    if time_budget is not None:
+        from .budget import check_budget
+
+        check_budget(time_budget)  # a bad budget fails before the cuts are read
+    resolved = resolve_cuts(cuts, units=units, up_axis=up_axis, size=size)
+    ref = _reference(reference, resolved)
+    choice = None
+    if time_budget is not None:
+        import warnings
+
+        from ..errors import LabcutWarning
+        from .budget import choose_quality
+
+        choice = choose_quality(time_budget, resolved, scenarios if scenarios is not None else ["bench"], switches,
+                                resolution, spp)
+        if choice.note:
+            warnings.warn(choice.note, LabcutWarning, stacklevel=3)
+        quality = choice.quality
+        res = quality.render_resolution if resolution is None else res
+        n_spp = quality.render_spp if spp is None else n_spp
+        scens = resolve_scenarios(scenarios, quality)
     plans = {(cut.name, sc.name): plan_effects(cut.mesh, lab, command="compare", scenario=sc, quality=quality,
                                                effects=switches, predict=True)
              for cut in resolved for sc in scens}
     return ComparisonPlan(resolved, lab, scens, ref, quality, seed, res, n_spp, max(1, n_spp // 2), quality.strip_angles_deg,
-                          effects=switches, effect_plans=plans)
+                          effects=switches, effect_plans=plans, budget=choice)
 
 
 def compare_cuts(
@@ -583,6 +611,7 @@ def compare_cuts(
     progress: Callable[[int, int], None] | None = None,
     effects: Mapping[str, Any] | None = None,
     size: float | None = None,
+    time_budget: float | None = None,
 ) -> Comparison:
     """Compare cuts for their schiller under one or more scenarios.
 
@@ -605,6 +634,11 @@ def compare_cuts(
     effects: overrides of the effect planner, ``{"occlusion": bool}`` (docs/planner.md); each
         cut's plan under each scenario is in its recommendation's ``plan``. Compare ranks with the
         sample estimator.
+    time_budget: seconds the whole comparison may take: the most accurate quality predicted to fit
+        on this machine replaces ``quality`` (:mod:`labcut.reports.budget`; ``resolution`` and
+        ``spp``, when given, are kept and counted); the choice is in ``Comparison.budget``. Below
+        the cheapest setting's prediction the cheapest runs, with a one-line
+        :class:`~labcut.errors.LabcutWarning`.
 
     Every input is checked (:func:`plan_comparison`) before the long work starts; a bad one
     raises a one-line :class:`~labcut.errors.ParameterError` or :class:`~labcut.errors.MeshError`
@@ -623,7 +657,7 @@ def compare_cuts(
     labcut.errors.ParameterError: unknown scenario 'beach'; choose one of bench, ring, pendant, brooch, display, outdoor, or a scenario JSON file
     """
     plan = plan_comparison(cuts, material, scenarios, reference, quality, units=units, up_axis=up_axis, seed=seed,
-                           resolution=resolution, spp=spp, effects=effects, size=size)
+                           resolution=resolution, spp=spp, effects=effects, size=size, time_budget=time_budget)
     return run_comparison(plan, progress)
 
 
@@ -662,9 +696,7 @@ def run_comparison(plan: ComparisonPlan, progress: Callable[[int, int], None] | 
             t0 = time.perf_counter()
             eplan = plan.effect_plans.get((cut.name, sc.name))
             rec = recommend_orientation(cut.mesh, lab, scenario=sc, quality=quality, seed=seed, tau=tau, estimator="samples",
-                                        effects=plan.effects)
-            if eplan is not None:
-                rec.plan = eplan.to_dict()
+                                        effects=plan.effects, plan=eplan)  # planned once, in plan_comparison
             scorer = scorer_for(cut.mesh, lab, sc, quality, tau, seed,
                                 occlusion=None if eplan is None else eplan.on("occlusion"))
             scorers.append(scorer)
@@ -709,4 +741,12 @@ def run_comparison(plan: ComparisonPlan, progress: Callable[[int, int], None] | 
         c.rank = rank
     render_info = {"resolution": res, "spp": n_spp, "strip_spp": strip_spp, "strip_angles_deg": list(strip_angles),
                    "flash_threshold": threshold, "irradiance": RENDER_IRRADIANCE}
-    return Comparison(results, scens, lab, ref, quality, exposures, render_info, time.perf_counter() - start, tau, seed)
+    seconds = time.perf_counter() - start
+    budget: dict[str, Any] = {}
+    if plan.budget is not None:  # the calibration learns from this run (reports/budget.py)
+        from ..orientation.budget import record
+        from .budget import KIND
+
+        record(KIND, plan.budget.predicted_seconds / plan.budget.correction, seconds)
+        budget = plan.budget.to_dict()
+    return Comparison(results, scens, lab, ref, quality, exposures, render_info, seconds, tau, seed, budget)

@@ -1,0 +1,140 @@
+"""``compare_cuts(..., time_budget=SECONDS)``: the most accurate quality predicted to fit (issue 17 §3).
+
+A comparison runs, for every cut under every scenario, a recommendation, the energy scorer of
+its curves, a tilt-performance curve and the renders (the main render, the rocking strip and the
+schiller-only render). Each part is predicted from this machine's calibrations, all measured
+once and kept in the user cache:
+
+* the recommendation: :func:`labcut.orientation.timing.predict_sample_seconds` for the scenario's
+  own poses, lights and viewers at the rung, with occlusion where the planner turns it on;
+* the scorer and the tilt curve: :func:`labcut.planner.predict_evaluate_seconds` (a problem
+  build and an evaluation) for the same settings and for the tilt curve's poses
+  (:func:`labcut.reports.analysis.tilt_settings`) at the rung's ``tilt_points``;
+* the renders and the flash-colour map: :func:`compare_render_timing`, this machine's calibration
+  of :func:`labcut.reports.renders.render_cut` (the main render, the rocking strip, the
+  schiller-only render and the mask) and :func:`~labcut.reports.flashcolour.flash_colour_map`,
+  at the rung's render size and samples (or the ``resolution`` / ``spp`` asked): direct lighting
+  for a convex stone, a path tracer for a carving.
+
+The sum, times an adaptive correction learnt from past budgeted comparisons (the actual over the
+predicted seconds, a geometric running mean kept with the recommendation's corrections,
+:func:`labcut.orientation.budget.record` under the name ``"compare"``), is each rung's
+prediction; the most accurate rung of :func:`labcut.orientation.budget.ladder` predicted to fit
+runs. A budget below the cheapest rung's prediction runs the cheapest with a one-line note; a
+budget that is not a positive number of seconds is a :class:`~labcut.errors.ParameterError`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+from ..orientation.budget import BudgetChoice, check_budget, correction, ladder
+from ..scene.quality import Quality
+
+#: the correction's name in the user cache (:func:`labcut.orientation.budget.record`)
+KIND = "compare"
+#: the two (resolution px, spp, strip angles) :func:`compare_render_timing` times
+_CAL = ((48, 4, (0.0, 10.0)), (128, 16, (-10.0, 0.0, 10.0)))
+
+
+def render_samples(resolution: int, spp: int, strip_angles: Sequence[float]) -> int:
+    """Samples a cut's renders trace: the main and schiller-only renders at ``spp``, every
+    rocking-strip frame but the rest pose at half of it, each ``resolution²`` pixels."""
+    strips = sum(1 for a in strip_angles if abs(a) > 1e-9)
+    return int(resolution) ** 2 * (2 * int(spp) + strips * max(1, int(spp) // 2))
+
+
+def compare_render_timing(integrator: str, refresh: bool = False) -> tuple[float, float]:
+    """``(fixed, per_sample)`` seconds of one cut's renders and flash-colour map in a comparison
+    (:func:`render_samples`) with the ``direct`` or ``path`` integrator on this machine: two timed
+    runs of a 16 x 12 mm oval cabochon (the default mesh resolution) under the bench scenario (:data:`_CAL`), each after a warm-up; measured
+    once (about a second) and kept in the user cache (:func:`labcut.fileio.calibration`,
+    ``compare-render-timing.json``), again when Mitsuba's or labcut's version or the CPU count differ."""
+    import os
+    import time
+
+    import mitsuba as mi
+
+    from .. import __version__
+    from ..fileio import calibration
+    from ..planner import linear_fit
+
+    key = f"{integrator} | mitsuba {mi.__version__} labcut {__version__} cpus {os.cpu_count()} v2"
+
+    def measure() -> dict[str, float]:
+        from ..geometry.cabochon import cabochon
+        from ..physics.material import Labradorite
+        from ..scene import resolve_scene
+        from .analysis import tilt_axes
+        from .flashcolour import flash_colour_map
+        from .renders import render_cut
+
+        stone = cabochon("oval", 16.0, 12.0)
+        stone.metadata.setdefault("labcut", {})["convex"] = integrator == "direct"
+        scene = resolve_scene("bench")
+        mat = Labradorite()
+        axis = tilt_axes(scene)["front_back"]
+        rows = []
+        for res, n, strip in _CAL:
+            def once() -> None:
+                r = render_cut(stone, mat, (0.05, 0.02, 1.0), scene, axis, res, n, strip, strip_spp=max(1, n // 2))
+                flash_colour_map(r.schiller, r.mask, 1.0)
+
+            once()  # warm: kernels
+            t = time.perf_counter()
+            once()
+            rows.append((render_samples(res, n, strip), time.perf_counter() - t))
+        return linear_fit(rows)
+
+    value = calibration("compare-render-timing.json", key, measure, refresh=refresh,
+                        check=lambda v: (float(v["fixed"]), float(v["per_sample"])))
+    return float(value["fixed"]), float(value["per_sample"])
+
+
+def predict_comparison(cuts: Sequence[Any], scenarios: Sequence[Any], quality: Quality, effects: Mapping[str, bool],
+                       resolution: int | None = None, spp: int | None = None) -> float:
+    """Predicted wall seconds of a comparison of ``cuts`` (resolved :class:`~labcut.reports.cuts.Cut`)
+    under ``scenarios`` (as asked: names, files or Scenario objects) at ``quality``, before the
+    adaptive correction."""
+    from ..orientation.timing import predict_sample_seconds
+    from ..planner import is_convex, occlusion_on, predict_evaluate_seconds
+    from .analysis import tilt_settings
+    from .compare import resolve_scenarios
+
+    scens = resolve_scenarios(scenarios, quality)
+    res = quality.render_resolution if resolution is None else int(resolution)
+    n_spp = quality.render_spp if spp is None else int(spp)
+    samples = render_samples(res, n_spp, quality.strip_angles_deg)
+    total = 0.0
+    for cut in cuts:
+        convex = is_convex(cut.mesh)
+        occlusion = occlusion_on(convex, effects)
+        fixed, per_sample = compare_render_timing("direct" if convex else "path")
+        renders = fixed + per_sample * samples
+        for sc in scens:
+            settings = sc.settings()
+            _, tilted, _ = tilt_settings(sc, quality)
+            total += (predict_sample_seconds(settings, quality.surface_points, occlusion)
+                      + predict_evaluate_seconds(settings, quality.surface_points, occlusion)
+                      + predict_evaluate_seconds(tilted, quality.tilt_points, occlusion)
+                      + renders)
+    return float(total)
+
+
+def choose_quality(budget: Any, cuts: Sequence[Any], scenarios: Sequence[Any], effects: Mapping[str, bool],
+                   resolution: int | None = None, spp: int | None = None) -> BudgetChoice:
+    """The most accurate rung of :func:`~labcut.orientation.budget.ladder` whose predicted
+    comparison (:func:`predict_comparison` x the ``compare`` correction) fits ``budget`` seconds."""
+    seconds = check_budget(budget)
+    factor = correction(KIND)
+    rungs = [(q, factor * predict_comparison(cuts, scenarios, q, effects, resolution, spp)) for q in ladder()]
+    named = tuple((q.name, float(t)) for q, t in rungs)
+    fitting = [(q, t) for q, t in rungs if t <= seconds]
+    if fitting:
+        q, t = fitting[-1]
+        return BudgetChoice(q, float(t), seconds, named, correction=factor)
+    q, t = rungs[0]
+    return BudgetChoice(q, float(t), seconds, named, correction=factor,
+                        note=f"a time budget of {seconds:g} s is below the cheapest comparison's predicted {t:.2g} s on this "
+                             f"machine ({len(cuts)} cut(s) x {len(scenarios)} scenario(s)): running that ({q.name}) anyway")
