@@ -63,6 +63,10 @@ MAX_PATCH_FRACTION = 0.2
 #: relative volume gap between a mesh and its convex hull below which it is convex
 CONVEX_RTOL = 1e-6
 
+#: a mesh of more triangles that needs no repair is certified by labcut's own edge check alone,
+#: not rebuilt by manifold3d (:func:`validate_arrays`)
+MANIFOLD_CHECK_FACES = 1_000_000
+
 
 @dataclass
 class MeshReport:
@@ -121,21 +125,27 @@ def _one_line(text: object, limit: int = 200) -> str:
 
 
 # ----------------------------------------------------------------------------- helpers
-def is_convex_mesh(mesh: Any, rtol: float = CONVEX_RTOL) -> bool:
+def is_convex_mesh(mesh: Any, rtol: float = CONVEX_RTOL, *, volume: float | None = None) -> bool:
     """True when a closed mesh is convex: its volume equals that of its convex hull.
 
     The hull volume is the smaller of manifold3d's and Qhull's (scipy): a hull can only be
     overestimated by a hull program that mishandles many coplanar or collinear points (the
     densified edges of a polygonal outline made manifold3d's QuickHull 0.03 % too large),
     so the flag no longer depends on float32 rounding in a saved file. A mesh of several
-    bodies is never convex.
+    bodies is never convex. ``volume``: the mesh's signed volume, when the caller has it.
     """
     import manifold3d as m3
 
     v = np.ascontiguousarray(np.asarray(mesh.vertices, dtype=np.float64))
     if len(v) < 4 or not np.all(np.isfinite(v)):
         return False
-    vol = abs(_signed_volume(v, np.asarray(mesh.faces)))
+    vol = abs(_signed_volume(v, np.asarray(mesh.faces)) if volume is None else float(volume))
+    if len(v) > CONVEX_PROBE_VERTICES:
+        # the hull of a subset of the vertices lies inside the whole hull, so a volume gap to it
+        # already proves the stone concave (the answer the whole hull gives, without its seconds)
+        sub = _hull_volume(v[:: max(1, len(v) // CONVEX_PROBE_VERTICES)])
+        if sub > 0 and (sub - vol) > rtol * sub:
+            return False
     volumes = [float(m3.Manifold.hull_points(v).volume())]
     try:
         from scipy.spatial import ConvexHull
@@ -149,12 +159,51 @@ def is_convex_mesh(mesh: Any, rtol: float = CONVEX_RTOL) -> bool:
     return (hv - vol) <= rtol * hv
 
 
+def _hull_volume(v: np.ndarray) -> float:
+    """Volume of the convex hull of points (Qhull; manifold3d's where Qhull refuses them)."""
+    try:
+        from scipy.spatial import ConvexHull
+
+        return float(ConvexHull(v).volume)
+    except Exception:  # noqa: BLE001 - flat or too few points
+        import manifold3d as m3
+
+        return float(m3.Manifold.hull_points(np.ascontiguousarray(v)).volume())
+
+
+#: vertices above which :func:`is_convex_mesh` first tries the hull of a subset
+CONVEX_PROBE_VERTICES = 50_000
+#: faces per chunk of the per-face sums (bounded temporaries on meshes of millions of triangles)
+CHUNK = 1 << 20
+
+
+def _face_dets(v: np.ndarray, f: np.ndarray) -> np.ndarray:
+    """a·(b x c) of every face's corners, in chunks (three gathers, no (F, 3, 3) copy)."""
+    out = np.empty(len(f))
+    for s in range(0, len(f), CHUNK):
+        ff = f[s : s + CHUNK]
+        a, b, c = v[ff[:, 0]], v[ff[:, 1]], v[ff[:, 2]]
+        out[s : s + len(ff)] = (a[:, 0] * (b[:, 1] * c[:, 2] - b[:, 2] * c[:, 1])
+                                + a[:, 1] * (b[:, 2] * c[:, 0] - b[:, 0] * c[:, 2])
+                                + a[:, 2] * (b[:, 0] * c[:, 1] - b[:, 1] * c[:, 0]))
+    return out
+
+
 def _signed_volume(v: np.ndarray, f: np.ndarray, labels: np.ndarray | None = None, count: int = 1) -> Any:
-    a, b, c = v[f[:, 0]], v[f[:, 1]], v[f[:, 2]]
-    det = np.einsum("ij,ij->i", a, np.cross(b, c)) / 6.0
+    det = _face_dets(v, f) / 6.0
     if labels is None:
         return float(det.sum())
     return np.bincount(labels, weights=det, minlength=count)
+
+
+def _double_areas(v: np.ndarray, f: np.ndarray) -> np.ndarray:
+    """|(b - a) x (c - a)| of every face (twice its area), in chunks."""
+    out = np.empty(len(f))
+    for s in range(0, len(f), CHUNK):
+        ff = f[s : s + CHUNK]
+        a = v[ff[:, 0]]
+        out[s : s + len(ff)] = np.linalg.norm(np.cross(v[ff[:, 1]] - a, v[ff[:, 2]] - a), axis=1)
+    return out
 
 
 def _face_components(faces: np.ndarray, n_vertices: int) -> tuple[np.ndarray, int]:
@@ -242,8 +291,14 @@ def _edge_table(faces: np.ndarray, n_vertices: int | None = None) -> tuple[int, 
     nv = int(n_vertices if n_vertices is not None else f.max() + 1)
     src = f.ravel()
     dst = f[:, [1, 2, 0]].ravel()
-    lo, hi = np.minimum(src, dst), np.maximum(src, dst)
-    key = np.sort(((lo * nv + hi) << 1) | (src < dst))  # undirected edge, then its direction bit
+    # undirected edge, then its direction bit, built in place (a few arrays of 3F at most)
+    key = np.minimum(src, dst)
+    key *= nv
+    key += np.maximum(src, dst)
+    key <<= 1
+    key |= src < dst
+    del dst
+    key.sort()
     edge = key >> 1
     starts = np.flatnonzero(np.r_[True, edge[1:] != edge[:-1]])
     counts = np.diff(np.r_[starts, len(edge)])
@@ -312,6 +367,30 @@ DECLARED_UNITS = {"glb": "m", "gltf": "m"}  # glTF 2.0: "the units for all linea
 THREEMF_UNITS = {"micron": "um", "millimeter": "mm", "centimeter": "cm", "inch": "in", "foot": "ft", "meter": "m"}
 
 
+def _read_ply_arrays(path: Path) -> tuple[np.ndarray, np.ndarray] | None:
+    """Vertices and triangles of a PLY file straight from trimesh's PLY reader: what
+    ``trimesh.load(..., process=False, force="mesh")`` returns, without its scene and the copies
+    it makes of a mesh of millions of triangles (seconds). None when the file is anything but
+    one plain triangle mesh: the general path reads (or refuses) it then."""
+    import trimesh
+
+    try:
+        with open(path, "rb") as fh:
+            kw = trimesh.exchange.ply.load_ply(fh)
+    except Exception:  # noqa: BLE001 - the general path reports what is wrong
+        return None
+    if not isinstance(kw, dict) or "geometry" in kw or "vertices" not in kw or "faces" not in kw:
+        return None
+    v, f = kw["vertices"], kw["faces"]
+    if not (isinstance(v, np.ndarray) and isinstance(f, np.ndarray)):
+        return None
+    if v.ndim != 2 or v.shape[1] != 3 or len(v) == 0 or f.ndim != 2 or f.shape[1] != 3 or len(f) == 0:
+        return None
+    if not np.issubdtype(f.dtype, np.integer):
+        return None
+    return np.asarray(v, dtype=np.float64), np.asarray(f, dtype=np.int64)
+
+
 def _read(path: Path, fmt: str) -> tuple[np.ndarray, np.ndarray, str | None]:
     """Vertices, faces and the unit the file declares (None when the format does not say)."""
     import trimesh
@@ -323,6 +402,10 @@ def _read(path: Path, fmt: str) -> tuple[np.ndarray, np.ndarray, str | None]:
             if fh.read(256).lstrip()[:1] != b"{":
                 raise MeshError(f"cannot read {path.name} as GLTF: it is not a JSON glTF file (binary glTF ends in .glb)")
 
+    if fmt == "ply":
+        fast = _read_ply_arrays(path)
+        if fast is not None:
+            return fast[0], fast[1], None
     try:
         loaded = trimesh.load(str(path), file_type=fmt, process=False, force="mesh")
     except ImportError:
@@ -382,7 +465,8 @@ def validate_arrays(
     """Validate (and repair) raw arrays; return ``(V, F, repairs, notes, bodies)``.
 
     The result is an oriented, outward-wound, closed 2-manifold certified by
-    manifold3d. Raises :class:`MeshError` when that cannot be reached (or when
+    manifold3d (a mesh of more than :data:`MANIFOLD_CHECK_FACES` triangles that needs no repair
+    by the same edge check manifold3d makes, done here, and kept in its own order). Raises :class:`MeshError` when that cannot be reached (or when
     ``repair`` is False and anything needed repairing).
     """
     import manifold3d as m3
@@ -440,7 +524,7 @@ def validate_arrays(
             fix(f"removed {len(f) - len(first)} duplicate faces")
             f = f[np.sort(first)]
     del sorted_faces
-    area2 = np.linalg.norm(np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]]), axis=1)
+    area2 = _double_areas(v, f)
     used = np.zeros(len(v), dtype=bool)
     used[f] = True
     scale = float(np.ptp(v[used], axis=0).max())
@@ -458,7 +542,7 @@ def validate_arrays(
         )
 
     # consistent winding
-    original = f.copy()
+    original = f  # the file's faces (every step below makes new arrays, none writes into this one)
     # (the edge sort found two faces walking a shared edge the same way: trimesh confirms, repairs)
     mesh = None if consistent else trimesh.Trimesh(vertices=v, faces=f, process=False)
     if mesh is not None and not mesh.is_winding_consistent:
@@ -516,11 +600,21 @@ def validate_arrays(
         f = f.copy()
         f[flip] = f[flip][:, ::-1]
     # report orientation changes against the file's own faces
-    flipped = ~_same_orientation(original, f[: len(original)])
+    flipped = np.zeros(len(original), dtype=bool) if f is original else ~_same_orientation(original, f[: len(original)])
     if flipped.all():
         fix("inverted all faces: the normals pointed inward")
     elif flipped.any():
         fix(f"reversed {int(flipped.sum())} of {len(original)} faces whose winding disagreed with the rest")
+
+    if len(f) > MANIFOLD_CHECK_FACES and f is original and not repairs and not flat.any():
+        # a big mesh that needed nothing: the edge table above certified every edge shared by
+        # exactly two faces walking it in opposite directions (a closed, oriented 2-manifold, what
+        # manifold3d checks) and every shell encloses a positive volume; manifold3d's rebuild
+        # (seconds a few million triangles, and twice the memory) would only reorder it
+        ext = np.ptp(v, axis=0)
+        if float(vols.sum()) <= 1e-9 * max(float(np.prod(ext)), 1e-300) or ext.min() <= 0:
+            raise MeshError(f"{name} encloses no volume (a flat or empty surface)")
+        return v, f, repairs, notes, int(count)
 
     man = m3.Manifold(m3.Mesh64(vert_properties=np.ascontiguousarray(v), tri_verts=np.ascontiguousarray(f, dtype=np.uint64)))
     status = man.status()
@@ -651,7 +745,8 @@ def load_mesh(
     _check_size(v, factor, unit_name, units_source, p.name, fmt)
     report_stage("checking convexity", 0.6)
     mesh = trimesh.Trimesh(vertices=v, faces=f, process=False)
-    convex = is_convex_mesh(mesh)
+    volume = _signed_volume(v, f)
+    convex = is_convex_mesh(mesh, volume=volume)
 
     report_stage("finding the face-up side", 0.8)
     convention = "+Y" if fmt in ("glb", "gltf") else "+Z"
@@ -680,7 +775,8 @@ def load_mesh(
     v, shift = centre_on_base(v) if recentre else (v, np.zeros(3))
     mesh = trimesh.Trimesh(vertices=v, faces=f, process=False)
     # manifold3d certified the faces closed and consistently wound; the turn and the unit keep that
-    if not _signed_volume(v, f) > 0:  # pragma: no cover
+    # (a turn keeps the volume, the unit scales it by factor³ > 0)
+    if not volume * float(np.linalg.det(rot)) > 0:  # pragma: no cover
         raise MeshError(f"{p.name} could not be made a closed, outward-wound solid")
     _mark_valid(mesh)
     report = MeshReport(
