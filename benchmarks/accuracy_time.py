@@ -1,6 +1,6 @@
 """What accuracy costs in time: every knob against a converged reference (issue 17).
 
-    .venv/bin/python benchmarks/accuracy_time.py [--out docs/accuracy.md] [--quick]
+    .venv/bin/python benchmarks/accuracy_time.py [--out docs/accuracy.md] [--quick] [--budgets-only]
 
 For three benchmark cases, a cabochon (the bundled 16 x 12 mm oval), a carving (the bundled
 biplane) and a faceted design (GemCad SRB at a 10 mm girdle), all under the ``bench``
@@ -19,7 +19,10 @@ scenario:
 3. the **error bars**: for the presets and seeds, whether each answer's stated bar
    (``rec.uncertainty``) covers its distance to the reference (normal and score);
 4. **render knobs** (samples per pixel, resolution, mono / rgb / spectral, path depth):
-   wall time and image RMSE against a 1024 spp spectral render of the same stone.
+   wall time and image RMSE against a 1024 spp spectral render of the same stone;
+5. **time budgets**: ``recommend_orientation(..., time_budget=)`` per case and
+   ``compare_cuts(..., time_budget=)`` of the cases side by side, actual against budget
+   (``--budgets-only`` redoes just these).
 
 Plots (log-log error against time, the Pareto front of all settings) go to
 ``docs/images/accuracy-*.png``; the report to ``docs/accuracy.md``.
@@ -249,6 +252,37 @@ def budget_study(quick: bool) -> list[dict]:
     return out
 
 
+#: the comparison the compare budget study times: the three cases side by side, under bench
+COMPARE_CUTS = [str(ROOT / CASES["cabochon"][1]), str(ROOT / CASES["carving"][1]), "cab:round,12,high"]
+
+
+def compare_budget_study(quick: bool) -> list[dict]:
+    """``compare_cuts(..., time_budget=)``: the quality chosen, predicted and actual seconds, for
+    each budget, one comparison of :data:`COMPARE_CUTS` under the bench scenario."""
+    import warnings
+
+    import labcut
+    from labcut.orientation.budget import forget
+    from labcut.reports.budget import KIND
+
+    forget(KIND)  # start from the calibration alone: the table shows the learning
+    labcut.compare_cuts(COMPARE_CUTS[:1], "blue", [SCENARIO], quality="draft", resolution=32, spp=2)  # warm
+    out = []
+    for budget in ((5.0, 20.0) if quick else (3.0, 5.0, 10.0, 20.0, 40.0)):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            t = time.perf_counter()
+            cmp = labcut.compare_cuts(COMPARE_CUTS, "blue", [SCENARIO], time_budget=budget)
+            took = time.perf_counter() - t
+        b = cmp.budget
+        bars = [c.scenarios[SCENARIO].recommendation.uncertainty.angle_deg for c in cmp.cuts]
+        out.append({"budget": budget, "quality": b["quality"], "predicted": b["predicted_seconds"], "seconds": took,
+                    "over": b["note"] is not None, "bar_deg": max(bars), "correction": b.get("correction", 1.0)})
+        print(f"  compare budget {budget:g} s: {b['quality']}, predicted {b['predicted_seconds']:.2f} s, took {took:.2f} s",
+              flush=True)
+    return out
+
+
 def pareto(points: list[tuple[float, float]]) -> list[int]:
     """Indices of the points no other point beats in both time and error (lower is better)."""
     order = sorted(range(len(points)), key=lambda i: (points[i][0], points[i][1]))
@@ -299,7 +333,7 @@ def plot(results: list[dict], images: Path) -> list[str]:
 
 
 def report(results: list[dict], renders: list[dict], images: list[str], args, seconds: float,
-           budgets: list[dict] | None = None) -> str:
+           budgets: list[dict] | None = None, compare_budgets: list[dict] | None = None) -> str:
     cpu = next((ln.split(":", 1)[1].strip() for ln in open("/proc/cpuinfo") if ln.startswith("model name")), platform.processor())
     cmd = "`.venv/bin/python benchmarks/accuracy_time.py" + (" --quick" if args.quick else "") + "`"
     lines = [
@@ -377,6 +411,21 @@ def report(results: list[dict], renders: list[dict], images: list[str], args, se
         lines += ["", f"Worst actual / budget where a rung fitted: {worst:.2f}. The runs go in the order shown, "
                   "starting with no learnt correction; each run's actual / predicted time updates the correction of "
                   "its kind (with or without occlusion) that the next prediction uses.", ""]
+    if compare_budgets:
+        lines += ["`labcut compare CUT... --time-budget SECONDS` (API `compare_cuts(..., time_budget=)`) does the same for a "
+                  "whole comparison: each part of it (per cut and scenario the recommendation, the scorer of its curves, "
+                  "the tilt curve, the renders and flash-colour map) predicted from this machine's calibrations, times a "
+                  "correction learnt from past budgeted comparisons (`labcut/reports/budget.py`). Here the comparison of "
+                  f"{len(COMPARE_CUTS)} cuts (the oval cabochon, the biplane carving and a round high cabochon `cab:round,12,high`) "
+                  "under bench, the runs in the order shown, starting with no learnt correction:", "",
+                  "| budget | quality chosen | predicted | correction learnt | actual | actual / budget | largest error bar |",
+                  "|---|---|---|---|---|---|---|"]
+        for b in compare_budgets:
+            flag = " (below the cheapest: ran it)" if b["over"] else ""
+            lines.append(f"| {b['budget']:g} s | {b['quality']}{flag} | {b['predicted']:.2f} s | x{b.get('correction', 1.0):.2f} | "
+                         f"{b['seconds']:.2f} s | {b['seconds'] / b['budget']:.2f} | ±{b['bar_deg']:.2f}° |")
+        worst = max((b["seconds"] / b["budget"] for b in compare_budgets if not b["over"]), default=float("nan"))
+        lines += ["", f"Worst actual / budget where a rung fitted: {worst:.2f}.", ""]
     lines += ["## Render knobs", "",
               "The oval cabochon at its recommended orientation, bench scenario, diagram look; RMSE of the linear RGB "
               "image against the reference, relative to the reference's mean non-zero pixel; each setting timed on its "
@@ -400,6 +449,8 @@ def main() -> None:
                         help="cases to (re)run; the others are taken from benchmarks/data/accuracy-time.json")
     parser.add_argument("--no-renders", dest="renders", action="store_false", help="keep the stored render and budget studies")
     parser.add_argument("--report-only", action="store_true", help="rewrite the report and plots from the stored results")
+    parser.add_argument("--budgets-only", action="store_true",
+                        help="redo only the time-budget studies (recommend-orientation and compare), keep the rest stored")
     parser.add_argument("--cover-only", action="store_true",
                         help="with --cases: redo only the error-bar coverage against the stored references")
     args = parser.parse_args()
@@ -407,7 +458,7 @@ def main() -> None:
     data = ROOT / "benchmarks" / "data" / "accuracy-time.json"
     stored = json.loads(data.read_text()) if data.exists() else {"cases": [], "renders": []}
     done = {c["case"]: c for c in stored["cases"]}
-    if args.report_only:
+    if args.report_only or args.budgets_only:
         args.cases, args.renders = "", False
     for c in args.cases.split(","):
         if c and args.cover_only:  # the stored reference, the bars of the code as it is now
@@ -418,14 +469,16 @@ def main() -> None:
         elif c:
             done[c] = study_case(c, args.quick)
     renders = render_study(args.quick) if args.renders else stored.get("renders", [])
-    budgets = budget_study(args.quick) if args.renders else stored.get("budgets", [])
+    redo = args.renders or args.budgets_only
+    budgets = budget_study(args.quick) if redo else stored.get("budgets", [])
+    compare_budgets = compare_budget_study(args.quick) if redo else stored.get("compare_budgets", [])
     results = [done[c] for c in CASES if c in done]
-    data.write_text(json.dumps({"cases": results, "renders": renders, "budgets": budgets, "seconds": stored.get("seconds", 0.0)
-                                + time.perf_counter() - start}, indent=1) + "\n")
+    data.write_text(json.dumps({"cases": results, "renders": renders, "budgets": budgets, "compare_budgets": compare_budgets,
+                                "seconds": stored.get("seconds", 0.0) + time.perf_counter() - start}, indent=1) + "\n")
     out = Path(args.out)
     images = plot(results, out.parent / "images")
     total = json.loads(data.read_text())["seconds"]
-    out.write_text(report(results, renders, images, args, total, budgets))
+    out.write_text(report(results, renders, images, args, total, budgets, compare_budgets))
     print(f"wrote {out} and {data}")
 
 

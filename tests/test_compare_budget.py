@@ -28,7 +28,7 @@ def _fake_machine(monkeypatch, per_point: float = 1e-4, per_sample: float = 1e-7
                         lambda settings, points, occlusion: per_point * points)
     monkeypatch.setattr("labcut.planner.predict_evaluate_seconds",
                         lambda settings, points, occlusion: per_evaluated_point * points)
-    monkeypatch.setattr(B, "compare_render_timing", lambda integrator, refresh=False: (0.0, per_sample))
+    monkeypatch.setattr(B, "compare_render_timing", lambda integrator, refresh=False: (0.0, per_sample, 0.0))
 
 
 def test_the_prediction_adds_every_part_of_every_pair(monkeypatch):
@@ -62,6 +62,11 @@ def test_the_most_accurate_rung_that_fits_is_chosen(monkeypatch):
         record(B.KIND, 1.0, 2.0)  # comparisons ran twice as long as predicted
     assert correction(B.KIND) == pytest.approx(2.0, rel=0.07) and correction(False) == 1.0
     assert B.choose_quality(2.0, cuts, ["bench"], {}).quality.name == "budget-2"  # one rung down now (standard: 3.1 s)
+    from labcut.orientation.budget import forget
+
+    record(False, 1.0, 3.0)
+    forget(B.KIND)  # only that kind's correction is dropped
+    assert correction(B.KIND) == 1.0 and correction(False) > 1.0
 
 
 def test_plan_comparison_with_a_budget(monkeypatch):
@@ -101,3 +106,14 @@ def test_cli_compare_time_budget(cli, tmp_path):
     assert r.returncode == 2 and "not both" in r.stderr and len(r.stderr.strip().splitlines()) == 1
     r = cli("compare", *CUTS[:1], "--time-budget", "-1")
     assert r.returncode == 2 and "time budget" in r.stderr
+
+
+def test_the_first_renders_of_a_kind_pay_for_their_kernels(monkeypatch):
+    _fake_machine(monkeypatch, per_point=0.0, per_sample=0.0)
+    monkeypatch.setattr(B, "compare_render_timing", lambda integrator, refresh=False: (0.0, 0.0, 1.0))
+    monkeypatch.setattr(B, "_WARM", set())
+    cuts = resolve_cuts(CUTS)  # two convex cabochons: the direct integrator's kernels, loaded once
+    q = Quality.coerce("draft")
+    assert B.predict_comparison(cuts, ["bench"], q, {}) == pytest.approx(1.0)
+    B.mark_warm("direct")
+    assert B.predict_comparison(cuts, ["bench"], q, {}) == 0.0

@@ -118,6 +118,15 @@ def correction(kind: bool | str) -> float:
     return float(data.get(_kind(kind), 1.0))
 
 
+def forget(kind: bool | str) -> None:
+    """Drop the learnt correction of ``kind`` (the next prediction is the calibration's alone)."""
+    from ..fileio import write_cache
+
+    path, data = _corrections()
+    if data.pop(_kind(kind), None) is not None:
+        write_cache(path, data)
+
+
 def record(kind: bool | str, predicted_seconds: float, actual_seconds: float) -> float:
     """Fold one run of ``kind`` (predicted seconds before correction, actual seconds) into its
     correction; returns it."""

@@ -14,7 +14,8 @@ once and kept in the user cache:
   of :func:`labcut.reports.renders.render_cut` (the main render, the rocking strip, the
   schiller-only render and the mask) and :func:`~labcut.reports.flashcolour.flash_colour_map`,
   at the rung's render size and samples (or the ``resolution`` / ``spp`` asked): direct lighting
-  for a convex stone, a path tracer for a carving.
+  for a convex stone, a path tracer for a carving; the first renders of each kind in a process
+  also pay for loading their kernels.
 
 The sum, times an adaptive correction learnt from past budgeted comparisons (the actual over the
 predicted seconds, a geometric running mean kept with the recommendation's corrections,
@@ -45,10 +46,21 @@ def render_samples(resolution: int, spp: int, strip_angles: Sequence[float]) -> 
     return int(resolution) ** 2 * (2 * int(spp) + strips * max(1, int(spp) // 2))
 
 
-def compare_render_timing(integrator: str, refresh: bool = False) -> tuple[float, float]:
-    """``(fixed, per_sample)`` seconds of one cut's renders and flash-colour map in a comparison
+#: the integrators whose comparison renders have run in this process (their kernels are loaded)
+_WARM: set[str] = set()
+
+
+def mark_warm(integrator: str) -> None:
+    """Note that a comparison's renders with ``integrator`` ran in this process (:data:`_WARM`)."""
+    _WARM.add(integrator)
+
+
+def compare_render_timing(integrator: str, refresh: bool = False) -> tuple[float, float, float]:
+    """``(fixed, per_sample, first)`` seconds of one cut's renders and flash-colour map in a comparison
     (:func:`render_samples`) with the ``direct`` or ``path`` integrator on this machine: two timed
-    runs of a 16 x 12 mm oval cabochon (the default mesh resolution) under the bench scenario (:data:`_CAL`), each after a warm-up; measured
+    runs of a 16 x 12 mm oval cabochon (the default mesh resolution) under the bench scenario (:data:`_CAL`), each after a warm-up
+    (``first``: what the first, cold run took beyond the warm one: loading the kernels and the
+    plugin, paid once per process and integrator); measured
     once (about a second) and kept in the user cache (:func:`labcut.fileio.calibration`,
     ``compare-render-timing.json``), again when Mitsuba's or labcut's version or the CPU count differ."""
     import os
@@ -60,7 +72,7 @@ def compare_render_timing(integrator: str, refresh: bool = False) -> tuple[float
     from ..fileio import calibration
     from ..planner import linear_fit
 
-    key = f"{integrator} | mitsuba {mi.__version__} labcut {__version__} cpus {os.cpu_count()} v2"
+    key = f"{integrator} | mitsuba {mi.__version__} labcut {__version__} cpus {os.cpu_count()} v3"
 
     def measure() -> dict[str, float]:
         from ..geometry.cabochon import cabochon
@@ -75,21 +87,26 @@ def compare_render_timing(integrator: str, refresh: bool = False) -> tuple[float
         scene = resolve_scene("bench")
         mat = Labradorite()
         axis = tilt_axes(scene)["front_back"]
-        rows = []
+        rows, first = [], 0.0
         for res, n, strip in _CAL:
             def once() -> None:
                 r = render_cut(stone, mat, (0.05, 0.02, 1.0), scene, axis, res, n, strip, strip_spp=max(1, n // 2))
                 flash_colour_map(r.schiller, r.mask, 1.0)
 
+            t = time.perf_counter()
             once()  # warm: kernels
+            cold = time.perf_counter() - t
             t = time.perf_counter()
             once()
             rows.append((render_samples(res, n, strip), time.perf_counter() - t))
-        return linear_fit(rows)
+            if len(rows) == 1:
+                first = max(cold - rows[0][1], 0.0)
+        mark_warm(integrator)
+        return {**linear_fit(rows), "first": first}
 
     value = calibration("compare-render-timing.json", key, measure, refresh=refresh,
-                        check=lambda v: (float(v["fixed"]), float(v["per_sample"])))
-    return float(value["fixed"]), float(value["per_sample"])
+                        check=lambda v: (float(v["fixed"]), float(v["per_sample"]), float(v["first"])))
+    return float(value["fixed"]), float(value["per_sample"]), float(value["first"])
 
 
 def predict_comparison(cuts: Sequence[Any], scenarios: Sequence[Any], quality: Quality, effects: Mapping[str, bool],
@@ -107,11 +124,16 @@ def predict_comparison(cuts: Sequence[Any], scenarios: Sequence[Any], quality: Q
     n_spp = quality.render_spp if spp is None else int(spp)
     samples = render_samples(res, n_spp, quality.strip_angles_deg)
     total = 0.0
+    cold = set()
     for cut in cuts:
         convex = is_convex(cut.mesh)
         occlusion = occlusion_on(convex, effects)
-        fixed, per_sample = compare_render_timing("direct" if convex else "path")
+        integrator = "direct" if convex else "path"
+        fixed, per_sample, first = compare_render_timing(integrator)
         renders = fixed + per_sample * samples
+        if integrator not in _WARM and integrator not in cold:  # the first renders of their kind in this process
+            cold.add(integrator)
+            renders += first
         for sc in scens:
             settings = sc.settings()
             _, tilted, _ = tilt_settings(sc, quality)

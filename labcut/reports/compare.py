@@ -675,6 +675,7 @@ def run_comparison(plan: ComparisonPlan, progress: Callable[[int, int], None] | 
         tilt_axes,
         tilt_curve,
     )
+    from .budget import mark_warm
     from .flashcolour import flash_colour_map
     from .renders import render_cut
 
@@ -704,6 +705,7 @@ def run_comparison(plan: ComparisonPlan, progress: Callable[[int, int], None] | 
             tilt = tilt_curve(cut.mesh, lab, rec.normal, sc, quality, tau, seed)
             renders = render_cut(cut.mesh, lab, rec.normal, sc, tilt_axes(sc)["front_back"], res, n_spp, strip_angles,
                                  seed, strip_spp=strip_spp)
+            mark_warm(renders.plan["integrator"])
             colour = flash_colour_map(renders.schiller, renders.mask, threshold)
             per[sc.name] = ScenarioResult(cut.name, sc, rec, tilt, mis, renders, colour, seconds=time.perf_counter() - t0)
             done += 1
