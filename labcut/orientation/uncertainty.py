@@ -215,26 +215,26 @@ def pair_radiance(problem: FlashProblem, normals: np.ndarray) -> np.ndarray:
     out = np.zeros((n_pairs, len(normals)))
     if near.size == 0:
         return out
-    # float32, triple-major (n, K): the lobe of every near triple at every stencil normal, the
+    # float32, normal-major (K, n): the lobe of every near triple at every stencil normal, the
     # products as fixed multiply-adds (no BLAS: the same sums whatever the machine's threads)
-    hn = h[near]
+    hx, hy, hz = (h[near, k] for k in range(3))
     n32 = normals.astype(np.float32)
-    d = np.multiply(hn[:, 0:1], n32[None, :, 0])
-    d += hn[:, 1:2] * n32[None, :, 1]
-    d += hn[:, 2:3] * n32[None, :, 2]
-    del hn
+    d = np.multiply(n32[:, 0:1], hx[None, :])
+    d += n32[:, 1:2] * hy[None, :]
+    d += n32[:, 2:3] * hz[None, :]
+    del hx, hy, hz
     np.abs(d, out=d)
     d -= np.float32(1.0)
     d *= np.float32(problem.kappa)
     np.exp(d, out=d)
-    d *= (np.float32(problem.q_norm) * problem.c[near])[:, None]
+    d *= (np.float32(problem.q_norm) * problem.c[near])[None, :]
     pairs = problem.pair[near]
     if np.all(pairs[1:] >= pairs[:-1]):  # triples sorted by pair (build_problem's order): one segmented sum
         first = np.flatnonzero(np.r_[True, pairs[1:] != pairs[:-1]])
-        out[pairs[first]] = np.add.reduceat(d, first, axis=0, dtype=np.float64)
+        out[pairs[first]] = np.add.reduceat(d, first, axis=1, dtype=np.float64).T
     else:
         for k in range(len(normals)):
-            out[:, k] = np.bincount(pairs, weights=d[:, k], minlength=n_pairs)
+            out[:, k] = np.bincount(pairs, weights=d[k], minlength=n_pairs)
     return out
 
 
