@@ -227,12 +227,14 @@ def test_prediction_follows_the_calibration(monkeypatch, tmp_path):
     stored and read back through the cache file), growing with views, pixels and samples."""
     timing = re_.RenderTiming({"direct": (0.01, 1e-7), "prb": (0.02, 4e-7)}, {"direct": (0.02, 2e-7), "prb": (0.05, 8e-7)},
                               {"direct": 1.0, "prb": 3.0}, 0.05, re_._timing_key())
-    monkeypatch.setattr(re_, "_timing_path", lambda: tmp_path / "timing.json")
+    import labcut.fileio as fio
+
+    monkeypatch.setattr(fio, "cache_path", lambda name: tmp_path / name)
+    monkeypatch.setattr(fio, "_CALIBRATIONS", {})
     monkeypatch.setattr(re_, "measure_render_timing", lambda: timing)
-    monkeypatch.setattr(re_, "_TIMING", None)
-    assert re_.render_timing() == timing and (tmp_path / "timing.json").exists()
+    assert re_.render_timing() == timing and (tmp_path / re_._TIMING_FILE).exists()
     monkeypatch.setattr(re_, "measure_render_timing", lambda: pytest.fail("measured again instead of read from the cache"))
-    monkeypatch.setattr(re_, "_TIMING", None)
+    monkeypatch.setattr(fio, "_CALIBRATIONS", {})  # a new process: read back from the file
     assert re_.render_timing() == timing
     p = predict_render_seconds(7, 48, 4, True, iterations=10)
     samples = 48 * 48 * 4

@@ -375,7 +375,8 @@ class RenderTiming:
         return asdict(self)
 
 
-_TIMING: RenderTiming | None = None
+#: the user-cache file of the calibration (:func:`render_timing`)
+_TIMING_FILE = "render-estimator-timing.json"
 #: calibration renders: (resolution, spp) pairs, small and large, to split per-call from per-sample cost
 _CAL_POINTS = ((24, 2), (64, 8))
 
@@ -388,12 +389,6 @@ def _timing_key() -> str:
     from ..backend import variant_name
 
     return f"{variant_name('mono')} mitsuba {mi.__version__} cpus {os.cpu_count()} v1"
-
-
-def _timing_path() -> Any:
-    from ..fileio import cache_path
-
-    return cache_path("render-estimator-timing.json")
 
 
 def measure_render_timing() -> RenderTiming:
@@ -445,27 +440,19 @@ def measure_render_timing() -> RenderTiming:
 
 def render_timing(refresh: bool = False) -> RenderTiming:
     """The calibration of :func:`predict_render_seconds`: measured once on this machine
-    (:func:`measure_render_timing`) and kept in the user cache (``render-estimator-timing.json``
-    beside Dr.Jit's kernel cache), again whenever the Mitsuba variant, version or CPU count differ."""
-    global _TIMING
-    key = _timing_key()
-    if _TIMING is not None and _TIMING.key == key and not refresh:
-        return _TIMING
-    from ..fileio import read_cache, write_cache
+    (:func:`measure_render_timing`) and kept in the user cache (:func:`labcut.fileio.calibration`,
+    ``render-estimator-timing.json`` beside Dr.Jit's kernel cache), again whenever the Mitsuba
+    variant, version or CPU count differ."""
+    from ..fileio import calibration
 
-    path = _timing_path()
-    data = None if refresh else read_cache(path)
-    if data is not None and data.get("key") == key:
-        try:
-            _TIMING = RenderTiming({k: tuple(v) for k, v in data["primal"].items()},
-                                   {k: tuple(v) for k, v in data["adjoint"].items()},
-                                   dict(data["compile"]), float(data["setup"]), key)
-            return _TIMING
-        except (KeyError, TypeError, ValueError, AttributeError):
-            pass  # an older layout: measure
-    _TIMING = measure_render_timing()
-    write_cache(path, _TIMING.to_dict())
-    return _TIMING
+    key = _timing_key()
+
+    def read(data: dict[str, Any]) -> RenderTiming:
+        return RenderTiming({k: (float(v[0]), float(v[1])) for k, v in data["primal"].items()},
+                            {k: (float(v[0]), float(v[1])) for k, v in data["adjoint"].items()},
+                            {k: float(v) for k, v in data["compile"].items()}, float(data["setup"]), key)
+
+    return read(calibration(_TIMING_FILE, key, lambda: measure_render_timing().to_dict(), check=read, refresh=refresh))
 
 
 def predict_render_seconds(n_views_total: int, resolution: int, spp: int, convex: bool, iterations: int | None = None,
