@@ -283,6 +283,25 @@ def compare_budget_study(quick: bool) -> list[dict]:
     return out
 
 
+def budget_table(rows: list[dict], bar: str) -> list[str]:
+    """Markdown rows of a budget study (a ``case`` column when the rows have one)."""
+    case = bool(rows) and "case" in rows[0]
+    head = ["case"] * case + ["budget", "quality chosen", "predicted", "correction learnt", "actual", "actual / budget", bar]
+    out = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    for b in rows:
+        flag = " (below the cheapest: ran it)" if b["over"] else ""
+        cells = [CASES[b["case"]][0]] * case + [
+            f"{b['budget']:g} s", f"{b['quality']}{flag}", f"{b['predicted']:.2f} s", f"x{b.get('correction', 1.0):.2f}",
+            f"{b['seconds']:.2f} s", f"{b['seconds'] / b['budget']:.2f}", f"±{b['bar_deg']:.2f}°"]
+        out.append("| " + " | ".join(cells) + " |")
+    return out
+
+
+def worst_ratio(rows: list[dict]) -> float:
+    """The largest actual / budget among the runs where a rung was predicted to fit."""
+    return max((b["seconds"] / b["budget"] for b in rows if not b["over"]), default=float("nan"))
+
+
 def pareto(points: list[tuple[float, float]]) -> list[int]:
     """Indices of the points no other point beats in both time and error (lower is better)."""
     order = sorted(range(len(points)), key=lambda i: (points[i][0], points[i][1]))
@@ -400,14 +419,8 @@ def report(results: list[dict], renders: list[dict], images: list[str], args, se
                   "of a ladder of qualities (below draft, draft, between, standard, between, high, beyond high) predicted to fit, "
                   "from this machine's calibration ([orientation.md](orientation.md#time-budgets)). Actual warm time against the "
                   "budget (target: at most 1.5x):", "",
-                  "| case | budget | quality chosen | predicted | correction learnt | actual | actual / budget | error bar |",
-                  "|---|---|---|---|---|---|---|---|"]
-        for b in budgets:
-            flag = " (below the cheapest: ran it)" if b["over"] else ""
-            lines.append(f"| {CASES[b['case']][0]} | {b['budget']:g} s | {b['quality']}{flag} | {b['predicted']:.2f} s | "
-                         f"x{b.get('correction', 1.0):.2f} | {b['seconds']:.2f} s | {b['seconds'] / b['budget']:.2f} | "
-                         f"±{b['bar_deg']:.2f}° |")
-        worst = max((b["seconds"] / b["budget"] for b in budgets if not b["over"]), default=float("nan"))
+                  *budget_table(budgets, "error bar")]
+        worst = worst_ratio(budgets)
         lines += ["", f"Worst actual / budget where a rung fitted: {worst:.2f}. The runs go in the order shown, "
                   "starting with no learnt correction; each run's actual / predicted time updates the correction of "
                   "its kind (with or without occlusion) that the next prediction uses.", ""]
@@ -418,14 +431,8 @@ def report(results: list[dict], renders: list[dict], images: list[str], args, se
                   "correction learnt from past budgeted comparisons (`labcut/reports/budget.py`). Here the comparison of "
                   f"{len(COMPARE_CUTS)} cuts (the oval cabochon, the biplane carving and a round high cabochon `cab:round,12,high`) "
                   "under bench, the runs in the order shown, starting with no learnt correction:", "",
-                  "| budget | quality chosen | predicted | correction learnt | actual | actual / budget | largest error bar |",
-                  "|---|---|---|---|---|---|---|"]
-        for b in compare_budgets:
-            flag = " (below the cheapest: ran it)" if b["over"] else ""
-            lines.append(f"| {b['budget']:g} s | {b['quality']}{flag} | {b['predicted']:.2f} s | x{b.get('correction', 1.0):.2f} | "
-                         f"{b['seconds']:.2f} s | {b['seconds'] / b['budget']:.2f} | ±{b['bar_deg']:.2f}° |")
-        worst = max((b["seconds"] / b["budget"] for b in compare_budgets if not b["over"]), default=float("nan"))
-        lines += ["", f"Worst actual / budget where a rung fitted: {worst:.2f}.", ""]
+                  *budget_table(compare_budgets, "largest error bar")]
+        lines += ["", f"Worst actual / budget where a rung fitted: {worst_ratio(compare_budgets):.2f}.", ""]
     lines += ["## Render knobs", "",
               "The oval cabochon at its recommended orientation, bench scenario, diagram look; RMSE of the linear RGB "
               "image against the reference, relative to the reference's mean non-zero pixel; each setting timed on its "
