@@ -575,12 +575,12 @@ def plan_effects(
             integrator = "path" if ir_on or max_depth is not None else "direct"
             predicted = _predicted_render_seconds(facts["mode"], polarizer_deg is not None, integrator, *size, look)
         else:
-            predicted = _predicted_seconds(scene, command, occ_on, ir_on, convex, zoning is not None)
+            predicted = estimator_seconds(scene, command, occ_on, ir_on, convex, zoning is not None)
     return EffectPlan(command, tuple(decisions), chosen, est_why, predicted, convex, facts)
 
 
-def _predicted_seconds(scene: Any, command: str, occlusion: bool, inter_reflection: bool, convex: bool,
-                       zoned: bool = False) -> dict[str, float]:
+def estimator_seconds(scene: Any, command: str, occlusion: bool, inter_reflection: bool, convex: bool,
+                      zoned: bool = False) -> dict[str, float]:
     """Predicted seconds of each estimator on this machine (calibrated:
     :func:`labcut.orientation.timing.predict_sample_seconds`, :func:`evaluate_timing`,
     :func:`labcut.orientation.render_estimator.predict_render_seconds`).

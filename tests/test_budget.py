@@ -133,3 +133,45 @@ def test_render_with_a_budget(monkeypatch, cli, tmp_path):
     for spp in ("8", "64"):  # also the default, given explicitly
         res = cli("render", "meshes/oval-16x12-low.ply", "-o", str(tmp_path / "x.png"), "--time-budget", "2", "--spp", spp)
         assert res.returncode == 2 and "not both" in res.stderr and not (tmp_path / "x.png").exists()
+
+
+def test_a_render_estimator_budget_predicts_the_renders(monkeypatch):
+    """When the planner answers with renders, the budget predicts the renders (and learns their correction)."""
+
+    class RenderPlan:
+        estimator, convex = "render", False
+
+        @staticmethod
+        def on(effect):
+            return effect == "occlusion"
+
+    cost = {"draft": 1.0, "standard": 3.0, "high": 9.0}
+    monkeypatch.setattr("labcut.planner.estimator_seconds",
+                        lambda scene, command, occ, ir, convex, zoned: {"samples": 0.01, "render": cost[scene.quality.name]})
+    c = choose(4.0, ("bench", None, None), True, plan=RenderPlan())
+    assert c.quality.name == "standard" and c.estimator == "render" and c.kind == "render"
+    assert [name for name, _ in c.rungs] == ["draft", "standard", "high"]
+    assert choose(4.0, ("bench", None, None), True).estimator == "samples"  # no plan: the samples' calibration
+    for _ in range(4):
+        record("render", 1.0, 3.0)
+    assert correction("render") == pytest.approx(3.0, rel=0.07) and correction(True) == 1.0
+    assert choose(4.0, ("bench", None, None), True, plan=RenderPlan()).quality.name == "draft"
+
+
+def test_recommend_hands_its_plan_to_the_budget(monkeypatch):
+    """recommend_orientation(..., time_budget=) predicts the estimator its plan picks."""
+    seen = {}
+
+    class Stop(Exception):
+        pass
+
+    def spy(budget, scene_spec, occlusion, *, plan=None):
+        seen["estimator"] = plan.estimator
+        raise Stop
+
+    monkeypatch.setattr("labcut.orientation.budget.choose", spy)
+    oval = labcut.cabochon("oval", 16, 12, resolution=48)
+    for estimator in ("render", "samples"):
+        with pytest.raises(Stop):
+            labcut.recommend_orientation(oval, "blue", time_budget=5.0, estimator=estimator)
+        assert seen["estimator"] == estimator

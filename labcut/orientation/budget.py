@@ -66,6 +66,13 @@ class BudgetChoice:
     #: the adaptive correction the predictions include (:func:`correction`), and whether occlusion was counted
     correction: float = 1.0
     occlusion: bool = False
+    #: the estimator the prediction is of (``samples`` or ``render``): the correction's kind follows it
+    estimator: str = "samples"
+
+    @property
+    def kind(self) -> bool | str:
+        """The correction this choice learns into (:func:`record`)."""
+        return "render" if self.estimator == "render" else self.occlusion
 
     def to_dict(self) -> dict[str, Any]:
         out = asdict(self)
@@ -143,25 +150,43 @@ def record(kind: bool | str, predicted_seconds: float, actual_seconds: float) ->
     return data[name]
 
 
-def choose(budget: Any, scene_spec: tuple[Any, Any, Any], occlusion: bool) -> BudgetChoice:
+def choose(budget: Any, scene_spec: tuple[Any, Any, Any], occlusion: bool, *, plan: Any = None) -> BudgetChoice:
     """The most accurate rung of :func:`ladder` predicted to fit ``budget`` seconds for the scene
-    ``scene_spec`` (``(scenario, lighting, viewing)`` as asked), occlusion as planned."""
+    ``scene_spec`` (``(scenario, lighting, viewing)`` as asked), occlusion as planned.
+
+    ``plan``: the stone's effect plan (:func:`labcut.planner.plan_effects`). When it picks the
+    render estimator, the rungs are the three presets (the render estimator's own settings go by
+    them) and each is predicted as the planner predicts that estimator
+    (:func:`labcut.planner.estimator_seconds`: the sample answer it starts from, then the renders);
+    the correction is then the ``render`` kind's. Otherwise the sample estimator's calibration."""
     from ..scene import resolve_scene
     from .timing import predict_sample_seconds
 
     seconds = check_budget(budget)
-    factor = correction(occlusion)
+    renders = plan is not None and plan.estimator == "render"
+    factor = correction("render" if renders else occlusion)
     rungs = []
     for q in ladder():
+        if renders and q.name not in ("draft", "standard", "high"):
+            continue
         scene = resolve_scene(*scene_spec, q)
-        rungs.append((q, factor * predict_sample_seconds(scene.settings(), q.surface_points, occlusion)))
+        if renders:
+            from ..planner import estimator_seconds
+
+            t = estimator_seconds(scene, "recommend", plan.on("occlusion"), plan.on("inter_reflection"), plan.convex,
+                                  plan.on("zoning"))["render"]
+        else:
+            t = predict_sample_seconds(scene.settings(), q.surface_points, occlusion)
+        rungs.append((q, factor * t))
     fitting = [(q, t) for q, t in rungs if t <= seconds]
     named = tuple((q.name, float(t)) for q, t in rungs)
     if fitting:
         q, t = fitting[-1]
-        return BudgetChoice(q, float(t), seconds, named, correction=factor, occlusion=occlusion)
+        return BudgetChoice(q, float(t), seconds, named, correction=factor, occlusion=occlusion,
+                            estimator="render" if renders else "samples")
     q, t = rungs[0]
     return BudgetChoice(q, float(t), seconds, named,
                         note=f"a time budget of {seconds:g} s is below the cheapest setting's predicted {t:.2g} s on this "
-                             f"machine: running that ({q.name}) anyway", correction=factor, occlusion=occlusion)
+                             f"machine: running that ({q.name}) anyway", correction=factor, occlusion=occlusion,
+                        estimator="render" if renders else "samples")
 

@@ -519,7 +519,7 @@ def recommend_orientation(
     if budget is not None:  # the calibration learns from this run (orientation/budget.py)
         from .budget import record
 
-        record(budget.occlusion, budget.predicted_seconds / budget.correction, time.perf_counter() - start)
+        record(budget.kind, budget.predicted_seconds / budget.correction, time.perf_counter() - start)
     return Recommendation(
         normal=normal, tilt_deg=tilt, azimuth_deg=az, score=float(score), objective=objective, metrics=metrics,
         tolerance_deg=float(tol), tolerance_by_axis=by_axis, runners_up=runners, map_normals=map_normals, map_scores=map_scores,
@@ -545,12 +545,15 @@ def _within_budget(mesh: Any, ask: FlashSetup, time_budget: Any, *, quality_give
     import warnings
 
     from ..errors import LabcutWarning
-    from ..planner import is_convex, occlusion_on
+    from ..planner import is_convex, occlusion_on, plan_effects
     from .budget import choose
 
     if quality_given:
         raise ParameterError("give quality or time_budget, not both (the budget chooses the quality)")
-    choice = choose(time_budget, ask.scene_spec, occlusion_on(is_convex(mesh), ask.effect_overrides))
+    # which estimator answers (the planner's choice does not depend on the quality): the budget predicts that one
+    plan = plan_effects(mesh, ask.material, command="recommend", scenario=ask.scenario, quality=ask.quality,
+                        estimator=ask.estimator, effects=ask.effect_overrides, zoning=ask.zoning, predict=False)
+    choice = choose(time_budget, ask.scene_spec, occlusion_on(is_convex(mesh), ask.effect_overrides), plan=plan)
     if choice.note:
         warnings.warn(choice.note, LabcutWarning, stacklevel=3)
     return ask.at_quality(choice.quality), choice
