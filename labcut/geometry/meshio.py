@@ -196,13 +196,26 @@ def _signed_volume(v: np.ndarray, f: np.ndarray, labels: np.ndarray | None = Non
     return np.bincount(labels, weights=det, minlength=count)
 
 
+def _cross_rows(x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """``np.cross`` of (N, 3) rows, as its own products and differences (the same values), without
+    its generic machinery (several times faster on millions of rows)."""
+    out = np.empty_like(x)
+    np.multiply(x[:, 1], y[:, 2], out=out[:, 0])
+    out[:, 0] -= x[:, 2] * y[:, 1]
+    np.multiply(x[:, 2], y[:, 0], out=out[:, 1])
+    out[:, 1] -= x[:, 0] * y[:, 2]
+    np.multiply(x[:, 0], y[:, 1], out=out[:, 2])
+    out[:, 2] -= x[:, 1] * y[:, 0]
+    return out
+
+
 def _double_areas(v: np.ndarray, f: np.ndarray) -> np.ndarray:
     """|(b - a) x (c - a)| of every face (twice its area), in chunks."""
     out = np.empty(len(f))
     for s in range(0, len(f), CHUNK):
         ff = f[s : s + CHUNK]
         a = v[ff[:, 0]]
-        out[s : s + len(ff)] = np.linalg.norm(np.cross(v[ff[:, 1]] - a, v[ff[:, 2]] - a), axis=1)
+        out[s : s + len(ff)] = np.linalg.norm(_cross_rows(v[ff[:, 1]] - a, v[ff[:, 2]] - a), axis=1)
     return out
 
 
@@ -291,6 +304,20 @@ def _edge_table(faces: np.ndarray, n_vertices: int | None = None) -> tuple[int, 
     nv = int(n_vertices if n_vertices is not None else f.max() + 1)
     src = f.ravel()
     dst = f[:, [1, 2, 0]].ravel()
+    # a closed, consistently wound mesh walks every edge once each way: the edges walked upwards
+    # (src < dst) are then, sorted, the edges walked downwards, each once (two sorts of half the
+    # edges, and no direction bits: the common case of a big clean mesh, checked first)
+    up = src < dst
+    fwd = src[up] * nv + dst[up]
+    down = ~up
+    bwd = dst[down] * nv + src[down]
+    del up, down
+    if len(fwd) == len(bwd):
+        fwd.sort()
+        bwd.sort()
+        if np.array_equal(fwd, bwd) and not np.any(fwd[1:] == fwd[:-1]):
+            return 0, 0, True
+    del fwd, bwd
     # undirected edge, then its direction bit, built in place (a few arrays of 3F at most)
     key = np.minimum(src, dst)
     key *= nv
