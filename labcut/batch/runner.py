@@ -196,39 +196,13 @@ def merge_comparisons(parts: list[Any]) -> Any:
     material, scenarios, quality and seed: as :func:`~labcut.reports.compare.run_comparison`
     finishes one, one exposure per scenario over every cut's renders, ranks and normalised values
     against the first cut (the reference), overall scores."""
-    import numpy as np
-
-    from ..reports.compare import NORMALISED, Comparison, competition_ranks
-    from ..rendering.images import shared_exposure
+    from ..reports.compare import Comparison, rank_and_normalise
 
     if not parts:
         raise ParameterError("a report needs at least one compared cut")
     cuts = [c for p in parts for c in p.cuts]
     scens = parts[0].scenarios
-
-    def ratio(a: float, b: float) -> float | None:
-        return float(a / b) if b > 0 else None
-
-    exposures = {}
-    for sc in scens:
-        images = []
-        for c in cuts:
-            images += [c.scenarios[sc.name].renders.main, *c.scenarios[sc.name].renders.strip]
-        exposures[sc.name] = shared_exposure(images)
-    ref = cuts[0]
-    for sc in scens:
-        rs = [c.scenarios[sc.name] for c in cuts]
-        base = ref.scenarios[sc.name]
-        for r, rank in zip(rs, competition_ranks([r.energy for r in rs])):
-            r.rank = rank
-            r.normalised = {k: ratio(r.value(k), base.value(k)) for k in NORMALISED}
-    for c in cuts:
-        ratios = [ratio(c.scenarios[s.name].compromise_metrics.flash_energy, ref.scenarios[s.name].compromise_metrics.flash_energy)
-                  for s in scens]
-        found = [r for r in ratios if r is not None]
-        c.overall_score = float(np.mean(found)) if found else 0.0
-    for c, rank in zip(cuts, competition_ranks([c.overall_score for c in cuts])):
-        c.rank = rank
+    exposures = rank_and_normalise(cuts, scens, 0)
     first = parts[0]
     return Comparison(cuts, list(scens), first.material, 0, first.quality, exposures, dict(first.render),
                       float(sum(p.seconds for p in parts)), first.tau, first.seed)

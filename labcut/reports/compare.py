@@ -661,12 +661,42 @@ def compare_cuts(
     return run_comparison(plan, progress)
 
 
+def rank_and_normalise(cuts: Sequence[CutResult], scenarios: Sequence[Any], reference: int) -> dict[str, float]:
+    """Finish a comparison of ``cuts`` (each with its per-scenario results): per scenario the ranks
+    by flash energy and every value of :data:`NORMALISED` over the ``reference`` cut's, each cut's
+    overall score (the mean over scenarios of its energy at the compromise orientation over the
+    reference's) and its overall rank. Returns one exposure per scenario, shared by every cut's
+    renders and rocking strip."""
+    from ..rendering.images import shared_exposure
+
+    exposures = {}
+    for sc in scenarios:
+        images = []
+        for c in cuts:
+            images += [c.scenarios[sc.name].renders.main, *c.scenarios[sc.name].renders.strip]
+        exposures[sc.name] = shared_exposure(images)
+    refc = cuts[reference]
+    for sc in scenarios:
+        rs = [c.scenarios[sc.name] for c in cuts]
+        base = refc.scenarios[sc.name]
+        for r, rank in zip(rs, competition_ranks([r.energy for r in rs])):
+            r.rank = rank
+            r.normalised = {k: _ratio(r.value(k), base.value(k)) for k in NORMALISED}
+    for c in cuts:
+        ratios = [_ratio(c.scenarios[s.name].compromise_metrics.flash_energy,
+                         refc.scenarios[s.name].compromise_metrics.flash_energy) for s in scenarios]
+        found = [r for r in ratios if r is not None]
+        c.overall_score = float(np.mean(found)) if found else 0.0
+    for c, rank in zip(cuts, competition_ranks([c.overall_score for c in cuts])):
+        c.rank = rank
+    return exposures
+
+
 def run_comparison(plan: ComparisonPlan, progress: Callable[[int, int], None] | None = None) -> Comparison:
     """The long work of :func:`compare_cuts` for a checked :class:`ComparisonPlan`."""
     from ..geometry.inspect import summarize
     from ..orientation.problem import reference_radiance
     from ..orientation.recommend import describe, recommend_orientation, workshop
-    from ..rendering.images import shared_exposure
     from ..rendering.scene import RENDER_IRRADIANCE
     from .analysis import (
         compromise,
@@ -721,26 +751,7 @@ def run_comparison(plan: ComparisonPlan, progress: Callable[[int, int], None] | 
         results.append(CutResult(cut, summarize(cut.mesh, cut.name), per, cp, describe(cp.normal, naming, cp.parallel_within_deg),
                                  workshop(cp.normal, cut.mesh, naming, parallel=parallel)))
 
-    # ---- one exposure per scenario; normalised values and ranks
-    exposures = {}
-    for sc in scens:
-        images = []
-        for c in results:
-            images += [c.scenarios[sc.name].renders.main, *c.scenarios[sc.name].renders.strip]
-        exposures[sc.name] = shared_exposure(images)
-    refc = results[ref]
-    for sc in scens:
-        rs = [c.scenarios[sc.name] for c in results]
-        base = refc.scenarios[sc.name]
-        for r, rank in zip(rs, competition_ranks([r.energy for r in rs])):
-            r.rank = rank
-            r.normalised = {k: _ratio(r.value(k), base.value(k)) for k in NORMALISED}
-    for c in results:
-        ratios = [_ratio(c.scenarios[s.name].compromise_metrics.flash_energy,
-                         refc.scenarios[s.name].compromise_metrics.flash_energy) for s in scens]
-        c.overall_score = float(np.mean([r for r in ratios if r is not None])) if any(r is not None for r in ratios) else 0.0
-    for c, rank in zip(results, competition_ranks([c.overall_score for c in results])):
-        c.rank = rank
+    exposures = rank_and_normalise(results, scens, ref)
     render_info = {"resolution": res, "spp": n_spp, "strip_spp": strip_spp, "strip_angles_deg": list(strip_angles),
                    "flash_threshold": threshold, "irradiance": RENDER_IRRADIANCE}
     seconds = time.perf_counter() - start
