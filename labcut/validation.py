@@ -80,3 +80,20 @@ def given_besides(asked: dict[str, Any], defaults: dict[str, Any], holder: str) 
     clash = [k for k, v in asked.items() if not is_default(v, defaults[k])]
     if clash:
         raise ParameterError(f"{holder}; do not also pass {', '.join(clash)}")
+
+
+def name_or_mm(text: str, names: tuple[str, ...], what: str, where: str = "") -> str | float:
+    """A text that is one of ``names`` (returned lower-cased) or a finite number of millimetres
+    (returned as a float): ``"low"`` -> ``"low"``, ``"2.5"`` -> 2.5. ``where`` (e.g. the spec the
+    text came from) only words the one-line ParameterError."""
+    key = str(text).strip().lower()
+    if key in names:
+        return key
+    try:
+        value = float(key)
+    except ValueError:
+        value = math.nan
+    if not math.isfinite(value):
+        place = f" in {where!r}" if where else ""
+        raise ParameterError(f"{what} must be {', '.join(names)} or a number of mm{place}, got {text!r}")
+    return value

@@ -6,7 +6,6 @@ Units are mm; the mesh frame is DESIGN.md §3 (+Z face-up, base on z = 0).
 from __future__ import annotations
 
 import json
-import math
 from pathlib import Path
 from typing import Annotated, Any, Optional
 
@@ -15,22 +14,6 @@ from rich.table import Table
 
 from . import meshes as mo
 from .root import app, console, write_json
-
-
-def _number_or_name(text: str, names: tuple[str, ...], what: str) -> str | float:
-    """``"low"`` stays a name; ``"2.5"`` becomes 2.5 (mm)."""
-    from labcut.errors import ParameterError
-
-    key = text.strip().lower()
-    if key in names:
-        return key
-    try:
-        value = float(key)
-    except ValueError:
-        raise ParameterError(f"{what} must be one of {', '.join(names)} or a number of mm, got {text!r}") from None
-    if not math.isfinite(value):
-        raise ParameterError(f"{what} must be finite, got {text!r}")
-    return value
 
 
 def _read_outline_file(path: Path) -> Any:
@@ -140,8 +123,10 @@ def cabochon(
         if not p.is_file():
             raise ParameterError(f"unknown outline {outline!r}: use one of {', '.join(names)} or a file of x,y points")
         shape = _read_outline_file(p)
-    dome_v = _number_or_name(dome, ("low", "medium", "high"), "--dome")
-    base_v = _number_or_name(base, ("flat", "low", "medium", "high"), "--base")
+    from labcut.validation import name_or_mm
+
+    dome_v = name_or_mm(dome, ("low", "medium", "high"), "--dome")
+    base_v = name_or_mm(base, ("flat", "low", "medium", "high"), "--base")
     res: int | str = resolution if resolution.strip().lower() == "default" else resolution.strip()
     mesh = build(
         outline=shape,

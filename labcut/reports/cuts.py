@@ -42,7 +42,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import LabcutError, LabcutWarning, ParameterError
-from ..validation import check_number
+from ..validation import check_number, name_or_mm
 
 CAB_PREFIX = "cab:"
 #: spec keys -> :func:`labcut.cabochon` keywords
@@ -92,19 +92,6 @@ def _number(text: str, what: str, spec: str) -> float:
     return value
 
 
-def _name_or_mm(text: str, names: tuple[str, ...], what: str, spec: str) -> str | float:
-    key = text.strip().lower()
-    if key in names:
-        return key
-    try:
-        value = float(key)
-    except ValueError:
-        value = float("nan")
-    if not np.isfinite(value):
-        raise ParameterError(f"{what} must be {', '.join(names)} or a number of mm in {spec!r}, got {text!r}")
-    return value
-
-
 def parse_cab_spec(spec: str) -> dict[str, Any]:
     """The :func:`labcut.cabochon` keywords of a ``cab:OUTLINE,SIZE[,DOME][,key=value ...]`` spec.
 
@@ -134,7 +121,7 @@ def parse_cab_spec(spec: str) -> dict[str, Any]:
             raise ParameterError(f"{spec!r}: {kwargs['outline']} cabochons need LENGTHxWIDTH in mm (one number is a round's diameter)")
     rest = parts[2:]
     if rest and "=" not in rest[0]:
-        kwargs["dome"] = _name_or_mm(rest[0], DOME_NAMES, "dome", spec)
+        kwargs["dome"] = name_or_mm(rest[0], DOME_NAMES, "dome", spec)
         rest = rest[1:]
     for item in rest:
         key, sep, value = item.partition("=")
@@ -151,7 +138,7 @@ def parse_cab_spec(spec: str) -> dict[str, Any]:
         if target == "profile":
             kwargs[target] = value.lower()
         elif target == "base":
-            kwargs[target] = "flat" if value.lower() == "flat" else _name_or_mm(value, DOME_NAMES, "base", spec)
+            kwargs[target] = "flat" if value.lower() == "flat" else name_or_mm(value, DOME_NAMES, "base", spec)
         elif target == "resolution":
             kwargs[target] = check_number(value, f"res in {spec!r}", 1, integer=True)
         else:
