@@ -169,3 +169,25 @@ def test_a_mesh_that_needs_repair_still_goes_through_manifold3d(monkeypatch, tmp
     monkeypatch.setattr(manifold3d, "Manifold", Spy)
     got = labcut.load_mesh(path)
     assert called and any("hole" in r for r in got.metadata["labcut"]["repairs"])
+
+
+def test_a_flat_pocket_is_judged_as_before(monkeypatch, tmp_path):
+    """A face and its reverse standing alone pass the two-sort edge check; the big-mesh path must
+    still send them where they went before (manifold3d's verdict, the duplicate-face repair)."""
+    cube = labcut.load_mesh(MESHES / "cube-10.ply")
+    v = np.vstack([cube.vertices, [[30.0, 0.0, 0.0], [31.0, 0.0, 0.0], [30.0, 1.0, 0.0]]])
+    n = len(cube.vertices)
+    f = np.vstack([cube.faces, [[n, n + 1, n + 2], [n, n + 2, n + 1]]])
+    path = tmp_path / "pocket.ply"
+    trimesh.Trimesh(v, f, process=False).export(path)
+
+    def outcome():
+        try:
+            m = labcut.load_mesh(path)
+        except Exception as exc:  # noqa: BLE001 - the verdict is what is compared
+            return type(exc).__name__, str(exc)
+        return len(m.faces), m.metadata["labcut"]["repairs"], round(float(m.volume), 9)
+
+    want = outcome()
+    monkeypatch.setattr(meshio, "MANIFOLD_CHECK_FACES", 0)
+    assert outcome() == want

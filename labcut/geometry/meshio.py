@@ -294,6 +294,26 @@ def _same_orientation(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.all(canon(a) == canon(b), axis=1)
 
 
+def _closed_and_consistent(f: np.ndarray, nv: int) -> bool:
+    """True when every edge of the (int64) faces is walked exactly once each way: a closed mesh,
+    every edge shared by two faces, consistently wound. The edges walked upwards (src < dst),
+    sorted, must equal the edges walked downwards, each once: two sorts of half the edges, no
+    direction bits. It also rules out a repeated face (its upward edges would repeat) but for a
+    face and its reverse standing alone (a flat two-face pocket)."""
+    src = f.ravel()
+    dst = f[:, [1, 2, 0]].ravel()
+    up = src < dst
+    fwd = src[up] * nv + dst[up]
+    down = ~up
+    bwd = dst[down] * nv + src[down]
+    del up, down
+    if len(fwd) != len(bwd):
+        return False
+    fwd.sort()
+    bwd.sort()
+    return bool(np.array_equal(fwd, bwd) and not np.any(fwd[1:] == fwd[:-1]))
+
+
 def _edge_table(faces: np.ndarray, n_vertices: int | None = None) -> tuple[int, int, bool]:
     """One sort of the directed edges: ``(boundary edges, edges shared by more than two faces,
     winding consistent)``. The winding is consistent when every edge two faces share is walked
@@ -302,22 +322,10 @@ def _edge_table(faces: np.ndarray, n_vertices: int | None = None) -> tuple[int, 
     if len(f) == 0:
         return 0, 0, True
     nv = int(n_vertices if n_vertices is not None else f.max() + 1)
+    if _closed_and_consistent(f, nv):  # the common case of a big clean mesh, checked first
+        return 0, 0, True
     src = f.ravel()
     dst = f[:, [1, 2, 0]].ravel()
-    # a closed, consistently wound mesh walks every edge once each way: the edges walked upwards
-    # (src < dst) are then, sorted, the edges walked downwards, each once (two sorts of half the
-    # edges, and no direction bits: the common case of a big clean mesh, checked first)
-    up = src < dst
-    fwd = src[up] * nv + dst[up]
-    down = ~up
-    bwd = dst[down] * nv + src[down]
-    del up, down
-    if len(fwd) == len(bwd):
-        fwd.sort()
-        bwd.sort()
-        if np.array_equal(fwd, bwd) and not np.any(fwd[1:] == fwd[:-1]):
-            return 0, 0, True
-    del fwd, bwd
     # undirected edge, then its direction bit, built in place (a few arrays of 3F at most)
     key = np.minimum(src, dst)
     key *= nv
@@ -491,11 +499,17 @@ def validate_arrays(
 ) -> tuple[np.ndarray, np.ndarray, list[str], list[str], int]:
     """Validate (and repair) raw arrays; return ``(V, F, repairs, notes, bodies)``.
 
-    The result is an oriented, outward-wound, closed 2-manifold certified by
-    manifold3d (a mesh of more than :data:`MANIFOLD_CHECK_FACES` triangles that needs no repair
-    by the same edge check manifold3d makes, done here, and kept in its own order). Raises :class:`MeshError` when that cannot be reached (or when
-    ``repair`` is False and anything needed repairing).
+    The result is an oriented, outward-wound, closed 2-manifold certified by manifold3d (a mesh
+    of more than :data:`MANIFOLD_CHECK_FACES` triangles that needs no repair by the same edge
+    check manifold3d makes, done here, and kept in its own order). Raises :class:`MeshError`
+    when that cannot be reached (or when ``repair`` is False and anything needed repairing).
     """
+    return _validate_arrays(vertices, faces, name, repair)[:5]
+
+
+def _validate_arrays(vertices: np.ndarray, faces: np.ndarray, name: str, repair: bool, fast: bool = True) -> tuple[Any, ...]:
+    """:func:`validate_arrays`, and the solid's volume when it was summed on the way (else None).
+    ``fast``: a big mesh that passes the two-sort edge check skips the duplicate-face check."""
     import manifold3d as m3
     import trimesh
 
@@ -544,13 +558,18 @@ def validate_arrays(
         f = f[~rep]
     if len(f) == 0:
         raise MeshError(f"{name} has only degenerate triangles")
-    sorted_faces = np.sort(f, axis=1)
-    if not _all_distinct(sorted_faces):  # a repeated hash: find the duplicates exactly
-        _, first = np.unique(sorted_faces, axis=0, return_index=True)
-        if len(first) < len(f):
-            fix(f"removed {len(f) - len(first)} duplicate faces")
-            f = f[np.sort(first)]
-    del sorted_faces
+    # a big mesh walked once each way along every edge has no repeated face but in a flat
+    # two-face pocket of its own (a shell of zero volume: then everything again, in full below):
+    # its duplicate check is skipped
+    clean = fast and len(f) > MANIFOLD_CHECK_FACES and _closed_and_consistent(f, len(v))
+    if not clean:
+        sorted_faces = np.sort(f, axis=1)
+        if not _all_distinct(sorted_faces):  # a repeated hash: find the duplicates exactly
+            _, first = np.unique(sorted_faces, axis=0, return_index=True)
+            if len(first) < len(f):
+                fix(f"removed {len(f) - len(first)} duplicate faces")
+                f = f[np.sort(first)]
+        del sorted_faces
     area2 = _double_areas(v, f)
     used = np.zeros(len(v), dtype=bool)
     used[f] = True
@@ -561,7 +580,7 @@ def validate_arrays(
     if flat.all():
         raise MeshError(f"{name} has only zero-area triangles")
 
-    n_boundary, n_nonmanifold, consistent = _edge_table(f, len(v))
+    n_boundary, n_nonmanifold, consistent = (0, 0, True) if clean else _edge_table(f, len(v))
     if n_nonmanifold:
         raise MeshError(
             f"{name} is not a 2-manifold: {n_nonmanifold} edges are shared by three or more faces; "
@@ -621,6 +640,8 @@ def validate_arrays(
     # outward orientation, per closed shell
     labels, count = _face_components(f, len(v))
     vols = _signed_volume(v, f, labels, count)
+    if clean and not np.all(vols > 0):  # a flat pocket (or worse) slipped past the skipped check: in full
+        return _validate_arrays(vertices, faces, name, repair, fast=False)
     inward = vols < 0
     if inward.any():
         flip = inward[labels]
@@ -633,7 +654,7 @@ def validate_arrays(
     elif flipped.any():
         fix(f"reversed {int(flipped.sum())} of {len(original)} faces whose winding disagreed with the rest")
 
-    if len(f) > MANIFOLD_CHECK_FACES and f is original and not repairs and not flat.any():
+    if len(f) > MANIFOLD_CHECK_FACES and f is original and not repairs and not flat.any() and bool(np.all(vols > 0)):
         # a big mesh that needed nothing: the edge table above certified every edge shared by
         # exactly two faces walking it in opposite directions (a closed, oriented 2-manifold, what
         # manifold3d checks) and every shell encloses a positive volume; manifold3d's rebuild
@@ -641,7 +662,7 @@ def validate_arrays(
         ext = np.ptp(v, axis=0)
         if float(vols.sum()) <= 1e-9 * max(float(np.prod(ext)), 1e-300) or ext.min() <= 0:
             raise MeshError(f"{name} encloses no volume (a flat or empty surface)")
-        return v, f, repairs, notes, int(count)
+        return v, f, repairs, notes, int(count), float(vols.sum())
 
     man = m3.Manifold(m3.Mesh64(vert_properties=np.ascontiguousarray(v), tri_verts=np.ascontiguousarray(f, dtype=np.uint64)))
     status = man.status()
@@ -658,7 +679,7 @@ def validate_arrays(
     elif flat.any():
         notes.append(f"kept {int(flat.sum())} near-zero-area triangles")
     bodies = int(len(man.decompose())) if count > 1 else 1
-    return v2, f2, repairs, notes, bodies
+    return v2, f2, repairs, notes, bodies, None
 
 
 def centre_on_base(vertices: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -767,12 +788,13 @@ def load_mesh(
         unit_name, factor = "mm", 1.0
         units_source = "default"
     report_stage("validating and repairing", 0.2)
-    v, f, repairs, more_notes, bodies = validate_arrays(v, f, name=p.name, repair=repair)
+    v, f, repairs, more_notes, bodies, volume = _validate_arrays(v, f, p.name, repair)
     notes.extend(more_notes)
     _check_size(v, factor, unit_name, units_source, p.name, fmt)
     report_stage("checking convexity", 0.6)
     mesh = trimesh.Trimesh(vertices=v, faces=f, process=False)
-    volume = _signed_volume(v, f)
+    if volume is None:
+        volume = _signed_volume(v, f)
     convex = is_convex_mesh(mesh, volume=volume)
 
     report_stage("finding the face-up side", 0.8)
