@@ -122,11 +122,11 @@ def _define_guide() -> type:
             diffuse = mi.BSDFContext()
             diffuse.type_mask = +mi.BSDFFlags.Diffuse
             for emitter in scene.emitters():
-                if mi.has_flag(emitter.flags(), mi.EmitterFlags.Infinite):
+                if mi.has_flag(emitter.flags(), mi.EmitterFlags.Delta):  # directional or point: one direction
+                    result += self._quadrature(emitter, 1, si, bsdf, glossy, valid)
+                elif mi.has_flag(emitter.flags(), mi.EmitterFlags.Infinite):
                     if self.env_nodes > 0:
                         result += self._quadrature(emitter, self.env_nodes, si, bsdf, diffuse, valid)
-                elif mi.has_flag(emitter.flags(), mi.EmitterFlags.Delta):
-                    result += self._quadrature(emitter, 1, si, bsdf, glossy, valid)
                 else:
                     result += self._quadrature(emitter, self.lamp_nodes, si, bsdf, glossy, valid)
             # the polish's mirror image, traced exactly
@@ -164,17 +164,17 @@ def _camera(sensor: Any, sampler: dict[str, Any]) -> Any:
 
 
 def aux_scene(scene: Any, integrator: dict[str, Any] | None = None, sensor: Any = None) -> Any:
-    """``scene``'s shapes (with their lamps) and environment seen through its first sensor (or
+    """``scene``'s shapes (with their lamps) and other emitters seen through its first sensor (or
     ``sensor``), traced by ``integrator`` (default: Mitsuba's ``aov`` integrator, :data:`AOVS`)."""
     import mitsuba as mi
 
     d: dict[str, Any] = {"type": "scene", "sensor": sensor if sensor is not None else scene.sensors()[0],
                          "integrator": integrator or {"type": "aov", "aovs": AOVS}}
     for i, shape in enumerate(scene.shapes()):
-        d[f"shape_{i}"] = shape
-    env = scene.environment()
-    if env is not None:
-        d["environment"] = env
+        d[f"shape_{i}"] = shape  # with its area lights
+    for i, emitter in enumerate(scene.emitters()):
+        if not mi.has_flag(emitter.flags(), mi.EmitterFlags.Surface):  # the environment, directional lamps
+            d[f"emitter_{i}"] = emitter
     return mi.load_dict(d)
 
 
