@@ -18,7 +18,7 @@ def _check_look(value: str) -> str:
 
 Look = Annotated[str, typer.Option(help=LOOK_HELP, callback=_check_look)]
 Denoise = Annotated[Optional[bool], typer.Option("--denoise/--no-denoise",
-                                                 help="OIDN denoising with albedo and normal AOVs (default: on in the studio look).")]
+                                                 help="OIDN denoising, demodulated by a noise-free shading guide (default: on in the studio look).")]
 
 
 def spec(look: str, seed: int = 0) -> Any:

@@ -236,7 +236,7 @@ def plan_render(
         if use_denoise and not can_denoise:
             raise ParameterError("denoising needs rgb or spectral colour without a polarizer")
     if use_denoise:
-        reasons.append("denoised with Intel Open Image Denoise, guided by albedo and normal AOVs")
+        reasons.append("denoised with Intel Open Image Denoise, demodulated by a noise-free shading guide, with the normal")
     zone_name = None
     if zoning is not None:
         zone_name = getattr(zoning, "name", None) or "custom"
@@ -294,8 +294,8 @@ def build_scene(
 
     ``look``: ``"diagram"`` (default) or ``"studio"`` / a :class:`~labcut.rendering.studio.Studio`
     (module docstring). ``denoise``: as :func:`plan_render`; when on, the film uses a box pixel
-    filter (the colour only; :func:`labcut.rendering.denoise.trace_aux` traces the albedo and
-    normal the denoiser wants from this scene in a pass of their own).
+    filter (the colour only; :func:`labcut.rendering.denoise.trace_aux` traces the shading guide
+    and normal the denoiser wants from this scene in passes of their own).
     """
     from .setup import RenderSetup
 
@@ -429,7 +429,7 @@ def render(
     look: ``"diagram"`` (default) or ``"studio"`` / a :class:`~labcut.rendering.studio.Studio`: a
         photograph of the stone on a table under the scenario's lamps (module docstring).
     denoise: None (default: on in the studio look for rgb/spectral colour), True or False: OIDN
-        guided by albedo and normal AOVs (:mod:`labcut.rendering.denoise`).
+        demodulated by a noise-free shading guide, with the normal (:mod:`labcut.rendering.denoise`).
     check_flash: estimate, per camera, whether any part of the stone flashes from there (the
         surface-sample estimator at draft quality, the material without zoning); a view with
         none gets a note (:attr:`RenderResult.notes`): an auto-exposed image of glare and body
@@ -548,7 +548,7 @@ def render_setup(mesh: Any, ask: Any, normal: np.ndarray, *, progress: Callable[
                 from .denoise import denoise as _denoise
                 from .denoise import trace_aux
 
-                aux = trace_aux(scene, seed=ask.seed)  # noise-free albedo and normal (cleanAux)
+                aux = trace_aux(scene, seed=ask.seed)  # noise-free shading guide and normal (cleanAux)
                 image = _denoise(image[..., :3], aux[..., :3], aux[..., 3:6])
             if plan.polarizer_deg is not None:
                 image = _polarizer_intensity(image, plan.polarizer_deg)

@@ -46,8 +46,9 @@ properties ``body_tint`` (an RGB colour of luminance 1) and ``body_grid`` / ``bo
 ``body_hi`` (a baked grid of a body multiplier and a flash mask over the mesh's box) tint the
 grey body and texture it with inclusions; the mask (1 outside inclusions) scales the schiller
 where an inclusion sits at the surface. Without them the body is the grey Lambertian above and
-the schiller is untouched. ``eval_diffuse_reflectance`` (Mitsuba's albedo AOV, used by the
-denoiser) returns the body reflectance plus the face-on flash colour R(λ, 1).
+the schiller is untouched. ``eval_diffuse_reflectance`` (Mitsuba's albedo AOV, the denoiser's
+guide before it traced a shading guide of its own, kept for comparison) returns the body
+reflectance plus the face-on flash colour R(λ, 1).
 
 Colour zoning (optional, :mod:`labcut.rendering.zoning`, docs/zoning.md): the
 properties ``zoning_grid``, ``zoning_path``, ``zoning_lo``, ``zoning_hi`` carry a
