@@ -276,6 +276,7 @@ def build_problem(
     pose_w = np.array([float(st.weight) for st in settings])
     pose_w = pose_w / pose_w.sum()
 
+    kernel = _TripleKernel(n_sh, material.n_surface, table, l_ref) if TRIPLES_IN_DRJIT else None
     h_parts, c_parts, pair_parts, pv_parts, pw_parts, vw_parts = [], [], [], [], [], []
     pp_parts: list[np.ndarray] = []  # surface point of each pair (the uncertainty bootstrap resamples points)
     pair_offset = view_offset = 0
@@ -284,7 +285,7 @@ def build_problem(
         h_k, c_k, pair_k, pi, pv, pw = _setting_triples(
             st.lights.directions, st.lights.weights / total_irradiance[k], st.views.directions,
             points, n_geo, n_sh, mesh, (convex if occlusion is None else not occlusion), material.n_surface, table, l_ref, count,
-            cull,
+            cull, kernel,
         )
         h_parts += h_k
         c_parts += c_k
@@ -326,10 +327,76 @@ def build_problem(
     )
 
 
-def _setting_triples(L, E, V, points, n_geo, n_sh, mesh, convex, eta, table, l_ref, count, cull=None):
+#: evaluate the triple terms in one Dr.Jit kernel per pose chunk (float32, the problem's own
+#: precision) rather than in float64 numpy passes; the numpy path stays the reference
+#: (``tests/test_speed_reuse.py`` compares them)
+TRIPLES_IN_DRJIT = True
+
+
+class _TripleKernel:
+    """The schiller triple terms of :func:`triple_terms` (lobe functions of
+    :mod:`labcut.physics.schiller`, Dr.Jit ops) for triples given by (point, light, view) indices:
+    the shading normals live on the device once per problem, each pose's lights and views with
+    its call. Deterministic (elementwise, no atomics); the material's numbers are opaque, so one
+    compiled kernel serves every stone and material."""
+
+    def __init__(self, n_sh: np.ndarray, eta: float, table: tuple[np.ndarray, np.ndarray], l_ref: float) -> None:
+        from .scoring import _dr
+
+        dr, t = _dr()
+        self.dr, self.t = dr, t
+        n = np.asarray(n_sh, dtype=np.float32)
+        self.n = t.Array3f(n[:, 0], n[:, 1], n[:, 2])
+        self.eta = dr.opaque(t.Float, float(eta))
+        self.inv_l_ref = dr.opaque(t.Float, 1.0 / float(l_ref))
+        self.table = t.Float(np.asarray(table[1], dtype=np.float32))
+        self.cells = dr.opaque(t.Float, float(len(table[1]) - 1))  # the table is a uniform grid over cos 0..1
+        self.last = dr.opaque(t.UInt32, len(table[1]) - 2)
+
+    def __call__(self, L: np.ndarray, E: np.ndarray, V: np.ndarray, point: np.ndarray, light: np.ndarray,
+                 view: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(h (T, 3) float32 folded into the upper hemisphere, c (T,) float32 in units of L_ref,
+        non-finite terms replaced by (0, 0, 1) and 0)."""
+        from ..physics.ops import drjit_ops
+
+        dr, t = self.dr, self.t
+        ops = drjit_ops()
+        L32, V32 = np.asarray(L, dtype=np.float32), np.asarray(V, dtype=np.float32)
+        lights = t.Array3f(L32[:, 0], L32[:, 1], L32[:, 2])
+        views = t.Array3f(V32[:, 0], V32[:, 1], V32[:, 2])
+        irr = t.Float(np.asarray(E, dtype=np.float32))
+        i_p, i_l, i_v = (t.UInt32(np.asarray(x, dtype=np.uint32)) for x in (point, light, view))
+        n = dr.gather(t.Array3f, self.n, i_p)
+        w_l = dr.gather(t.Array3f, lights, i_l)
+        w_v = dr.gather(t.Array3f, views, i_v)
+        cos_nl = dr.dot(w_l, n)
+        a = lobe.internal_direction(w_l, n, self.eta, ops)
+        e_t_l = dr.gather(t.Float, irr, i_l) * lobe.transmission(cos_nl, self.eta, ops) * cos_nl
+        b = lobe.internal_direction(w_v, n, self.eta, ops)
+        t_v = lobe.transmission(dr.dot(w_v, n), self.eta, ops)
+        h, cos_l, max_ab = lobe.mirror_terms(a, b, n, ops)
+        x = dr.clip(cos_l, 0.0, 1.0) * self.cells  # np.interp on the uniform cos grid of the luminance table
+        cell = dr.minimum(t.UInt32(x), self.last)
+        frac = x - t.Float(cell)
+        y0 = dr.gather(t.Float, self.table, cell)
+        r_y = y0 + frac * (dr.gather(t.Float, self.table, cell + 1) - y0)
+        c = lobe.schiller_factor(e_t_l, t_v, cos_l, max_ab, self.eta, ops) * r_y * self.inv_l_ref
+        h = dr.select(h.z < 0.0, -h, h)  # axial: fold into the upper hemisphere
+        dr.eval(h, c)
+        hn = np.stack([np.asarray(h.x), np.asarray(h.y), np.asarray(h.z)], axis=1)
+        cn = np.asarray(c)
+        if not (np.isfinite(cn).all() and np.isfinite(hn).all()):
+            finite = np.isfinite(cn) & np.all(np.isfinite(hn), axis=1)
+            cn = np.where(finite, cn, 0.0).astype(np.float32)
+            hn = np.where(finite[:, None], hn, np.array([0.0, 0.0, 1.0], dtype=np.float32)).astype(np.float32)
+        return hn, cn
+
+
+def _setting_triples(L, E, V, points, n_geo, n_sh, mesh, convex, eta, table, l_ref, count, cull=None, kernel=None):
     """Triples of one pose: per chunk lists of h, c, pair index; and per pair its point,
     view and projected-area weight (summing to 1 within each view). ``cull = (centre, cos)``:
-    only the triples with ``|h·centre| >= cos`` (their values as without the cull)."""
+    only the triples with ``|h·centre| >= cos`` (their values as without the cull). ``kernel``: a
+    :class:`_TripleKernel` of these samples evaluates the terms (else float64 numpy)."""
     # facing and visibility: point x view, point x light
     face_v = (n_geo @ V.T > 1e-6) & (n_sh @ V.T > 1e-6)
     lit = (n_geo @ L.T > 1e-6) & (n_sh @ L.T > 1e-6) & (E[None, :] > 0)
@@ -367,6 +434,19 @@ def _setting_triples(L, E, V, points, n_geo, n_sh, mesh, convex, eta, table, l_r
         offs = np.arange(reps.sum()) - np.repeat(np.cumsum(reps) - reps, reps)
         lit_of_t = np.repeat(starts[c_pi - p0], reps) + offs  # index into this chunk's lit (point, light)
 
+        if kernel is not None:  # every term of each triple in one Dr.Jit kernel
+            local = pair_of_t - q0
+            h, c = kernel(L, E, V, c_pi[local], lit_l[lit_of_t], pv[pair_of_t])
+            if cull is not None:  # only the triples whose (float32) mirror orientation lies near the centre
+                cx, cy, cz = (np.float32(x) for x in cull[0])
+                keep = np.abs(h[:, 0] * cx + h[:, 1] * cy + h[:, 2] * cz) >= np.float32(cull[1])
+                h, c, pair_of_t = h[keep], c[keep], pair_of_t[keep]
+                if pair_of_t.size == 0:
+                    continue
+            c_parts.append(c)
+            h_parts.append(h)
+            pair_parts.append(pair_of_t.astype(np.int32))
+            continue
         # refraction and Fresnel per (point, light) and per (point, view), then gathered per triple
         # (:func:`triple_terms`, with a·n and b·n taken once per (point, light) and per pair)
         n_lit = n_sh[lit_i]
