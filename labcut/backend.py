@@ -23,6 +23,7 @@ import glob
 import os
 import re
 from pathlib import Path
+from typing import Any
 
 from .errors import BackendError, LLVMVersionError, ParameterError
 
@@ -148,3 +149,11 @@ def set_variant(mode: str = "rgb", polarized: bool = False) -> str:
     if mi.variant() != name:
         mi.set_variant(name)
     return name
+
+
+def ad_types() -> tuple[Any, Any]:
+    """``(drjit, types)``: Dr.Jit and its AD array types of the backend in use (``drjit.cuda.ad``
+    when CUDA works, else ``drjit.llvm.ad``; :func:`device`)."""
+    import drjit as dr
+
+    return dr, (dr.cuda.ad if device() == "cuda" else dr.llvm.ad)

@@ -80,7 +80,7 @@ def check_mesh_options(units: str, up_axis: str, size: float | None = None) -> t
     """Validate ``--units``, ``--up-axis`` (and ``--size``) before any work; returns units and up axis as
     ``load_mesh`` takes them."""
     from labcut.geometry.gemcad import design_size
-    from labcut.geometry.meshio import _units_scale
+    from labcut.geometry.meshio import units_scale
     from labcut.geometry.orient import check_up_axis
 
     design_size(size)
@@ -90,7 +90,7 @@ def check_mesh_options(units: str, up_axis: str, size: float | None = None) -> t
     except ValueError:
         pass
     if not (isinstance(unit_arg, str) and unit_arg.lower() == "auto"):
-        _units_scale(unit_arg)  # a bad unit is an error now, not after the mesh is read
+        units_scale(unit_arg)  # a bad unit is an error now, not after the mesh is read
     return unit_arg, check_up_axis(up_axis)
 
 

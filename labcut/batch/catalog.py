@@ -362,7 +362,7 @@ def check_row(values: Mapping[str, Any], index: int, where: str, base: Path, def
     """One row (column -> cell) checked and resolved; a bad cell is a :class:`CatalogError`
     whose message starts with ``where`` and names the column."""
     from .. import __version__
-    from ..geometry.meshio import _units_scale
+    from ..geometry.meshio import units_scale
     from ..geometry.orient import check_up_axis
     from ..orientation.scoring import OBJECTIVES
 
@@ -385,7 +385,7 @@ def check_row(values: Mapping[str, Any], index: int, where: str, base: Path, def
     kind, path, cab, cut_key = column("cut", lambda v: _cut(v, base, digests))
     material, material_label, material_key = column("material", lambda v: _material(v, base, defaults.material))
     scenario, scenario_key = column("scenario", lambda v: _scenario(defaults.scenario if v is None else v, base, quality, digests))
-    units: str | float = column("units", lambda v: _units(v, _units_scale))
+    units: str | float = column("units", lambda v: _units(v, units_scale))
     up_axis = column("up_axis", lambda v: check_up_axis("auto" if v is None else str(v)))
     size = column("size", lambda v: None if v is None else _number(v, 0.0, 500.0, "mm"))
     max_tilt = column("max_tilt", lambda v: 90.0 if v is None else _number(v, 0.0, 90.0, "degrees"))

@@ -196,7 +196,7 @@ def _signed_volume(v: np.ndarray, f: np.ndarray, labels: np.ndarray | None = Non
     return np.bincount(labels, weights=det, minlength=count)
 
 
-def _cross_rows(x: np.ndarray, y: np.ndarray) -> np.ndarray:
+def cross_rows(x: np.ndarray, y: np.ndarray) -> np.ndarray:
     """``np.cross`` of (N, 3) rows, as its own products and differences (the same values), without
     its generic machinery (several times faster on millions of rows)."""
     out = np.empty_like(x)
@@ -215,7 +215,7 @@ def _double_areas(v: np.ndarray, f: np.ndarray) -> np.ndarray:
     for s in range(0, len(f), CHUNK):
         ff = f[s : s + CHUNK]
         a = v[ff[:, 0]]
-        out[s : s + len(ff)] = np.linalg.norm(_cross_rows(v[ff[:, 1]] - a, v[ff[:, 2]] - a), axis=1)
+        out[s : s + len(ff)] = np.linalg.norm(cross_rows(v[ff[:, 1]] - a, v[ff[:, 2]] - a), axis=1)
     return out
 
 
@@ -467,7 +467,7 @@ def _read(path: Path, fmt: str) -> tuple[np.ndarray, np.ndarray, str | None]:
     return v, f, declared
 
 
-def _units_scale(units: str | float) -> tuple[str, float]:
+def units_scale(units: str | float) -> tuple[str, float]:
     if isinstance(units, str):
         key = units.strip().lower()
         if key in ("µm", "micron", "microns"):
@@ -746,7 +746,7 @@ def load_mesh(
     report_stage = progress or (lambda stage, fraction: None)
     units_given = not (isinstance(units, str) and units.strip().lower() == "auto")
     if units_given:
-        unit_name, factor = _units_scale(units)
+        unit_name, factor = units_scale(units)
     up_key = check_up_axis(up_axis)
     p = Path(path)
     if not p.exists():

@@ -341,9 +341,9 @@ class _TripleKernel:
     compiled kernel serves every stone and material."""
 
     def __init__(self, n_sh: np.ndarray, eta: float, table: tuple[np.ndarray, np.ndarray], l_ref: float) -> None:
-        from .scoring import _dr
+        from ..backend import ad_types
 
-        dr, t = _dr()
+        dr, t = ad_types()
         self.dr, self.t = dr, t
         n = np.asarray(n_sh, dtype=np.float32)
         self.n = t.Array3f(n[:, 0], n[:, 1], n[:, 2])

@@ -36,14 +36,6 @@ OBJECTIVES = ("energy", "area", "intensity", "balanced")
 COVERAGE_AREA = 0.05
 
 
-def _dr() -> tuple[Any, Any]:
-    import drjit as dr
-
-    from ..backend import device
-
-    return dr, (dr.cuda.ad if device() == "cuda" else dr.llvm.ad)
-
-
 def stereo_to_normal(u: float, v: float) -> np.ndarray:
     r2 = u * u + v * v
     return np.array([2 * u, 2 * v, 1 - r2]) / (1 + r2)
@@ -297,7 +289,9 @@ class Scorer:
     def __init__(self, problem: FlashProblem, objective: str = "energy") -> None:
         if objective not in OBJECTIVES:
             raise ParameterError(f"objective must be one of {', '.join(OBJECTIVES)}, got {objective!r}")
-        dr, t = _dr()
+        from ..backend import ad_types
+
+        dr, t = ad_types()
         self.dr, self.t = dr, t
         self.problem = problem
         self.objective = objective

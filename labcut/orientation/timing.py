@@ -22,7 +22,8 @@ from collections.abc import Sequence
 from dataclasses import asdict, dataclass
 from typing import Any
 
-_TIMING: SampleTiming | None = None
+#: the user-cache file of the calibration (:func:`sample_timing`)
+TIMING_FILE = "sample-estimator-timing.json"
 _CALIBRATING = False
 
 
@@ -57,12 +58,6 @@ def _key() -> str:
     from .. import __version__
 
     return f"labcut {__version__} numpy {np.__version__} cpus {os.cpu_count()} v2 (with error bars)"
-
-
-def _path() -> Any:
-    from ..fileio import cache_path
-
-    return cache_path("sample-estimator-timing.json")
 
 
 def time_three(call: Any, repeats: int = 1) -> tuple[float, float, float]:
@@ -109,24 +104,19 @@ def measure_sample_timing() -> SampleTiming:
 
 
 def sample_timing(refresh: bool = False) -> SampleTiming:
-    """The calibration of :func:`predict_sample_seconds`: measured once on this machine and cached."""
-    global _TIMING
-    key = _key()
-    if _TIMING is not None and _TIMING.key == key and not refresh:
-        return _TIMING
-    from ..fileio import read_cache, write_cache
+    """The calibration of :func:`predict_sample_seconds`: measured once on this machine and kept
+    in the user cache (:func:`labcut.fileio.calibration`, :data:`TIMING_FILE`)."""
+    from ..fileio import calibration
 
-    path = _path()
-    data = None if refresh else read_cache(path)
-    if data is not None and data.get("key") == key:
-        try:
-            _TIMING = SampleTiming(float(data["fixed"]), float(data["per_term"]), float(data["per_ray"]), key)
-            return _TIMING
-        except (KeyError, TypeError, ValueError):
-            pass  # an older layout: measure
-    _TIMING = measure_sample_timing()
-    write_cache(path, _TIMING.to_dict())
-    return _TIMING
+    key = _key()
+    names = ("fixed", "per_term", "per_ray")
+
+    def measure() -> dict[str, float]:
+        t = measure_sample_timing()
+        return {k: getattr(t, k) for k in names}
+
+    value = calibration(TIMING_FILE, key, measure, refresh=refresh, check=lambda v: [float(v[k]) for k in names])
+    return SampleTiming(*(float(value[k]) for k in names), key)
 
 
 def predict_sample_seconds(settings: Sequence[Any], surface_points: int, occlusion: bool) -> float:

@@ -136,7 +136,7 @@ def face_areas(mesh: Any, chunk: int = 1 << 20) -> np.ndarray:
     """Area of every face, as trimesh's ``area_faces`` has it (the same formula, the same values),
     computed in chunks (no (F, 3, 3) copy of the corners kept) and once per mesh (:func:`mesh_cached`)."""
     def build() -> np.ndarray:
-        from ..geometry.meshio import _cross_rows
+        from ..geometry.meshio import cross_rows
 
         v = np.asarray(mesh.vertices, dtype=np.float64)
         f = np.asarray(mesh.faces)
@@ -144,7 +144,7 @@ def face_areas(mesh: Any, chunk: int = 1 << 20) -> np.ndarray:
         for s in range(0, len(f), chunk):
             ff = f[s : s + chunk]
             b = v[ff[:, 1]]
-            crosses = _cross_rows(b - v[ff[:, 0]], v[ff[:, 2]] - b)  # trimesh.triangles.cross's edges and values
+            crosses = cross_rows(b - v[ff[:, 0]], v[ff[:, 2]] - b)  # trimesh.triangles.cross's edges and values
             crosses **= 2
             out[s : s + len(ff)] = np.sqrt(crosses[:, 0] + crosses[:, 1] + crosses[:, 2]) / 2.0
         out.setflags(write=False)
