@@ -91,3 +91,36 @@ def test_the_checker_sees_a_violation(tmp_path):
         assert found
     finally:
         fake.unlink()
+
+
+def private_imports(path: Path) -> list[tuple[str, int]]:
+    """``module.name`` and line of every private name (``_x``, not a dunder) a source file imports
+    from another labcut module (``from .x import _helper``): a helper used across modules is public."""
+    tree = ast.parse(path.read_text(), str(path))
+    out = []
+    for node in ast.walk(tree):
+        if isinstance(node, ast.ImportFrom):
+            for alias in node.names:
+                if alias.name.startswith("_") and not alias.name.startswith("__") and (node.level or
+                                                                                       (node.module or "").startswith("labcut")):
+                    out.append((f"{node.module or '.'}.{alias.name}", node.lineno))
+    return out
+
+
+CLI_SOURCES = sorted((ROOT / "cli" / "labcut_cli").rglob("*.py"))
+
+
+@pytest.mark.parametrize("path", SOURCES + CLI_SOURCES, ids=lambda p: str(p.relative_to(ROOT)))
+def test_no_private_helper_crosses_modules(path):
+    found = private_imports(path)
+    assert not found, f"{path.relative_to(ROOT)} imports private names of other modules: {found}"
+
+
+def test_the_private_import_checker_sees_one():
+    fake = PACKAGE / "physics" / "_private_probe.py"
+    assert not fake.exists()
+    try:
+        fake.write_text("def f():\n    from ..geometry.meshio import _secret\n    from .. import __version__\n")
+        assert private_imports(fake) == [("geometry.meshio._secret", 2)]
+    finally:
+        fake.unlink()
