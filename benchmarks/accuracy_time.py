@@ -290,7 +290,7 @@ def budget_table(rows: list[dict], bar: str) -> list[str]:
     out = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     for b in rows:
         flag = " (below the cheapest: ran it)" if b["over"] else ""
-        cells = [CASES[b["case"]][0]] * case + [
+        cells = ([CASES[b["case"]][0]] if case else []) + [
             f"{b['budget']:g} s", f"{b['quality']}{flag}", f"{b['predicted']:.2f} s", f"x{b.get('correction', 1.0):.2f}",
             f"{b['seconds']:.2f} s", f"{b['seconds'] / b['budget']:.2f}", f"±{b['bar_deg']:.2f}°"]
         out.append("| " + " | ".join(cells) + " |")
@@ -358,7 +358,7 @@ def report(results: list[dict], renders: list[dict], images: list[str], args, se
     lines = [
         "# What accuracy costs in time",
         "",
-        f"Made by {cmd} (in parts: `--cases NAME --no-renders` reruns one case, `--cover-only` only its coverage) on {os.cpu_count()} cores ({cpu}), LLVM backend, in {seconds / 60:.1f} min. "
+        f"Made by {cmd} (in parts: `--cases NAME --no-renders` reruns one case, `--cover-only` only its coverage, `--budgets-only` the time-budget studies) on {os.cpu_count()} cores ({cpu}), LLVM backend, in {seconds / 60:.1f} min. "
         "Times are warm wall times of a whole `labcut.recommend_orientation` call in one process (problem, optimiser, "
         "score map, tolerance, runners-up and the error bars); they move by ±30 % with other load on the machine. "
         "Errors are against a converged reference, not against `high`.",
