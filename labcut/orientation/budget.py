@@ -27,7 +27,6 @@ import math
 from dataclasses import asdict, dataclass
 from typing import Any
 
-from ..errors import ParameterError
 from ..scene.quality import Quality
 from ..validation import check_number
 
@@ -166,27 +165,33 @@ def choose(budget: Any, scene_spec: tuple[Any, Any, Any], occlusion: bool, *, pl
     renders = plan is not None and plan.estimator == "render"
     factor = correction("render" if renders else occlusion)
     rungs = []
+    from ..planner import estimator_seconds
+
     for q in ladder():
         if renders and q.name not in ("draft", "standard", "high"):
             continue
         scene = resolve_scene(*scene_spec, q)
         if renders:
-            from ..planner import estimator_seconds
-
             t = estimator_seconds(scene, "recommend", plan.on("occlusion"), plan.on("inter_reflection"), plan.convex,
                                   plan.on("zoning"))["render"]
         else:
             t = predict_sample_seconds(scene.settings(), q.surface_points, occlusion)
         rungs.append((q, factor * t))
-    fitting = [(q, t) for q, t in rungs if t <= seconds]
+    return pick(rungs, seconds, "the cheapest setting's", correction=factor, occlusion=occlusion,
+                estimator="render" if renders else "samples")
+
+
+def pick(rungs: list[tuple[Quality, float]], seconds: float, cheapest: str, detail: str = "",
+         **fields: Any) -> BudgetChoice:
+    """The last (most accurate) of ``rungs`` (``(quality, predicted seconds)``, cheapest first)
+    predicted to fit ``seconds``; none fitting, the first with a one-line note naming ``cheapest``
+    (e.g. "the cheapest setting's") prediction, then ``detail``. ``fields``: the rest of the
+    :class:`BudgetChoice`."""
     named = tuple((q.name, float(t)) for q, t in rungs)
+    fitting = [(q, t) for q, t in rungs if t <= seconds]
     if fitting:
         q, t = fitting[-1]
-        return BudgetChoice(q, float(t), seconds, named, correction=factor, occlusion=occlusion,
-                            estimator="render" if renders else "samples")
+        return BudgetChoice(q, float(t), seconds, named, **fields)
     q, t = rungs[0]
-    return BudgetChoice(q, float(t), seconds, named,
-                        note=f"a time budget of {seconds:g} s is below the cheapest setting's predicted {t:.2g} s on this "
-                             f"machine: running that ({q.name}) anyway", correction=factor, occlusion=occlusion,
-                        estimator="render" if renders else "samples")
-
+    return BudgetChoice(q, float(t), seconds, named, note=f"a time budget of {seconds:g} s is below {cheapest} predicted "
+                        f"{t:.2g} s on this machine{detail}: running that ({q.name}) anyway", **fields)

@@ -311,10 +311,20 @@ def build_scene(
     return _scene(mesh, ask, normalize_normal(lamella_normal), setting, cams[0], integrator)
 
 
-def _scene(mesh: Any, ask: Any, normal: np.ndarray, setting: Setting, cam: CameraView,
-           integrator: str | None = None) -> tuple[Any, RenderPlan]:
-    """The Mitsuba scene of one camera for a validated :class:`~labcut.rendering.setup.RenderSetup`
-    ``ask`` and a unit lamella ``normal`` (checks nothing: :func:`build_scene` and :func:`render` did)."""
+@dataclass(frozen=True)
+class _SceneParts:
+    """What every camera of one render shares: the plan, the BSDF's plugin dictionary (zoning baked
+    and the studio body grid in it), the integrator's and the lights' dictionaries."""
+
+    plan: RenderPlan
+    bsdf: dict[str, Any]
+    integrator: dict[str, Any]
+    lights: dict[str, Any]
+
+
+def _scene_parts(mesh: Any, ask: Any, normal: np.ndarray, setting: Setting, integrator: str | None = None) -> _SceneParts:
+    """The camera-independent parts of a render's scenes (:class:`_SceneParts`), built once per
+    render: the zoning's noise and the studio body grid are baked here, not per camera."""
     import mitsuba as mi
 
     from . import bsdf as _bsdf  # noqa: F401  (registers the plugin)
@@ -322,16 +332,13 @@ def _scene(mesh: Any, ask: Any, normal: np.ndarray, setting: Setting, cam: Camer
     studio = ask.studio
     plan = plan_render(mesh, setting.lights, ask.mode, ask.polarizer_deg, ask.lobes, ask.max_depth, look=ask.look_spec,
                        denoise=ask.denoise, zoning=ask.zoning)
-    baked = None
-    if ask.zoning is not None:
-        baked = ask.zoning.bake(mesh.bounds)
     mi.set_variant(plan.variant)
+    baked = ask.zoning.bake(mesh.bounds) if ask.zoning is not None else None
     d = bsdf_dict(ask.material, normal, plan.lobes, zoning=baked)
     if studio is not None and plan.polarizer_deg is None:
         from .studio import body_grid
 
         d.update(body_grid(mesh, studio))
-    bsdf = mi.load_dict(d)
     name = integrator or plan.integrator
     integ: dict[str, Any] = {"type": name, "max_depth": plan.max_depth} if name != "direct" else {"type": "direct"}
     if name == "direct":
@@ -339,22 +346,36 @@ def _scene(mesh: Any, ask: Any, normal: np.ndarray, setting: Setting, cam: Camer
     if plan.polarizer_deg is not None:
         integ = {"type": "stokes", "nested": integ}
     if studio is None:
-        sensor = camera(mesh, cam, ask.resolution, ask.perspective)
         lights = emitters(setting.lights)
     else:
         from .studio import studio_emitters
 
-        sensor = camera(mesh, cam, ask.resolution, True, studio.fov_deg, margin=studio.margin, far_radii=200.0,
-                        rfilter="box" if plan.denoise else "gaussian")
         lights, _, _ = studio_emitters(mesh, setting, studio)
+    return _SceneParts(plan, d, integ, lights)
+
+
+def _scene(mesh: Any, ask: Any, normal: np.ndarray, setting: Setting, cam: CameraView,
+           integrator: str | None = None, parts: _SceneParts | None = None) -> tuple[Any, RenderPlan]:
+    """The Mitsuba scene of one camera for a validated :class:`~labcut.rendering.setup.RenderSetup`
+    ``ask`` and a unit lamella ``normal`` (checks nothing: :func:`build_scene` and :func:`render` did);
+    ``parts``: the render's :func:`_scene_parts`, shared by its cameras (built here when None)."""
+    import mitsuba as mi
+
+    parts = parts or _scene_parts(mesh, ask, normal, setting, integrator)
+    studio = ask.studio
+    if studio is None:
+        sensor = camera(mesh, cam, ask.resolution, ask.perspective)
+    else:
+        sensor = camera(mesh, cam, ask.resolution, True, studio.fov_deg, margin=studio.margin, far_radii=200.0,
+                        rfilter="box" if parts.plan.denoise else "gaussian")
     scene_dict: dict[str, Any] = {
         "type": "scene",
-        "integrator": integ,
+        "integrator": parts.integrator,
         "sensor": sensor,
-        "stone": to_mitsuba_mesh(mesh, bsdf),
-        **lights,
+        "stone": to_mitsuba_mesh(mesh, mi.load_dict(parts.bsdf)),
+        **parts.lights,
     }
-    return mi.load_dict(scene_dict), plan
+    return mi.load_dict(scene_dict), parts.plan
 
 
 def _polarizer_intensity(image: np.ndarray, angle_deg: float) -> np.ndarray:
@@ -497,8 +518,8 @@ def render_setup(mesh: Any, ask: Any, normal: np.ndarray, *, progress: Callable[
     scenario_used = ask.scenario
     setting = scenario_used.main_setting()
     views = list(ask.cameras)
-    rplan = plan_render(mesh, setting.lights, ask.mode, ask.polarizer_deg, ask.lobes, ask.max_depth, look=ask.look_spec,
-                        denoise=ask.denoise)
+    parts = _scene_parts(mesh, ask, normal, setting)  # once for every camera
+    rplan = parts.plan
     spp = ask.spp
     budget = None
     if ask.time_budget is not None:
@@ -527,7 +548,7 @@ def render_setup(mesh: Any, ask: Any, normal: np.ndarray, *, progress: Callable[
     start = time.perf_counter()
     with _interruptible() as interrupted:
         for v in views:
-            scene, plan = _scene(mesh, ask, normal, setting, v)
+            scene, plan = _scene(mesh, ask, normal, setting, v, parts=parts)
             accum = None
             remaining = int(spp)
             k = 0

@@ -30,7 +30,7 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from typing import Any
 
-from ..orientation.budget import BudgetChoice, check_budget, correction, ladder
+from ..orientation.budget import BudgetChoice, check_budget, correction, ladder, pick
 from ..scene.quality import Quality
 
 #: the correction's name in the user cache (:func:`labcut.orientation.budget.record`)
@@ -151,12 +151,5 @@ def choose_quality(budget: Any, cuts: Sequence[Any], scenarios: Sequence[Any], e
     seconds = check_budget(budget)
     factor = correction(KIND)
     rungs = [(q, factor * predict_comparison(cuts, scenarios, q, effects, resolution, spp)) for q in ladder()]
-    named = tuple((q.name, float(t)) for q, t in rungs)
-    fitting = [(q, t) for q, t in rungs if t <= seconds]
-    if fitting:
-        q, t = fitting[-1]
-        return BudgetChoice(q, float(t), seconds, named, correction=factor)
-    q, t = rungs[0]
-    return BudgetChoice(q, float(t), seconds, named, correction=factor,
-                        note=f"a time budget of {seconds:g} s is below the cheapest comparison's predicted {t:.2g} s on this "
-                             f"machine ({len(cuts)} cut(s) x {len(scenarios)} scenario(s)): running that ({q.name}) anyway")
+    return pick(rungs, seconds, "the cheapest comparison's", f" ({len(cuts)} cut(s) x {len(scenarios)} scenario(s))",
+                correction=factor)
