@@ -111,3 +111,13 @@ def test_cli_builds_the_setup_once_before_the_mesh(tmp_path, monkeypatch, capsys
         err = capsys.readouterr().err
         assert words in err and len(err.strip().splitlines()) == 1, err
     assert not loads and not (tmp_path / "b.png").exists()
+
+
+def test_a_missing_denoiser_fails_before_any_work(monkeypatch):
+    from labcut.errors import BackendError
+    from labcut.rendering import denoise
+
+    monkeypatch.setattr(denoise, "available", lambda: False)
+    with pytest.raises(BackendError, match="pyoidn"):
+        RenderSetup.build(look="studio")
+    assert RenderSetup.build(look="studio", denoise=False).look == "studio"  # denoise off needs no pyoidn

@@ -236,6 +236,12 @@ def plan_render(
         if use_denoise and not can_denoise:
             raise ParameterError("denoising needs rgb or spectral colour without a polarizer")
     if use_denoise:
+        from .denoise import available
+
+        if not available():  # before any work, not after the colour is traced
+            from ..errors import BackendError
+
+            raise BackendError("denoising needs the pyoidn package (pip install pyoidn), or render with denoise off")
         reasons.append("denoised with Intel Open Image Denoise, demodulated by a noise-free shading guide, with the normal")
     zone_name = None
     if zoning is not None:

@@ -35,6 +35,8 @@ import numpy as np
 from ..errors import BackendError
 
 AOVS = "albedo:albedo,nn:sh_normal"
+#: the normal pass's AOV alone (the guide replaces the albedo)
+NORMAL_AOV = "nn:sh_normal"
 #: samples per pixel of the normal pass (first hits only, low-discrepancy; a power of 4)
 AUX_SPP = 64
 #: samples per pixel of the guide pass (a power of 4: the low-discrepancy sampler's counts)
@@ -197,13 +199,19 @@ def _per_pass(spp: int) -> int:
     return per
 
 
+def _trace_aovs(scene: Any, aovs: str, spp: int, seed: int) -> np.ndarray:
+    """The ``aovs`` (Mitsuba's ``aov`` integrator list) of ``scene``'s camera at ``spp`` samples per
+    pixel (rounded up to a power of 4; low-discrepancy samples for a perspective camera), box-averaged."""
+    per = _per_pass(spp)
+    aux = aux_scene(scene, {"type": "aov", "aovs": aovs},
+                    sensor=_camera(scene.sensors()[0], {"type": "ldsampler", "sample_count": per}))
+    return _passes(aux, max(int(spp), per), per, seed * 7919 + 1_000_003).astype(np.float32)
+
+
 def trace_albedo_normal(scene: Any, spp: int = AUX_SPP, seed: int = 0) -> np.ndarray:
     """(H, W, 6) float32: the first hit's albedo AOV (``eval_diffuse_reflectance``; in [0, 1])
-    and shading normal of ``scene``'s camera at ``spp`` samples per pixel (rounded up to a power
-    of 4; low-discrepancy samples for a perspective camera), box-averaged."""
-    per = _per_pass(spp)
-    aux = aux_scene(scene, sensor=_camera(scene.sensors()[0], {"type": "ldsampler", "sample_count": per}))
-    return _passes(aux, max(int(spp), per), per, seed * 7919 + 1_000_003)[..., :6].astype(np.float32)
+    and shading normal of ``scene``'s camera at ``spp`` samples per pixel (:func:`_trace_aovs`)."""
+    return _trace_aovs(scene, AOVS, spp, seed)[..., :6]
 
 
 def trace_guide(scene: Any, spp: int = GUIDE_SPP, seed: int = 0, *, lamp_nodes: int = LAMP_NODES,
@@ -224,7 +232,7 @@ def trace_aux(scene: Any, spp: int = AUX_SPP, seed: int = 0, *, guide_spp: int =
     """(H, W, 6) float32: the guide (:func:`trace_guide`, ``guide_spp`` samples) and the shading
     normal (``spp`` samples) of ``scene``'s camera, what :func:`denoise` takes as ``guide`` and
     ``normal``."""
-    normal = trace_albedo_normal(scene, spp, seed)[..., 3:6]
+    normal = _trace_aovs(scene, NORMAL_AOV, spp, seed)[..., :3]  # the normal alone: no BSDF evaluated
     return np.concatenate([trace_guide(scene, guide_spp, seed), normal], axis=-1)
 
 
