@@ -314,7 +314,7 @@ def _closed_and_consistent(f: np.ndarray, nv: int) -> bool:
     return bool(np.array_equal(fwd, bwd) and not np.any(fwd[1:] == fwd[:-1]))
 
 
-def _edge_table(faces: np.ndarray, n_vertices: int | None = None) -> tuple[int, int, bool]:
+def _edge_table(faces: np.ndarray, n_vertices: int | None = None, *, try_clean: bool = True) -> tuple[int, int, bool]:
     """One sort of the directed edges: ``(boundary edges, edges shared by more than two faces,
     winding consistent)``. The winding is consistent when every edge two faces share is walked
     in opposite directions by them (trimesh's ``is_winding_consistent``)."""
@@ -322,7 +322,8 @@ def _edge_table(faces: np.ndarray, n_vertices: int | None = None) -> tuple[int, 
     if len(f) == 0:
         return 0, 0, True
     nv = int(n_vertices if n_vertices is not None else f.max() + 1)
-    if _closed_and_consistent(f, nv):  # the common case of a big clean mesh, checked first
+    if try_clean and _closed_and_consistent(f, nv):  # the common case of a big clean mesh, checked first
+        # (``try_clean`` False: the caller has just found these very faces not clean)
         return 0, 0, True
     src = f.ravel()
     dst = f[:, [1, 2, 0]].ravel()
@@ -562,6 +563,7 @@ def _validate_arrays(vertices: np.ndarray, faces: np.ndarray, name: str, repair:
     # two-face pocket of its own (a shell of zero volume: then everything again, in full below):
     # its duplicate check is skipped
     clean = fast and len(f) > MANIFOLD_CHECK_FACES and _closed_and_consistent(f, len(v))
+    found_unclean = f if (fast and len(f) > MANIFOLD_CHECK_FACES and not clean) else None
     if not clean:
         sorted_faces = np.sort(f, axis=1)
         if not _all_distinct(sorted_faces):  # a repeated hash: find the duplicates exactly
@@ -580,7 +582,8 @@ def _validate_arrays(vertices: np.ndarray, faces: np.ndarray, name: str, repair:
     if flat.all():
         raise MeshError(f"{name} has only zero-area triangles")
 
-    n_boundary, n_nonmanifold, consistent = (0, 0, True) if clean else _edge_table(f, len(v))
+    n_boundary, n_nonmanifold, consistent = (0, 0, True) if clean else _edge_table(f, len(v),
+                                                                                   try_clean=f is not found_unclean)
     if n_nonmanifold:
         raise MeshError(
             f"{name} is not a 2-manifold: {n_nonmanifold} edges are shared by three or more faces; "
@@ -621,12 +624,8 @@ def _validate_arrays(vertices: np.ndarray, faces: np.ndarray, name: str, repair:
         v = np.vstack(new_v)
         patch = np.vstack(new_f[1:])
         f = np.vstack(new_f)
-        patch_area = 0.5 * np.linalg.norm(
-            np.cross(v[patch[:, 1]] - v[patch[:, 0]], v[patch[:, 2]] - v[patch[:, 0]]), axis=1
-        ).sum()
-        own_area = 0.5 * np.linalg.norm(
-            np.cross(v[original[:, 1]] - v[original[:, 0]], v[original[:, 2]] - v[original[:, 0]]), axis=1
-        ).sum()
+        patch_area = 0.5 * float(_double_areas(v, patch).sum())
+        own_area = 0.5 * float(area2.sum())  # the file's faces (``original``), summed above
         if patch_area > MAX_PATCH_FRACTION * (patch_area + own_area):
             raise MeshError(
                 f"{name} is too open to repair: closing its {len(loops)} holes would make up "

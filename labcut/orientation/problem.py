@@ -201,14 +201,6 @@ def lobe_reach(kappa: float, spread_rad: float = 0.0) -> float:
     return float(spread_rad) + 5.0 / math.sqrt(max(float(kappa), 1e-6))
 
 
-def _visibility(mesh: Any, origins: np.ndarray, normals: np.ndarray, dirs: np.ndarray) -> np.ndarray:
-    """(N, D) bool: the ray from each point towards each distant direction escapes the mesh
-    (:func:`labcut.rendering.rays.escapes`, one cached ray scene per mesh)."""
-    from ..rendering.rays import escapes
-
-    return escapes(mesh, origins, normals, dirs)
-
-
 def build_problem(
     mesh: Any,
     material: Labradorite,
@@ -401,8 +393,10 @@ def _setting_triples(L, E, V, points, n_geo, n_sh, mesh, convex, eta, table, l_r
     face_v = (n_geo @ V.T > 1e-6) & (n_sh @ V.T > 1e-6)
     lit = (n_geo @ L.T > 1e-6) & (n_sh @ L.T > 1e-6) & (E[None, :] > 0)
     if not convex:
-        face_v &= _visibility(mesh, points, n_geo, V)
-        lit &= _visibility(mesh, points, n_geo, L)
+        from ..rendering.rays import escapes  # one cached ray scene per mesh
+
+        face_v &= escapes(mesh, points, n_geo, V)
+        lit &= escapes(mesh, points, n_geo, L)
 
     # projected-area weights per (point, view) pair
     pi, pv = np.nonzero(face_v)
