@@ -79,16 +79,19 @@ def test_a_near_problem_sums_what_the_whole_problem_sums(oval):
         pair_radiance(part, far)
 
 
-def test_given_samples_build_the_same_problem(oval):
+def test_problems_of_one_stone_share_their_surface_samples(oval):
+    """The error bars' problems find the answer's surface samples in the mesh's cache (same count
+    and seed), and a fresh copy of the mesh (no cache) draws the very same ones."""
     setup = FlashSetup.build("blue", "bench", quality="draft")
+    n = setup.quality.surface_points
+    first = surface_samples(oval, n, 3)
+    assert surface_samples(oval, n, 3) is first
+    assert surface_samples(oval, n, 4) is not first and surface_samples(oval, n // 2, 3) is not first
     settings = setup.scenario.settings()
     a = build_problem(oval, setup.material, quality="draft", settings=settings, seed=3)
-    fresh = surface_samples(oval.copy(), setup.quality.surface_points, 3)  # drawn again, not the cached ones
-    b = build_problem(oval, setup.material, quality="draft", settings=settings, seed=3, samples=fresh)
+    b = build_problem(oval.copy(), setup.material, quality="draft", settings=settings, seed=3)  # drawn again
     for name in ("h", "c", "pair", "pair_view", "pair_weight", "view_weight"):
         np.testing.assert_array_equal(getattr(a, name), getattr(b, name))
-    with pytest.raises(ParameterError, match="samples given"):
-        build_problem(oval, setup.material, quality="draft", settings=settings, seed=4, samples=fresh)
 
 
 @pytest.mark.parametrize("name, scenario", [("oval-16x12-low.ply", "bench"), ("carving-biplane.ply", "ring"),

@@ -101,9 +101,6 @@ class FlashProblem:
     convex: bool
     n_points: int
     info: dict[str, Any] = field(default_factory=dict)
-    #: the surface samples it was built from (:func:`surface_samples`): the error bars' coarse
-    #: problem (same points, half the directions) is built from them again
-    samples: SurfaceSamples | None = field(default=None, repr=False, compare=False)
 
     @property
     def n_triples(self) -> int:
@@ -213,7 +210,6 @@ def build_problem(
     *,
     settings: list[Setting] | None = None,
     occlusion: bool | None = None,
-    samples: SurfaceSamples | None = None,
     near: tuple[Any, float] | None = None,
 ) -> FlashProblem:
     """Sample the surface and build every (point, light, view) triple (see the module docstring).
@@ -225,8 +221,8 @@ def build_problem(
     pose weight x view weight. ``occlusion``: test each sample's lights and views for parts of
     the stone in the way (default: when the stone is not convex; the effect planner may switch it).
 
-    ``samples``: surface samples to use (:func:`surface_samples` of this mesh, ``seed`` and point
-    count; by default drawn, or found in the mesh's cache). ``near = (centre, angle_rad)``: keep
+    The surface samples are :func:`surface_samples` of this mesh, point count and ``seed`` (drawn
+    once, then found in the mesh's cache: problems of the same stone share them). ``near = (centre, angle_rad)``: keep
     only the triples whose (axial) mirror orientation lies within ``angle_rad`` of the unit vector
     ``centre`` (every pair is kept): what the error bars' stencil sums need
     (:func:`labcut.orientation.uncertainty.pair_radiance`), at a fraction of the cost; such a
@@ -248,11 +244,7 @@ def build_problem(
     if not isinstance(mesh, trimesh.Trimesh) or len(mesh.faces) == 0:
         raise MeshError("the mesh is empty or not a trimesh.Trimesh (load it with labcut.load_mesh)")
     count = int(n_points or quality.surface_points)
-    if samples is None:
-        samples = surface_samples(mesh, count, int(seed))
-    elif samples.count != count or samples.seed != int(seed):
-        raise ParameterError(f"the samples given hold {samples.count} points of seed {samples.seed}, "
-                             f"the problem asks {count} of seed {int(seed)}")
+    samples = surface_samples(mesh, count, int(seed))
     points, n_geo, n_sh, convex = samples.points, samples.n_geo, samples.n_sh, samples.convex
     cull = None
     if near is not None:
@@ -315,7 +307,6 @@ def build_problem(
         info={"l_ref": l_ref, "pairs": int(pair_offset), "triples": int(c.size), "poses": len(settings),
               "pair_point": np.concatenate(pp_parts).astype(np.int32),
               **({} if near is None else {"near": (cull[0].tolist(), float(near[1]))})},
-        samples=samples,
     )
 
 

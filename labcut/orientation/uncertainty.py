@@ -366,10 +366,9 @@ def uncertainty_for(mesh: Any, setup: Any, problem: FlashProblem, normal: Any, *
 
     def build(q: Quality) -> FlashProblem:
         other = setup.at_quality(q)
-        count = other.quality.surface_points
-        samples = problem.samples if problem.samples is not None and problem.samples.count == count else None
+        # the same point count and seed as the answer's: its surface samples, from the mesh's cache
         return build_problem(mesh, setup.material, quality=other.quality, tau=setup.tau, seed=setup.seed,
-                             settings=other.scenario.settings(), occlusion=occlusion, samples=samples, near=near)
+                             settings=other.scenario.settings(), occlusion=occlusion, near=near)
 
     coarse = build(half_directions(setup.quality))
     rocks = setup.scenario.rock_deg > 0.0 or setup.scenario.sway_deg > 0.0
