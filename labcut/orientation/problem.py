@@ -146,7 +146,7 @@ def surface_samples(mesh: Any, count: int, seed: int) -> SurfaceSamples:
 
 
 def _draw_samples(mesh: Any, count: int, seed: int, angle: float) -> SurfaceSamples:
-    from ..rendering.scene import FAST_SMOOTH_FACES, face_areas, smooth_corner_normals, smooth_split
+    from ..rendering.scene import FAST_SMOOTH_FACES, face_areas, smooth_corner_normals, unit_normals, smooth_split
 
     big = len(mesh.faces) > FAST_SMOOTH_FACES
     # a big mesh is sampled in its own face order and shaded at the sampled faces only
@@ -165,12 +165,8 @@ def _draw_samples(mesh: Any, count: int, seed: int, angle: float) -> SurfaceSamp
     sq = np.sqrt(r1)
     bary = np.stack([1 - sq, sq * (1 - r2), sq * r2], axis=1)
     if big:
-        import trimesh
-
         tri = np.asarray(mesh.vertices, dtype=np.float64)[np.asarray(mesh.faces)[face_idx]]
-        unit, valid = trimesh.triangles.normals(tri)
-        n_geo = np.zeros((count, 3))
-        n_geo[valid] = unit
+        n_geo = unit_normals(tri)
         n_sh = np.einsum("ij,ijk->ik", bary, smooth_corner_normals(mesh, angle, face_idx))
         n_sh /= np.linalg.norm(n_sh, axis=1, keepdims=True)
     else:

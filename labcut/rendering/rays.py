@@ -50,18 +50,13 @@ def self_view_fraction(mesh: Any, points: int = 1024, directions: int = 64, seed
     directions (about each face's outward normal) whose ray meets the stone again. 0 for a
     convex stone; for a carving it bounds how much of the light reaching the surface arrives
     by way of another part of it (times that part's reflectance)."""
-    import trimesh
-
-    from .scene import sample_surface
+    from .scene import sample_surface, unit_normals
 
     rng = np.random.default_rng(seed)
     # trimesh.sample.sample_surface's points, without its copies of every face's corners
     pts, face = sample_surface(mesh, int(points), seed=int(rng.integers(2**31)))
     pts = np.asarray(pts, dtype=np.float64)
-    # the picked faces' normals (mesh.face_normals[face], without every face's)
-    unit, valid = trimesh.triangles.normals(np.asarray(mesh.vertices, dtype=np.float64)[np.asarray(mesh.faces)[face]])
-    n = np.zeros((len(face), 3))
-    n[valid] = unit
+    n = unit_normals(np.asarray(mesh.vertices, dtype=np.float64)[np.asarray(mesh.faces)[face]])  # the picked faces' only
     # a cosine-weighted direction set about +Z, rotated onto each point's normal
     u1, u2 = rng.random(directions), rng.random(directions)
     r, phi = np.sqrt(u1), 2.0 * np.pi * u2

@@ -171,6 +171,18 @@ def sample_surface(mesh: Any, count: int, seed: int) -> tuple[np.ndarray, np.nda
     return (vectors * lengths).sum(axis=1) + origins, face_index
 
 
+def unit_normals(tri: np.ndarray) -> np.ndarray:
+    """(N, 3) unit geometric normals of the triangles ``tri`` ((N, 3, 3) corners, outward by their
+    winding; e.g. ``mesh.face_normals[idx]`` from only those faces' corners); a zero-area face
+    gets a zero vector."""
+    import trimesh
+
+    unit, valid = trimesh.triangles.normals(tri)
+    out = np.zeros((len(tri), 3))
+    out[valid] = unit
+    return out
+
+
 def smooth_corner_normals(mesh: Any, angle_deg: float, face_idx: Any) -> np.ndarray:
     """(k, 3, 3) smooth shading normals at the three corners of the faces ``face_idx`` of ``mesh``
     (in its own face order), split along edges sharper than ``angle_deg``, without building a split
@@ -201,9 +213,7 @@ def smooth_corner_normals(mesh: Any, angle_deg: float, face_idx: Any) -> np.ndar
     w1, w2 = faces[g, (c + 1) % 3], faces[g, (c + 2) % 3]
     inc = np.unique(g)  # incident faces: their normals and corner angles
     tri = verts[faces[inc]]
-    fn, valid = trimesh.triangles.normals(tri)
-    normals = np.zeros((len(inc), 3))
-    normals[valid] = fn
+    normals = unit_normals(tri)
     angles = trimesh.triangles.angles(tri)
     loc = np.searchsorted(inc, g)
     n_c = normals[loc]
