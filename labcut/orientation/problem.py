@@ -82,6 +82,10 @@ def reference_radiance(material: Labradorite, total_irradiance: float) -> float:
     return total_irradiance * t0 * t0 * float(luminance_table(material)[1][-1]) * material.lobe_norm / (4.0 * eta * eta)
 
 
+#: triples per chunk of :meth:`FlashProblem.pair_radiance` (bounded temporaries)
+PAIR_CHUNK = 1 << 21
+
+
 @dataclass
 class FlashProblem:
     """Precomputed triples for one (mesh, material, lights, views, quality)."""
@@ -109,6 +113,59 @@ class FlashProblem:
     def alpha(self) -> np.ndarray:
         """Per-triple weight of the (linear) energy objective: Σ_t alpha_t q(h_t·m) = energy."""
         return self.c * self.pair_weight[self.pair] * self.view_weight[self.pair_view[self.pair]]
+
+    def pair_radiance(self, normals: np.ndarray, reach: float | None = None) -> np.ndarray:
+        """``L_s/L_ref`` of every (point, view) pair at each unit normal (rows, mesh frame): (P, K)
+        float64 sums of the float32 lobe terms ``c_t q(|h_t·m|)``, in a fixed order (no BLAS, no
+        atomics: the same sums whatever the machine). ``reach`` (radians): only the triples whose
+        mirror orientation lies within it of ``normals[0]`` (the error bars' stencil sums,
+        :func:`labcut.orientation.uncertainty.pair_radiance`); None: every triple."""
+        normals = np.atleast_2d(np.asarray(normals, dtype=np.float64))
+        built = self.info.get("near")
+        if built is not None:  # a problem of the triples near some centre only (build_problem(near=...))
+            off = math.acos(min(1.0, abs(float(np.dot(np.asarray(built[0]), normals[0])))))
+            if reach is None or off + reach > float(built[1]):
+                wanted = "every triple" if reach is None else f"sums {math.degrees(off + reach):.2f}° around the normals given"
+                raise ParameterError(f"this problem holds only the triples within {math.degrees(built[1]):.2f}° of "
+                                     f"{built[0]}: too few for {wanted}")
+        c32 = normals[0].astype(np.float32)
+        cos_reach = -1.0 if reach is None else math.cos(min(float(reach), math.pi / 2))
+        n32 = normals.astype(np.float32)
+        n_pairs = int(self.pair_view.size)
+        out = np.zeros((n_pairs, len(normals)))
+        pairs_sorted = self.pair.size < 2 or bool(np.all(self.pair[1:] >= self.pair[:-1]))
+        # in chunks of triples (bounded temporaries: (K, chunk) float32 lobe values); a pair split
+        # between two chunks gets the sum of its two partial sums
+        for s0 in range(0, self.n_triples, PAIR_CHUNK):
+            hc = self.h[s0:s0 + PAIR_CHUNK]
+            if reach is None:
+                near = slice(None)
+            else:
+                cos_c = np.abs(hc[:, 0] * c32[0] + hc[:, 1] * c32[1] + hc[:, 2] * c32[2])
+                near = np.nonzero(cos_c >= cos_reach)[0]
+                del cos_c
+                if near.size == 0:
+                    continue
+            # float32, normal-major (K, n): the products as fixed multiply-adds
+            hx, hy, hz = (hc[near, k] for k in range(3))
+            d = np.multiply(n32[:, 0:1], hx[None, :])
+            d += n32[:, 1:2] * hy[None, :]
+            d += n32[:, 2:3] * hz[None, :]
+            del hx, hy, hz
+            np.abs(d, out=d)
+            d -= np.float32(1.0)
+            d *= np.float32(self.kappa)
+            np.exp(d, out=d)
+            d *= (np.float32(self.q_norm) * self.c[s0:s0 + PAIR_CHUNK][near])[None, :]
+            pairs = self.pair[s0:s0 + PAIR_CHUNK][near]
+            if pairs_sorted:  # triples sorted by pair (build_problem's order): one segmented sum
+                first = np.flatnonzero(np.r_[True, pairs[1:] != pairs[:-1]])
+                out[pairs[first]] += np.add.reduceat(d, first, axis=1, dtype=np.float64).T
+            else:
+                for k in range(len(normals)):
+                    out[:, k] += np.bincount(pairs, weights=d[k], minlength=n_pairs)
+            del d
+        return out
 
 
 def _smooth_normals(split: Any, face_idx: np.ndarray, bary: np.ndarray) -> np.ndarray:
@@ -257,33 +314,49 @@ def build_problem(
     pose_w = pose_w / pose_w.sum()
 
     kernel = _TripleKernel(n_sh, material.n_surface, table, l_ref) if TRIPLES_IN_DRJIT else None
-    h_parts, c_parts, pair_parts, pv_parts, pw_parts, vw_parts = [], [], [], [], [], []
-    pp_parts: list[np.ndarray] = []  # surface point of each pair (the uncertainty bootstrap resamples points)
+    # each pose's pairs and lit lights first (the facing tests and occlusion rays); each pose's
+    # lights are normalised to total irradiance 1: L_ref is per unit irradiance
+    poses = [_setting_pairs(st.lights.directions, st.lights.weights / total_irradiance[k], st.views.directions,
+                            points, n_geo, n_sh, mesh, (convex if occlusion is None else not occlusion))
+             for k, st in enumerate(settings)]
+    pv_parts, pp_parts, pw_parts, vw_parts, offsets = [], [], [], [], []
     pair_offset = view_offset = 0
-    for k, st in enumerate(settings):
-        # each pose's lights are normalised to total irradiance 1: L_ref is per unit irradiance
-        h_k, c_k, pair_k, pi, pv, pw = _setting_triples(
-            st.lights.directions, st.lights.weights / total_irradiance[k], st.views.directions,
-            points, n_geo, n_sh, mesh, (convex if occlusion is None else not occlusion), material.n_surface, table, l_ref, count,
-            cull, kernel,
-        )
-        h_parts += h_k
-        c_parts += c_k
-        pair_parts += [p + pair_offset for p in pair_k]
-        pv_parts.append(pv + view_offset)
-        pp_parts.append(pi)
-        pw_parts.append(pw)
+    for k, (st, pose) in enumerate(zip(settings, poses)):
+        pv_parts.append(pose.pv + view_offset)
+        pp_parts.append(pose.pi)
+        pw_parts.append(pose.pair_weight)
         vw_parts.append(pose_w[k] * st.views.weights)
-        pair_offset += len(pi)
+        offsets.append(pair_offset)
+        pair_offset += len(pose.pi)
         view_offset += len(st.views.weights)
-    if near is not None and not c_parts:  # nothing mirrors near the centre: a problem without triples
-        h_parts, c_parts, pair_parts = [np.zeros((0, 3), np.float32)], [np.zeros(0, np.float32)], [np.zeros(0, np.int32)]
-    elif not c_parts or not any(float(part.sum()) > 0.0 for part in c_parts):
+    # the triples are written into arrays of their count without a cull (known from the pairs
+    # and lit lights), then trimmed: pages a cull leaves unwritten are never touched, so a
+    # partial problem costs only what it keeps (no list of parts and concatenated copy)
+    total = sum(pose.n_triples for pose in poses)
+    h = np.empty((total, 3), dtype=np.float32)
+    c = np.empty(total, dtype=np.float32)
+    pair_of_t = np.empty(total, dtype=np.int32)
+    at = [0]
+
+    def sink(h_t: np.ndarray, c_t: np.ndarray, pair_t: np.ndarray) -> None:
+        n = len(c_t)
+        h[at[0]:at[0] + n], c[at[0]:at[0] + n], pair_of_t[at[0]:at[0] + n] = h_t, c_t, pair_t
+        at[0] += n
+
+    for k, (st, pose) in enumerate(zip(settings, poses)):
+        _setting_triples(st.lights.directions, st.lights.weights / total_irradiance[k], st.views.directions, pose,
+                         n_sh, material.n_surface, table, l_ref, count, cull, kernel,
+                         lambda h_t, c_t, pair_t, off=offsets[k]: sink(h_t, c_t, pair_t + off))
+    del poses
+    if cull is None and at[0] != total:  # pragma: no cover - the count and the triples written must agree
+        raise RuntimeError(f"built {at[0]} triples, counted {total}")
+    h, c, pair_of_t = h[:at[0]], c[:at[0]], pair_of_t[:at[0]]
+    lit_any = c.size > 0 and float(c.sum(dtype=np.float64)) > 0.0
+    if near is None and not lit_any:
         raise ParameterError(
             "no light reaches a part of the stone that a viewer sees: check that the lights are above "
             "the surfaces the views look at (+Z is face-up)"
         )
-    h, c, pair_of_t = np.concatenate(h_parts), np.concatenate(c_parts), np.concatenate(pair_parts)
     view_weight = np.concatenate(vw_parts)
     return FlashProblem(
         h=h,
@@ -371,11 +444,25 @@ class _TripleKernel:
         return hn, cn
 
 
-def _setting_triples(L, E, V, points, n_geo, n_sh, mesh, convex, eta, table, l_ref, count, cull=None, kernel=None):
-    """Triples of one pose: per chunk lists of h, c, pair index; and per pair its point,
-    view and projected-area weight (summing to 1 within each view). ``cull = (centre, cos)``:
-    only the triples with ``|h·centre| >= cos`` (their values as without the cull). ``kernel``: a
-    :class:`_TripleKernel` of these samples evaluates the terms (else float64 numpy)."""
+@dataclass
+class _PosePairs:
+    """One pose's (point, view) pairs (sorted by point) with their projected-area weights (summing
+    to 1 within each view), and which lights each surface point sees (``lit``: points x lights)."""
+
+    pi: np.ndarray
+    pv: np.ndarray
+    pair_weight: np.ndarray
+    lit: np.ndarray
+
+    @property
+    def n_triples(self) -> int:
+        """Every pair times the lights its point sees (a point without pairs has no triples)."""
+        return int(np.count_nonzero(self.lit, axis=1)[self.pi].sum())
+
+
+def _setting_pairs(L, E, V, points, n_geo, n_sh, mesh, convex) -> _PosePairs:
+    """The pairs and lit lights of one pose: facing tests (geometric and shading normal) and, for a
+    stone that is not convex, occlusion rays."""
     # facing and visibility: point x view, point x light
     face_v = (n_geo @ V.T > 1e-6) & (n_sh @ V.T > 1e-6)
     lit = (n_geo @ L.T > 1e-6) & (n_sh @ L.T > 1e-6) & (E[None, :] > 0)
@@ -390,11 +477,19 @@ def _setting_triples(L, E, V, points, n_geo, n_sh, mesh, convex, eta, table, l_r
     proj = np.einsum("ij,ij->i", n_geo[pi], V[pv])
     per_view = np.bincount(pv, weights=proj, minlength=len(V))
     pair_weight = proj / np.where(per_view[pv] > 0, per_view[pv], 1.0)
+    return _PosePairs(pi, pv, pair_weight, lit)
+
+
+def _setting_triples(L, E, V, pose, n_sh, eta, table, l_ref, count, cull, kernel, sink) -> None:
+    """Triples of one pose (its :class:`_PosePairs`), handed to ``sink(h, c, pair)`` chunk by
+    chunk (pair: index into the pose's pairs). ``cull = (centre, cos)``: only the triples with
+    ``|h·centre| >= cos`` (their values as without the cull). ``kernel``: a
+    :class:`_TripleKernel` of these samples evaluates the terms (else float64 numpy)."""
+    pi, pv, lit = pose.pi, pose.pv, pose.lit
 
     # triples: each pair x the lights its point sees; built in chunks of points and
     # stored in float32 (20 bytes a triple) so high quality stays within memory
     pair_first = np.searchsorted(pi, np.arange(count + 1))  # pairs are sorted by point
-    h_parts, c_parts, pair_parts = [], [], []
     chunk = max(1, 4_000_000 // max(1, len(V) * max(1, int(lit.sum(axis=1).max(initial=1)))))
     for p0 in range(0, count, chunk):
         p1 = min(count, p0 + chunk)
@@ -424,9 +519,7 @@ def _setting_triples(L, E, V, points, n_geo, n_sh, mesh, convex, eta, table, l_r
                 h, c, pair_of_t = h[keep], c[keep], pair_of_t[keep]
                 if pair_of_t.size == 0:
                     continue
-            c_parts.append(c)
-            h_parts.append(h)
-            pair_parts.append(pair_of_t.astype(np.int32))
+            sink(h, c, pair_of_t)
             continue
         # refraction and Fresnel per (point, light) and per (point, view), then gathered per triple
         # (:func:`triple_terms`, with a·n and b·n taken once per (point, light) and per pair)
@@ -464,11 +557,8 @@ def _setting_triples(L, E, V, points, n_geo, n_sh, mesh, convex, eta, table, l_r
         if down.any():  # axial: fold into the upper hemisphere
             h[down] = -h[down]
         if np.isfinite(c).all() and np.isfinite(h).all():
-            c_parts.append(c.astype(np.float32))
-            h_parts.append(h.astype(np.float32))
+            sink(h.astype(np.float32), c.astype(np.float32), pair_of_t)
         else:
             finite = np.isfinite(c) & np.all(np.isfinite(h), axis=1)
-            c_parts.append(np.where(finite, c, 0.0).astype(np.float32))
-            h_parts.append(np.where(finite[:, None], h, np.array([0.0, 0.0, 1.0])).astype(np.float32))
-        pair_parts.append(pair_of_t.astype(np.int32))
-    return h_parts, c_parts, pair_parts, pi, pv, pair_weight
+            sink(np.where(finite[:, None], h, np.array([0.0, 0.0, 1.0])).astype(np.float32),
+                 np.where(finite, c, 0.0).astype(np.float32), pair_of_t)

@@ -57,22 +57,37 @@ def normal_to_stereo(m: np.ndarray) -> tuple[float, float]:
     return float(m[0] / (1 + m[2])), float(m[1] / (1 + m[2]))
 
 
+#: elements per chunk of the index and binning passes over the triples (bounded temporaries:
+#: high quality under an environment map has tens of millions of triples)
+CHUNK = 1 << 22
+
+
 def _padded_rows(owner: np.ndarray, n_rows: int, t: Any) -> tuple[Any, Any, int]:
     """Index rows for segment sums: row r lists the positions i with owner[i] == r, padded.
 
-    Returns (index, valid, width) for ``block_sum(gather(values, index, valid), width)``.
-    """
-    owner = np.asarray(owner, dtype=np.int64)
+    Returns (index, valid, width) for ``block_sum(gather(values, index, valid), width)``. Owners
+    sorted (a problem's triples by pair) are placed in chunks, without a sort or per-element
+    int64 temporaries of the whole array."""
+    owner = np.asarray(owner)
     counts = np.bincount(owner, minlength=n_rows)
     width = max(1, int(counts.max(initial=0)))
-    order = np.argsort(owner, kind="stable")
     starts = np.concatenate([[0], np.cumsum(counts)[:-1]])
-    rows = np.repeat(np.arange(n_rows), counts)
-    cols = np.arange(order.size) - np.repeat(starts, counts)
     index = np.zeros(n_rows * width, dtype=np.uint32)
     valid = np.zeros(n_rows * width, dtype=bool)
-    index[rows * width + cols] = order
-    valid[rows * width + cols] = True
+    if owner.size < 2 or bool(np.all(owner[1:] >= owner[:-1])):
+        shift = np.arange(n_rows, dtype=np.int64) * width - starts  # position i of row r sits at r*width + i - starts[r]
+        for s0 in range(0, owner.size, CHUNK):
+            i = np.arange(s0, min(owner.size, s0 + CHUNK), dtype=np.int64)
+            slot = shift[owner[s0:s0 + CHUNK]]
+            slot += i
+            index[slot] = i
+            valid[slot] = True
+    else:
+        order = np.argsort(owner, kind="stable")
+        rows = np.repeat(np.arange(n_rows), counts)
+        cols = np.arange(order.size) - np.repeat(starts, counts)
+        index[rows * width + cols] = order
+        valid[rows * width + cols] = True
     return t.UInt32(index), t.Bool(valid), width
 
 
@@ -296,17 +311,9 @@ class Scorer:
         self.problem = problem
         self.objective = objective
         p = problem
-        self.h = t.Array3f(p.h[:, 0], p.h[:, 1], p.h[:, 2])
-        self.c = t.Float(p.c)
-        # Deterministic segment sums: every pair's triples (and every view's pairs) are
-        # gathered into fixed-width padded rows and summed with block_sum, so results do
-        # not depend on the order in which threads add (atomic scatter-adds would).
         self.n_pairs = int(p.pair_view.size)
         self.n_views = int(p.view_weight.size)
-        self._pair_rows = _padded_rows(p.pair, self.n_pairs, t)
-        self._view_rows = _padded_rows(p.pair_view, self.n_views, t)
-        self.pair_weight = t.Float(p.pair_weight)
-        self.view_weight = t.Float(p.view_weight)
+        self._device: tuple[Any, ...] | None = None  # the triples on the Dr.Jit device, built on first use
         # opaque scalars: one compiled kernel serves every spread and threshold
         self.kappa = dr.opaque(t.Float, float(p.kappa))
         self.q_norm = dr.opaque(t.Float, float(p.q_norm))
@@ -366,18 +373,51 @@ class Scorer:
         if bins is None:  # cells (4/bins rad at the pole) at most 1/8 of the lobe width
             spread = 1.0 / math.sqrt(p.kappa)
             bins = int(min(16384, max(512, math.ceil(32.0 / spread))))
-        alpha = p.alpha()
-        keep = alpha > 0
-        a, h = alpha[keep], p.h[keep]
-        if a.size == 0:
+        # in chunks of triples (bounded temporaries): each chunk's weights and grid keys, the
+        # distinct keys present, then every chunk's sums into its bins
+        n_keys = bins * bins
+
+        def chunk(s0: int) -> tuple[np.ndarray, np.ndarray]:
+            """A chunk's kept weights alpha_t > 0 (:meth:`FlashProblem.alpha`) and their mirror orientations."""
+            pair = p.pair[s0:s0 + CHUNK]
+            alpha = p.c[s0:s0 + CHUNK] * p.pair_weight[pair] * p.view_weight[p.pair_view[pair]]
+            keep = alpha > 0
+            if keep.all():
+                return alpha, p.h[s0:s0 + CHUNK]
+            return alpha[keep], p.h[s0:s0 + CHUNK][keep]
+
+        def grid_key(h: np.ndarray) -> np.ndarray:
+            """The stereographic grid cell of each h."""
+            hu = h[:, 0] / (1.0 + h[:, 2])
+            hv = h[:, 1] / (1.0 + h[:, 2])
+            iu = np.clip(((hu + 1.0) * 0.5 * bins).astype(np.int64), 0, bins - 1)
+            iv = np.clip(((hv + 1.0) * 0.5 * bins).astype(np.int64), 0, bins - 1)
+            return iu * bins + iv
+
+        starts = range(0, p.n_triples, CHUNK)
+        keys = [grid_key(chunk(s0)[1]).astype(np.int32 if n_keys < 2**31 else np.int64) for s0 in starts]
+        if n_keys <= DENSE_KEY_LIMIT:
+            present = np.zeros(n_keys, dtype=bool)
+            for key in keys:
+                present[key] = True
+            rank = np.cumsum(present, dtype=np.int32) - 1
+            del present
+            n_bins = int(rank[-1]) + 1 if n_keys else 0
+            inverse = lambda key: rank[key]  # noqa: E731
+        else:
+            distinct = np.unique(np.concatenate([np.unique(key) for key in keys] or [np.zeros(0, np.int64)]))
+            n_bins = distinct.size
+            inverse = lambda key: np.searchsorted(distinct, key)  # noqa: E731
+        if n_bins == 0:
             return np.array([[0.0, 0.0, 1.0]]), np.zeros(1)
-        hu = h[:, 0] / (1.0 + h[:, 2])
-        hv = h[:, 1] / (1.0 + h[:, 2])
-        iu = np.clip(((hu + 1.0) * 0.5 * bins).astype(np.int64), 0, bins - 1)
-        iv = np.clip(((hv + 1.0) * 0.5 * bins).astype(np.int64), 0, bins - 1)
-        inv = grid_inverse(iu * bins + iv, bins * bins)
-        weight = np.bincount(inv, weights=a)
-        centroid = np.stack([np.bincount(inv, weights=a * h[:, k]) for k in range(3)], axis=1)
+        weight = np.zeros(n_bins)
+        centroid = np.zeros((n_bins, 3))
+        for s0, key in zip(starts, keys):
+            a, h = chunk(s0)
+            inv = inverse(key)
+            weight += np.bincount(inv, weights=a, minlength=n_bins)
+            for k in range(3):
+                centroid[:, k] += np.bincount(inv, weights=a * h[:, k], minlength=n_bins)
         centroid /= np.linalg.norm(centroid, axis=1, keepdims=True)
         return centroid, weight
 
@@ -395,17 +435,34 @@ class Scorer:
     def _q(self, h: Any, m: Any) -> Any:
         return lobe_density(self.dr.dot(h, m), self.kappa, self.q_norm, drjit_ops())
 
+    def _triples(self) -> tuple[Any, ...]:
+        """(h, c, pair rows, view rows, pair weights, view weights) on the Dr.Jit device, built the
+        first time an objective other than energy is scored: the energy objective sums the binned
+        triples and the metrics are numpy sums (:meth:`FlashProblem.pair_radiance`), so a copy of
+        every triple (16 bytes each) on the device is made only where it is used.
+
+        Deterministic segment sums: every pair's triples (and every view's pairs) are gathered
+        into fixed-width padded rows and summed with block_sum, so results do not depend on the
+        order in which threads add (atomic scatter-adds would)."""
+        if self._device is None:
+            t, p = self.t, self.problem
+            self._device = (t.Array3f(p.h[:, 0], p.h[:, 1], p.h[:, 2]), t.Float(p.c),
+                            _padded_rows(p.pair, self.n_pairs, t), _padded_rows(p.pair_view, self.n_views, t),
+                            t.Float(p.pair_weight), t.Float(p.view_weight))
+        return self._device
+
     def _segment_sum(self, values: Any, rows: tuple[Any, Any, int]) -> Any:
         dr, t = self.dr, self.t
         index, valid, width = rows
         return dr.block_sum(dr.gather(t.Float, values, index, valid), width)
 
     def _pair_radiance(self, m: Any) -> Any:
-        """L_s / L_ref of every (point, view) pair."""
-        return self._segment_sum(self.c * self._q(self.h, m), self._pair_rows)
+        """L_s / L_ref of every (point, view) pair (Dr.Jit, float32)."""
+        h, c, pair_rows = self._triples()[:3]
+        return self._segment_sum(c * self._q(h, m), pair_rows)
 
     def _view_sum(self, values: Any) -> Any:
-        return self._segment_sum(values, self._view_rows)
+        return self._segment_sum(values, self._triples()[3])
 
     def _objective_dr(self, m: Any, smooth: bool) -> Any:
         dr = self.dr
@@ -416,11 +473,12 @@ class Scorer:
             flash = 1.0 / (1.0 + dr.exp(-(radiance - self.tau) / (0.02 * self.tau)))
         else:
             flash = dr.select(radiance >= self.tau, 1.0, 0.0)
-        area_v = self._view_sum(self.pair_weight * flash)
-        inflash_v = self._view_sum(self.pair_weight * flash * radiance)
+        pair_weight, view_weight = self._triples()[4:]
+        area_v = self._view_sum(pair_weight * flash)
+        inflash_v = self._view_sum(pair_weight * flash * radiance)
         intensity_v = dr.select(area_v > 1e-12, inflash_v / dr.maximum(area_v, 1e-12), 0.0)
-        area = dr.sum(self.view_weight * area_v)
-        intensity = dr.sum(self.view_weight * intensity_v)
+        area = dr.sum(view_weight * area_v)
+        intensity = dr.sum(view_weight * intensity_v)
         if self.objective == "area":
             return area
         if self.objective == "intensity":
@@ -466,12 +524,12 @@ class Scorer:
         return float(np.array(dr.detach(value)).ravel()[0]), g
 
     def metrics(self, normal: np.ndarray) -> FlashMetrics:
-        """All flash metrics (hard threshold) of a lamella normal."""
-        t = self.t
+        """All flash metrics (hard threshold) of a lamella normal, from every triple's term
+        (:meth:`FlashProblem.pair_radiance`, float64 sums, whatever the objective)."""
         m = np.asarray(normal, dtype=np.float64)
         m = m / np.linalg.norm(m)
-        radiance = np.array(self._pair_radiance(t.Array3f(*(self._scalar(x) for x in m))), dtype=np.float64)
         p = self.problem
+        radiance = p.pair_radiance(m[None, :])[:, 0]
         flash = radiance >= p.tau
         V = self.n_views
         area_v = np.bincount(p.pair_view, weights=p.pair_weight * flash, minlength=V)

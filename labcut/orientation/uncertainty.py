@@ -199,43 +199,8 @@ def pair_radiance(problem: FlashProblem, normals: np.ndarray) -> np.ndarray:
     triples whose mirror orientation lies within the lobe's reach of the normals (terms below
     ``exp(-12.5)`` of the lobe's peak are dropped)."""
     normals = np.asarray(normals, dtype=np.float64)
-    centre = normals[0]
     reach = _reach(problem.kappa, normals)
-    built = problem.info.get("near")
-    if built is not None:  # a problem of the triples near some centre only (build_problem(near=...))
-        off = math.acos(min(1.0, abs(float(np.dot(np.asarray(built[0]), centre)))))
-        if off + reach > float(built[1]):
-            raise ParameterError(f"this problem holds only the triples within {math.degrees(built[1]):.2f}° of "
-                                 f"{built[0]}: too few for sums {math.degrees(off + reach):.2f}° around the normals given")
-    h = problem.h
-    c32 = centre.astype(np.float32)
-    cos_c = np.abs(h[:, 0] * c32[0] + h[:, 1] * c32[1] + h[:, 2] * c32[2])  # no BLAS (threads next to Dr.Jit's wait)
-    near = np.nonzero(cos_c >= math.cos(min(reach, math.pi / 2)))[0]
-    n_pairs = int(problem.pair_view.size)
-    out = np.zeros((n_pairs, len(normals)))
-    if near.size == 0:
-        return out
-    # float32, normal-major (K, n): the lobe of every near triple at every stencil normal, the
-    # products as fixed multiply-adds (no BLAS: the same sums whatever the machine's threads)
-    hx, hy, hz = (h[near, k] for k in range(3))
-    n32 = normals.astype(np.float32)
-    d = np.multiply(n32[:, 0:1], hx[None, :])
-    d += n32[:, 1:2] * hy[None, :]
-    d += n32[:, 2:3] * hz[None, :]
-    del hx, hy, hz
-    np.abs(d, out=d)
-    d -= np.float32(1.0)
-    d *= np.float32(problem.kappa)
-    np.exp(d, out=d)
-    d *= (np.float32(problem.q_norm) * problem.c[near])[None, :]
-    pairs = problem.pair[near]
-    if np.all(pairs[1:] >= pairs[:-1]):  # triples sorted by pair (build_problem's order): one segmented sum
-        first = np.flatnonzero(np.r_[True, pairs[1:] != pairs[:-1]])
-        out[pairs[first]] = np.add.reduceat(d, first, axis=1, dtype=np.float64).T
-    else:
-        for k in range(len(normals)):
-            out[:, k] = np.bincount(pairs, weights=d[k], minlength=n_pairs)
-    return out
+    return problem.pair_radiance(normals, reach)
 
 
 def _reach(kappa: float, normals: np.ndarray) -> float:
