@@ -46,7 +46,7 @@ def ladder() -> list[Quality]:
                          nlopt_evals=geo(a.nlopt_evals, b.nlopt_evals), gradient_starts=geo(a.gradient_starts, b.gradient_starts))
 
     below = d.replace(name="budget-0", surface_points=1500, lamp_samples=5, env_samples=16, cone_views=5, ring_views=8,
-                      rock_steps=(3, 2), map_spacing_deg=5.0, nlopt_evals=100, gradient_starts=6)
+                      rock_steps=(3, 2), map_spacing_deg=5.0, nlopt_evals=30, gradient_starts=6)
     beyond = h.replace(name="budget-6", surface_points=48000, lamp_samples=37, cone_views=37, ring_views=60,
                        rock_steps=(25, 8), map_spacing_deg=1.0)
     return [below, d, mid(d, s, "budget-2"), s, mid(s, h, "budget-4"), h, beyond]

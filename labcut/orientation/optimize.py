@@ -162,7 +162,7 @@ def _local_lbfgs(scorer: Scorer, u0: float, v0: float, constraint: Constraint) -
     return u, v, scorer.score_uv(u, v)
 
 
-def optimize_nlopt(scorer: Scorer, constraint: Constraint, global_evals: int = 250) -> OptimumResult:
+def optimize_nlopt(scorer: Scorer, constraint: Constraint, global_evals: int = 60) -> OptimumResult:
     """NLopt: DIRECT-L (global, derivative-free) over the disc's bounding box, then an L-BFGS
     polish (``LD_LBFGS``) with Dr.Jit gradients. A fixed axis uses the same pair in 1D."""
     import nlopt

@@ -158,9 +158,11 @@ class FlashProblem:
             np.exp(d, out=d)
             d *= (np.float32(self.q_norm) * self.c[s0:s0 + PAIR_CHUNK][near])[None, :]
             pairs = self.pair[s0:s0 + PAIR_CHUNK][near]
-            if pairs_sorted:  # triples sorted by pair (build_problem's order): one segmented sum
+            if pairs_sorted:  # triples sorted by pair (build_problem's order): one segmented sum per normal
                 first = np.flatnonzero(np.r_[True, pairs[1:] != pairs[:-1]])
-                out[pairs[first]] += np.add.reduceat(d, first, axis=1, dtype=np.float64).T
+                rows = pairs[first]
+                for k in range(len(normals)):  # row by row in float64: 4x faster than reduceat(dtype=float64) on (K, n)
+                    out[rows, k] += np.add.reduceat(d[k].astype(np.float64), first)
             else:
                 for k in range(len(normals)):
                     out[:, k] += np.bincount(pairs, weights=d[k], minlength=n_pairs)
