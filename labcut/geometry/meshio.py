@@ -189,8 +189,11 @@ def _face_dets(v: np.ndarray, f: np.ndarray) -> np.ndarray:
     return out
 
 
-def _signed_volume(v: np.ndarray, f: np.ndarray, labels: np.ndarray | None = None, count: int = 1) -> Any:
-    det = _face_dets(v, f) / 6.0
+def _signed_volume(v: np.ndarray, f: np.ndarray, labels: np.ndarray | None = None, count: int = 1,
+                   dets: np.ndarray | None = None) -> Any:
+    """Signed volume of the faces (per component when ``labels`` is given); ``dets``: the faces'
+    :func:`_face_dets`, when the caller has them."""
+    det = (_face_dets(v, f) if dets is None else dets) / 6.0
     if labels is None:
         return float(det.sum())
     return np.bincount(labels, weights=det, minlength=count)
@@ -219,20 +222,67 @@ def _double_areas(v: np.ndarray, f: np.ndarray) -> np.ndarray:
     return out
 
 
-def _face_components(faces: np.ndarray, n_vertices: int) -> tuple[np.ndarray, int]:
+def extent(v: np.ndarray) -> np.ndarray:
+    """``np.ptp(v, axis=0)`` of (N, 3) points (the same values): a column at a time, not numpy's
+    axis-0 reduction over rows of three (twenty times slower on millions of vertices)."""
+    lo, hi = column_bounds(v)
+    return hi - lo
+
+
+def column_bounds(v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(v.min(axis=0), v.max(axis=0))`` of (N, 3) points (the same values), a column at a time."""
+    v = np.asarray(v)
+    lo = np.array([v[:, k].min() for k in range(v.shape[1])])
+    hi = np.array([v[:, k].max() for k in range(v.shape[1])])
+    return lo, hi
+
+
+def _face_measures(v: np.ndarray, f: np.ndarray, keep: bool = False) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None]:
+    """One pass over the faces' corners: ``(area2, dets, cross)``. ``area2`` is
+    :func:`_double_areas`; with ``keep``, also :func:`_face_dets` and the (F, 3) cross products
+    (b - a) x (c - a) whose norms ``area2`` holds (:func:`labcut.geometry.orient.detect_up_axis`
+    reads the normals from them), else None for both. The same expressions as those functions, on
+    one gather of each face's three corners."""
+    n = len(f)
+    area2 = np.empty(n)
+    dets = np.empty(n) if keep else None
+    cross = np.empty((n, 3)) if keep else None
+    for s in range(0, n, CHUNK):
+        ff = f[s : s + CHUNK]
+        a, b, c = v[ff[:, 0]], v[ff[:, 1]], v[ff[:, 2]]
+        if keep:
+            dets[s : s + len(ff)] = (a[:, 0] * (b[:, 1] * c[:, 2] - b[:, 2] * c[:, 1])
+                                     + a[:, 1] * (b[:, 2] * c[:, 0] - b[:, 0] * c[:, 2])
+                                     + a[:, 2] * (b[:, 0] * c[:, 1] - b[:, 1] * c[:, 0]))
+        b -= a
+        c -= a
+        block = cross_rows(b, c)
+        area2[s : s + len(ff)] = np.linalg.norm(block, axis=1)
+        if keep:
+            cross[s : s + len(ff)] = block
+    return area2, dets, cross
+
+
+def _face_components(faces: np.ndarray, n_vertices: int, graph: Any = None) -> tuple[np.ndarray, int]:
     """Label faces by connected component (faces sharing a vertex): ``(labels, count)``, the
     components numbered in the order of their smallest vertex index.
 
     scipy's ``connected_components`` over the vertex graph (linear time; the label propagation
-    it replaced took seconds a million triangles)."""
+    it replaced took seconds a million triangles). ``graph``: a sparse matrix of the mesh's edges
+    (each once, any direction: :func:`_clean_edge_graph`'s), when the caller has one; else the graph
+    of two edges of each face is built here. Either graph joins the same vertices, so the labels
+    are the same."""
     from scipy.sparse import coo_matrix
     from scipy.sparse.csgraph import connected_components
 
     f = np.asarray(faces, dtype=np.int64)
-    rows = np.concatenate([f[:, 0], f[:, 1]])
-    cols = np.concatenate([f[:, 1], f[:, 2]])
-    graph = coo_matrix((np.ones(len(rows), dtype=np.int8), (rows, cols)), shape=(n_vertices, n_vertices))
-    _, comp = connected_components(graph, directed=False)  # numbered by first vertex reached, in index order
+    if graph is None:
+        rows = np.concatenate([f[:, 0], f[:, 1]])
+        cols = np.concatenate([f[:, 1], f[:, 2]])
+        graph = coo_matrix((np.ones(len(rows), dtype=np.int8), (rows, cols)), shape=(n_vertices, n_vertices))
+        _, comp = connected_components(graph, directed=False)  # numbered by first vertex reached, in index order
+    else:
+        _, comp = connected_components(graph, directed=True, connection="weak")  # the same numbering
     face_comp = comp[f[:, 0]]
     present = np.bincount(face_comp, minlength=int(comp.max(initial=0)) + 1) > 0  # components that have faces
     rank = np.cumsum(present) - 1
@@ -296,22 +346,46 @@ def _same_orientation(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 def _closed_and_consistent(f: np.ndarray, nv: int) -> bool:
     """True when every edge of the (int64) faces is walked exactly once each way: a closed mesh,
-    every edge shared by two faces, consistently wound. The edges walked upwards (src < dst),
-    sorted, must equal the edges walked downwards, each once: two sorts of half the edges, no
-    direction bits. It also rules out a repeated face (its upward edges would repeat) but for a
+    every edge shared by two faces, consistently wound (:func:`_clean_edge_graph`)."""
+    return _clean_edge_graph(f, nv) is not None
+
+
+def _clean_edge_graph(f: np.ndarray, nv: int) -> Any:
+    """The check of :func:`_closed_and_consistent`; when it passes, the mesh's edges as a sparse
+    (nv x nv) CSR matrix, each edge once, from its lower vertex to its higher (what
+    :func:`_face_components` needs), else None.
+
+    The edges walked upwards (src < dst) must equal the edges walked downwards, reversed, each
+    once. Each set becomes a canonical CSR matrix (scipy's counting sort by row, then each row's
+    few columns sorted, duplicates summed: linear time, where a sort of edge keys took twice as
+    long); the two must have the same rows and columns, and as many entries as edges (none
+    repeated). A reversed downward edge that is a loop (src == dst) sits on the diagonal, where no
+    upward edge does. It also rules out a repeated face (its upward edges would repeat) but for a
     face and its reverse standing alone (a flat two-face pocket)."""
+    from scipy.sparse import coo_matrix
+
     src = f.ravel()
     dst = f[:, [1, 2, 0]].ravel()
     up = src < dst
-    fwd = src[up] * nv + dst[up]
+    n_up = int(np.count_nonzero(up))
+    if 2 * n_up != len(src):
+        return None
+    idx = np.int32 if nv < 2**31 - 1 else np.int64
+
+    def graph(rows: np.ndarray, cols: np.ndarray) -> Any:
+        g = coo_matrix((np.ones(len(rows), dtype=np.int8), (rows.astype(idx), cols.astype(idx))), shape=(nv, nv)).tocsr()
+        g.sum_duplicates()  # canonical: each row's columns sorted, repeats merged (a no-op after tocsr)
+        return g
+
+    fwd = graph(src[up], dst[up])
+    if fwd.nnz != n_up:  # an edge walked twice the same way
+        return None
     down = ~up
-    bwd = dst[down] * nv + src[down]
-    del up, down
-    if len(fwd) != len(bwd):
-        return False
-    fwd.sort()
-    bwd.sort()
-    return bool(np.array_equal(fwd, bwd) and not np.any(fwd[1:] == fwd[:-1]))
+    bwd = graph(dst[down], src[down])
+    del up, down, src, dst
+    if not (np.array_equal(fwd.indptr, bwd.indptr) and np.array_equal(fwd.indices, bwd.indices)):
+        return None
+    return fwd
 
 
 def _edge_table(faces: np.ndarray, n_vertices: int | None = None, *, try_clean: bool = True) -> tuple[int, int, bool]:
@@ -509,8 +583,9 @@ def validate_arrays(
 
 
 def _validate_arrays(vertices: np.ndarray, faces: np.ndarray, name: str, repair: bool, fast: bool = True) -> tuple[Any, ...]:
-    """:func:`validate_arrays`, and the solid's volume when it was summed on the way (else None).
-    ``fast``: a big mesh that passes the two-sort edge check skips the duplicate-face check."""
+    """:func:`validate_arrays`, then the solid's volume when it was summed on the way (else None) and
+    the (3, F) cross products of the returned faces (:func:`_face_measures`) when they were (else
+    None). ``fast``: a big mesh that passes the edge check skips the duplicate-face check."""
     import manifold3d as m3
     import trimesh
 
@@ -562,7 +637,8 @@ def _validate_arrays(vertices: np.ndarray, faces: np.ndarray, name: str, repair:
     # a big mesh walked once each way along every edge has no repeated face but in a flat
     # two-face pocket of its own (a shell of zero volume: then everything again, in full below):
     # its duplicate check is skipped
-    clean = fast and len(f) > MANIFOLD_CHECK_FACES and _closed_and_consistent(f, len(v))
+    edges = _clean_edge_graph(f, len(v)) if fast and len(f) > MANIFOLD_CHECK_FACES else None
+    clean = edges is not None
     found_unclean = f if (fast and len(f) > MANIFOLD_CHECK_FACES and not clean) else None
     if not clean:
         sorted_faces = np.sort(f, axis=1)
@@ -572,10 +648,12 @@ def _validate_arrays(vertices: np.ndarray, faces: np.ndarray, name: str, repair:
                 fix(f"removed {len(f) - len(first)} duplicate faces")
                 f = f[np.sort(first)]
         del sorted_faces
-    area2 = _double_areas(v, f)
+    # a clean big mesh keeps its faces: their volumes and normals are read from this same pass
+    area2, dets, cross = _face_measures(v, f, keep=clean)
+    measured = f
     used = np.zeros(len(v), dtype=bool)
     used[f] = True
-    scale = float(np.ptp(v[used], axis=0).max())
+    scale = float(extent(v if used.all() else v[used]).max())
     if scale <= 0:
         raise MeshError(f"{name} has no extent (all vertices coincide)")
     flat = area2 <= 1e-12 * scale * scale
@@ -637,8 +715,8 @@ def _validate_arrays(vertices: np.ndarray, faces: np.ndarray, name: str, repair:
             raise MeshError(f"{name} is not watertight and filling its holes failed")
 
     # outward orientation, per closed shell
-    labels, count = _face_components(f, len(v))
-    vols = _signed_volume(v, f, labels, count)
+    labels, count = _face_components(f, len(v), edges if f is measured else None)
+    vols = _signed_volume(v, f, labels, count, dets if f is measured else None)
     if clean and not np.all(vols > 0):  # a flat pocket (or worse) slipped past the skipped check: in full
         return _validate_arrays(vertices, faces, name, repair, fast=False)
     inward = vols < 0
@@ -658,10 +736,10 @@ def _validate_arrays(vertices: np.ndarray, faces: np.ndarray, name: str, repair:
         # exactly two faces walking it in opposite directions (a closed, oriented 2-manifold, what
         # manifold3d checks) and every shell encloses a positive volume; manifold3d's rebuild
         # (seconds a few million triangles, and twice the memory) would only reorder it
-        ext = np.ptp(v, axis=0)
+        ext = extent(v)
         if float(vols.sum()) <= 1e-9 * max(float(np.prod(ext)), 1e-300) or ext.min() <= 0:
             raise MeshError(f"{name} encloses no volume (a flat or empty surface)")
-        return v, f, repairs, notes, int(count), float(vols.sum())
+        return v, f, repairs, notes, int(count), float(vols.sum()), (cross if f is measured else None)
 
     man = m3.Manifold(m3.Mesh64(vert_properties=np.ascontiguousarray(v), tri_verts=np.ascontiguousarray(f, dtype=np.uint64)))
     status = man.status()
@@ -670,7 +748,7 @@ def _validate_arrays(vertices: np.ndarray, faces: np.ndarray, name: str, repair:
     out = man.to_mesh64()
     v2 = np.asarray(out.vert_properties)[:, :3].astype(np.float64)
     f2 = np.asarray(out.tri_verts).astype(np.int64)
-    ext = np.ptp(v2, axis=0) if len(v2) else np.zeros(3)
+    ext = extent(v2) if len(v2) else np.zeros(3)
     if len(f2) == 0 or man.volume() <= 1e-9 * max(float(np.prod(ext)), 1e-300) or ext.min() <= 0:
         raise MeshError(f"{name} encloses no volume (a flat or empty surface)")
     if len(f2) < len(f):
@@ -678,13 +756,13 @@ def _validate_arrays(vertices: np.ndarray, faces: np.ndarray, name: str, repair:
     elif flat.any():
         notes.append(f"kept {int(flat.sum())} near-zero-area triangles")
     bodies = int(len(man.decompose())) if count > 1 else 1
-    return v2, f2, repairs, notes, bodies, None
+    return v2, f2, repairs, notes, bodies, None, None
 
 
 def centre_on_base(vertices: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """labcut's placement (DESIGN.md §3): the bounding box centred in XY, the lowest point on
     z = 0. Returns the moved vertices (mm) and the shift that was added."""
-    lo, hi = vertices.min(axis=0), vertices.max(axis=0)
+    lo, hi = column_bounds(vertices)
     shift = np.array([-(lo[0] + hi[0]) / 2, -(lo[1] + hi[1]) / 2, -lo[2]])
     return vertices + shift, shift
 
@@ -787,7 +865,7 @@ def load_mesh(
         unit_name, factor = "mm", 1.0
         units_source = "default"
     report_stage("validating and repairing", 0.2)
-    v, f, repairs, more_notes, bodies, volume = _validate_arrays(v, f, p.name, repair)
+    v, f, repairs, more_notes, bodies, volume, cross = _validate_arrays(v, f, p.name, repair)
     notes.extend(more_notes)
     _check_size(v, factor, unit_name, units_source, p.name, fmt)
     report_stage("checking convexity", 0.6)
@@ -798,7 +876,8 @@ def load_mesh(
 
     report_stage("finding the face-up side", 0.8)
     convention = "+Y" if fmt in ("glb", "gltf") else "+Z"
-    guess = detect_up_axis(v, f, convex)
+    guess = detect_up_axis(v, f, convex, cross=cross)  # the cross products validation computed, if it did
+    del cross
     if up_key == "auto":
         if guess.axis is not None:
             up, up_source = guess.axis, f"shape: {guess.reason}"
@@ -840,7 +919,7 @@ def load_mesh(
         up_axis=up,
         up_axis_source=up_source,
         rotation=rot.tolist(),
-        dimensions_mm=[float(x) for x in np.ptp(v, axis=0)],
+        dimensions_mm=[float(x) for x in extent(v)],
         convex=convex,
         watertight=True,
         triangles=len(f),
@@ -856,7 +935,7 @@ def load_mesh(
 
 def _check_size(v: np.ndarray, factor: float, unit_name: str, units_source: str, name: str, fmt: str) -> None:
     """Refuse a stone whose largest size in mm lies outside :data:`STONE_SIZE_MM`: wrong units."""
-    size_file = float(np.ptp(v, axis=0).max())
+    size_file = float(extent(v).max())
     size = size_file * factor
     lo, hi = STONE_SIZE_MM
     if lo <= size <= hi:
@@ -881,7 +960,7 @@ def provenance(mesh: Any) -> dict[str, Any]:
     out.setdefault("units", "mm")
     out.setdefault("repairs", [])
     out.setdefault("bodies", int(info.get("bodies", 1)))
-    out["dimensions_mm"] = [float(x) for x in np.ptp(np.asarray(mesh.vertices, dtype=np.float64), axis=0)]
+    out["dimensions_mm"] = [float(x) for x in extent(np.asarray(mesh.vertices, dtype=np.float64))]
     out["triangles"] = int(len(mesh.faces))
     if isinstance(info.get("design"), dict):  # a GemCad design: what it is and how it was sized
         from .gemcad import design_provenance

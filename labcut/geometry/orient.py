@@ -111,12 +111,14 @@ def _side_fractions(v: np.ndarray, f: np.ndarray, normals: np.ndarray, areas: np
     """Per axis direction d: (flat area on the far side along +d, flat area on the near side) as
     shares of the outline area seen along d. Only the faces whose normal lies within ``cos_min``
     of the axis are looked at vertex by vertex (a few of a big mesh's millions)."""
+    from .meshio import column_bounds
+
     out = {}
-    ext = np.ptp(v, axis=0)
-    scale = float(ext.max())
+    lows, highs = column_bounds(v)  # np.ptp's and each column's min and max, the same values
+    scale = float((highs - lows).max())
     for k, name in enumerate("XYZ"):
         coord = v[:, k]
-        lo, hi = float(coord.min()), float(coord.max())
+        lo, hi = float(lows[k]), float(highs[k])
         tol = rel_tol * max(hi - lo, 1e-12 * scale)
         nk = normals[:, k]
         projected = float(np.dot(areas, np.clip(nk, 0.0, None)))
@@ -132,19 +134,23 @@ def _side_fractions(v: np.ndarray, f: np.ndarray, normals: np.ndarray, areas: np
     return out
 
 
-def detect_up_axis(vertices: np.ndarray, faces: np.ndarray, convex: bool) -> UpGuess:
+def detect_up_axis(vertices: np.ndarray, faces: np.ndarray, convex: bool, *, cross: np.ndarray | None = None) -> UpGuess:
     """Read the face-up side of a closed, outward-wound mesh from its shape (module docstring).
 
     Coordinates in any unit, in the file's frame. Returns an :class:`UpGuess`; its axis is
-    None when the shape does not say (a box, a sphere) or says it ambiguously.
+    None when the shape does not say (a box, a sphere) or says it ambiguously. ``cross``: the
+    faces' (F, 3) cross products (b - a) x (c - a) when the caller has them (load_mesh's validation
+    keeps them: :func:`labcut.geometry.meshio._face_measures`); they are overwritten with the unit
+    normals.
     """
     from .meshio import cross_rows
 
     v = np.asarray(vertices, dtype=np.float64)
     f = np.asarray(faces, dtype=np.int64)
-    a = v[f[:, 0]]
-    cross = cross_rows(v[f[:, 1]] - a, v[f[:, 2]] - a)
-    del a
+    if cross is None or cross.shape != (len(f), 3):
+        a = v[f[:, 0]]
+        cross = cross_rows(v[f[:, 1]] - a, v[f[:, 2]] - a)
+        del a
     norm = np.sqrt(np.einsum("ij,ij->i", cross, cross))
     ok = norm > 0
     if not ok.all():
@@ -173,7 +179,9 @@ def detect_up_axis(vertices: np.ndarray, faces: np.ndarray, convex: bool) -> UpG
     if len(tables) > 1:
         return UpGuess(None, "flat faces on several sides")
     # 3. a dome: the thinnest axis, the side away from the bulk
-    ext = np.ptp(v, axis=0)
+    from .meshio import extent
+
+    ext = extent(v)
     order = np.argsort(ext)
     if ext[order[0]] > DOME_THINNESS * ext[order[1]]:
         return UpGuess(None, "no flat base and no clearly thinnest axis")
