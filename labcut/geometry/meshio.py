@@ -364,16 +364,17 @@ def _clean_edge_graph(f: np.ndarray, nv: int) -> Any:
     face and its reverse standing alone (a flat two-face pocket)."""
     from scipy.sparse import coo_matrix
 
-    src = f.ravel()
-    dst = f[:, [1, 2, 0]].ravel()
+    g32 = np.ascontiguousarray(f, dtype=np.int32 if nv < 2**31 - 1 else np.int64)  # scipy's index type
+    src = g32.ravel()
+    dst = g32[:, [1, 2, 0]].ravel()
+    del g32
     up = src < dst
     n_up = int(np.count_nonzero(up))
     if 2 * n_up != len(src):
         return None
-    idx = np.int32 if nv < 2**31 - 1 else np.int64
 
     def graph(rows: np.ndarray, cols: np.ndarray) -> Any:
-        g = coo_matrix((np.ones(len(rows), dtype=np.int8), (rows.astype(idx), cols.astype(idx))), shape=(nv, nv)).tocsr()
+        g = coo_matrix((np.ones(len(rows), dtype=np.int8), (rows, cols)), shape=(nv, nv)).tocsr()
         g.sum_duplicates()  # canonical: each row's columns sorted, repeats merged (a no-op after tocsr)
         return g
 
