@@ -249,7 +249,7 @@ def _face_measures(v: np.ndarray, f: np.ndarray, keep: bool = False) -> tuple[np
     cross = np.empty((n, 3)) if keep else None
     for s in range(0, n, CHUNK):
         ff = f[s : s + CHUNK]
-        a, b, c = v[ff[:, 0]], v[ff[:, 1]], v[ff[:, 2]]
+        a, b, c = (np.take(v, ff[:, k], axis=0) for k in range(3))  # v[ff[:, k]]: the same rows, twice as fast
         if keep:
             dets[s : s + len(ff)] = (a[:, 0] * (b[:, 1] * c[:, 2] - b[:, 2] * c[:, 1])
                                      + a[:, 1] * (b[:, 2] * c[:, 0] - b[:, 0] * c[:, 2])
@@ -257,9 +257,14 @@ def _face_measures(v: np.ndarray, f: np.ndarray, keep: bool = False) -> tuple[np
         b -= a
         c -= a
         block = cross_rows(b, c)
-        area2[s : s + len(ff)] = np.linalg.norm(block, axis=1)
         if keep:
             cross[s : s + len(ff)] = block
+        # np.linalg.norm(block, axis=1), a column at a time: its sum of the three squares runs in the
+        # same order, (x² + y²) + z² (the test compares them), without a reduction over rows of three
+        sq = block[:, 0] * block[:, 0]
+        sq += block[:, 1] * block[:, 1]
+        sq += block[:, 2] * block[:, 2]
+        np.sqrt(sq, out=area2[s : s + len(ff)])
     return area2, dets, cross
 
 
@@ -283,7 +288,7 @@ def _face_components(faces: np.ndarray, n_vertices: int, graph: Any = None) -> t
         _, comp = connected_components(graph, directed=False)  # numbered by first vertex reached, in index order
     else:
         _, comp = connected_components(graph, directed=True, connection="weak")  # the same numbering
-    face_comp = comp[f[:, 0]]
+    face_comp = np.take(comp, f[:, 0])
     present = np.bincount(face_comp, minlength=int(comp.max(initial=0)) + 1) > 0  # components that have faces
     rank = np.cumsum(present) - 1
     return rank[face_comp].astype(np.int64), int(present.sum())
