@@ -273,21 +273,6 @@ def _mitsuba_mesh(vertices: Any, faces: Any, normals: Any = None) -> Any:
     return m
 
 
-def ray_scene(mesh: Any) -> Any:
-    """A Mitsuba scene of the mesh's bare triangles for ray queries (shadow and view rays): no
-    shading normals, no BSDF to speak of. Built once per mesh and Mitsuba variant
-    (:func:`mesh_cached`): a flash problem asks it two queries per pose, and a recommendation
-    with error bars builds three problems."""
-    import mitsuba as mi
-
-    def build() -> Any:
-        m = _mitsuba_mesh(mesh.vertices, mesh.faces)
-        m.set_bsdf(mi.load_dict({"type": "diffuse"}))
-        return mi.load_dict({"type": "scene", "stone": m})
-
-    return mesh_cached(mesh, f"labcut_ray_scene_{mi.variant()}", build)
-
-
 def camera(mesh: Any, view: CameraView, resolution: int, perspective: bool = False, fov_deg: float = 25.0,
            *, margin: float = 1.0, far_radii: float = 2.0, rfilter: str = "gaussian") -> dict[str, Any]:
     """A sensor dict looking at the mesh's bounding sphere from ``view.direction`` (mesh frame),
