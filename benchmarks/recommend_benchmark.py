@@ -216,7 +216,12 @@ def main() -> None:
               "fixed-order block sums per pair and per view). The binned energy map evaluates the same objective for "
               "many normals from the triples binned by their mirror orientation h, which is why it runs far above "
               "the ray-casting rate: DESIGN.md §4's observation that one pass over the triples gives every orientation.", ""]
-    Path(args.out).write_text("\n".join(lines))
+    out = Path(args.out)
+    # the sections benchmarks/speed_ratio.py writes (from its marker on) are kept as they are
+    old = out.read_text() if out.exists() else ""
+    marker = "<!-- speed-ratio: begin -->"
+    tail = old[old.index(marker):] if marker in old else ""
+    out.write_text("\n".join(lines) + ("\n" + tail if tail else ""))
     print(f"written {args.out}")
 
 

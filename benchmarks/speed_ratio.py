@@ -132,7 +132,7 @@ def main() -> None:
     print(inproc, cli)
     cpu = next((ln.split(":", 1)[1].strip() for ln in open("/proc/cpuinfo") if ln.startswith("model name")), platform.processor())
     lines = [BEGIN, "", "## Recommendation time in renders", "",
-             f"Made by `.venv/bin/python benchmarks/speed_ratio.py{' --big' if args.big else ''}` on {os.cpu_count()} cores "
+             f"Made by `.venv/bin/python benchmarks/speed_ratio.py{' --big' if args.big else ''}{' --env' if args.env else ''}` on {os.cpu_count()} cores "
              f"({cpu}). The unit is one 256 x 256, 16 spp render of the same stone in the same process "
              f"({inproc['render']:.3f} s here), so the ratios compare across machines. The recommendation includes its "
              "error bars (the answer's flash problem, and the triples near the answer of two more: half the directions "
