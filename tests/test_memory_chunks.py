@@ -126,3 +126,19 @@ def test_a_partial_problem_refuses_sums_beyond_its_triples():
     with pytest.raises(ParameterError, match="too few"):
         part.pair_radiance(np.array([[0.0, 0.0, 1.0]]), reach=0.5)
     assert part.pair_radiance(np.array([[0.0, 0.0, 1.0]]), reach=0.2).shape[1] == 1
+
+
+def test_energy_weights_sum_to_the_metrics_energy(problem):
+    """The energy objective's per-triple weights (FlashProblem.alpha, whole or in chunks of rows)
+    summed against the lobe give the view-weighted flash energy of the metrics: the same linear
+    objective from the pair sums (DESIGN.md §4)."""
+    m = np.array([0.05, -0.1, 1.0])
+    m /= np.linalg.norm(m)
+    q = problem.q_norm * np.exp(problem.kappa * (np.abs(problem.h.astype(np.float64) @ m) - 1.0))
+    whole = float(np.dot(problem.alpha(), q))
+    step = 1000
+    chunked = sum(float(np.dot(problem.alpha(slice(s, s + step)), q[s:s + step])) for s in range(0, problem.n_triples, step))
+    energy = Scorer(problem, "energy").metrics(m).flash_energy
+    assert energy > 0
+    assert whole == pytest.approx(energy, rel=1e-5)
+    assert chunked == pytest.approx(whole, rel=1e-12)

@@ -26,6 +26,7 @@ face's horizon or hidden by another part contribute nothing).
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass, field
 from typing import Any
@@ -111,9 +112,16 @@ class FlashProblem:
     def n_triples(self) -> int:
         return int(self.c.size)
 
-    def alpha(self) -> np.ndarray:
-        """Per-triple weight of the (linear) energy objective: Σ_t alpha_t q(h_t·m) = energy."""
-        return self.c * self.pair_weight[self.pair] * self.view_weight[self.pair_view[self.pair]]
+    def alpha(self, rows: slice = slice(None)) -> np.ndarray:
+        """Per-triple weight of the (linear) energy objective: Σ_t alpha_t q(h_t·m) = energy; of the
+        triples ``rows`` only (a chunk: the same values as those rows of the whole)."""
+        pair = self.pair[rows]
+        return self.c[rows] * self.pair_weight[pair] * self.view_weight[self.pair_view[pair]]
+
+    @functools.cached_property
+    def pairs_sorted(self) -> bool:
+        """Whether the triples are sorted by pair (:func:`build_problem`'s order), checked once."""
+        return self.pair.size < 2 or bool(np.all(self.pair[1:] >= self.pair[:-1]))
 
     def pair_radiance(self, normals: np.ndarray, reach: float | None = None) -> np.ndarray:
         """``L_s/L_ref`` of every (point, view) pair at each unit normal (rows, mesh frame): (P, K)
@@ -134,7 +142,6 @@ class FlashProblem:
         n32 = normals.astype(np.float32)
         n_pairs = int(self.pair_view.size)
         out = np.zeros((n_pairs, len(normals)))
-        pairs_sorted = self.pair.size < 2 or bool(np.all(self.pair[1:] >= self.pair[:-1]))
         # in chunks of triples (bounded temporaries: (K, chunk) float32 lobe values); a pair split
         # between two chunks gets the sum of its two partial sums
         for s0 in range(0, self.n_triples, PAIR_CHUNK):
@@ -159,7 +166,7 @@ class FlashProblem:
             np.exp(d, out=d)
             d *= (np.float32(self.q_norm) * self.c[s0:s0 + PAIR_CHUNK][near])[None, :]
             pairs = self.pair[s0:s0 + PAIR_CHUNK][near]
-            if pairs_sorted:  # triples sorted by pair (build_problem's order): one segmented sum per normal
+            if self.pairs_sorted:  # triples sorted by pair (build_problem's order): one segmented sum per normal
                 first = np.flatnonzero(np.r_[True, pairs[1:] != pairs[:-1]])
                 rows = pairs[first]
                 for k in range(len(normals)):  # row by row in float64: 4x faster than reduceat(dtype=float64) on (K, n)
@@ -447,7 +454,7 @@ class _TripleKernel:
         return hn, cn
 
 
-@dataclass
+@dataclass(frozen=True)
 class _PosePairs:
     """One pose's (point, view) pairs (sorted by point) with their projected-area weights (summing
     to 1 within each view), and which lights each surface point sees (``lit``: points x lights)."""

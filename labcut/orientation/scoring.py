@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import asdict, dataclass
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -298,6 +298,17 @@ class FlashMetrics:
         return f"<table><thead><tr><th>flash metric</th><th>value</th></tr></thead><tbody>{body}</tbody></table>"
 
 
+class _DeviceTriples(NamedTuple):
+    """A problem's triples on the Dr.Jit device (:meth:`Scorer._triples`)."""
+
+    h: Any
+    c: Any
+    pair_rows: tuple[Any, Any, int]
+    view_rows: tuple[Any, Any, int]
+    pair_weight: Any
+    view_weight: Any
+
+
 class Scorer:
     """Dr.Jit evaluation of flash metrics and objectives for one problem."""
 
@@ -313,7 +324,7 @@ class Scorer:
         p = problem
         self.n_pairs = int(p.pair_view.size)
         self.n_views = int(p.view_weight.size)
-        self._device: tuple[Any, ...] | None = None  # the triples on the Dr.Jit device, built on first use
+        self._device: _DeviceTriples | None = None  # the triples on the Dr.Jit device, built on first use
         # opaque scalars: one compiled kernel serves every spread and threshold
         self.kappa = dr.opaque(t.Float, float(p.kappa))
         self.q_norm = dr.opaque(t.Float, float(p.q_norm))
@@ -379,8 +390,7 @@ class Scorer:
 
         def chunk(s0: int) -> tuple[np.ndarray, np.ndarray]:
             """A chunk's kept weights alpha_t > 0 (:meth:`FlashProblem.alpha`) and their mirror orientations."""
-            pair = p.pair[s0:s0 + CHUNK]
-            alpha = p.c[s0:s0 + CHUNK] * p.pair_weight[pair] * p.view_weight[p.pair_view[pair]]
+            alpha = p.alpha(slice(s0, s0 + CHUNK))
             keep = alpha > 0
             if keep.all():
                 return alpha, p.h[s0:s0 + CHUNK]
@@ -435,7 +445,7 @@ class Scorer:
     def _q(self, h: Any, m: Any) -> Any:
         return lobe_density(self.dr.dot(h, m), self.kappa, self.q_norm, drjit_ops())
 
-    def _triples(self) -> tuple[Any, ...]:
+    def _triples(self) -> _DeviceTriples:
         """(h, c, pair rows, view rows, pair weights, view weights) on the Dr.Jit device, built the
         first time an objective other than energy is scored: the energy objective sums the binned
         triples and the metrics are numpy sums (:meth:`FlashProblem.pair_radiance`), so a copy of
@@ -446,9 +456,9 @@ class Scorer:
         order in which threads add (atomic scatter-adds would)."""
         if self._device is None:
             t, p = self.t, self.problem
-            self._device = (t.Array3f(p.h[:, 0], p.h[:, 1], p.h[:, 2]), t.Float(p.c),
-                            _padded_rows(p.pair, self.n_pairs, t), _padded_rows(p.pair_view, self.n_views, t),
-                            t.Float(p.pair_weight), t.Float(p.view_weight))
+            self._device = _DeviceTriples(t.Array3f(p.h[:, 0], p.h[:, 1], p.h[:, 2]), t.Float(p.c),
+                                          _padded_rows(p.pair, self.n_pairs, t), _padded_rows(p.pair_view, self.n_views, t),
+                                          t.Float(p.pair_weight), t.Float(p.view_weight))
         return self._device
 
     def _segment_sum(self, values: Any, rows: tuple[Any, Any, int]) -> Any:
@@ -458,11 +468,11 @@ class Scorer:
 
     def _pair_radiance(self, m: Any) -> Any:
         """L_s / L_ref of every (point, view) pair (Dr.Jit, float32)."""
-        h, c, pair_rows = self._triples()[:3]
-        return self._segment_sum(c * self._q(h, m), pair_rows)
+        d = self._triples()
+        return self._segment_sum(d.c * self._q(d.h, m), d.pair_rows)
 
     def _view_sum(self, values: Any) -> Any:
-        return self._segment_sum(values, self._triples()[3])
+        return self._segment_sum(values, self._triples().view_rows)
 
     def _objective_dr(self, m: Any, smooth: bool) -> Any:
         dr = self.dr
@@ -473,7 +483,8 @@ class Scorer:
             flash = 1.0 / (1.0 + dr.exp(-(radiance - self.tau) / (0.02 * self.tau)))
         else:
             flash = dr.select(radiance >= self.tau, 1.0, 0.0)
-        pair_weight, view_weight = self._triples()[4:]
+        d = self._triples()
+        pair_weight, view_weight = d.pair_weight, d.view_weight
         area_v = self._view_sum(pair_weight * flash)
         inflash_v = self._view_sum(pair_weight * flash * radiance)
         intensity_v = dr.select(area_v > 1e-12, inflash_v / dr.maximum(area_v, 1e-12), 0.0)
