@@ -155,11 +155,10 @@ def detect_up_axis(vertices: np.ndarray, faces: np.ndarray, convex: bool, *, cro
     ok = norm > 0
     if not ok.all():
         f, cross, norm = f[ok], cross[ok], norm[ok]
-    v_faces = f
     cross /= norm[:, None]
     normals = cross
     areas = 0.5 * norm
-    sides = _side_fractions(v, v_faces, normals, areas)
+    sides = _side_fractions(v, f, normals, areas)
 
     # 1. a flat base on exactly one side
     bases = [d for d, (top, bottom) in sides.items() if bottom >= BASE_FRACTION and top < TOP_FLAT_LIMIT]
@@ -171,7 +170,7 @@ def detect_up_axis(vertices: np.ndarray, faces: np.ndarray, convex: bool, *, cro
     if not convex:
         return UpGuess(None, "no flat base, and a carving's face-up side is not read from its shape")
     # 2. a table over a keel or culet
-    sides = _side_fractions(v, v_faces, normals, areas, PLANAR_COS, PLANAR_TOL)
+    sides = _side_fractions(v, f, normals, areas, PLANAR_COS, PLANAR_TOL)
     tables = [d for d, (top, bottom) in sides.items() if top >= TABLE_FRACTION and bottom <= KEEL_LIMIT]
     if len(tables) == 1:
         d = tables[0]

@@ -162,10 +162,14 @@ def _local_lbfgs(scorer: Scorer, u0: float, v0: float, constraint: Constraint) -
     return u, v, scorer.score_uv(u, v)
 
 
-def optimize_nlopt(scorer: Scorer, constraint: Constraint, global_evals: int = 60) -> OptimumResult:
+def optimize_nlopt(scorer: Scorer, constraint: Constraint, global_evals: int | None = None) -> OptimumResult:
     """NLopt: DIRECT-L (global, derivative-free) over the disc's bounding box, then an L-BFGS
-    polish (``LD_LBFGS``) with Dr.Jit gradients. A fixed axis uses the same pair in 1D."""
+    polish (``LD_LBFGS``) with Dr.Jit gradients. A fixed axis uses the same pair in 1D.
+    ``global_evals``: DIRECT-L's evaluations (default: the standard quality's ``nlopt_evals``)."""
     import nlopt
+
+    if global_evals is None:
+        global_evals = Quality.coerce("standard").nlopt_evals
 
     start = scorer.evaluations
     if constraint.tilt_axis is not None:
