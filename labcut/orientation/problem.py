@@ -154,27 +154,32 @@ class FlashProblem:
                 del cos_c
                 if near.size == 0:
                     continue
-            # float32, normal-major (K, n): the products as fixed multiply-adds
-            hx, hy, hz = (hc[near, k] for k in range(3))
-            d = np.multiply(n32[:, 0:1], hx[None, :])
-            d += n32[:, 1:2] * hy[None, :]
-            d += n32[:, 2:3] * hz[None, :]
-            del hx, hy, hz
-            np.abs(d, out=d)
-            d -= np.float32(1.0)
-            d *= np.float32(self.kappa)
-            np.exp(d, out=d)
-            d *= (np.float32(self.q_norm) * self.c[s0:s0 + PAIR_CHUNK][near])[None, :]
+            # float32, one normal at a time over the chunk's near triples (a row stays in cache:
+            # 1.6x faster than the (K, n) block), the products as fixed multiply-adds
+            hx, hy, hz = (np.ascontiguousarray(hc[near, k]) for k in range(3))
+            cq = np.float32(self.q_norm) * self.c[s0:s0 + PAIR_CHUNK][near]
             pairs = self.pair[s0:s0 + PAIR_CHUNK][near]
-            if self.pairs_sorted:  # triples sorted by pair (build_problem's order): one segmented sum per normal
+            sorted_pairs = self.pairs_sorted  # build_problem's order: one segmented sum per normal
+            if sorted_pairs:
                 first = np.flatnonzero(np.r_[True, pairs[1:] != pairs[:-1]])
                 rows = pairs[first]
-                for k in range(len(normals)):  # row by row in float64: 4x faster than reduceat(dtype=float64) on (K, n)
-                    out[rows, k] += np.add.reduceat(d[k].astype(np.float64), first)
-            else:
-                for k in range(len(normals)):
-                    out[:, k] += np.bincount(pairs, weights=d[k], minlength=n_pairs)
-            del d
+            term = np.empty(hx.size, dtype=np.float32)
+            wide = np.empty(hx.size, dtype=np.float64) if sorted_pairs else None
+            for k in range(len(normals)):
+                np.multiply(hx, n32[k, 0], out=term)
+                term += hy * n32[k, 1]
+                term += hz * n32[k, 2]
+                np.abs(term, out=term)
+                term -= np.float32(1.0)
+                term *= np.float32(self.kappa)
+                np.exp(term, out=term)
+                term *= cq
+                if sorted_pairs:
+                    wide[:] = term  # float64 sums (reduceat(dtype=float64) is slower)
+                    out[rows, k] += np.add.reduceat(wide, first)
+                else:
+                    out[:, k] += np.bincount(pairs, weights=term, minlength=n_pairs)
+            del hx, hy, hz, term, wide
         return out
 
 
