@@ -267,3 +267,48 @@ def test_carving_gradient_with_light_between_its_parts_matches_finite_difference
     assert not direct.indirect
     assert obj.value(n) > direct.value(n) > 0.0
     assert obj.value(n) == pytest.approx(direct.value(n), rel=0.05)  # the glare and the body are not flash
+
+
+@pytest.mark.parametrize("mesh_name, depth", [("oval-16x12-low.ply", None), ("carving-biplane.ply", 4)])
+def test_poses_in_one_scene_render_as_one_scene_per_pose(mesh_name, depth, monkeypatch):
+    """A rocking stone's poses share one Mitsuba scene (one tree; each pose's lamps set through
+    mi.traverse before its views render): its images, values and gradients are those of one
+    scene per pose, bit for bit, direct lighting (the oval) and deeper paths with the no-schiller
+    base images (the biplane); the gradients to float32 rounding."""
+    from labcut.orientation import render_objective as ro
+
+    mesh = labcut.load_mesh(MESHES / mesh_name)
+    settings = resolve_scene("bench", quality="draft").settings()[:3]
+    assert len(settings) == 3
+    kw = dict(resolution=24, spp=4, seed=2, max_depth=depth)
+    shared = RenderObjective(mesh, LAB, settings, **kw)
+    assert shared._pose_lamps is not None and len(shared._scenes) == 1
+    with monkeypatch.context() as m:
+        m.setattr(ro, "poses_share_a_scene", lambda lamp_sets: False)
+        apart = RenderObjective(mesh, LAB, settings, **kw)
+    assert apart._pose_lamps is None and len(apart._scenes) == 3
+    n = np.array([0.25, -0.1, 1.0]) / np.linalg.norm([0.25, -0.1, 1.0])
+    for a, b in zip(shared.images(n), apart.images(n)):
+        assert np.array_equal(a, b)
+    for normal in (n, np.array([0.0, 0.0, 1.0])):  # the lamps go back to the first pose's
+        va, ga = shared.value_and_grad(normal)
+        vb, gb = apart.value_and_grad(normal)
+        # the values bit for bit; the adjoint passes accumulate with atomics (their order varies from
+        # run to run, for one scene per pose too), so the gradients agree to float32 rounding
+        assert va == vb and va > 0.0
+        np.testing.assert_allclose(ga, gb, rtol=1e-5, atol=1e-9 * np.abs(gb).max())
+
+
+def test_which_poses_share_a_scene():
+    from labcut.orientation.render_objective import poses_share_a_scene
+
+    lamp = lambda d, e=1.0: {"type": "directional", "direction": d, "irradiance": {"type": "rgb", "value": [e] * 3},  # noqa: E731
+                             "sampling_weight": e}
+    one = {"light_0": lamp([0, 0, -1]), "light_1": lamp([0, 1, -1])}
+    moved = {"light_0": lamp([0.1, 0, -1]), "light_1": lamp([0, 1.1, -1])}
+    assert poses_share_a_scene([one, moved])
+    assert not poses_share_a_scene([one])  # one pose: nothing to share
+    assert not poses_share_a_scene([one, {"light_0": lamp([0, 0, -1])}])  # another lamp set
+    assert not poses_share_a_scene([one, {**moved, "light_1": lamp([0, 1, -1], 2.0)}])  # another irradiance
+    env = {"type": "envmap", "filename": "x.exr"}
+    assert not poses_share_a_scene([{**one, "environment": env}, {**moved, "environment": env}])

@@ -224,29 +224,48 @@ class RenderObjective:
                                                                       zoning=baked)))
         self._base_scenes: list[Any] = []
         pose_total = sum(float(st.weight) for st in settings)
-        self._views: list[tuple[Any, int]] = []  # (scene, sensor index) per view
+        self._views: list[tuple[Any, int, int]] = []  # (scene, sensor index, pose) per view
+        self._base_views: list[tuple[Any, int, int]] = []
         weights = []
         self._scenes = []
-        for st in settings:
-            sensors = {}
+        lamp_sets = [emitters(st.lights, total_irradiance=1.0, ambient=0.0) for st in settings]
+        # poses that differ only in where their lamps stand share one scene (one tree, the sensors
+        # of every pose): a pose's lamps are set through mi.traverse before its views render
+        shared = poses_share_a_scene(lamp_sets)
+        self._pose_lamps = [_lamp_params(lamps) for lamps in lamp_sets] if shared else None
+        self._shown: dict[int, int] = {}  # id(scene) -> the pose whose lamps it holds
+        sensors: dict[str, Any] = {}
+        for p, st in enumerate(settings):
+            if not shared:
+                sensors = {}
             for k, (d, wv) in enumerate(zip(st.views.directions, st.views.weights)):
                 sensor = camera(mesh, CameraView(f"view {k}", tuple(d), tuple(st.up())), self.resolution)
                 sensor["film"]["pixel_format"] = "luminance_alpha"
                 sensor["film"]["rfilter"] = {"type": "box"}
-                sensors[f"sensor_{k:03d}"] = sensor
+                sensors[f"sensor_{p:03d}_{k:03d}" if shared else f"sensor_{k:03d}"] = sensor
                 weights.append(float(st.weight) / pose_total * float(wv))
-            lamps = emitters(st.lights, total_irradiance=1.0, ambient=0.0)
+            if shared and p < len(settings) - 1:
+                continue
+            lamps = lamp_sets[0 if shared else p]
             scene = mi.load_dict({"type": "scene", "integrator": integ, "stone": shape, **lamps, **sensors})
             self._scenes.append(scene)
             if base_shape is not None:
                 self._base_scenes.append(mi.load_dict({"type": "scene", "integrator": integ, "stone": base_shape,
-                                                       **emitters(st.lights, total_irradiance=1.0, ambient=0.0), **sensors}))
-            # scene.sensors() keeps the dictionary's (sorted) order of the sensor keys
-            self._views += [(scene, i) for i in range(len(sensors))]
+                                                       **emitters(settings[0 if shared else p].lights, total_irradiance=1.0,
+                                                                  ambient=0.0), **sensors}))
+        # scene.sensors() keeps the dictionary's (sorted) order of the sensor keys: pose, then view
+        counts = [len(st.views.directions) for st in settings]
+        for p, n in enumerate(counts):
+            first = sum(counts[:p]) if shared else 0
+            scene = self._scenes[0 if shared else p]
+            self._views += [(scene, first + i, p) for i in range(n)]
+            if self._base_scenes:
+                self._base_views += [(self._base_scenes[0 if shared else p], first + i, p) for i in range(n)]
         wv = np.asarray(weights, dtype=np.float64)
         self.view_weight = wv / wv.sum()
         self._base: list[np.ndarray] | None = None  # the no-schiller luminance per view (indirect only)
         self._params = mi.traverse(self._scenes[0])
+        self._scene_params = {id(self._scenes[0]): self._params}
         self._key = "stone.bsdf.normal"
         self.evaluations = 0  # objective evaluations (value, or value and gradient)
         self.renders = 0  # images rendered: one per view for a value, plus one adjoint pass per view for a gradient
@@ -293,15 +312,17 @@ class RenderObjective:
         that reaches the lamellae of one part by way of another part's polish or body is in it."""
         m = normalize_normal(normal)
         self._set_normal(m, grad=False)
-        return self._flash([self._render(scene, i) for scene, i in self._views])
+        return self._flash([self._render(scene, i, p) for scene, i, p in self._views])
 
     def _flash(self, images: list[np.ndarray]) -> list[np.ndarray]:
         if not self.indirect:
             return images
         if self._base is None:
-            views = [(scene, i) for scene in self._base_scenes for i in range(len(scene.sensors()))]
-            self._base = [self._render(scene, i)[..., 0] for scene, i in views]
-            self._base_scenes = []  # rendered: free their memory
+            self._base = [self._render(scene, i, p)[..., 0] for scene, i, p in self._base_views]
+            for scene in self._base_scenes:  # rendered: free their memory
+                self._scene_params.pop(id(scene), None)
+                self._shown.pop(id(scene), None)
+            self._base_scenes, self._base_views = [], []
         out = []
         for img, base in zip(images, self._base):
             img = img.copy()
@@ -309,9 +330,24 @@ class RenderObjective:
             out.append(img)
         return out
 
-    def _render(self, scene: Any, sensor: int) -> np.ndarray:
+    def _show_pose(self, scene: Any, pose: int) -> None:
+        """Set the lamps of ``pose`` in a scene the poses share (nothing for a scene of one pose)."""
+        if self._pose_lamps is None or self._shown.get(id(scene)) == pose:
+            return
+        import mitsuba as mi
+
+        params = self._scene_params.get(id(scene))
+        if params is None:
+            params = self._scene_params[id(scene)] = mi.traverse(scene)
+        for key, value in self._pose_lamps[pose].items():
+            params[key] = value
+        params.update()
+        self._shown[id(scene)] = pose
+
+    def _render(self, scene: Any, sensor: int, pose: int) -> np.ndarray:
         import drjit as dr
 
+        self._show_pose(scene, pose)
         start = time.perf_counter()
         passes = self._passes()
         acc = None
@@ -358,15 +394,16 @@ class RenderObjective:
         m = normalize_normal(normal)
         self.evaluations += 1
         self._set_normal(m, grad=False)
-        images = self._flash([self._render(scene, i) for scene, i in self._views])
+        images = self._flash([self._render(scene, i, p) for scene, i, p in self._views])
         value, d_images = combine_views(self._terms(images, self.smooth_width), self.view_weight, self.objective)
         assert d_images is not None
         start = time.perf_counter()
         var = self._set_normal(m, grad=True)
         passes = self._passes()
-        for (scene, i), d_value in zip(self._views, d_images):
+        for (scene, i, p), d_value in zip(self._views, d_images):
             if not np.any(d_value):
                 continue
+            self._show_pose(scene, p)
             grad_in = np.zeros((self.resolution, self.resolution, 2), dtype=np.float32)
             grad_in[..., 0] = d_value
             integ = scene.integrator()
@@ -380,6 +417,40 @@ class RenderObjective:
         self._set_normal(m, grad=False)
         self.render_seconds += time.perf_counter() - start
         return float(value), grad
+
+
+def poses_share_a_scene(lamp_sets: Sequence[dict[str, Any]]) -> bool:
+    """Whether the poses whose Mitsuba emitters are ``lamp_sets`` (:func:`labcut.rendering.scene.
+    emitters` of each pose's lights) can share one scene: two or more poses, the same directional
+    lamps in each (names, irradiance and sampling weight), only their directions differ. The
+    scene's tree is then built once, and its images are those of one scene per pose, bit for bit
+    (``tests/test_render_estimator.py``)."""
+    if len(lamp_sets) < 2:
+        return False
+    first = lamp_sets[0]
+    if not first or any(d.get("type") != "directional" for d in first.values()):
+        return False
+    for lamps in lamp_sets[1:]:
+        if lamps.keys() != first.keys():
+            return False
+        for key, d in lamps.items():
+            if d.get("type") != "directional" or d.get("irradiance") != first[key].get("irradiance") \
+                    or d.get("sampling_weight") != first[key].get("sampling_weight"):
+                return False
+    return True
+
+
+def _lamp_params(lamps: dict[str, Any]) -> dict[str, Any]:
+    """The traversable parameters (``light_i.to_world``, ...) of a pose's emitters, as Mitsuba
+    builds them from their dictionaries (so a shared scene holds exactly a pose's own lamps)."""
+    import mitsuba as mi
+
+    out: dict[str, Any] = {}
+    for key, d in lamps.items():
+        params = mi.traverse(mi.load_dict(d))
+        for name in params.keys():
+            out[f"{key}.{name}"] = params[name]
+    return out
 
 
 def interreflection_share(mesh: Any, material: Any, settings: Sequence[Setting], normals: Any = None,
