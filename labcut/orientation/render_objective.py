@@ -139,12 +139,16 @@ class RenderObjective:
     """The flash objective of a lamella normal from Mitsuba renders, with its gradient by Dr.Jit AD.
 
     For every pose of ``settings`` (:meth:`labcut.Scenario.settings`: lights and views in the mesh
-    frame, mm, +Z face-up) one scene is built once, holding that pose's lights (lamps as distant
+    frame, mm, +Z face-up) a scene is built once, holding that pose's lights (lamps as distant
     lights at unit total irradiance, an environment map as an ``envmap`` emitter, no ambient room)
     and one orthographic sensor per view; all scenes share one stone mesh and one ``labradorite``
     BSDF with only its schiller lobe on for direct lighting (the delta ``surface`` lobe does not
     depend on the normal; the body is not flash); with deeper paths every lobe is on and the
-    flash is the image less the same scene's image without the schiller (:meth:`images`). A new normal is written into the BSDF
+    flash is the image less the same scene's image without the schiller (:meth:`images`). Poses
+    whose lamps differ only in direction (a rocking hand under lamps: :func:`poses_share_a_scene`)
+    share one scene instead, with every pose's sensors, and each pose's lamps are set through
+    ``mi.traverse`` before its views render: one tree for the stone instead of one per pose, the
+    same images bit for bit. A new normal is written into the BSDF
     through ``mi.traverse`` as an opaque Dr.Jit value, so every evaluation reuses the compiled
     kernels. The images are mono (luminance), as the sample estimator scores luminance.
 
