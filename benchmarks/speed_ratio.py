@@ -96,16 +96,21 @@ def cold_pilot_env(folder: Path) -> dict:
     return {**os.environ, "XDG_CACHE_HOME": str(folder / "cache")}
 
 
-def cli_seconds(mesh: Path) -> float:
-    exe = Path(sys.executable).with_name("labcut")
-    cmd = [str(exe), "recommend-orientation", str(mesh), "--scenario", "bench", "--json", "-"]
-    subprocess.run(cmd, capture_output=True, check=True)  # warm: kernel cache, calibration
+def process_seconds(cmd: list[str]) -> float:
+    """Wall time of a fresh process running ``cmd``: the best of three, after one warm-up run
+    (Dr.Jit's kernel cache, the time-budget calibration)."""
+    subprocess.run(cmd, capture_output=True, check=True)
     best = []
     for _ in range(3):
         t = time.perf_counter()
         subprocess.run(cmd, capture_output=True, check=True)
         best.append(time.perf_counter() - t)
     return min(best)
+
+
+def cli_seconds(mesh: Path) -> float:
+    exe = Path(sys.executable).with_name("labcut")
+    return process_seconds([str(exe), "recommend-orientation", str(mesh), "--scenario", "bench", "--json", "-"])
 
 
 #: the libraries every CLI call imports before any of labcut's own code runs: the stone's mesh type
@@ -114,15 +119,8 @@ FLOOR = "import trimesh, mitsuba, typer, rich.table; mitsuba.set_variant('cuda_a
 
 
 def floor_seconds() -> float:
-    """A fresh process that only imports :data:`FLOOR` (best of three, after one warm-up)."""
-    cmd = [sys.executable, "-c", FLOOR]
-    subprocess.run(cmd, capture_output=True, check=True)
-    best = []
-    for _ in range(3):
-        t = time.perf_counter()
-        subprocess.run(cmd, capture_output=True, check=True)
-        best.append(time.perf_counter() - t)
-    return min(best)
+    """A fresh process that only imports :data:`FLOOR`."""
+    return process_seconds([sys.executable, "-c", FLOOR])
 
 
 def subdivided(levels: int, folder: Path) -> Path:
