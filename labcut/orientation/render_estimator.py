@@ -9,7 +9,8 @@ sees; ``L/L_ref`` per pixel gives the same metrics as
 tracing, the BSDF plugin and its tables.
 
 :class:`RenderObjective`: the same images as a differentiable function of the lamella normal
-(the scenes built once, one for all poses when only their lamps move; the normal written through ``mi.traverse``; a fixed seed, so
+(the scenes built once, one for all poses when only their lamps move; the normal written
+through ``mi.traverse``; a fixed seed, so
 the objective is deterministic), its gradient by Dr.Jit automatic differentiation through the
 integrator (``direct`` for direct lighting, ``prb`` when paths bounce between the parts of a
 carving). :func:`optimize_render` climbs it with L-BFGS from a start (the sample estimator's

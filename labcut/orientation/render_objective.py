@@ -238,33 +238,29 @@ class RenderObjective:
         shared = poses_share_a_scene(lamp_sets)
         self._pose_lamps = [_lamp_params(lamps) for lamps in lamp_sets] if shared else None
         self._shown: dict[int, int] = {}  # id(scene) -> the pose whose lamps it holds
-        sensors: dict[str, Any] = {}
-        for p, st in enumerate(settings):
-            if not shared:
-                sensors = {}
-            for k, (d, wv) in enumerate(zip(st.views.directions, st.views.weights)):
-                sensor = camera(mesh, CameraView(f"view {k}", tuple(d), tuple(st.up())), self.resolution)
-                sensor["film"]["pixel_format"] = "luminance_alpha"
-                sensor["film"]["rfilter"] = {"type": "box"}
-                sensors[f"sensor_{p:03d}_{k:03d}" if shared else f"sensor_{k:03d}"] = sensor
-                weights.append(float(st.weight) / pose_total * float(wv))
-            if shared and p < len(settings) - 1:
-                continue
-            lamps = lamp_sets[0 if shared else p]
+        # the poses of each scene: all in one, or one scene per pose
+        groups = [range(len(settings))] if shared else [range(p, p + 1) for p in range(len(settings))]
+        for poses in groups:
+            sensors: dict[str, Any] = {}
+            view_poses = []  # the pose of each sensor, in the scene's order
+            for p in poses:
+                st = settings[p]
+                for k, (d, wv) in enumerate(zip(st.views.directions, st.views.weights)):
+                    sensor = camera(mesh, CameraView(f"view {k}", tuple(d), tuple(st.up())), self.resolution)
+                    sensor["film"]["pixel_format"] = "luminance_alpha"
+                    sensor["film"]["rfilter"] = {"type": "box"}
+                    # scene.sensors() keeps the dictionary's (sorted) order of the keys: pose, then view
+                    sensors[f"sensor_{p:03d}_{k:03d}"] = sensor
+                    weights.append(float(st.weight) / pose_total * float(wv))
+                    view_poses.append(p)
+            lamps = lamp_sets[poses[0]]
             scene = mi.load_dict({"type": "scene", "integrator": integ, "stone": shape, **lamps, **sensors})
             self._scenes.append(scene)
+            self._views += [(scene, i, p) for i, p in enumerate(view_poses)]
             if base_shape is not None:
-                self._base_scenes.append(mi.load_dict({"type": "scene", "integrator": integ, "stone": base_shape,
-                                                       **emitters(settings[0 if shared else p].lights, total_irradiance=1.0,
-                                                                  ambient=0.0), **sensors}))
-        # scene.sensors() keeps the dictionary's (sorted) order of the sensor keys: pose, then view
-        counts = [len(st.views.directions) for st in settings]
-        for p, n in enumerate(counts):
-            first = sum(counts[:p]) if shared else 0
-            scene = self._scenes[0 if shared else p]
-            self._views += [(scene, first + i, p) for i in range(n)]
-            if self._base_scenes:
-                self._base_views += [(self._base_scenes[0 if shared else p], first + i, p) for i in range(n)]
+                base = mi.load_dict({"type": "scene", "integrator": integ, "stone": base_shape, **lamps, **sensors})
+                self._base_scenes.append(base)
+                self._base_views += [(base, i, p) for i, p in enumerate(view_poses)]
         wv = np.asarray(weights, dtype=np.float64)
         self.view_weight = wv / wv.sum()
         self._base: list[np.ndarray] | None = None  # the no-schiller luminance per view (indirect only)
