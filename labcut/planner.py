@@ -191,19 +191,39 @@ def _fresnel_sp(cos_i: np.ndarray, eta: float) -> tuple[np.ndarray, np.ndarray]:
     return 1.0 - r_s * r_s, 1.0 - r_p * r_p
 
 
+#: polarisation biases already computed in this process, by material and light/view sets
+#: (a catalogue or a comparison asks the same scenario of one material stone after stone)
+_POLARISATION_CACHE: dict[tuple, float] = {}
+_POLARISATION_CACHE_SIZE = 256
+
+
 def polarisation_bias(material: Any, lights: Any, views: Any) -> float:
     """Relative error of the unpolarised (s/p-averaged) schiller for a scene's light/view pairs.
 
     For every pair (mesh frame; the stone's face +Z, the lamella normal at the pair's internal
     half vector, where the flash is), the exact unpolarised product ``(T_s R_s T_s + T_p R_p
     T_p)/2`` against ``T R T`` of the s/p averages; weighted by light x view weight. Pairs that
-    do not both lie above the face carry no schiller and are skipped."""
-    from .colour import reflectance_luminance
-
-    eta = float(material.n_surface)
+    do not both lie above the face carry no schiller and are skipped. Kept per material and
+    direction sets for the process (the spectra of the s and p stacks are the cost)."""
     L = np.asarray(lights.directions, dtype=np.float64)
     V = np.asarray(views.directions, dtype=np.float64)
     wl, wv = np.asarray(lights.weights, dtype=np.float64), np.asarray(views.weights, dtype=np.float64)
+    key = (material, L.shape, L.tobytes(), wl.tobytes(), V.shape, V.tobytes(), wv.tobytes())
+    hit = _POLARISATION_CACHE.get(key)
+    if hit is None:
+        hit = _polarisation_bias(material, L, wl, V, wv)
+        if len(_POLARISATION_CACHE) >= _POLARISATION_CACHE_SIZE:
+            _POLARISATION_CACHE.pop(next(iter(_POLARISATION_CACHE)))
+        _POLARISATION_CACHE[key] = hit
+    return hit
+
+
+def _polarisation_bias(material: Any, L: np.ndarray, wl: np.ndarray, V: np.ndarray, wv: np.ndarray) -> float:
+    """:func:`polarisation_bias` of light directions ``L`` (n, 3) with weights ``wl`` and view
+    directions ``V`` (m, 3) with weights ``wv``, computed."""
+    from .colour import reflectance_luminance
+
+    eta = float(material.n_surface)
     cl, cv = L[:, 2][:, None], V[:, 2][None, :]
     ok = (cl > 1e-3) & (cv > 1e-3)
     if not np.any(ok):

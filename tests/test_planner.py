@@ -277,3 +277,23 @@ def test_zoning_messages_say_where_zones_apply(oval):
     with pytest.raises(ParameterError, match="recommend-orientation, evaluate-orientation") as info:
         plan_effects(oval, effects={"zoning": True})
     assert "renders only" not in str(info.value)
+
+
+def test_polarisation_bias_is_kept_per_material_and_direction_set(monkeypatch):
+    """A second scenario call of the same material and directions reuses the bias; another
+    material, other directions or other weights compute their own (a stale value would be a
+    silent wrong plan)."""
+    import labcut.planner as planner
+
+    blue, red = labcut.Labradorite.preset("blue"), labcut.Labradorite.from_peak_wavelength(620.0)
+    L = Lights([[0.3, 0.0, 0.95], [0.0, 0.2, 0.98]])
+    V = Views([[-0.2, 0.0, 0.98]])
+    first = polarisation_bias(blue, L, V)
+    calls = []
+    real = planner._polarisation_bias
+    monkeypatch.setattr(planner, "_polarisation_bias", lambda *a: calls.append(a) or real(*a))
+    assert polarisation_bias(blue, L, V) == first and not calls
+    assert polarisation_bias(red, L, V) != first and len(calls) == 1
+    L2 = Lights([[0.3, 0.0, 0.95], [0.0, 0.2, 0.98]], weights=[0.9, 0.1])
+    assert polarisation_bias(blue, L2, V) != first and len(calls) == 2
+    assert polarisation_bias(blue, Lights([[0.5, 0.0, 0.87]]), V) != first and len(calls) == 3

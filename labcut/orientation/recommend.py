@@ -581,7 +581,7 @@ def axis_tolerances(scorer: Scorer, best: np.ndarray, best_score: float, constra
     """
     out = {}
     for name, axis in (("front_back_deg", np.array([0.0, 1.0, 0.0])), ("left_right_deg", np.array([1.0, 0.0, 0.0]))):
-        out[name] = tolerance_deg(scorer.scores, best, best_score, constraint, directions=[axis, -axis])
+        out[name] = tolerance_deg(scorer.scores, best, best_score, constraint, keep=KEEP, directions=[axis, -axis])
     return out
 
 

@@ -109,30 +109,30 @@ def grid_inverse(key: np.ndarray, n_keys: int) -> np.ndarray:
 
 def _cos_matrix(m: np.ndarray, ht: np.ndarray) -> np.ndarray:
     """(k, n) dot products of the rows of ``m`` (k, 3) and the columns of ``ht`` (3, n), float64,
-    without BLAS (``m @ ht``; contiguous rows of ``ht`` are fastest). Three broadcast
-    multiply-adds instead of ``m @ h.T``: OpenBLAS threads the product and, next to Dr.Jit's own
-    thread pool on few cores, a 12 k-term product then waits milliseconds for its threads
-    (measured 8 ms instead of 5 µs on 2 cores); the sum order here is also fixed, whatever BLAS
-    and thread count the machine has."""
-    hx, hy, hz = ht
-    out = np.multiply(m[:, 0:1], hx[None, :])
-    tmp = np.multiply(m[:, 1:2], hy[None, :])
-    out += tmp
-    np.multiply(m[:, 2:3], hz[None, :], out=tmp)
-    out += tmp
-    return out
+    without BLAS (``m @ ht``): one ``einsum`` pass, which writes each (k, n) entry once from its
+    three products. Not BLAS: OpenBLAS threads the product and, next to Dr.Jit's own thread pool
+    on few cores, a 12 k-term product then waits milliseconds for its threads (measured 8 ms
+    instead of 5 µs on 2 cores); ``einsum``'s order of the three products is also fixed, whatever
+    BLAS and thread count the machine has. (Three broadcast multiply-adds, as before, made two
+    (k, n) temporaries and five passes over them: 2-4x slower per term, ``benchmarks/lobe_sums.py``.)"""
+    return np.einsum("kj,jn->kn", m, ht)
 
 
 def _lobe_sums(m: np.ndarray, ht: np.ndarray, a: np.ndarray, kappa: float) -> np.ndarray:
     """Σ_b a_b exp(κ(|h_b·m_k| - 1)) for each row ``m_k``, ``ht`` the (3, n) bin directions
-    (without BLAS, see :func:`_cos_matrix`)."""
-    d = _cos_matrix(m, ht)
+    (without BLAS, see :func:`_cos_matrix`). κ is folded into the normals (``|κm·h| = κ|m·h|``,
+    κ > 0): four passes over the (k, n) block, its dot products, abs, shift and exp, then the sum."""
+    d = _cos_matrix(m * kappa, ht)
     np.abs(d, out=d)
-    d -= 1.0
-    d *= kappa
+    d -= kappa
     np.exp(d, out=d)
     return np.einsum("kb,b->k", d, a)
 
+
+#: the cost of one (normals x bins) block's numpy calls, in lobe terms (:meth:`SparseLobeMap.__call__`)
+TILE_CALL_TERMS = 7000
+#: largest (normals x bins) block of the union path, in terms (8 bytes each)
+UNION_BLOCK = 1 << 21
 
 #: relative accuracy of the sparse energy map: every dropped lobe term lies below this share
 #: of a lower bound of the hemisphere's best energy
@@ -211,28 +211,41 @@ class SparseLobeMap:
         idx = np.repeat(self.starts[tiles] - (np.cumsum(cnt) - cnt), cnt) + np.arange(int(cnt.sum()))
         if len(self._unions) >= 8:
             self._unions.pop(next(iter(self._unions)))
-        self._unions[key] = out = (self.ht[:, idx], self.a[idx])
+        # a contiguous (3, n) copy: fancy indexing along the columns lays the rows out with a stride of 3,
+        # which makes every product over the union 5x slower
+        self._unions[key] = out = (np.ascontiguousarray(self.ht[:, idx]), self.a[idx])
         return out
 
-    def __call__(self, normals: np.ndarray, max_terms: int = 2_000_000) -> np.ndarray:
-        """Energy at each unit normal (rows of ``normals``, mesh frame)."""
+    def __call__(self, normals: np.ndarray, path: str = "auto") -> np.ndarray:
+        """Energy at each unit normal (rows of ``normals``, mesh frame). ``path``: ``auto`` (the
+        cheaper of the two), ``union`` (one block over the union of the tiles needed) or
+        ``tiles`` (one block per tile needed); the same sums to rounding."""
+        if path not in ("auto", "union", "tiles"):
+            raise ParameterError(f"path must be 'auto', 'union' or 'tiles', got {path!r}")
         m = np.atleast_2d(np.asarray(normals, dtype=np.float64))
         out = np.zeros(len(m))
         if self.n_tiles == 0 or len(m) == 0:
             return out
         need = np.abs(_cos_matrix(m, self.centre.T)) >= self.cos_reach[None, :]  # (k, tiles)
-        if len(m) > 64:  # many normals: one block per tile over the normals that need it
-            for j in np.flatnonzero(need.any(axis=0)):
-                sel = np.flatnonzero(need[:, j])
-                s, c = self.starts[j], self.counts[j]
-                out[sel] += _lobe_sums(m[sel], self.ht[:, s : s + c], self.a[s : s + c], self.kappa)
-            return self.norm * out
-        # few normals (a ring, a probe): one block over the union of the tiles they need
         tiles = np.flatnonzero(need.any(axis=0))
         if len(tiles) == 0:
             return out
-        ht, a = self._union(tiles)
-        return self.norm * _lobe_sums(m, ht, a, self.kappa)
+        # one block over the union of the tiles any normal needs (a ring, a probe, a cluster of
+        # normals), or one block per tile over the normals that need it (spread-out normals: a
+        # map), whichever costs less: a term ~3 ns, a block's call ~20 µs (TILE_CALL_TERMS)
+        union_terms = len(m) * int(self.counts[tiles].sum())
+        tile_terms = int((need[:, tiles] * self.counts[tiles][None, :]).sum()) + TILE_CALL_TERMS * len(tiles)
+        if path == "union" or (path == "auto" and union_terms <= tile_terms):
+            ht, a = self._union(tiles)
+            step = max(1, UNION_BLOCK // max(ht.shape[1], 1))  # bounded (normals x bins) blocks
+            for s in range(0, len(m), step):
+                out[s : s + step] = _lobe_sums(m[s : s + step], ht, a, self.kappa)
+            return self.norm * out
+        for j in tiles:
+            sel = np.flatnonzero(need[:, j])
+            s, c = self.starts[j], self.counts[j]
+            out[sel] += _lobe_sums(m[sel], self.ht[:, s : s + c], self.a[s : s + c], self.kappa)
+        return self.norm * out
 
     def value_and_grad(self, m: np.ndarray) -> tuple[float, np.ndarray]:
         """Energy at one unit normal ``m`` and its gradient with respect to ``m`` (a 3-vector,
