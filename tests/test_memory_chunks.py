@@ -128,10 +128,22 @@ def test_a_partial_problem_refuses_sums_beyond_its_triples():
     assert part.pair_radiance(np.array([[0.0, 0.0, 1.0]]), reach=0.2).shape[1] == 1
 
 
-def test_energy_weights_sum_to_the_metrics_energy(problem):
+@pytest.fixture(scope="module")
+def weighted_problem():
+    """Views of unequal weights (every scenario's are equal): a weight applied to the wrong view shows."""
+    mesh = labcut.load_mesh(MESHES / "oval-16x12-low.ply")
+    lab = labcut.Labradorite.preset("blue")
+    views = labcut.Views([[0.0, 0.0, 1.0], [0.3, 0.0, 0.95], [0.0, -0.4, 0.92]], weights=[0.6, 0.3, 0.1])
+    lights = labcut.Lights([[0.0, 0.1, 1.0], [0.2, 0.0, 0.98]])
+    return build_problem(mesh, lab, lights=lights, views=views, quality="draft")
+
+
+@pytest.mark.parametrize("which", ["problem", "weighted_problem"])
+def test_energy_weights_sum_to_the_metrics_energy(which, request):
     """The energy objective's per-triple weights (FlashProblem.alpha, whole or in chunks of rows)
     summed against the lobe give the view-weighted flash energy of the metrics: the same linear
     objective from the pair sums (DESIGN.md §4)."""
+    problem = request.getfixturevalue(which)
     m = np.array([0.05, -0.1, 1.0])
     m /= np.linalg.norm(m)
     q = problem.q_norm * np.exp(problem.kappa * (np.abs(problem.h.astype(np.float64) @ m) - 1.0))

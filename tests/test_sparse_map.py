@@ -146,3 +146,20 @@ def test_binned_triples_match_the_unique_reference(scorer, chunk, monkeypatch):
     np.testing.assert_allclose(ab, weight, rtol=1e-12, atol=0)
     np.testing.assert_allclose(hb, centroid, rtol=0, atol=1e-13)
     assert ab.sum() == pytest.approx(a.sum(), rel=1e-12)
+
+
+def test_tile_unions_are_contiguous_and_the_path_is_checked(scorer):
+    """The union of tiles is a C-contiguous (3, n) array (a strided one made every product over it
+    5x slower: benchmarks/lobe_sums.py's einsum pass wants contiguous rows), the same bins as the
+    tiles' slices; an unknown path is refused."""
+    from labcut.errors import ParameterError
+
+    sm = scorer.sparse_map
+    tiles = np.arange(0, sm.n_tiles, 3)
+    ht, a = sm._union(tiles)
+    assert ht.flags.c_contiguous and ht.shape == (3, int(sm.counts[tiles].sum()))
+    want_h = np.concatenate([sm.ht[:, s:s + c] for s, c in zip(sm.starts[tiles], sm.counts[tiles])], axis=1)
+    want_a = np.concatenate([sm.a[s:s + c] for s, c in zip(sm.starts[tiles], sm.counts[tiles])])
+    assert np.array_equal(ht, want_h) and np.array_equal(a, want_a)
+    with pytest.raises(ParameterError, match="path"):
+        sm(np.array([[0.0, 0.0, 1.0]]), path="dense")

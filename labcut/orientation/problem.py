@@ -112,11 +112,17 @@ class FlashProblem:
     def n_triples(self) -> int:
         return int(self.c.size)
 
+    @functools.cached_property
+    def pair_alpha(self) -> np.ndarray:
+        """Per (point, view) pair: its projected-area weight x its view's weight (float64), the
+        factor :meth:`alpha` gives each of the pair's triples."""
+        return self.pair_weight * self.view_weight[self.pair_view]
+
     def alpha(self, rows: slice = slice(None)) -> np.ndarray:
         """Per-triple weight of the (linear) energy objective: Σ_t alpha_t q(h_t·m) = energy; of the
-        triples ``rows`` only (a chunk: the same values as those rows of the whole)."""
-        pair = self.pair[rows]
-        return self.c[rows] * self.pair_weight[pair] * self.view_weight[self.pair_view[pair]]
+        triples ``rows`` only (a chunk: the same values as those rows of the whole). One gather per
+        triple (:attr:`pair_alpha`)."""
+        return self.c[rows] * self.pair_alpha[self.pair[rows]]
 
     @functools.cached_property
     def pairs_sorted(self) -> bool:
