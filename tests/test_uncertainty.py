@@ -133,3 +133,37 @@ def test_bad_inputs_are_one_line_errors(oval):
         estimate_uncertainty(scorer.problem, [0.0, 0.0, 1.0], replicates=2)
     with pytest.raises(ParameterError, match="uncertainty"):
         Uncertainty.from_dict({"angle_deg": 1.0})
+
+
+@pytest.mark.parametrize("views", [None, "weighted"])
+def test_stencil_energy_from_the_triples_equals_the_pair_sums(oval, views):
+    """The discretisation parts' energy at the stencil (summed straight from the triples,
+    FlashProblem.energy_near) equals the view-weighted pair sums the bootstrap uses (objective_values
+    of pair_radiance, every point weighted 1), on a whole problem and on a partial one
+    (build_problem(near=...)), with views of unequal weight too."""
+    from labcut.orientation.problem import build_problem
+    from labcut.orientation.uncertainty import _point_count, _reach, objective_values, pair_radiance, stencil_values
+    from labcut.scene import resolve_scene
+
+    lab = labcut.Labradorite.preset("blue")
+    if views is None:
+        kw = {"settings": resolve_scene("bench", None, None, "draft").settings()}
+    else:
+        kw = {"lights": labcut.Lights([[0.0, 0.1, 1.0], [0.2, 0.0, 0.98]]),
+              "views": labcut.Views([[0.0, 0.0, 1.0], [0.3, 0.0, 0.95], [0.0, -0.4, 0.92]], weights=[0.6, 0.3, 0.1])}
+    whole = build_problem(oval, lab, quality="draft", **kw)
+    m = np.array([0.02, -0.06, 1.0])
+    m /= np.linalg.norm(m)
+    normals, _ = stencil(m, 1.5)
+    near = build_problem(oval, lab, quality="draft", near=(m, _reach(whole.kappa, normals) + 1e-3), **kw)
+    assert near.n_triples < whole.n_triples
+    for p in (whole, near):
+        want = objective_values(p, pair_radiance(p, normals), np.ones((1, _point_count(p))), "energy")
+        got = stencil_values(p, normals, "energy")
+        assert got.shape == want.shape == (1, len(normals))
+        assert np.allclose(got, want, rtol=1e-6, atol=0.0)
+    # the partial problem's sums are the whole problem's
+    assert np.allclose(stencil_values(near, normals, "energy"), stencil_values(whole, normals, "energy"), rtol=1e-6)
+    # the thresholded objectives go through the pairs
+    area = stencil_values(whole, normals, "area")
+    assert np.array_equal(area, objective_values(whole, pair_radiance(whole, normals), np.ones((1, _point_count(whole))), "area"))

@@ -253,6 +253,17 @@ def objective_values(problem: FlashProblem, radiance: np.ndarray, point_weights:
     return np.sqrt(np.maximum(area * intensity, 0.0))
 
 
+def stencil_values(problem: FlashProblem, normals: np.ndarray, objective: str) -> np.ndarray:
+    """The objective at each stencil normal with every surface point weighted 1 (the problem's own
+    estimator): (1, K). The energy is linear in the pair radiances, so it is summed straight from
+    the triples within reach (:meth:`FlashProblem.energy_near`, no per-pair sums); the thresholded
+    objectives need the pairs (:func:`objective_values` of :func:`pair_radiance`)."""
+    normals = np.asarray(normals, dtype=np.float64)
+    if objective == "energy":
+        return problem.energy_near(normals, _reach(problem.kappa, normals))[None, :]
+    return objective_values(problem, pair_radiance(problem, normals), np.ones((1, _point_count(problem))), objective)
+
+
 def _point_count(problem: FlashProblem) -> int:
     pp = problem.info.get("pair_point")
     return int(problem.n_points if pp is not None else problem.pair_view.size)
@@ -296,7 +307,7 @@ def estimate_uncertainty(problem: FlashProblem, normal: Any, objective: str = "e
     for other, factor in ((coarse, DIRECTION_FACTOR), (fine, POSE_FACTOR)):
         if other is None:
             continue
-        o_vals = objective_values(other, pair_radiance(other, normals), np.ones((1, _point_count(other))), objective)
+        o_vals = stencil_values(other, normals, objective)
         o_peak, o_height = fit_peaks(xy, o_vals, radius)
         d_angle = math.hypot(d_angle, factor * float(np.hypot(*(o_peak[0] - base_peak))))
         d_score = math.hypot(d_score, factor * float(abs(o_height[0] - base_height) / scale))
