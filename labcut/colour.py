@@ -20,7 +20,9 @@ come from Mitsuba (``mitsuba.scalar_rgb``: tabulated once, 1 nm steps over
 from __future__ import annotations
 
 import functools
+import json
 from dataclasses import asdict, dataclass
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -209,20 +211,51 @@ def reflectance_rgb(material: Any, cos_theta: Any, illuminant: str = "D65", pola
 LUMINANCE_TABLE_SIZE = 1024
 
 
+@functools.lru_cache(maxsize=1)
+def _table_code() -> str:
+    """The versions and code the material tables are computed with (their disk cache's key):
+    labcut's physics and this module, numpy, Mitsuba (the CIE curves)."""
+    import mitsuba
+
+    from . import __version__
+    from .fileio import code_hash
+
+    here = Path(__file__).resolve().parent
+    return (f"labcut {__version__} numpy {np.__version__} mitsuba {mitsuba.__version__} "
+            f"code {code_hash(here / 'colour.py', here / 'physics')}")
+
+
+def _table_key(material: Any, kind: str, polarization: str | None) -> str:
+    """Everything a material table depends on: the code, the table's kind and size, every parameter."""
+    params = json.dumps(material.to_dict(), sort_keys=True)
+    return f"{kind} size {LUMINANCE_TABLE_SIZE} polarization {polarization} {_table_code()} material {params}"
+
+
 @functools.lru_cache(maxsize=16)
 def rgb_table(material: Any, polarization: str | None = None) -> np.ndarray:
     """Linear sRGB reflectance (LUMINANCE_TABLE_SIZE, 3) of a material over cos θ in [0, 1], clipped at
-    0, float32: the RGB BSDF's table, built once per material (a scene build reuses it)."""
+    0, float32: the RGB BSDF's table, built once per material (a scene build reuses it) and kept
+    on disk for later processes (:func:`labcut.fileio.cached_array`, keyed by the material's
+    parameters and the code and versions that compute it)."""
+    from .fileio import cached_array
+
     c = np.linspace(0.0, 1.0, LUMINANCE_TABLE_SIZE)
-    return np.clip(reflectance_rgb(material, c, polarization=polarization), 0.0, None).astype(np.float32)
+    return cached_array("rgb", _table_key(material, "rgb", polarization),
+                        lambda: np.clip(reflectance_rgb(material, c, polarization=polarization), 0.0, None).astype(np.float32),
+                        shape=(LUMINANCE_TABLE_SIZE, 3), dtype=np.float32)
 
 
 @functools.lru_cache(maxsize=16)
 def luminance_table(material: Any) -> tuple[np.ndarray, np.ndarray]:
     """(cos θ grid over [0, 1], luminance reflectance R_Y) of a material, computed once and
-    shared by the mono BSDF, its sampling weight and the flash estimators."""
+    shared by the mono BSDF, its sampling weight and the flash estimators; kept on disk for
+    later processes like :func:`rgb_table` (a CLI call's first recommendation would spend
+    ~0.1 s on the 1024 x 471 spectra)."""
+    from .fileio import cached_array
+
     c = np.linspace(0.0, 1.0, LUMINANCE_TABLE_SIZE)
-    return c, reflectance_luminance(material, c)
+    return c, cached_array("luminance", _table_key(material, "luminance", None), lambda: reflectance_luminance(material, c),
+                           shape=(LUMINANCE_TABLE_SIZE,), dtype=np.float64)
 
 
 def reflectance_luminance(material: Any, cos_theta: Any, illuminant: str = "D65", polarization: str | None = None) -> np.ndarray:

@@ -137,3 +137,50 @@ def calibration(name: str, key: str, measure: Any, *, check: Any = None, refresh
         write_cache(path, dict(list(stored.items())[-keep:]))
     _CALIBRATIONS[memo] = value
     return value
+
+
+def cached_array(name: str, key: str, build: Any, *, shape: tuple[int, ...], dtype: Any) -> Any:
+    """``build()`` (a numpy array of ``shape`` and ``dtype``), kept in labcut's user cache folder
+    (:func:`cache_path`, ``tables/``) under a file named by ``name`` and a hash of ``key``: a
+    later process reads it back (the same array, bit for bit) instead of building it again.
+    ``key`` names everything the array depends on (versions, a hash of the code that computes
+    it, the parameters): a changed key builds again. A file that is missing, unreadable or of
+    another shape or dtype is built again; a cache folder that cannot be written is no error
+    (built again next time)."""
+    import hashlib
+
+    import numpy as np
+
+    digest = hashlib.blake2b(key.encode(), digest_size=12).hexdigest()
+    path = cache_path("tables") / f"{name}-{digest}.npy"
+    want = np.dtype(dtype)
+    try:
+        value = np.load(path, allow_pickle=False)
+        if value.shape == tuple(shape) and value.dtype == want:
+            return value
+    except (OSError, ValueError, EOFError):
+        pass
+    value = np.asarray(build())
+    if value.shape != tuple(shape) or value.dtype != want:
+        raise ValueError(f"cached_array {name!r}: built {value.dtype}{value.shape}, expected {want}{tuple(shape)}")
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        with atomic_output(path, (".npy",)) as tmp:
+            np.save(tmp, value, allow_pickle=False)
+    except (OSError, LabcutError):
+        pass
+    return value
+
+
+def code_hash(*paths: str | os.PathLike[str]) -> str:
+    """A short hash of the bytes of the given files (a folder: its ``*.py`` files), for cache keys:
+    an edited module changes it, so what it computes is computed again."""
+    import hashlib
+
+    h = hashlib.blake2b(digest_size=12)
+    for p in paths:
+        p = Path(p)
+        for f in sorted(p.glob("*.py")) if p.is_dir() else [p]:
+            h.update(f.name.encode())
+            h.update(f.read_bytes())
+    return h.hexdigest()

@@ -1,0 +1,111 @@
+"""Material tables kept on disk (labcut.fileio.cached_array): the same arrays, rebuilt when anything they depend on changes.
+
+A CLI call is a new process: its first recommendation would spend ~0.1 s on the luminance table
+(1024 cosines x 471 wavelengths of stack spectra). The tables are kept in the user cache folder,
+keyed by the material's parameters and a hash of the code and versions that compute them. A
+stale table would be a silent wrong answer, so these tests check that every part of the key
+counts and that a damaged file is rebuilt, never read.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import labcut
+from labcut import colour, fileio
+
+
+@pytest.fixture
+def cache(tmp_path, monkeypatch):
+    monkeypatch.setattr(fileio, "cache_path", lambda name: tmp_path / name)
+    return tmp_path / "tables"
+
+
+def _counting(value):
+    calls = []
+
+    def build():
+        calls.append(1)
+        return value
+
+    return build, calls
+
+
+def test_an_array_is_built_once_then_read_back_bit_for_bit(cache):
+    value = np.random.default_rng(0).random(17)
+    build, calls = _counting(value)
+    first = fileio.cached_array("t", "key A", build, shape=(17,), dtype=np.float64)
+    again = fileio.cached_array("t", "key A", build, shape=(17,), dtype=np.float64)
+    assert len(calls) == 1 and np.array_equal(first, value) and np.array_equal(again, value)
+    assert len(list(cache.glob("t-*.npy"))) == 1
+    # another key is another file, built
+    fileio.cached_array("t", "key B", build, shape=(17,), dtype=np.float64)
+    assert len(calls) == 2 and len(list(cache.glob("t-*.npy"))) == 2
+
+
+def test_a_damaged_or_mismatched_file_is_built_again(cache):
+    value = np.arange(6, dtype=np.float32)
+    build, calls = _counting(value)
+    fileio.cached_array("t", "k", build, shape=(6,), dtype=np.float32)
+    (path,) = cache.glob("t-*.npy")
+    path.write_bytes(b"not a numpy file")
+    assert np.array_equal(fileio.cached_array("t", "k", build, shape=(6,), dtype=np.float32), value)
+    assert len(calls) == 2
+    np.save(path, np.zeros(5, dtype=np.float32))  # another shape under the same key
+    assert np.array_equal(fileio.cached_array("t", "k", build, shape=(6,), dtype=np.float32), value)
+    np.save(path, np.zeros(6, dtype=np.float64))  # another dtype
+    assert np.array_equal(fileio.cached_array("t", "k", build, shape=(6,), dtype=np.float32), value)
+    assert len(calls) == 4
+    with pytest.raises(ValueError, match="expected"):
+        fileio.cached_array("t", "k2", lambda: np.zeros(3), shape=(6,), dtype=np.float32)
+
+
+def test_an_unwritable_cache_folder_is_no_error(tmp_path, monkeypatch):
+    blocker = tmp_path / "file"
+    blocker.write_text("x")
+    monkeypatch.setattr(fileio, "cache_path", lambda name: blocker / name)  # a folder below a file
+    build, calls = _counting(np.ones(3))
+    for _ in range(2):
+        assert np.array_equal(fileio.cached_array("t", "k", build, shape=(3,), dtype=np.float64), np.ones(3))
+    assert len(calls) == 2
+
+
+def test_code_hash_follows_the_bytes_of_the_code(tmp_path):
+    (tmp_path / "a.py").write_text("x = 1\n")
+    (tmp_path / "b.py").write_text("y = 2\n")
+    before = fileio.code_hash(tmp_path)
+    assert fileio.code_hash(tmp_path) == before
+    (tmp_path / "b.py").write_text("y = 3\n")
+    assert fileio.code_hash(tmp_path) != before
+    assert fileio.code_hash(tmp_path / "a.py") != fileio.code_hash(tmp_path)
+
+
+def test_material_tables_from_disk_are_the_computed_ones(cache):
+    """Read back in a 'new process' (the in-process cache cleared), the luminance and RGB tables
+    equal a fresh computation; another material, or another polarisation, has its own table."""
+    blue, red = labcut.Labradorite.preset("blue"), labcut.Labradorite.from_peak_wavelength(620.0)
+    c = np.linspace(0.0, 1.0, colour.LUMINANCE_TABLE_SIZE)
+    for _ in range(2):  # built, then read from disk
+        colour.luminance_table.cache_clear()
+        colour.rgb_table.cache_clear()
+        for mat in (blue, red):
+            assert np.array_equal(colour.luminance_table(mat)[1], colour.reflectance_luminance(mat, c))
+            assert np.array_equal(colour.rgb_table(mat), np.clip(colour.reflectance_rgb(mat, c), 0.0, None).astype(np.float32))
+            assert np.array_equal(colour.rgb_table(mat, "s"),
+                                  np.clip(colour.reflectance_rgb(mat, c, polarization="s"), 0.0, None).astype(np.float32))
+    assert len(list(cache.glob("luminance-*.npy"))) == 2 and len(list(cache.glob("rgb-*.npy"))) == 4
+    colour.luminance_table.cache_clear()
+    colour.rgb_table.cache_clear()
+
+
+def test_the_table_key_holds_every_parameter_and_the_code():
+    blue = labcut.Labradorite.preset("blue")
+    base = colour._table_key(blue, "luminance", None)
+    for field, value in blue.to_dict().items():
+        if isinstance(value, float):
+            other = labcut.Labradorite.from_dict({**blue.to_dict(), field: value * (1 + 1e-12) + 1e-12})
+            assert colour._table_key(other, "luminance", None) != base, field
+    assert colour._table_key(blue, "luminance", "s") != base
+    assert colour._table_key(blue, "rgb", None) != base
+    assert "code " in base and "mitsuba " in base and "numpy " in base
