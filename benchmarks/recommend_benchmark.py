@@ -5,7 +5,7 @@
 Measures, on this machine:
 1. wall time of a standard-quality recommendation (NLopt) on the bundled 22k-triangle
    oval cabochon and on the biplane carving, cold (a fresh process with an empty
-   Dr.Jit kernel cache) and warm (a fresh process with the cache filled by the cold
+   Dr.Jit kernel cache and no material tables on disk) and warm (a fresh process with the caches filled by the cold
    run, and a second call in the same process), plus peak memory (max RSS);
 2. objective evaluations each optimiser needs to land within 1° of the grid optimum;
 3. accuracy against time: each quality level's answer next to the high-quality one;
@@ -19,11 +19,14 @@ import argparse
 import json
 import os
 import platform
+import shutil
 import subprocess
 import sys
 import tempfile
 import time
 from pathlib import Path
+
+from labcut.fileio import cache_path
 
 from speed_ratio import BEGIN as SPEED_RATIO_BEGIN  # its sections of the report are kept (this folder is on sys.path)
 
@@ -166,6 +169,7 @@ def main() -> None:
     timing = []
     for label, mesh in MESHES.items():
         with tempfile.TemporaryDirectory() as cache:
+            shutil.rmtree(cache_path("tables"), ignore_errors=True)  # cold: no material tables on disk either
             cold = timed_child(mesh, cache)
             warm = timed_child(mesh, cache)
         timing.append((label, cold, warm))
@@ -188,8 +192,8 @@ def main() -> None:
         "",
         "## Standard-quality recommendation (NLopt), wall time",
         "",
-        "Cold: a fresh process with an empty Dr.Jit kernel cache. Warm (new process): a fresh process whose "
-        "kernel cache the cold run filled. Warm (same process): the best of three further calls. Each call includes surface "
+        "Cold: a fresh process with an empty Dr.Jit kernel cache and no material tables on disk. Warm (new process): "
+        "a fresh process whose caches the cold run filled. Warm (same process): the best of three further calls. Each call includes surface "
         "sampling, the optimiser, the score map over the hemisphere, the tolerance, runners-up and metrics.",
         "",
         "| stone | (point, light, view) triples | cold | warm, new process | warm, same process | peak memory (max RSS) |",

@@ -114,8 +114,10 @@ def cli_seconds(mesh: Path) -> float:
 
 
 #: the libraries every CLI call imports before any of labcut's own code runs: the stone's mesh type
-#: (trimesh, with scipy and networkx), the renderer with its variant set, the CLI's typer and rich
-FLOOR = "import trimesh, mitsuba, typer, rich.table; mitsuba.set_variant('cuda_ad_rgb', 'llvm_ad_rgb')"
+#: (trimesh, with scipy and networkx), the renderer (importing labcut registers its BSDF plugin;
+#: Mitsuba brings Dr.Jit, which the flash estimators use), the CLI's typer and rich. No Mitsuba
+#: variant: a convex stone's recommendation never loads one (its tables come from the user cache)
+FLOOR = "import trimesh, mitsuba, typer, rich.table"
 
 
 def floor_seconds() -> float:
@@ -158,7 +160,7 @@ def main() -> None:
              f"{inproc['recommend'] / inproc['render']:.1f} | <= 1 render |",
              f"| the same as a CLI call (`labcut recommend-orientation meshes/oval-16x12-low.ply --json -`) | {cli:.2f} s | "
              f"{cli / inproc['render']:.1f} | <= 1 s |",
-             f"| a process that only imports the libraries every CLI call loads (trimesh, Mitsuba with its variant, "
+             f"| a process that only imports the libraries every CLI call loads (trimesh, Mitsuba, "
              f"typer, rich: `python -c \"{FLOOR}\"`) | {floor:.2f} s | {floor / inproc['render']:.1f} | |", "",
              f"Answer: tilt {inproc['tilt']:.1f}° ± {inproc['bar_deg']:.1f}°, score ± {inproc['bar_score']:.0%}.", ""]
     if args.big:

@@ -212,7 +212,7 @@ LUMINANCE_TABLE_SIZE = 1024
 
 
 @functools.lru_cache(maxsize=1)
-def _table_code() -> str:
+def table_code() -> str:
     """The versions and code the material tables are computed with (their disk cache's key):
     labcut's physics and this module, numpy, Mitsuba (the CIE curves)."""
     import mitsuba
@@ -228,7 +228,7 @@ def _table_code() -> str:
 def _table_key(material: Any, kind: str, polarization: str | None) -> str:
     """Everything a material table depends on: the code, the table's kind and size, every parameter."""
     params = json.dumps(material.to_dict(), sort_keys=True)
-    return f"{kind} size {LUMINANCE_TABLE_SIZE} polarization {polarization} {_table_code()} material {params}"
+    return f"{kind} size {LUMINANCE_TABLE_SIZE} polarization {polarization} {table_code()} material {params}"
 
 
 @functools.lru_cache(maxsize=16)

@@ -110,7 +110,8 @@ _CALIBRATIONS: dict[tuple[str, str], dict[str, Any]] = {}
 
 def calibration(name: str, key: str, measure: Any, *, check: Any = None, refresh: bool = False,
                 keep: int = 64) -> dict[str, Any]:
-    """A measurement of this machine, made once and kept: the value of ``key`` in this process,
+    """A measurement of this machine (or a slow value it computes the same every time), made once
+    and kept: the value of ``key`` in this process,
     else in the user cache file ``name`` (:func:`cache_path`; up to ``keep`` keys per file, the
     newest kept), else ``measure()`` (a JSON-able dict), stored under ``key``. ``key`` names what
     the value depends on (versions, CPU count, the layout): a changed key measures again. ``check``:

@@ -211,11 +211,35 @@ def polarisation_bias(material: Any, lights: Any, views: Any) -> float:
     key = (material, L.shape, L.tobytes(), wl.tobytes(), V.shape, V.tobytes(), wv.tobytes())
     hit = _POLARISATION_CACHE.get(key)
     if hit is None:
-        hit = _polarisation_bias(material, L, wl, V, wv)
+        hit = _stored_polarisation_bias(material, L, wl, V, wv)
         if len(_POLARISATION_CACHE) >= _POLARISATION_CACHE_SIZE:
             _POLARISATION_CACHE.pop(next(iter(_POLARISATION_CACHE)))
         _POLARISATION_CACHE[key] = hit
     return hit
+
+
+def _stored_polarisation_bias(material: Any, L: np.ndarray, wl: np.ndarray, V: np.ndarray, wv: np.ndarray) -> float:
+    """:func:`_polarisation_bias`, kept in the user cache file ``planner-polarisation.json`` for
+    later processes (a CLI call plans a preset scenario's poses every time): keyed by every
+    material parameter, the directions and weights (a hash of their bytes), labcut's, numpy's
+    and Mitsuba's versions and a hash of the code that computes it (this module, the colour and
+    physics modules); the latest :data:`_POLARISATION_CACHE_SIZE` kept."""
+    import hashlib
+    import json
+    from pathlib import Path
+
+    from .colour import table_code
+    from .fileio import calibration, code_hash
+
+    arrays = hashlib.blake2b(digest_size=16)
+    for a in (L, wl, V, wv):
+        arrays.update(str(a.shape).encode())
+        arrays.update(np.ascontiguousarray(a, dtype=np.float64).tobytes())
+    key = (f"{table_code()} planner {code_hash(Path(__file__))} directions {arrays.hexdigest()} "
+           f"material {json.dumps(material.to_dict(), sort_keys=True)}")
+    value = calibration("planner-polarisation.json", key, lambda: {"bias": _polarisation_bias(material, L, wl, V, wv)},
+                        check=lambda v: float(v["bias"]), keep=_POLARISATION_CACHE_SIZE)
+    return float(value["bias"])
 
 
 def _polarisation_bias(material: Any, L: np.ndarray, wl: np.ndarray, V: np.ndarray, wv: np.ndarray) -> float:

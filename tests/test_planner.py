@@ -279,21 +279,31 @@ def test_zoning_messages_say_where_zones_apply(oval):
     assert "renders only" not in str(info.value)
 
 
-def test_polarisation_bias_is_kept_per_material_and_direction_set(monkeypatch):
-    """A second scenario call of the same material and directions reuses the bias; another
-    material, other directions or other weights compute their own (a stale value would be a
-    silent wrong plan)."""
+def test_polarisation_bias_is_kept_per_material_and_direction_set(monkeypatch, tmp_path):
+    """A second scenario call of the same material and directions reuses the bias, in this process
+    and in a later one (the user cache file); another material, other directions or other weights
+    compute their own (a stale value would be a silent wrong plan)."""
+    import labcut.fileio as fileio
     import labcut.planner as planner
 
+    monkeypatch.setattr(fileio, "cache_path", lambda name: tmp_path / name)
+    monkeypatch.setattr(fileio, "_CALIBRATIONS", {})
+    monkeypatch.setattr(planner, "_POLARISATION_CACHE", {})
+    calls = []
+    real = planner._polarisation_bias
+    monkeypatch.setattr(planner, "_polarisation_bias", lambda *a: calls.append(a) or real(*a))
     blue, red = labcut.Labradorite.preset("blue"), labcut.Labradorite.from_peak_wavelength(620.0)
     L = Lights([[0.3, 0.0, 0.95], [0.0, 0.2, 0.98]])
     V = Views([[-0.2, 0.0, 0.98]])
     first = polarisation_bias(blue, L, V)
-    calls = []
-    real = planner._polarisation_bias
-    monkeypatch.setattr(planner, "_polarisation_bias", lambda *a: calls.append(a) or real(*a))
-    assert polarisation_bias(blue, L, V) == first and not calls
-    assert polarisation_bias(red, L, V) != first and len(calls) == 1
+    assert len(calls) == 1 and (tmp_path / "planner-polarisation.json").exists()
+    assert polarisation_bias(blue, L, V) == first and len(calls) == 1
+    # a later process: nothing in memory, the value read back from the cache file, bit for bit
+    monkeypatch.setattr(fileio, "_CALIBRATIONS", {})
+    monkeypatch.setattr(planner, "_POLARISATION_CACHE", {})
+    assert polarisation_bias(blue, L, V) == first and len(calls) == 1
+    assert polarisation_bias(red, L, V) != first and len(calls) == 2
     L2 = Lights([[0.3, 0.0, 0.95], [0.0, 0.2, 0.98]], weights=[0.9, 0.1])
-    assert polarisation_bias(blue, L2, V) != first and len(calls) == 2
-    assert polarisation_bias(blue, Lights([[0.5, 0.0, 0.87]]), V) != first and len(calls) == 3
+    assert polarisation_bias(blue, L2, V) != first and len(calls) == 3
+    assert polarisation_bias(blue, Lights([[0.5, 0.0, 0.87]]), V) != first and len(calls) == 4
+    assert polarisation_bias(blue, L, Views([[-0.3, 0.1, 0.95]])) != first and len(calls) == 5
