@@ -45,6 +45,7 @@ blocked or not, which misses the light a carving's parts let through from the re
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -191,10 +192,8 @@ def _fresnel_sp(cos_i: np.ndarray, eta: float) -> tuple[np.ndarray, np.ndarray]:
     return 1.0 - r_s * r_s, 1.0 - r_p * r_p
 
 
-#: polarisation biases already computed in this process, by material and light/view sets
-#: (a catalogue or a comparison asks the same scenario of one material stone after stone)
-_POLARISATION_CACHE: dict[tuple, float] = {}
-_POLARISATION_CACHE_SIZE = 256
+#: polarisation biases kept in the user cache file (the latest this many material and direction sets)
+POLARISATION_KEEP = 256
 
 
 def polarisation_bias(material: Any, lights: Any, views: Any) -> float:
@@ -203,43 +202,41 @@ def polarisation_bias(material: Any, lights: Any, views: Any) -> float:
     For every pair (mesh frame; the stone's face +Z, the lamella normal at the pair's internal
     half vector, where the flash is), the exact unpolarised product ``(T_s R_s T_s + T_p R_p
     T_p)/2`` against ``T R T`` of the s/p averages; weighted by light x view weight. Pairs that
-    do not both lie above the face carry no schiller and are skipped. Kept per material and
-    direction sets for the process (the spectra of the s and p stacks are the cost)."""
+    do not both lie above the face carry no schiller and are skipped.
+
+    The spectra of the s and p stacks are the cost, and a CLI call plans a preset scenario's poses
+    every time: the value is kept, in this process and in the user cache file
+    ``planner-polarisation.json`` (:func:`labcut.fileio.calibration`), keyed by every material
+    parameter, a hash of the directions and weights, labcut's, numpy's and Mitsuba's versions and
+    a hash of the code that computes it (this module, the colour and physics modules)."""
+    import hashlib
+    import json
+
+    from .colour import table_code
+    from .fileio import calibration
+
     L = np.asarray(lights.directions, dtype=np.float64)
     V = np.asarray(views.directions, dtype=np.float64)
     wl, wv = np.asarray(lights.weights, dtype=np.float64), np.asarray(views.weights, dtype=np.float64)
-    key = (material, L.shape, L.tobytes(), wl.tobytes(), V.shape, V.tobytes(), wv.tobytes())
-    hit = _POLARISATION_CACHE.get(key)
-    if hit is None:
-        hit = _stored_polarisation_bias(material, L, wl, V, wv)
-        if len(_POLARISATION_CACHE) >= _POLARISATION_CACHE_SIZE:
-            _POLARISATION_CACHE.pop(next(iter(_POLARISATION_CACHE)))
-        _POLARISATION_CACHE[key] = hit
-    return hit
-
-
-def _stored_polarisation_bias(material: Any, L: np.ndarray, wl: np.ndarray, V: np.ndarray, wv: np.ndarray) -> float:
-    """:func:`_polarisation_bias`, kept in the user cache file ``planner-polarisation.json`` for
-    later processes (a CLI call plans a preset scenario's poses every time): keyed by every
-    material parameter, the directions and weights (a hash of their bytes), labcut's, numpy's
-    and Mitsuba's versions and a hash of the code that computes it (this module, the colour and
-    physics modules); the latest :data:`_POLARISATION_CACHE_SIZE` kept."""
-    import hashlib
-    import json
-    from pathlib import Path
-
-    from .colour import table_code
-    from .fileio import calibration, code_hash
-
     arrays = hashlib.blake2b(digest_size=16)
     for a in (L, wl, V, wv):
         arrays.update(str(a.shape).encode())
-        arrays.update(np.ascontiguousarray(a, dtype=np.float64).tobytes())
-    key = (f"{table_code()} planner {code_hash(Path(__file__))} directions {arrays.hexdigest()} "
+        arrays.update(np.ascontiguousarray(a).tobytes())
+    key = (f"{table_code()} planner {_planner_code()} directions {arrays.hexdigest()} "
            f"material {json.dumps(material.to_dict(), sort_keys=True)}")
     value = calibration("planner-polarisation.json", key, lambda: {"bias": _polarisation_bias(material, L, wl, V, wv)},
-                        check=lambda v: float(v["bias"]), keep=_POLARISATION_CACHE_SIZE)
+                        check=lambda v: float(v["bias"]), keep=POLARISATION_KEEP)
     return float(value["bias"])
+
+
+@functools.lru_cache(maxsize=1)
+def _planner_code() -> str:
+    """A hash of this module's code (part of the polarisation biases' cache key)."""
+    from pathlib import Path
+
+    from .fileio import code_hash
+
+    return code_hash(Path(__file__))
 
 
 def _polarisation_bias(material: Any, L: np.ndarray, wl: np.ndarray, V: np.ndarray, wv: np.ndarray) -> float:

@@ -28,8 +28,8 @@ from __future__ import annotations
 
 import functools
 import math
-from dataclasses import dataclass, field
 from collections.abc import Iterator
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -202,7 +202,6 @@ class FlashProblem:
             del hx, hy, hz, term, wide
         return out
 
-
     def energy_near(self, normals: np.ndarray, reach: float | None = None) -> np.ndarray:
         """The energy objective (DESIGN.md §4) at each unit normal (rows, mesh frame): (K,) float64,
         ``Σ_t alpha_t q(|h_t·m|)`` over the triples within ``reach`` (radians) of ``normals[0]``
@@ -226,6 +225,7 @@ class FlashProblem:
                 np.exp(d, out=d)
                 out += np.einsum("kt,t->k", d, a[b0:b0 + ENERGY_BLOCK], dtype=np.float64)
         return float(self.q_norm) * out
+
 
 def _smooth_normals(split: Any, face_idx: np.ndarray, bary: np.ndarray) -> np.ndarray:
     """Smooth shading normals at sample points of the smooth-shaded mesh (as the renderer shades)."""
