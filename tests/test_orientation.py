@@ -106,39 +106,6 @@ def test_every_optimizer_lands_within_1_degree_of_the_grid(problems, name):
         assert res.score >= 0.99 * grid.score
 
 
-@pytest.mark.parametrize("name", ["oval", "biplane", "oval-ceiling"])
-def test_optimizers_seeded_from_the_recommendations_map_land_on_the_grid_optimum(problems, name):
-    """recommend_orientation hands its hemisphere map to the optimiser (run_optimizer(seed_map=)):
-    the local searches start from the map's best cells instead of a coarse map of their own, and
-    land where the grid's optimum is, as unseeded."""
-    from labcut.orientation.optimize import hemisphere_grid, score_map
-
-    scorer = Scorer(problems[name])
-    constraint = Constraint()
-    grid = run_optimizer("grid", scorer, constraint, "draft")
-    normals = hemisphere_grid(3.0, constraint)
-    seed_map = (normals, score_map(scorer, normals))
-    for method in ("nlopt", "gradient"):
-        res = run_optimizer(method, scorer, constraint, "standard", seed_map=seed_map)
-        assert angle_deg(res.normal, grid.normal) < 1.0, (method, res.normal, grid.normal)
-        assert res.score >= 0.99 * grid.score
-
-
-def test_best_cells_are_the_best_distinct_positive_cells():
-    from labcut.errors import ParameterError
-    from labcut.orientation.optimize import best_cells
-
-    tilt = np.radians([0.0, 2.0, 11.0, 30.0, 31.0, 60.0])
-    normals = np.stack([np.sin(tilt), np.zeros_like(tilt), np.cos(tilt)], axis=1)
-    values = np.array([0.5, 0.9, 0.7, 0.8, 0.6, 0.0])
-    got = best_cells(normals, values, 5, separation_deg=8.0)
-    # 0.9 (2°), then 0.8 (30°), 0.7 (11°); 0.6 (31°) is within 8° of 30°, 0.5 (0°) within 8° of 2°, 0 is no cell
-    assert [float(np.degrees(np.arctan2(n[0], n[2]))) for n in got] == pytest.approx([2.0, 30.0, 11.0])
-    assert len(best_cells(normals, values, 2)) == 2
-    with pytest.raises(ParameterError, match="map"):
-        best_cells(normals, values[:3], 3)
-
-
 def test_gradient_vanishes_at_the_optimum_and_matches_finite_differences(problems):
     scorer = Scorer(problems["oval"])
     best = run_optimizer("nlopt", scorer, Constraint(), "standard")

@@ -162,14 +162,10 @@ def _local_lbfgs(scorer: Scorer, u0: float, v0: float, constraint: Constraint) -
     return u, v, scorer.score_uv(u, v)
 
 
-def optimize_nlopt(scorer: Scorer, constraint: Constraint, global_evals: int | None = None,
-                   seed_map: tuple[np.ndarray, np.ndarray] | None = None) -> OptimumResult:
+def optimize_nlopt(scorer: Scorer, constraint: Constraint, global_evals: int | None = None) -> OptimumResult:
     """NLopt: DIRECT-L (global, derivative-free) over the disc's bounding box, then an L-BFGS
     polish (``LD_LBFGS``) with Dr.Jit gradients. A fixed axis uses the same pair in 1D.
-    ``global_evals``: DIRECT-L's evaluations (default: the standard quality's ``nlopt_evals``).
-    ``seed_map``: ``(normals, scores)`` of a map of this objective already made (the
-    recommendation's hemisphere map): L-BFGS also starts from its best distinct cells (else from
-    those of a coarse 6° energy map made here)."""
+    ``global_evals``: DIRECT-L's evaluations (default: the standard quality's ``nlopt_evals``)."""
     import nlopt
 
     if global_evals is None:
@@ -215,10 +211,9 @@ def optimize_nlopt(scorer: Scorer, constraint: Constraint, global_evals: int | N
     except Exception:  # nlopt's own stop conditions: keep the best point seen
         pass
     # DIRECT's few hundred samples can miss a peak narrower than its cells (a lobe of a few
-    # degrees): L-BFGS also starts from the best distinct cells of a map (the caller's, or a coarse energy map, one
+    # degrees): L-BFGS also starts from the best distinct cells of a coarse energy map (one
     # batched kernel), and the best polished point wins
-    seeds = best_cells(*seed_map, 3) if seed_map is not None else _map_seeds(scorer, constraint, 6.0, 3)
-    starts = [best[0]] + [normal_to_stereo(n) for n in seeds]
+    starts = [best[0]] + [normal_to_stereo(n) for n in _map_seeds(scorer, constraint, 6.0, 3)]
     result = (best[0], best[1])
     for u0, v0 in starts:
         u, v, value = _local_lbfgs(scorer, u0, v0, constraint)
@@ -231,38 +226,26 @@ def optimize_nlopt(scorer: Scorer, constraint: Constraint, global_evals: int | N
 def _map_seeds(scorer: Scorer, constraint: Constraint, spacing_deg: float, count: int, separation_deg: float = 8.0) -> list[np.ndarray]:
     """The best ``count`` cells of an energy map at ``spacing_deg``, at least ``separation_deg`` apart."""
     coarse = hemisphere_grid(spacing_deg, constraint)
-    return best_cells(coarse, scorer.energy_map(coarse), count, separation_deg)
-
-
-def best_cells(normals: np.ndarray, values: np.ndarray, count: int, separation_deg: float = 8.0) -> list[np.ndarray]:
-    """The ``count`` best cells of a map (unit ``normals`` with ``values``) with a value above 0,
-    best first, each at least ``separation_deg`` (axial) from the ones before."""
-    normals = np.asarray(normals, dtype=np.float64)
-    values = np.asarray(values, dtype=np.float64)
-    if normals.ndim != 2 or normals.shape[1:] != (3,) or values.shape != (len(normals),):
-        raise ParameterError(f"a map is (N, 3) normals with N values, got {normals.shape} and {values.shape}")
+    values = scorer.energy_map(coarse)
     seeds: list[np.ndarray] = []
     for i in np.argsort(values)[::-1]:
         if len(seeds) >= count or values[i] <= 0:
             break
-        if all(abs(float(normals[i] @ s)) < math.cos(math.radians(separation_deg)) for s in seeds):
-            seeds.append(normals[i])
+        if all(abs(float(coarse[i] @ s)) < math.cos(math.radians(separation_deg)) for s in seeds):
+            seeds.append(coarse[i])
     return seeds
 
 
-def optimize_gradient(scorer: Scorer, constraint: Constraint, starts: int = 12, iterations: int = 60, seed: int = 0,
-                      seed_map: tuple[np.ndarray, np.ndarray] | None = None) -> OptimumResult:
+def optimize_gradient(scorer: Scorer, constraint: Constraint, starts: int = 12, iterations: int = 60, seed: int = 0) -> OptimumResult:
     """Dr.Jit gradient ascent (Adam on (u, v)) from ``starts`` spread-out starting normals plus
-    the best distinct cells of a coarse 6° energy map (or of ``seed_map``, ``(normals, scores)``
-    of a map already made, as :func:`optimize_nlopt`), all starts stepped together in one kernel."""
+    the best distinct cells of a coarse 6° energy map, all starts stepped together in one kernel."""
     start = scorer.evaluations
     if constraint.tilt_axis is not None:
         return _axis_gradient(scorer, constraint, starts, iterations)
     inits = hemisphere_grid(max(2.0, math.degrees(math.sqrt(2 * math.pi * (1 - math.cos(math.radians(constraint.max_tilt_deg))) / starts))), constraint)
     inits = inits[np.linspace(0, len(inits) - 1, min(starts, len(inits))).astype(int)]
     # plus the best distinct cells of a coarse (6°) energy map: one batched evaluation
-    n_seeds = max(4, starts // 2)
-    seeds = best_cells(*seed_map, n_seeds) if seed_map is not None else _map_seeds(scorer, constraint, 6.0, n_seeds)
+    seeds = _map_seeds(scorer, constraint, 6.0, max(4, starts // 2))
     if seeds:
         inits = np.vstack([np.array(seeds), inits])
     best_uv, best_value = (0.0, 0.0), -np.inf
@@ -324,19 +307,16 @@ def _axis_gradient(scorer: Scorer, constraint: Constraint, starts: int, iteratio
     return OptimumResult(n, best[1], scorer.evaluations - start, "gradient")
 
 
-def run_optimizer(name: str, scorer: Scorer, constraint: Constraint, quality: Quality | str = "standard",
-                  seed_map: tuple[np.ndarray, np.ndarray] | None = None) -> OptimumResult:
+def run_optimizer(name: str, scorer: Scorer, constraint: Constraint, quality: Quality | str = "standard") -> OptimumResult:
     """Run optimiser ``name`` with its budget from ``quality`` (:class:`~labcut.scene.quality.Quality`:
-    ``grid_coarse_deg``, ``nlopt_evals``, ``gradient_starts``). ``seed_map``: ``(normals, scores)``
-    of a map of the objective already made, whose best cells the local searches of ``nlopt``
-    and ``gradient`` start from (instead of a coarse energy map of their own); ``grid`` maps anyway."""
+    ``grid_coarse_deg``, ``nlopt_evals``, ``gradient_starts``)."""
     q = Quality.coerce(quality)
     if name == "grid":
         return optimize_grid(scorer, constraint, coarse_deg=q.grid_coarse_deg)
     if name == "nlopt":
-        return optimize_nlopt(scorer, constraint, global_evals=q.nlopt_evals, seed_map=seed_map)
+        return optimize_nlopt(scorer, constraint, global_evals=q.nlopt_evals)
     if name == "gradient":
-        return optimize_gradient(scorer, constraint, starts=q.gradient_starts, seed_map=seed_map)
+        return optimize_gradient(scorer, constraint, starts=q.gradient_starts)
     raise ParameterError(f"optimizer must be one of {', '.join(OPTIMIZERS)}, got {name!r}")
 
 

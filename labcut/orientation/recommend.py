@@ -467,13 +467,12 @@ def recommend_orientation(
     scorer, plan = _setup(mesh, ask, "recommend", plan)
     renders = plan.estimator == "render"
     stage = (lambda fraction: 0.3 * fraction) if renders else (lambda fraction: fraction)
-    report("mapping the hemisphere", stage(0.3))
+    report("optimising", stage(0.3))
+    best = run_optimizer(optimizer, scorer, constraint, quality)
+    normal = _upper(best.normal)
+    report("mapping the hemisphere", stage(0.6))
     map_normals = hemisphere_grid(quality.map_spacing_deg, constraint)
     map_scores = score_map(scorer, map_normals)
-    report("optimising", stage(0.6))
-    # the local searches start from the map's best cells too (the map is made anyway)
-    best = run_optimizer(optimizer, scorer, constraint, quality, seed_map=(map_normals, map_scores))
-    normal = _upper(best.normal)
     score = scorer.score(normal)
     if map_scores.max() > score * (1.0 + 1e-4):  # the map found better: trust the better point, polished
         normal, score = polish_grid(scorer, map_normals[int(np.argmax(map_scores))], constraint, quality.map_spacing_deg, 0.1)

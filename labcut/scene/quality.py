@@ -46,11 +46,10 @@ class Quality:
 
     Optimisation (:mod:`labcut.orientation`):
 
-    * ``map_spacing_deg``: spacing of the hemisphere score map (global check, runners-up, the
-      optimiser's local starts);
+    * ``map_spacing_deg``: spacing of the hemisphere score map (global check, runners-up);
     * ``grid_coarse_deg``: coarse spacing of the exhaustive ``grid`` optimiser;
     * ``nlopt_evals``: DIRECT-L evaluations of the ``nlopt`` optimiser (few: its L-BFGS polish also
-      starts from the hemisphere map's best cells, and the accuracy study finds 60 as good as 400);
+      starts from a coarse energy map's best cells, and the accuracy study finds 60 as good as 400);
     * ``gradient_starts``: starts of the ``gradient`` optimiser.
 
     Comparison reports (:mod:`labcut.reports`):
