@@ -36,22 +36,28 @@ STAGES = [
 ]
 
 
-def timed(stages: dict[str, float]) -> None:
-    """Wrap each stage's function (where compare.py looks it up) to add its wall time to ``stages``."""
+def timed(stages: dict[str, float], spec: list[tuple[str, str, str]] | None = None) -> None:
+    """Wrap each stage's function (where its caller looks it up: ``(module, name, label)``, a name
+    ``Class.method`` for a method; default :data:`STAGES`) to add its wall time to ``stages[label]``.
+    ``benchmarks/recommend_stages.py`` times a recommendation's stages with it too."""
     import importlib
 
-    for module, name, label in STAGES:
-        mod = importlib.import_module(module)
-        original = getattr(mod, name)
+    for module, name, label in STAGES if spec is None else spec:
+        owner: object = importlib.import_module(module)
+        attr = name
+        if "." in name:  # a method
+            cls, attr = name.split(".")
+            owner = getattr(owner, cls)
+        original = getattr(owner, attr)
 
         def wrapper(*args, __f=original, __label=label, **kwargs):
             t0 = time.perf_counter()
             try:
                 return __f(*args, **kwargs)
             finally:
-                stages[__label] += time.perf_counter() - t0
+                stages[__label] = stages.get(__label, 0.0) + time.perf_counter() - t0
 
-        setattr(mod, name, wrapper)
+        setattr(owner, attr, wrapper)
 
 
 def main() -> None:

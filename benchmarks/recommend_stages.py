@@ -41,34 +41,18 @@ STAGES = [
 ]
 
 
-def _wrap(times: dict[str, float], module: object, attr: str, label: str) -> None:
-    owner, name = (module, attr)
-    if "." in attr:  # a method: Class.method
-        cls, name = attr.split(".")
-        owner = getattr(module, cls)
-    f = getattr(owner, name)
-
-    def timed(*args, **kwargs):
-        t = time.perf_counter()
-        try:
-            return f(*args, **kwargs)
-        finally:
-            times[label] = times.get(label, 0.0) + time.perf_counter() - t
-
-    setattr(owner, name, timed)
+def _label(module: str, name: str) -> str:
+    """``recommend.build_problem`` and ``problem.build_problem`` are different stages."""
+    return f"{module.rsplit('.', 1)[-1]}.{name}"
 
 
 def measure(calls: int) -> tuple[list[str], dict[str, list[float]]]:
-    import importlib
-
     import labcut
+    from compare_benchmark import timed  # the same stage timers (this folder is on sys.path)
 
     per_call: dict[str, float] = {}
-    labels = []
-    for mod, attr, _ in STAGES:
-        label = f"{mod.rsplit('.', 1)[-1]}.{attr}"  # recommend.build_problem and problem.build_problem differ
-        labels.append(label)
-        _wrap(per_call, importlib.import_module(mod), attr, label)
+    labels = [_label(mod, name) for mod, name, _ in STAGES]
+    timed(per_call, [(mod, name, _label(mod, name)) for mod, name, _ in STAGES])
     mesh = labcut.load_mesh(ROOT / "meshes" / "oval-16x12-low.ply")
     lab = labcut.Labradorite.preset("blue")
     for _ in range(3):
@@ -86,7 +70,7 @@ def measure(calls: int) -> tuple[list[str], dict[str, list[float]]]:
 
 def table(labels: list[str], out: dict[str, list[float]], calls: int) -> list[str]:
     total = float(np.median(out["total"]))
-    what = {f"{m.rsplit('.', 1)[-1]}.{a}": w for m, a, w in STAGES}
+    what = {_label(m, a): w for m, a, w in STAGES}
     rows = [f"Made by `.venv/bin/python benchmarks/recommend_stages.py` on {platform.machine()}, {calls} warm calls of the "
             "standard recommendation of `meshes/oval-16x12-low.ply` under `bench` in one process (stages nest: "
             "the set-up holds the planner, the error bars their problems and sums).", "",
