@@ -26,9 +26,9 @@ BEGIN, END = "<!-- recommend-stages: begin -->", "<!-- recommend-stages: end -->
 STAGES = [
     ("labcut.orientation.recommend", "_setup", "plan the effects and build the answer's flash problem"),
     ("labcut.planner", "plan_effects", "the effect planner (inside the set-up)"),
-    ("labcut.orientation.scoring", "Scorer._bin_triples", "bin the triples by mirror orientation (the energy map's input)"),
-    ("labcut.orientation.recommend", "score_map", "the hemisphere map (includes the binning on first use)"),
-    ("labcut.orientation.recommend", "run_optimizer", "NLopt: DIRECT-L and the L-BFGS polishes"),
+    ("labcut.orientation.scoring", "Scorer._bin_triples", "bin the triples by mirror orientation (the energy map's input; inside the optimiser, its first user)"),
+    ("labcut.orientation.recommend", "run_optimizer", "NLopt: DIRECT-L, a coarse 6° energy map for seeds, the L-BFGS polishes"),
+    ("labcut.orientation.recommend", "score_map", "the hemisphere map"),
     ("labcut.orientation.recommend", "tolerance_deg", "every tolerance search: the answer's, the base's, the two axes'"),
     ("labcut.orientation.recommend", "axis_tolerances", "front-to-back and side-to-side tolerances (inside the line above)"),
     ("labcut.orientation.recommend", "_runners_up", "distinct runner-up optima"),
