@@ -106,6 +106,8 @@ def write_cache(path: str | os.PathLike[str], data: dict[str, Any]) -> None:
 
 #: calibrations measured or read in this process: ``(file name, key) -> value``
 _CALIBRATIONS: dict[tuple[str, str], dict[str, Any]] = {}
+#: each calibration file (by path) as this process read it: read once, read again only to merge before a write
+_STORES: dict[str, dict[str, Any]] = {}
 
 
 def calibration(name: str, key: str, measure: Any, *, check: Any = None, refresh: bool = False,
@@ -121,7 +123,9 @@ def calibration(name: str, key: str, measure: Any, *, check: Any = None, refresh
     if memo in _CALIBRATIONS and not refresh:
         return _CALIBRATIONS[memo]
     path = cache_path(name)
-    stored = read_cache(path) or {}
+    stored = _STORES.get(str(path))
+    if stored is None:  # a file of many keys (a plan asks one per pose) is read once per process
+        stored = _STORES[str(path)] = read_cache(path) or {}
     value = None if refresh else stored.get(key)
     if isinstance(value, dict):
         try:
@@ -133,9 +137,11 @@ def calibration(name: str, key: str, measure: Any, *, check: Any = None, refresh
         value = None
     if value is None:
         value = dict(measure())
+        stored = read_cache(path) or {}  # what other processes wrote since, kept
         stored.pop(key, None)
         stored[key] = value
-        write_cache(path, dict(list(stored.items())[-keep:]))
+        stored = _STORES[str(path)] = dict(list(stored.items())[-keep:])
+        write_cache(path, stored)
     _CALIBRATIONS[memo] = value
     return value
 

@@ -288,6 +288,7 @@ def test_polarisation_bias_is_kept_per_material_and_direction_set(monkeypatch, t
 
     monkeypatch.setattr(fileio, "cache_path", lambda name: tmp_path / name)
     monkeypatch.setattr(fileio, "_CALIBRATIONS", {})
+    monkeypatch.setattr(fileio, "_STORES", {})
     calls = []
     real = planner._polarisation_bias
     monkeypatch.setattr(planner, "_polarisation_bias", lambda *a: calls.append(a) or real(*a))
@@ -299,6 +300,7 @@ def test_polarisation_bias_is_kept_per_material_and_direction_set(monkeypatch, t
     assert polarisation_bias(blue, L, V) == first and len(calls) == 1
     # a later process: nothing in memory, the value read back from the cache file, bit for bit
     monkeypatch.setattr(fileio, "_CALIBRATIONS", {})
+    monkeypatch.setattr(fileio, "_STORES", {})
     assert polarisation_bias(blue, L, V) == first and len(calls) == 1
     assert polarisation_bias(red, L, V) != first and len(calls) == 2
     L2 = Lights([[0.3, 0.0, 0.95], [0.0, 0.2, 0.98]], weights=[0.9, 0.1])

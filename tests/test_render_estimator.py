@@ -231,10 +231,12 @@ def test_prediction_follows_the_calibration(monkeypatch, tmp_path):
 
     monkeypatch.setattr(fio, "cache_path", lambda name: tmp_path / name)
     monkeypatch.setattr(fio, "_CALIBRATIONS", {})
+    monkeypatch.setattr(fio, "_STORES", {})
     monkeypatch.setattr(re_, "measure_render_timing", lambda: timing)
     assert re_.render_timing() == timing and (tmp_path / re_._TIMING_FILE).exists()
     monkeypatch.setattr(re_, "measure_render_timing", lambda: pytest.fail("measured again instead of read from the cache"))
     monkeypatch.setattr(fio, "_CALIBRATIONS", {})  # a new process: read back from the file
+    monkeypatch.setattr(fio, "_STORES", {})
     assert re_.render_timing() == timing
     p = predict_render_seconds(7, 48, 4, True, iterations=10)
     samples = 48 * 48 * 4

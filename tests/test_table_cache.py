@@ -109,3 +109,23 @@ def test_the_table_key_holds_every_parameter_and_the_code():
     assert colour._table_key(blue, "luminance", "s") != base
     assert colour._table_key(blue, "rgb", None) != base
     assert "code " in base and "mitsuba " in base and "numpy " in base
+
+
+def test_a_calibration_file_is_read_once_per_process_and_merged_on_write(tmp_path, monkeypatch):
+    """Many keys of one file (a plan asks one polarisation bias per pose) cost one read, not one
+    each; a value measured here is written next to what another process wrote meanwhile."""
+    monkeypatch.setattr(fileio, "cache_path", lambda name: tmp_path / name)
+    monkeypatch.setattr(fileio, "_CALIBRATIONS", {})
+    monkeypatch.setattr(fileio, "_STORES", {})
+    fileio.write_cache(tmp_path / "c.json", {f"k{i}": {"v": i} for i in range(5)})
+    reads = []
+    real = fileio.read_cache
+    monkeypatch.setattr(fileio, "read_cache", lambda p: reads.append(p) or real(p))
+    for i in range(5):
+        assert fileio.calibration("c.json", f"k{i}", lambda: pytest.fail("stored, not measured")) == {"v": i}
+    assert len(reads) == 1
+    # another process adds a key; this one measures a new key: both are in the file afterwards
+    fileio.write_cache(tmp_path / "c.json", {**real(tmp_path / "c.json"), "other": {"v": -1}})
+    assert fileio.calibration("c.json", "new", lambda: {"v": 9}) == {"v": 9}
+    on_disk = real(tmp_path / "c.json")
+    assert on_disk["other"] == {"v": -1} and on_disk["new"] == {"v": 9} and on_disk["k0"] == {"v": 0}
