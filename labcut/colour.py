@@ -225,10 +225,16 @@ def table_code() -> str:
             f"code {code_hash(here / 'colour.py', here / 'physics')}")
 
 
+def material_key(material: Any) -> str:
+    """The part of a disk-cache key that a value computed from ``material``'s spectra depends on:
+    :func:`table_code` and every material parameter (full precision). The material tables and the
+    planner's polarisation biases are keyed by it."""
+    return f"{table_code()} material {json.dumps(material.to_dict(), sort_keys=True)}"
+
+
 def _table_key(material: Any, kind: str, polarization: str | None) -> str:
-    """Everything a material table depends on: the code, the table's kind and size, every parameter."""
-    params = json.dumps(material.to_dict(), sort_keys=True)
-    return f"{kind} size {LUMINANCE_TABLE_SIZE} polarization {polarization} {table_code()} material {params}"
+    """Everything a material table depends on: the table's kind, size and polarisation, :func:`material_key`."""
+    return f"{kind} size {LUMINANCE_TABLE_SIZE} polarization {polarization} {material_key(material)}"
 
 
 @functools.lru_cache(maxsize=16)

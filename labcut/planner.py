@@ -210,9 +210,8 @@ def polarisation_bias(material: Any, lights: Any, views: Any) -> float:
     parameter, a hash of the directions and weights, labcut's, numpy's and Mitsuba's versions and
     a hash of the code that computes it (this module, the colour and physics modules)."""
     import hashlib
-    import json
 
-    from .colour import table_code
+    from .colour import material_key
     from .fileio import calibration
 
     L = np.asarray(lights.directions, dtype=np.float64)
@@ -222,8 +221,7 @@ def polarisation_bias(material: Any, lights: Any, views: Any) -> float:
     for a in (L, wl, V, wv):
         arrays.update(str(a.shape).encode())
         arrays.update(np.ascontiguousarray(a).tobytes())
-    key = (f"{table_code()} planner {_planner_code()} directions {arrays.hexdigest()} "
-           f"material {json.dumps(material.to_dict(), sort_keys=True)}")
+    key = f"planner {_planner_code()} directions {arrays.hexdigest()} {material_key(material)}"
     value = calibration("planner-polarisation.json", key, lambda: {"bias": _polarisation_bias(material, L, wl, V, wv)},
                         check=lambda v: float(v["bias"]), keep=POLARISATION_KEEP)
     return float(value["bias"])

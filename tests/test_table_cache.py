@@ -103,9 +103,11 @@ def test_the_table_key_holds_every_parameter_and_the_code():
     blue = labcut.Labradorite.preset("blue")
     base = colour._table_key(blue, "luminance", None)
     for field, value in blue.to_dict().items():
-        if isinstance(value, float):
-            other = labcut.Labradorite.from_dict({**blue.to_dict(), field: value * (1 + 1e-12) + 1e-12})
-            assert colour._table_key(other, "luminance", None) != base, field
+        if isinstance(value, bool) or not isinstance(value, int | float):
+            continue  # the name: no parameter of the physics
+        changed = value + 1 if isinstance(value, int) else value * (1 + 1e-12) + 1e-12
+        other = labcut.Labradorite.from_dict({**blue.to_dict(), field: changed})
+        assert colour._table_key(other, "luminance", None) != base, field
     assert colour._table_key(blue, "luminance", "s") != base
     assert colour._table_key(blue, "rgb", None) != base
     assert "code " in base and "mitsuba " in base and "numpy " in base
