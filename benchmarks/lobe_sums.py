@@ -69,6 +69,12 @@ def table() -> list[str]:
         ref = broadcast_form(m, ht, a, KAPPA)
         diff = float(np.max(np.abs(_lobe_sums(m, ht, a, KAPPA) - ref) / np.maximum(ref, 1e-300)))
         rows.append(f"| {k} x {n} ({what}) | {new:.2f} | {old:.2f} | {old / new:.1f}x | {diff:.1e} |")
+        if k == 16:  # the same union gathered by column fancy indexing: rows with a stride of 3
+            strided = np.ascontiguousarray(h).T[:, np.arange(n)]
+            assert not strided.flags.c_contiguous
+            slow = per_term_ns(_lobe_sums, m, strided, a)
+            rows.append(f"| {k} x {n}, the union strided (`ht[:, idx]` instead of `ht.take(idx, axis=1)`) | {slow:.2f} | | "
+                        f"{slow / new:.1f}x slower than contiguous | |")
     return rows
 
 

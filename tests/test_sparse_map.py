@@ -150,7 +150,7 @@ def test_binned_triples_match_the_unique_reference(scorer, chunk, monkeypatch):
 
 def test_tile_unions_are_contiguous_and_the_path_is_checked(scorer):
     """The union of tiles is a C-contiguous (3, n) array (a strided one made every product over it
-    5x slower: benchmarks/lobe_sums.py's einsum pass wants contiguous rows), the same bins as the
+    slower: benchmarks/lobe_sums.py's strided row), the same bins as the
     tiles' slices; an unknown path is refused."""
     from labcut.errors import ParameterError
 
@@ -163,3 +163,19 @@ def test_tile_unions_are_contiguous_and_the_path_is_checked(scorer):
     assert np.array_equal(ht, want_h) and np.array_equal(a, want_a)
     with pytest.raises(ParameterError, match="path"):
         sm(np.array([[0.0, 0.0, 1.0]]), path="dense")
+
+
+def test_auto_path_takes_the_union_for_a_ring_and_the_tiles_for_a_map(scorer, monkeypatch):
+    """The cost model: a ring of 16 normals 2° around one normal (all need nearly the same tiles)
+    is one block over their union; the hemisphere map (spread-out normals) is a block per tile."""
+    from labcut.orientation.optimize import Constraint, hemisphere_grid
+    from labcut.reports.analysis import ring
+
+    sm = scorer.sparse_map
+    unions = []
+    real = sm._union
+    monkeypatch.setattr(sm, "_union", lambda tiles: unions.append(len(tiles)) or real(tiles))
+    sm(ring(np.array([0.05, -0.05, 1.0]) / np.linalg.norm([0.05, -0.05, 1.0]), 2.0, 16))
+    assert len(unions) == 1
+    sm(hemisphere_grid(3.0, Constraint()))
+    assert len(unions) == 1

@@ -114,7 +114,7 @@ def _cos_matrix(m: np.ndarray, ht: np.ndarray) -> np.ndarray:
     on few cores, a 12 k-term product then waits milliseconds for its threads (measured 8 ms
     instead of 5 µs on 2 cores); ``einsum``'s order of the three products is also fixed, whatever
     BLAS and thread count the machine has. (Three broadcast multiply-adds, as before, made two
-    (k, n) temporaries and five passes over them: 2-4x slower per term, ``benchmarks/lobe_sums.py``.)"""
+    (k, n) temporaries and five passes over them: slower per term: ``benchmarks/lobe_sums.py``.)"""
     return np.einsum("kj,jn->kn", m, ht)
 
 
@@ -212,7 +212,7 @@ class SparseLobeMap:
         if len(self._unions) >= 8:
             self._unions.pop(next(iter(self._unions)))
         # np.take, not fancy indexing along the columns: that lays the rows out with a stride of 3
-        # (every product over the union 5x slower) and gathers 4x slower; take's (3, n) is contiguous
+        # (every product over the union slower: benchmarks/lobe_sums.py) and gathers slower; take's (3, n) is contiguous
         self._unions[key] = out = (self.ht.take(idx, axis=1), self.a[idx])
         return out
 
