@@ -72,16 +72,17 @@ def test_padded_rows_sorted_chunks_match_the_argsort_form(seed, n, rows, chunk, 
 
 
 def test_pair_radiance_in_chunks_matches_one_pass(problem, monkeypatch):
-    """FlashProblem.pair_radiance with a chunk far smaller than the problem (pairs split between
-    chunks) equals the one-chunk sums to float64 rounding, with and without a reach."""
+    """FlashProblem.pair_radiance's numpy path (the reference, and the path of problems too big for
+    the kernel) with a chunk far smaller than the problem (pairs split between chunks) equals the
+    one-chunk sums to float64 rounding, with and without a reach."""
     normals = np.array([[0.0, 0.0, 1.0], [0.1, 0.05, 0.99], [-0.2, 0.1, 0.97]])
     normals /= np.linalg.norm(normals, axis=1, keepdims=True)
-    whole = problem.pair_radiance(normals)
-    near = problem.pair_radiance(normals, reach=0.6)
+    whole = problem.pair_radiance_numpy(normals)
+    near = problem.pair_radiance_numpy(normals, reach=0.6)
     monkeypatch.setattr(problem_module, "PAIR_CHUNK", 777)
     assert problem.n_triples > 20 * 777
-    np.testing.assert_allclose(problem.pair_radiance(normals), whole, rtol=1e-12, atol=1e-15)
-    np.testing.assert_allclose(problem.pair_radiance(normals, reach=0.6), near, rtol=1e-12, atol=1e-15)
+    np.testing.assert_allclose(problem.pair_radiance_numpy(normals), whole, rtol=1e-12, atol=1e-15)
+    np.testing.assert_allclose(problem.pair_radiance_numpy(normals, reach=0.6), near, rtol=1e-12, atol=1e-15)
     # a reach drops only far terms: the near sums stay below the whole and close to it at the centre
     assert np.all(near <= whole * (1 + 1e-12) + 1e-15)
     assert near[:, 0].sum() == pytest.approx(whole[:, 0].sum(), rel=1e-3)

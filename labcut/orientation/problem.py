@@ -89,6 +89,13 @@ def reference_radiance(material: Labradorite, total_irradiance: float) -> float:
 PAIR_CHUNK = 1 << 18
 #: triples per block of :meth:`FlashProblem.energy_near` ((stencil normals x block) float32 lobe values, ~0.5 MB)
 ENERGY_BLOCK = 1 << 13
+#: sum :meth:`FlashProblem.pair_radiance` (and :meth:`FlashProblem.energy_near`) in one Dr.Jit
+#: kernel (:class:`_PairSums`: a thread per pair runs over its triples in order, float64 sums) rather
+#: than in numpy passes per normal; the numpy path stays the reference (``tests/test_pair_sums.py``)
+PAIRS_IN_DRJIT = True
+#: problems of more triples keep to the numpy path in chunks: the kernel holds a device copy of the
+#: triples (16 bytes each; 128 MB at this size)
+PAIRS_DRJIT_MAX = 1 << 23
 
 
 @dataclass
@@ -159,12 +166,33 @@ class FlashProblem:
             if near.size:
                 yield s0, near
 
+    @functools.cached_property
+    def _pair_sums(self) -> _PairSums | None:
+        """The Dr.Jit pair-sum kernel of these triples (:class:`_PairSums`), or None where the numpy
+        path sums them (:data:`PAIRS_IN_DRJIT` off, triples not sorted by pair, a problem over
+        :data:`PAIRS_DRJIT_MAX`); made at the first sum, kept with the problem."""
+        if not PAIRS_IN_DRJIT or not self.pairs_sorted or self.n_triples > PAIRS_DRJIT_MAX or self.n_triples == 0:
+            return None
+        return _PairSums(self)
+
     def pair_radiance(self, normals: np.ndarray, reach: float | None = None) -> np.ndarray:
         """``L_s/L_ref`` of every (point, view) pair at each unit normal (rows, mesh frame): (P, K)
-        float64 sums of the float32 lobe terms ``c_t q(|h_t·m|)``, in a fixed order (no BLAS, no
-        atomics: the same sums whatever the machine). ``reach`` (radians): only the triples whose
+        float64 sums of the float32 lobe terms ``c_t q(|h_t·m|)``, each pair's in triple order (no
+        BLAS, no atomics: the same sums run after run). ``reach`` (radians): only the triples whose
         mirror orientation lies within it of ``normals[0]`` (the error bars' stencil sums,
-        :func:`labcut.orientation.uncertainty.pair_radiance`); None: every triple."""
+        :func:`labcut.orientation.uncertainty.pair_radiance`); None: every triple. Summed by the
+        Dr.Jit kernel (:class:`_PairSums`) where there is one, else :meth:`pair_radiance_numpy`."""
+        normals = np.atleast_2d(np.asarray(normals, dtype=np.float64))
+        self._check_near(normals, reach)
+        kernel = self._pair_sums
+        if kernel is not None:
+            return kernel(normals, reach)
+        return self.pair_radiance_numpy(normals, reach)
+
+    def pair_radiance_numpy(self, normals: np.ndarray, reach: float | None = None) -> np.ndarray:
+        """:meth:`pair_radiance` in numpy passes, one normal at a time over chunks of
+        :data:`PAIR_CHUNK` triples (the reference the kernel is tested against; the path of problems
+        the kernel does not take)."""
         normals = np.atleast_2d(np.asarray(normals, dtype=np.float64))
         self._check_near(normals, reach)
         n32 = normals.astype(np.float32)
@@ -211,6 +239,8 @@ class FlashProblem:
         sums, in blocks of :data:`ENERGY_BLOCK` triples (the (K, block) lobe values stay in cache)."""
         normals = np.atleast_2d(np.asarray(normals, dtype=np.float64))
         self._check_near(normals, reach)
+        if self._pair_sums is not None:  # the kernel's pair sums, weighted: a few ms instead of the blocks below
+            return self.pair_alpha @ self._pair_sums(normals, reach)
         n32 = normals.astype(np.float32)
         kappa = np.float32(self.kappa)
         out = np.zeros(len(normals))
@@ -225,6 +255,60 @@ class FlashProblem:
                 np.exp(d, out=d)
                 out += np.einsum("kt,t->k", d, a[b0:b0 + ENERGY_BLOCK], dtype=np.float64)
         return float(self.q_norm) * out
+
+
+class _PairSums:
+    """:meth:`FlashProblem.pair_radiance` as one Dr.Jit kernel: a thread per (point, view) pair
+    runs over the pair's triples (contiguous: the problem is sorted by pair) in their order and
+    adds, for each normal, the float32 lobe term ``q_norm c_t exp(κ(|h_t·m| - 1))`` to a float64
+    sum, the numpy path's terms and order (no atomics: the same sums run after run). The triples
+    go to the device once per problem (16 bytes each); the normals, κ and the reach are opaque, so
+    one compiled kernel serves every problem and stencil of the same number of normals."""
+
+    def __init__(self, problem: FlashProblem) -> None:
+        from ..backend import ad_types
+
+        dr, t = ad_types()
+        self.dr, self.t = dr, t
+        h = problem.h
+        self.hx, self.hy, self.hz = (t.Float(np.ascontiguousarray(h[:, k])) for k in range(3))
+        self.cq = t.Float(np.float32(problem.q_norm) * problem.c)
+        starts = np.searchsorted(problem.pair, np.arange(problem.pair_view.size + 1)).astype(np.uint32)
+        self.first, self.end = t.UInt32(starts[:-1]), t.UInt32(starts[1:])
+        self.kappa = float(np.float32(problem.kappa))
+        self.n_pairs = int(problem.pair_view.size)
+
+    def __call__(self, normals: np.ndarray, reach: float | None) -> np.ndarray:
+        """(P, K) float64 pair sums at the unit ``normals`` (K, 3); ``reach`` as in :meth:`FlashProblem.pair_radiance`."""
+        dr, t = self.dr, self.t
+        n32 = np.asarray(normals, dtype=np.float32)
+        k_count = len(n32)
+        if self.n_pairs == 0:
+            return np.zeros((0, k_count))
+        m = [[dr.opaque(t.Float, float(x)) for x in row] for row in n32]
+        kappa = dr.opaque(t.Float, self.kappa)
+        # the numpy path's test, in float32: |h·m_0| >= cos(reach); no reach: every triple (-1 <= |h·m|)
+        cos_reach = dr.opaque(t.Float, float(np.float32(-1.0 if reach is None else math.cos(min(float(reach), math.pi / 2)))))
+        hx, hy, hz, cq, end = self.hx, self.hy, self.hz, self.cq, self.end
+
+        def body(j: Any, *sums: Any) -> tuple[Any, ...]:
+            x, y, z = dr.gather(t.Float, hx, j), dr.gather(t.Float, hy, j), dr.gather(t.Float, hz, j)
+            c = dr.gather(t.Float, cq, j)
+            out = []
+            near = None
+            for k, (mx, my, mz) in enumerate(m):
+                d = dr.abs(x * mx + y * my + z * mz)
+                if k == 0:
+                    near = d >= cos_reach
+                term = dr.exp((d - 1.0) * kappa) * c
+                out.append(sums[k] + t.Float64(dr.select(near, term, 0.0)))
+            return (j + 1, *out)
+
+        state = (t.UInt32(self.first), *(dr.zeros(t.Float64, self.n_pairs) for _ in range(k_count)))
+        result = dr.while_loop(state, lambda j, *sums: j < end, body)
+        sums = result[1:]
+        dr.eval(*sums)
+        return np.stack([np.asarray(s, dtype=np.float64) for s in sums], axis=1)
 
 
 def _smooth_normals(split: Any, face_idx: np.ndarray, bary: np.ndarray) -> np.ndarray:
@@ -402,10 +486,13 @@ def build_problem(
         h[at[0]:at[0] + n], c[at[0]:at[0] + n], pair_of_t[at[0]:at[0] + n] = h_t, c_t, pair_t
         at[0] += n
 
-    for k, (st, pose) in enumerate(zip(settings, poses)):
-        _setting_triples(st.lights.directions, st.lights.weights / total_irradiance[k], st.views.directions, pose,
-                         n_sh, material.n_surface, table, l_ref, count, cull, kernel,
-                         lambda h_t, c_t, pair_t, off=offsets[k]: sink(h_t, c_t, pair_t + off))
+    if kernel is not None:  # every pose's triples in one kernel call per chunk of pairs
+        _all_triples(settings, [1.0 / e for e in total_irradiance], poses, count, cull, kernel, sink)
+    else:
+        for k, (st, pose) in enumerate(zip(settings, poses)):
+            _setting_triples(st.lights.directions, st.lights.weights / total_irradiance[k], st.views.directions, pose,
+                             n_sh, material.n_surface, table, l_ref, count, cull,
+                             lambda h_t, c_t, pair_t, off=offsets[k]: sink(h_t, c_t, pair_t + off))
     del poses
     if cull is None and at[0] != total:  # pragma: no cover - the count and the triples written must agree
         raise RuntimeError(f"built {at[0]} triples, counted {total}")
@@ -467,7 +554,27 @@ class _TripleKernel:
     def __call__(self, L: np.ndarray, E: np.ndarray, V: np.ndarray, point: np.ndarray, light: np.ndarray,
                  view: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(h (T, 3) float32 folded into the upper hemisphere, c (T,) float32 in units of L_ref,
-        non-finite terms replaced by (0, 0, 1) and 0)."""
+        non-finite terms replaced by (0, 0, 1) and 0) of the triples (point, light, view) given by
+        their indices (T each)."""
+        t = self.t
+        i_p, i_l, i_v = (t.UInt32(np.asarray(x, dtype=np.uint32)) for x in (point, light, view))
+        return self._terms(L, E, V, i_p, i_l, i_v)
+
+    def dense(self, L: np.ndarray, E: np.ndarray, V: np.ndarray, point: np.ndarray, view: np.ndarray,
+              light0: np.ndarray, width: int, index: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`__call__` of the triples of a block of pairs (their ``point``, ``view`` and
+        first light ``light0`` indices, each (P,)) with the ``width`` lights from each pair's first:
+        triple ``index[t]`` (uint32, < P x width) is pair ``index // width`` with light
+        ``light0 + index % width``. The per-triple indices are made on the device, from one array."""
+        dr, t = self.dr, self.t
+        idx = t.UInt32(np.asarray(index, dtype=np.uint32))
+        w = dr.opaque(t.UInt32, int(width))
+        j = idx // w
+        p_point, p_view, p_light = (t.UInt32(np.asarray(x, dtype=np.uint32)) for x in (point, view, light0))
+        i_l = dr.gather(t.UInt32, p_light, j) + (idx - j * w)
+        return self._terms(L, E, V, dr.gather(t.UInt32, p_point, j), i_l, dr.gather(t.UInt32, p_view, j))
+
+    def _terms(self, L: np.ndarray, E: np.ndarray, V: np.ndarray, i_p: Any, i_l: Any, i_v: Any) -> tuple[np.ndarray, np.ndarray]:
         from ..physics.ops import drjit_ops
 
         dr, t = self.dr, self.t
@@ -476,7 +583,6 @@ class _TripleKernel:
         lights = t.Array3f(L32[:, 0], L32[:, 1], L32[:, 2])
         views = t.Array3f(V32[:, 0], V32[:, 1], V32[:, 2])
         irr = t.Float(np.asarray(E, dtype=np.float32))
-        i_p, i_l, i_v = (t.UInt32(np.asarray(x, dtype=np.uint32)) for x in (point, light, view))
         n = dr.gather(t.Array3f, self.n, i_p)
         w_l = dr.gather(t.Array3f, lights, i_l)
         w_v = dr.gather(t.Array3f, views, i_v)
@@ -539,11 +645,59 @@ def _setting_pairs(L, E, V, points, n_geo, n_sh, mesh, convex) -> _PosePairs:
     return _PosePairs(pi, pv, pair_weight, lit)
 
 
-def _setting_triples(L, E, V, pose, n_sh, eta, table, l_ref, count, cull, kernel, sink) -> None:
-    """Triples of one pose (its :class:`_PosePairs`), handed to ``sink(h, c, pair)`` chunk by
-    chunk (pair: index into the pose's pairs). ``cull = (centre, cos)``: only the triples with
-    ``|h·centre| >= cos`` (their values as without the cull). ``kernel``: a
-    :class:`_TripleKernel` of these samples evaluates the terms (else float64 numpy)."""
+#: (pair, light) cells per kernel call of :func:`_all_triples` (the bound of the per-pose path's chunks)
+DENSE_CHUNK = 4_000_000
+
+
+def _all_triples(settings: list[Setting], scale: list[float], poses: list[_PosePairs], count: int,
+                 cull: tuple[np.ndarray, float] | None, kernel: _TripleKernel, sink: Any) -> None:
+    """The triples of every pose at once (:func:`_setting_triples`'s triples, in its order: pose,
+    pair, light), handed to ``sink(h, c, pair)`` chunk by chunk, ``pair`` an index into all poses'
+    pairs. Each pose's lights (irradiance times ``scale``) fill a row of ``width`` slots (the
+    most lights of a pose; empty slots unlit); the (pair, light slot) cells a pair's point sees
+    lit are its triples, evaluated by :meth:`_TripleKernel.dense` per chunk of
+    :data:`DENSE_CHUNK` cells: one call for a problem at standard quality rather than one per pose,
+    the per-triple indices made on the device."""
+    width = max(1, max(len(st.lights.directions) for st in settings))
+    n_pose = len(settings)
+    L = np.zeros((n_pose, width, 3))
+    L[..., 2] = 1.0
+    E = np.zeros((n_pose, width))
+    lit = np.zeros((n_pose, count, width), dtype=bool)
+    for k, (st, pose) in enumerate(zip(settings, poses)):
+        n = len(st.lights.directions)
+        L[k, :n], E[k, :n] = st.lights.directions, st.lights.weights * scale[k]
+        lit[k, :, :n] = pose.lit
+    L, E = L.reshape(-1, 3), E.reshape(-1)
+    V = np.concatenate([st.views.directions for st in settings])
+    view_offset = np.cumsum([0] + [len(st.views.directions) for st in settings])
+    point = np.concatenate([pose.pi for pose in poses])
+    view = np.concatenate([pose.pv + view_offset[k] for k, pose in enumerate(poses)])
+    pose_of = np.concatenate([np.full(len(pose.pi), k, dtype=np.int64) for k, pose in enumerate(poses)])
+    light0 = pose_of * width
+    chunk = max(1, DENSE_CHUNK // width)
+    for g0 in range(0, point.size, chunk):
+        g1 = min(point.size, g0 + chunk)
+        cells = lit[pose_of[g0:g1], point[g0:g1]].ravel()  # (pairs x slots): the lit lights of each pair's point
+        index = np.flatnonzero(cells)
+        if index.size == 0:
+            continue
+        h, c = kernel.dense(L, E, V, point[g0:g1], view[g0:g1], light0[g0:g1], width, index)
+        pair_t = (index // width).astype(np.int32) + np.int32(g0)
+        if cull is not None:  # only the triples whose (float32) mirror orientation lies near the centre
+            cx, cy, cz = (np.float32(x) for x in cull[0])
+            keep = np.abs(h[:, 0] * cx + h[:, 1] * cy + h[:, 2] * cz) >= np.float32(cull[1])
+            h, c, pair_t = h[keep], c[keep], pair_t[keep]
+            if pair_t.size == 0:
+                continue
+        sink(h, c, pair_t)
+
+
+def _setting_triples(L, E, V, pose, n_sh, eta, table, l_ref, count, cull, sink) -> None:
+    """Triples of one pose (its :class:`_PosePairs`) in float64 numpy passes (the reference of
+    :func:`_all_triples`'s kernel, ``TRIPLES_IN_DRJIT`` off), handed to ``sink(h, c, pair)`` chunk
+    by chunk (pair: index into the pose's pairs). ``cull = (centre, cos)``: only the triples with
+    ``|h·centre| >= cos`` (their values as without the cull)."""
     pi, pv, lit = pose.pi, pose.pv, pose.lit
 
     # triples: each pair x the lights its point sees; built in chunks of points and
@@ -569,17 +723,6 @@ def _setting_triples(L, E, V, pose, n_sh, eta, table, l_ref, count, cull, kernel
         offs = np.arange(reps.sum()) - np.repeat(np.cumsum(reps) - reps, reps)
         lit_of_t = np.repeat(starts[c_pi - p0], reps) + offs  # index into this chunk's lit (point, light)
 
-        if kernel is not None:  # every term of each triple in one Dr.Jit kernel
-            local = pair_of_t - q0
-            h, c = kernel(L, E, V, c_pi[local], lit_l[lit_of_t], pv[pair_of_t])
-            if cull is not None:  # only the triples whose (float32) mirror orientation lies near the centre
-                cx, cy, cz = (np.float32(x) for x in cull[0])
-                keep = np.abs(h[:, 0] * cx + h[:, 1] * cy + h[:, 2] * cz) >= np.float32(cull[1])
-                h, c, pair_of_t = h[keep], c[keep], pair_of_t[keep]
-                if pair_of_t.size == 0:
-                    continue
-            sink(h, c, pair_of_t)
-            continue
         # refraction and Fresnel per (point, light) and per (point, view), then gathered per triple
         # (:func:`triple_terms`, with a·n and b·n taken once per (point, light) and per pair)
         n_lit = n_sh[lit_i]
