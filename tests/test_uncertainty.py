@@ -167,3 +167,28 @@ def test_stencil_energy_from_the_triples_equals_the_pair_sums(oval, views):
     # the thresholded objectives go through the pairs
     area = stencil_values(whole, normals, "area")
     assert np.array_equal(area, objective_values(whole, pair_radiance(whole, normals), np.ones((1, _point_count(whole))), "area"))
+
+
+@pytest.mark.parametrize("objective", ["energy", "area", "intensity", "balanced"])
+def test_the_bootstraps_objective_with_unit_weights_is_the_scorers_metric(oval, objective):
+    """objective_values with every surface point weighted 1 is the problem's own estimator: at each
+    stencil normal the flash metric Scorer.metrics computes (its own bincounts), with views of
+    unequal weight; every point weighted 2 gives the same (a ratio of sums per view)."""
+    from labcut.orientation.problem import build_problem
+    from labcut.orientation.scoring import Scorer
+    from labcut.orientation.uncertainty import _point_count, objective_values
+
+    lab = labcut.Labradorite.preset("blue")
+    p = build_problem(oval, lab, quality="draft", lights=labcut.Lights([[0.0, 0.1, 1.0], [0.2, 0.0, 0.98]]),
+                      views=labcut.Views([[0.0, 0.0, 1.0], [0.3, 0.0, 0.95], [0.0, -0.4, 0.92]], weights=[0.6, 0.3, 0.1]))
+    m = np.array([0.02, -0.06, 1.0])
+    m /= np.linalg.norm(m)
+    normals, _ = stencil(m, 2.0)
+    rad = p.pair_radiance(normals)
+    n = _point_count(p)
+    got = objective_values(p, rad, np.ones((1, n)), objective)[0]
+    scorer = Scorer(p, objective)
+    want = np.array([scorer.metrics(k).score(objective) for k in normals])
+    assert want.max() > 0
+    np.testing.assert_allclose(got, want, rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(objective_values(p, rad, np.full((1, n), 2.0), objective)[0], want, rtol=1e-9, atol=1e-12)
