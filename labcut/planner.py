@@ -275,6 +275,11 @@ def _polarisation_bias(material: Any, L: np.ndarray, wl: np.ndarray, V: np.ndarr
 PILOT_RESOLUTION = 64
 PILOT_SPP = 16
 PILOT_POSES = 5
+#: stones of more triangles are piloted on a clustered copy (:func:`labcut.geometry.proxy.clustered_proxy`)
+#: of cells :data:`PILOT_CELLS` to the bounding diagonal (a pilot pixel is about 1/64 of it: four
+#: cells to a pixel); at or below it, on the mesh itself
+PILOT_FACES = 200_000
+PILOT_CELLS = 256
 _PILOT_CACHE: dict[str, float] = {}
 
 
@@ -284,7 +289,9 @@ def measured_interreflection(mesh: Any, material: Any, scene: Any) -> float:
     of :data:`PILOT_RESOLUTION`² px at :data:`PILOT_SPP` spp, seed 0, at most :data:`PILOT_POSES`
     of the scene's poses, evenly spaced). Cached for the process and
     on disk (the user cache folder, keyed by the mesh's vertices and faces, the material, the
-    scene's lights, views and poses), so a second plan of the same stone costs nothing."""
+    scene's lights, views and poses), so a second plan of the same stone costs nothing. A stone of
+    more than :data:`PILOT_FACES` triangles (a scan) is rendered as its clustered copy
+    (:func:`pilot_mesh`): a 64-pixel pilot sees the same shape, at a fraction of the cost."""
     import hashlib
     import json
 
@@ -301,7 +308,7 @@ def measured_interreflection(mesh: Any, material: Any, scene: Any) -> float:
         for a in (st.lights.directions, st.lights.weights, st.views.directions, st.views.weights, st.pose):
             h.update(np.ascontiguousarray(a, dtype=np.float64).tobytes())
         h.update(str(float(st.weight)).encode())
-    h.update(f"pilot {PILOT_RESOLUTION} {PILOT_SPP} {PILOT_POSES} v1".encode())
+    h.update(f"pilot {PILOT_RESOLUTION} {PILOT_SPP} {PILOT_POSES} {PILOT_FACES} {PILOT_CELLS} v2".encode())
     key = h.hexdigest()[:32]
     if key in _PILOT_CACHE:
         return _PILOT_CACHE[key]
@@ -315,11 +322,25 @@ def measured_interreflection(mesh: Any, material: Any, scene: Any) -> float:
     if key in stored:
         _PILOT_CACHE[key] = stored[key]
         return stored[key]
-    value = interreflection_share(mesh, material, settings, resolution=PILOT_RESOLUTION, spp=PILOT_SPP)
+    value = interreflection_share(pilot_mesh(mesh), material, settings, resolution=PILOT_RESOLUTION, spp=PILOT_SPP)
     _PILOT_CACHE[key] = value
     stored[key] = value
     write_cache(path, dict(list(stored.items())[-512:]))  # the latest 512 stones and scenes
     return value
+
+
+def pilot_mesh(mesh: Any) -> Any:
+    """What the pilot renders render: ``mesh`` itself up to :data:`PILOT_FACES` triangles, else its
+    clustered copy with :data:`PILOT_CELLS` cells along the bounding diagonal (a 5 M-triangle scan
+    of the bundled biplane: about 60 k triangles, whose pilots' share of inter-reflection is the
+    full mesh's to a fraction of the 2 % the planner decides by, ``tests/test_pilot_proxy.py``)."""
+    if len(mesh.faces) <= PILOT_FACES:
+        return mesh
+    from .geometry.proxy import clustered_proxy
+    from .rendering.scene import mesh_cached
+
+    diagonal = float(np.linalg.norm(np.ptp(np.asarray(mesh.bounds, dtype=np.float64), axis=0)))
+    return mesh_cached(mesh, f"labcut_pilot_proxy_{PILOT_CELLS}", lambda: clustered_proxy(mesh, diagonal / PILOT_CELLS))
 
 
 def _pilot_cache_path() -> Any:
@@ -495,8 +516,9 @@ def plan_effects(
         if measured is None:
             evidence = f"{share}: at most {bound:.1%} of the flash energy"
         else:
+            on_copy = "" if len(mesh.faces) <= PILOT_FACES else f", of a {len(pilot_mesh(mesh).faces):,}-triangle clustered copy"
             evidence = (f"pilot renders with and without light between its parts ({PILOT_RESOLUTION}² px, {PILOT_SPP} spp, "
-                        f"5 normals) differ by {measured:.1%} of the best flash ({share}: a bound of {bound:.1%})")
+                        f"5 normals{on_copy}) differ by {measured:.1%} of the best flash ({share}: a bound of {bound:.1%})")
         if "inter_reflection" in forced:
             why = f"switched {'on' if ir_on else 'off'} ({evidence})"
         elif ir_on:

@@ -1,0 +1,72 @@
+"""Coarse stand-ins of big meshes for low-resolution renders (issue 17 §5: a 3D scan of millions
+of triangles).
+
+The effect planner's pilot renders (:func:`labcut.planner.measured_interreflection`) are
+64 x 64 px: a 5 M-triangle scan puts hundreds of triangles in every pixel, and shading and
+tracing them all (trimesh's smooth shading of the whole mesh, three Mitsuba scenes) cost 40-50 s
+of a first plan on 2 cores, where the pilots need only the shape at a fraction of a pixel.
+:func:`clustered_proxy` gives that shape: vertex clustering on a regular grid (every vertex of a
+cell merged into their mean), in one pass of sorts over the vertices and faces.
+
+Units: mm, the mesh frame.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from ..errors import MeshError, ParameterError
+
+
+def clustered_proxy(mesh: Any, cell_mm: float) -> Any:
+    """A coarse copy of ``mesh`` (a ``trimesh.Trimesh``, mm) for renders whose pixels are several
+    times ``cell_mm`` across: the vertices of each cube of a grid of side ``cell_mm`` (from the
+    mesh's lower bounds) merged into their mean position, the faces that collapse (two corners
+    in one cell) and repeated faces dropped, the winding of the rest kept. Every proxy vertex
+    lies within ``cell_mm`` x sqrt(3) of the vertices it replaces. Where two sheets of the surface
+    run closer than a cell the proxy can join them (a thin part renders as a slab, its edges
+    possibly non-manifold); renders take its triangles as they come. The copy keeps the mesh's
+    metadata (units, labcut's convexity and faceting flags)."""
+    import trimesh
+
+    if not isinstance(mesh, trimesh.Trimesh) or len(mesh.faces) == 0:
+        raise MeshError("the mesh is empty or not a trimesh.Trimesh (load it with labcut.load_mesh)")
+    cell = float(cell_mm)
+    if not np.isfinite(cell) or cell <= 0.0:
+        raise ParameterError(f"cell_mm must be a positive number of millimetres, got {cell_mm!r}")
+    v = np.asarray(mesh.vertices, dtype=np.float64)
+    f = np.asarray(mesh.faces, dtype=np.int64)
+    grid = np.floor((v - v.min(axis=0)) / cell).astype(np.int64)
+    dims = grid.max(axis=0) + 1
+    key = (grid[:, 0] * dims[1] + grid[:, 1]) * dims[2] + grid[:, 2]
+    del grid
+    cells, inverse = np.unique(key, return_inverse=True)
+    del key
+    inverse = inverse.ravel()
+    count = np.bincount(inverse, minlength=len(cells)).astype(np.float64)
+    centre = np.stack([np.bincount(inverse, weights=v[:, k], minlength=len(cells)) for k in range(3)], axis=1)
+    centre /= count[:, None]
+    faces = inverse[f]
+    del f
+    proper = (faces[:, 0] != faces[:, 1]) & (faces[:, 1] != faces[:, 2]) & (faces[:, 2] != faces[:, 0])
+    faces = faces[proper]
+    if len(faces) == 0:
+        raise ParameterError(f"a grid of {cell:g} mm cells leaves no triangle of this mesh: use smaller cells")
+    # a face and its repeats (any rotation of the same corners, the same winding) kept once
+    lo = np.argmin(faces, axis=1)
+    rot = np.stack([faces[np.arange(len(faces)), (lo + k) % 3] for k in range(3)], axis=1)
+    _, first = np.unique(rot, axis=0, return_index=True)
+    faces = faces[np.sort(first)]
+    used = np.zeros(len(centre), dtype=bool)
+    used[faces.ravel()] = True
+    remap = np.cumsum(used) - 1
+    proxy = trimesh.Trimesh(vertices=centre[used], faces=remap[faces], process=False)
+    proxy.metadata.update(getattr(mesh, "metadata", {}) or {})
+    from .meshio import _mark_valid
+
+    # a stand-in of a checked mesh for renders, not a solid of its own: the renderers' check that a
+    # mesh is closed (validate_mesh) would refuse the few non-manifold edges clustering leaves
+    _mark_valid(proxy)
+    return proxy
