@@ -516,7 +516,8 @@ def plan_effects(
         if measured is None:
             evidence = f"{share}: at most {bound:.1%} of the flash energy"
         else:
-            on_copy = "" if len(mesh.faces) <= PILOT_FACES else f", of a {len(pilot_mesh(mesh).faces):,}-triangle clustered copy"
+            # (the copy is named, not built: a cached measurement needs no copy)
+            on_copy = "" if len(mesh.faces) <= PILOT_FACES else f", of a copy clustered to {PILOT_CELLS} cells along its diagonal"
             evidence = (f"pilot renders with and without light between its parts ({PILOT_RESOLUTION}² px, {PILOT_SPP} spp, "
                         f"5 normals{on_copy}) differ by {measured:.1%} of the best flash ({share}: a bound of {bound:.1%})")
         if "inter_reflection" in forced:

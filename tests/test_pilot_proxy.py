@@ -78,7 +78,11 @@ def test_pilots_of_a_big_mesh_render_its_copy(fine, monkeypatch, tmp_path):
     monkeypatch.setattr(planner, "_pilot_cache_path", lambda: tmp_path / "planner-pilot.json")
     plan = planner.plan_effects(fine, "blue", scenario="ring")
     assert seen == [len(copy.faces)]
-    assert f"{len(copy.faces):,}-triangle clustered copy" in plan["inter_reflection"].why
+    assert f"copy clustered to {planner.PILOT_CELLS} cells" in plan["inter_reflection"].why
+    # a second plan finds the measurement cached: no copy built for it (the copy costs a second at 5 M)
+    monkeypatch.setattr("labcut.geometry.proxy.clustered_proxy", lambda *a, **k: pytest.fail("copy built again"))
+    again = planner.plan_effects(fine.copy(), "blue", scenario="ring")
+    assert seen == [len(copy.faces)] and "copy clustered" in again["inter_reflection"].why
 
 
 @pytest.mark.parametrize("scenario", ["bench", "ring"])
