@@ -487,7 +487,7 @@ def build_problem(
         at[0] += n
 
     if kernel is not None:  # every pose's triples in one kernel call per chunk of pairs
-        _all_triples(settings, [1.0 / e for e in total_irradiance], poses, count, cull, kernel, sink)
+        _all_triples(settings, [1.0 / e for e in total_irradiance], poses, cull, kernel, sink)
     else:
         for k, (st, pose) in enumerate(zip(settings, poses)):
             _setting_triples(st.lights.directions, st.lights.weights / total_irradiance[k], st.views.directions, pose,
@@ -649,7 +649,7 @@ def _setting_pairs(L, E, V, points, n_geo, n_sh, mesh, convex) -> _PosePairs:
 DENSE_CHUNK = 4_000_000
 
 
-def _all_triples(settings: list[Setting], scale: list[float], poses: list[_PosePairs], count: int,
+def _all_triples(settings: list[Setting], scale: list[float], poses: list[_PosePairs],
                  cull: tuple[np.ndarray, float] | None, kernel: _TripleKernel, sink: Any) -> None:
     """The triples of every pose at once (:func:`_setting_triples`'s triples, in its order: pose,
     pair, light), handed to ``sink(h, c, pair)`` chunk by chunk, ``pair`` an index into all poses'
@@ -663,12 +663,11 @@ def _all_triples(settings: list[Setting], scale: list[float], poses: list[_PoseP
     L = np.zeros((n_pose, width, 3))
     L[..., 2] = 1.0
     E = np.zeros((n_pose, width))
-    lit = np.zeros((n_pose, count, width), dtype=bool)
-    for k, (st, pose) in enumerate(zip(settings, poses)):
+    for k, st in enumerate(settings):
         n = len(st.lights.directions)
         L[k, :n], E[k, :n] = st.lights.directions, st.lights.weights * scale[k]
-        lit[k, :, :n] = pose.lit
     L, E = L.reshape(-1, 3), E.reshape(-1)
+    first_pair = np.cumsum([0] + [len(pose.pi) for pose in poses])  # each pose's pairs among all
     V = np.concatenate([st.views.directions for st in settings])
     view_offset = np.cumsum([0] + [len(st.views.directions) for st in settings])
     point = np.concatenate([pose.pi for pose in poses])
@@ -678,7 +677,13 @@ def _all_triples(settings: list[Setting], scale: list[float], poses: list[_PoseP
     chunk = max(1, DENSE_CHUNK // width)
     for g0 in range(0, point.size, chunk):
         g1 = min(point.size, g0 + chunk)
-        cells = lit[pose_of[g0:g1], point[g0:g1]].ravel()  # (pairs x slots): the lit lights of each pair's point
+        # (pairs x slots): the lit lights of each pair's point, from each pose's own (points x lights) table
+        cells = np.zeros((g1 - g0, width), dtype=bool)
+        for k, pose in enumerate(poses):
+            a, b = max(g0, first_pair[k]), min(g1, first_pair[k + 1])
+            if a < b:
+                cells[a - g0:b - g0, :pose.lit.shape[1]] = pose.lit[pose.pi[a - first_pair[k]:b - first_pair[k]]]
+        cells = cells.ravel()
         index = np.flatnonzero(cells)
         if index.size == 0:
             continue
