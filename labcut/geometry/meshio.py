@@ -911,7 +911,7 @@ def load_mesh(
     # (a turn keeps the volume, the unit scales it by factor³ > 0)
     if not volume * float(np.linalg.det(rot)) > 0:  # pragma: no cover
         raise MeshError(f"{p.name} could not be made a closed, outward-wound solid")
-    _mark_valid(mesh)
+    mark_valid(mesh)
     report = MeshReport(
         source=str(p),
         format=fmt,
@@ -986,7 +986,7 @@ def _fingerprint(mesh: Any) -> tuple[int, int, int, int]:
     return (id(mesh.vertices), hash(mesh.vertices), id(mesh.faces), hash(mesh.faces))
 
 
-def _mark_valid(mesh: Any) -> None:
+def mark_valid(mesh: Any) -> None:
     """Remember that this mesh, as it is now, passed :func:`validate_mesh` (load_mesh certifies it):
     a later check of the unchanged arrays costs two cached hashes instead of three sorts."""
     try:
@@ -1028,7 +1028,7 @@ def validate_mesh(mesh: Any, name: str = "mesh") -> None:
     if not volume > 0:
         raise MeshError(f"{name} encloses no positive volume (normals point inward, or it is flat); load it with labcut.load_mesh")
     if proper.all():
-        _mark_valid(mesh)
+        mark_valid(mesh)
 
 
 def save_mesh(mesh: Any, path: str | os.PathLike[str]) -> Path:

@@ -64,9 +64,9 @@ def clustered_proxy(mesh: Any, cell_mm: float) -> Any:
     remap = np.cumsum(used) - 1
     proxy = trimesh.Trimesh(vertices=centre[used], faces=remap[faces], process=False)
     proxy.metadata.update(getattr(mesh, "metadata", {}) or {})
-    from .meshio import _mark_valid
+    from .meshio import mark_valid
 
     # a stand-in of a checked mesh for renders, not a solid of its own: the renderers' check that a
     # mesh is closed (validate_mesh) would refuse the few non-manifold edges clustering leaves
-    _mark_valid(proxy)
+    mark_valid(proxy)
     return proxy
