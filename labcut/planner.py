@@ -308,7 +308,9 @@ def measured_interreflection(mesh: Any, material: Any, scene: Any) -> float:
         for a in (st.lights.directions, st.lights.weights, st.views.directions, st.views.weights, st.pose):
             h.update(np.ascontiguousarray(a, dtype=np.float64).tobytes())
         h.update(str(float(st.weight)).encode())
-    h.update(f"pilot {PILOT_RESOLUTION} {PILOT_SPP} {PILOT_POSES} {PILOT_FACES} {PILOT_CELLS} v2".encode())
+    # what is rendered: the mesh itself (the key as before the copies), or its copy of PILOT_CELLS cells
+    on_copy = f" copy {PILOT_CELLS} v2" if pilots_on_copy(mesh) else " v1"
+    h.update(f"pilot {PILOT_RESOLUTION} {PILOT_SPP} {PILOT_POSES}{on_copy}".encode())
     key = h.hexdigest()[:32]
     if key in _PILOT_CACHE:
         return _PILOT_CACHE[key]
@@ -329,18 +331,33 @@ def measured_interreflection(mesh: Any, material: Any, scene: Any) -> float:
     return value
 
 
+def pilots_on_copy(mesh: Any) -> bool:
+    """Whether the pilot renders of ``mesh`` render its clustered copy (:func:`pilot_mesh`): more
+    than :data:`PILOT_FACES` triangles."""
+    return len(mesh.faces) > PILOT_FACES
+
+
 def pilot_mesh(mesh: Any) -> Any:
     """What the pilot renders render: ``mesh`` itself up to :data:`PILOT_FACES` triangles, else its
-    clustered copy with :data:`PILOT_CELLS` cells along the bounding diagonal (a 5 M-triangle scan
-    of the bundled biplane: about 60 k triangles, whose pilots' share of inter-reflection is the
-    full mesh's to a fraction of the 2 % the planner decides by, ``tests/test_pilot_proxy.py``)."""
-    if len(mesh.faces) <= PILOT_FACES:
+    clustered copy with :data:`PILOT_CELLS` cells along the bounding diagonal (a 4.9 M-triangle
+    subdivision of the bundled biplane: about 87 k triangles, ``benchmarks/speed_ratio.py --big``;
+    ``tests/test_pilot_proxy.py`` compares the pilots' share of inter-reflection on a copy with the
+    full mesh's). The copy, made once per mesh, is certified as the checked ``mesh``'s stand-in
+    (:func:`labcut.geometry.meshio.mark_valid`): the renderer's closed-mesh check would refuse the
+    few non-manifold edges clustering can leave; it is made for these pilots, not as a solid."""
+    if not pilots_on_copy(mesh):
         return mesh
+    from .geometry.meshio import mark_valid
     from .geometry.proxy import clustered_proxy
     from .rendering.scene import mesh_cached
 
-    diagonal = float(np.linalg.norm(np.ptp(np.asarray(mesh.bounds, dtype=np.float64), axis=0)))
-    return mesh_cached(mesh, f"labcut_pilot_proxy_{PILOT_CELLS}", lambda: clustered_proxy(mesh, diagonal / PILOT_CELLS))
+    def stand_in() -> Any:
+        diagonal = float(np.linalg.norm(np.ptp(np.asarray(mesh.bounds, dtype=np.float64), axis=0)))
+        copy = clustered_proxy(mesh, diagonal / PILOT_CELLS)
+        mark_valid(copy)
+        return copy
+
+    return mesh_cached(mesh, f"labcut_pilot_proxy_{PILOT_CELLS}", stand_in)
 
 
 def _pilot_cache_path() -> Any:
@@ -517,7 +534,7 @@ def plan_effects(
             evidence = f"{share}: at most {bound:.1%} of the flash energy"
         else:
             # (the copy is named, not built: a cached measurement needs no copy)
-            on_copy = "" if len(mesh.faces) <= PILOT_FACES else f", of a copy clustered to {PILOT_CELLS} cells along its diagonal"
+            on_copy = "" if not pilots_on_copy(mesh) else f", of a copy clustered to {PILOT_CELLS} cells along its diagonal"
             evidence = (f"pilot renders with and without light between its parts ({PILOT_RESOLUTION}² px, {PILOT_SPP} spp, "
                         f"5 normals{on_copy}) differ by {measured:.1%} of the best flash ({share}: a bound of {bound:.1%})")
         if "inter_reflection" in forced:

@@ -13,6 +13,7 @@ Units: mm, the mesh frame.
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import numpy as np
@@ -27,17 +28,31 @@ def clustered_proxy(mesh: Any, cell_mm: float) -> Any:
     in one cell) and repeated faces dropped, the winding of the rest kept. Every proxy vertex
     lies within ``cell_mm`` x sqrt(3) of the vertices it replaces. Where two sheets of the surface
     run closer than a cell the proxy can join them (a thin part renders as a slab, its edges
-    possibly non-manifold); renders take its triangles as they come. The copy keeps the mesh's
-    metadata (units, labcut's convexity and faceting flags)."""
+    possibly non-manifold); renders take its triangles as they come. The copy is not certified as
+    a closed solid (``validate_mesh`` checks it in full; :func:`labcut.planner.pilot_mesh` certifies
+    its copies as the checked mesh's stand-in for the pilots alone) and gets a copy of the mesh's
+    metadata (units, labcut's convexity and faceting flags), marked ``labcut["proxy_cell_mm"]``.
+    Raises :class:`ParameterError` for a cell that is not a positive number or that splits the mesh
+    into more than 2^62 cells, :class:`MeshError` for an empty mesh or non-finite vertices."""
+    import copy
+
     import trimesh
 
     if not isinstance(mesh, trimesh.Trimesh) or len(mesh.faces) == 0:
         raise MeshError("the mesh is empty or not a trimesh.Trimesh (load it with labcut.load_mesh)")
-    cell = float(cell_mm)
+    try:
+        cell = float(cell_mm)
+    except (TypeError, ValueError):
+        cell = math.nan
     if not np.isfinite(cell) or cell <= 0.0:
         raise ParameterError(f"cell_mm must be a positive number of millimetres, got {cell_mm!r}")
     v = np.asarray(mesh.vertices, dtype=np.float64)
+    if not np.isfinite(v).all():
+        raise MeshError("the mesh has non-finite vertex coordinates (NaN or inf): load it with labcut.load_mesh")
     f = np.asarray(mesh.faces, dtype=np.int64)
+    span = (v.max(axis=0) - v.min(axis=0)) / cell
+    if float(np.log2(np.floor(span) + 1.0).sum()) >= 62.0:  # the cells' keys must fit an int64
+        raise ParameterError(f"cell_mm = {cell:g} mm splits this mesh into more than 2^62 cells: use larger cells")
     grid = np.floor((v - v.min(axis=0)) / cell).astype(np.int64)
     dims = grid.max(axis=0) + 1
     key = (grid[:, 0] * dims[1] + grid[:, 1]) * dims[2] + grid[:, 2]
@@ -63,10 +78,6 @@ def clustered_proxy(mesh: Any, cell_mm: float) -> Any:
     used[faces.ravel()] = True
     remap = np.cumsum(used) - 1
     proxy = trimesh.Trimesh(vertices=centre[used], faces=remap[faces], process=False)
-    proxy.metadata.update(getattr(mesh, "metadata", {}) or {})
-    from .meshio import mark_valid
-
-    # a stand-in of a checked mesh for renders, not a solid of its own: the renderers' check that a
-    # mesh is closed (validate_mesh) would refuse the few non-manifold edges clustering leaves
-    mark_valid(proxy)
+    proxy.metadata.update(copy.deepcopy(getattr(mesh, "metadata", {}) or {}))
+    proxy.metadata.setdefault("labcut", {})["proxy_cell_mm"] = cell
     return proxy
