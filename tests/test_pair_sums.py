@@ -101,12 +101,14 @@ def test_problems_the_kernel_does_not_take_use_the_numpy_path(bench, monkeypatch
 
 
 def test_a_stone_with_pairs_and_no_triples_sums_to_zero(oval):
-    """A partial problem whose cull keeps no triple: zero sums, from either path."""
+    """A partial problem whose cull keeps no triple: zero sums (the numpy path: the kernel declines
+    a problem without triples)."""
     lab = labcut.Labradorite.preset("blue")
     settings_ = resolve_scene("bench", None, None, "draft").settings()
     down = np.array([1.0, 0.0, 0.0])  # mirror orientations of a face-up bench lie near +z, none near +x
     part = build_problem(oval, lab, quality="draft", settings=settings_, near=(down, 0.01))
     if part.n_triples:
         pytest.skip("this stone has triples near +x")
+    assert part._pair_sums is None
     got = part.pair_radiance(np.array([down]), reach=0.005)
     assert got.shape == (part.pair_view.size, 1) and not got.any()

@@ -135,16 +135,20 @@ def test_bad_inputs_are_one_line_errors(oval):
         Uncertainty.from_dict({"angle_deg": 1.0})
 
 
+@pytest.mark.parametrize("kernel", [True, False])
 @pytest.mark.parametrize("views", [None, "weighted"])
-def test_stencil_energy_from_the_triples_equals_the_pair_sums(oval, views):
-    """The discretisation parts' energy at the stencil (summed straight from the triples,
-    FlashProblem.energy_near) equals the view-weighted pair sums the bootstrap uses (objective_values
-    of pair_radiance, every point weighted 1), on a whole problem and on a partial one
+def test_stencil_energy_equals_the_pair_sums(oval, views, kernel, monkeypatch):
+    """The discretisation parts' energy at the stencil (FlashProblem.energy_near: the pair-sum
+    kernel's sums weighted by pair_alpha, or with the kernel off summed straight from the triples in
+    numpy blocks) equals the view-weighted pair sums the bootstrap uses (objective_values of
+    pair_radiance, every point weighted 1), on a whole problem and on a partial one
     (build_problem(near=...)), with views of unequal weight too."""
+    from labcut.orientation import problem as problem_module
     from labcut.orientation.problem import build_problem
     from labcut.orientation.uncertainty import _point_count, _reach, objective_values, pair_radiance, stencil_values
     from labcut.scene import resolve_scene
 
+    monkeypatch.setattr(problem_module, "PAIRS_IN_DRJIT", kernel)
     lab = labcut.Labradorite.preset("blue")
     if views is None:
         kw = {"settings": resolve_scene("bench", None, None, "draft").settings()}
@@ -158,6 +162,7 @@ def test_stencil_energy_from_the_triples_equals_the_pair_sums(oval, views):
     near = build_problem(oval, lab, quality="draft", near=(m, _reach(whole.kappa, normals) + 1e-3), **kw)
     assert near.n_triples < whole.n_triples
     for p in (whole, near):
+        assert (p._pair_sums is not None) == kernel
         want = objective_values(p, pair_radiance(p, normals), np.ones((1, _point_count(p))), "energy")
         got = stencil_values(p, normals, "energy")
         assert got.shape == want.shape == (1, len(normals))

@@ -93,8 +93,9 @@ ENERGY_BLOCK = 1 << 13
 #: kernel (:class:`_PairSums`: a thread per pair runs over its triples in order, float64 sums) rather
 #: than in numpy passes per normal; the numpy path stays the reference (``tests/test_pair_sums.py``)
 PAIRS_IN_DRJIT = True
-#: problems of more triples keep to the numpy path in chunks: the kernel holds a device copy of the
-#: triples (16 bytes each; 128 MB at this size)
+#: problems of more triples keep to the numpy path in chunks: the kernel reads a device copy of the
+#: triples (:attr:`FlashProblem.device_triples`, 16 bytes each: 128 MiB at this size) and holds two
+#: uint32 bounds per pair
 PAIRS_DRJIT_MAX = 1 << 23
 
 
@@ -167,6 +168,18 @@ class FlashProblem:
                 yield s0, near
 
     @functools.cached_property
+    def device_triples(self) -> tuple[Any, Any]:
+        """``(h, c)``: the triples' mirror orientations (``Array3f``) and schiller factors (``Float``)
+        on the Dr.Jit device, float32 as stored (16 bytes a triple), copied once per problem and
+        shared by the pair-sum kernel (:class:`_PairSums`) and the scorer's device objectives
+        (:meth:`labcut.orientation.scoring.Scorer`)."""
+        from ..backend import ad_types
+
+        _, t = ad_types()
+        h = self.h
+        return t.Array3f(*(np.ascontiguousarray(h[:, k]) for k in range(3))), t.Float(self.c)
+
+    @functools.cached_property
     def _pair_sums(self) -> _PairSums | None:
         """The Dr.Jit pair-sum kernel of these triples (:class:`_PairSums`), or None where the numpy
         path sums them (:data:`PAIRS_IN_DRJIT` off, triples not sorted by pair, a problem over
@@ -234,9 +247,12 @@ class FlashProblem:
         """The energy objective (DESIGN.md §4) at each unit normal (rows, mesh frame): (K,) float64,
         ``Σ_t alpha_t q(|h_t·m|)`` over the triples within ``reach`` (radians) of ``normals[0]``
         (every triple for None): the view-weighted mean pair radiance that :meth:`pair_radiance`
-        gives, summed straight from the triples (no per-pair sums: the energy is linear in them).
-        float32 lobe terms (as the triples are stored and :meth:`pair_radiance` computes them), float64
-        sums, in blocks of :data:`ENERGY_BLOCK` triples (the (K, block) lobe values stay in cache)."""
+        gives. Where the pair-sum kernel runs (:class:`_PairSums`) its pair sums, weighted by
+        :attr:`pair_alpha`; else (the kernel off, a problem over :data:`PAIRS_DRJIT_MAX` triples or
+        not sorted by pair) summed straight from the triples, no per-pair sums (the energy is linear
+        in them): float32 lobe terms (as the triples are stored and :meth:`pair_radiance` computes
+        them), float64 sums, in blocks of :data:`ENERGY_BLOCK` triples (the (K, block) lobe values
+        stay in cache)."""
         normals = np.atleast_2d(np.asarray(normals, dtype=np.float64))
         self._check_near(normals, reach)
         if self._pair_sums is not None:  # the kernel's pair sums, weighted: a few ms instead of the blocks below
@@ -262,17 +278,17 @@ class _PairSums:
     runs over the pair's triples (contiguous: the problem is sorted by pair) in their order and
     adds, for each normal, the float32 lobe term ``q_norm c_t exp(κ(|h_t·m| - 1))`` to a float64
     sum, the numpy path's terms and order (no atomics: the same sums run after run). The triples
-    go to the device once per problem (16 bytes each); the normals, κ and the reach are opaque, so
-    one compiled kernel serves every problem and stencil of the same number of normals."""
+    are the problem's :attr:`FlashProblem.device_triples` (on the device once per problem, shared
+    with the scorer); the normals, κ, the lobe's norm and the reach are opaque, so one compiled
+    kernel serves every problem and stencil of the same number of normals."""
 
     def __init__(self, problem: FlashProblem) -> None:
         from ..backend import ad_types
 
         dr, t = ad_types()
         self.dr, self.t = dr, t
-        h = problem.h
-        self.hx, self.hy, self.hz = (t.Float(np.ascontiguousarray(h[:, k])) for k in range(3))
-        self.cq = t.Float(np.float32(problem.q_norm) * problem.c)
+        self.h, self.c = problem.device_triples
+        self.q_norm = float(np.float32(problem.q_norm))
         starts = np.searchsorted(problem.pair, np.arange(problem.pair_view.size + 1)).astype(np.uint32)
         self.first, self.end = t.UInt32(starts[:-1]), t.UInt32(starts[1:])
         self.kappa = float(np.float32(problem.kappa))
@@ -283,17 +299,17 @@ class _PairSums:
         dr, t = self.dr, self.t
         n32 = np.asarray(normals, dtype=np.float32)
         k_count = len(n32)
-        if self.n_pairs == 0:
-            return np.zeros((0, k_count))
         m = [[dr.opaque(t.Float, float(x)) for x in row] for row in n32]
         kappa = dr.opaque(t.Float, self.kappa)
         # the numpy path's test, in float32: |h·m_0| >= cos(reach); no reach: every triple (-1 <= |h·m|)
         cos_reach = dr.opaque(t.Float, float(np.float32(-1.0 if reach is None else math.cos(min(float(reach), math.pi / 2)))))
-        hx, hy, hz, cq, end = self.hx, self.hy, self.hz, self.cq, self.end
+        q_norm = dr.opaque(t.Float, self.q_norm)
+        h_all, c_all, end = self.h, self.c, self.end
 
         def body(j: Any, *sums: Any) -> tuple[Any, ...]:
-            x, y, z = dr.gather(t.Float, hx, j), dr.gather(t.Float, hy, j), dr.gather(t.Float, hz, j)
-            c = dr.gather(t.Float, cq, j)
+            h = dr.gather(t.Array3f, h_all, j)
+            x, y, z = h.x, h.y, h.z
+            c = q_norm * dr.gather(t.Float, c_all, j)  # the numpy path's float32 q_norm c_t
             out = []
             near = None
             for k, (mx, my, mz) in enumerate(m):
@@ -486,8 +502,10 @@ def build_problem(
         h[at[0]:at[0] + n], c[at[0]:at[0] + n], pair_of_t[at[0]:at[0] + n] = h_t, c_t, pair_t
         at[0] += n
 
+    pair_point = np.concatenate(pp_parts)
+    pair_view = np.concatenate(pv_parts)
     if kernel is not None:  # every pose's triples in one kernel call per chunk of pairs
-        _all_triples(settings, [1.0 / e for e in total_irradiance], poses, cull, kernel, sink)
+        _all_triples(settings, [1.0 / e for e in total_irradiance], poses, pair_point, pair_view, cull, kernel, sink)
     else:
         for k, (st, pose) in enumerate(zip(settings, poses)):
             _setting_triples(st.lights.directions, st.lights.weights / total_irradiance[k], st.views.directions, pose,
@@ -508,7 +526,7 @@ def build_problem(
         h=h,
         c=c,
         pair=pair_of_t,
-        pair_view=np.concatenate(pv_parts).astype(np.int64),
+        pair_view=pair_view.astype(np.int64),
         pair_weight=np.concatenate(pw_parts),
         view_weight=view_weight / view_weight.sum(),
         kappa=material.lobe_kappa,
@@ -520,14 +538,15 @@ def build_problem(
         convex=convex,
         n_points=count,
         info={"l_ref": l_ref, "pairs": int(pair_offset), "triples": int(c.size), "poses": len(settings),
-              "pair_point": np.concatenate(pp_parts).astype(np.int32),
+              "pair_point": pair_point.astype(np.int32),
               **({} if near is None else {"near": (cull[0].tolist(), float(near[1]))})},
     )
 
 
-#: evaluate the triple terms in one Dr.Jit kernel per pose chunk (float32, the problem's own
-#: precision) rather than in float64 numpy passes; the numpy path stays the reference
-#: (``tests/test_speed_reuse.py`` compares them)
+#: evaluate the triple terms in Dr.Jit kernels, every pose at once per chunk of (pair, light)
+#: cells (float32, the problem's own precision: :func:`_all_triples`) rather than in float64 numpy
+#: passes per pose (:func:`_setting_triples`); nothing in labcut turns it off: the numpy path is
+#: the reference the tests compare with (``tests/test_speed_reuse.py``, ``tests/test_triple_batches.py``)
 TRIPLES_IN_DRJIT = True
 
 
@@ -551,21 +570,14 @@ class _TripleKernel:
         self.cells = dr.opaque(t.Float, float(len(table[1]) - 1))  # the table is a uniform grid over cos 0..1
         self.last = dr.opaque(t.UInt32, len(table[1]) - 2)
 
-    def __call__(self, L: np.ndarray, E: np.ndarray, V: np.ndarray, point: np.ndarray, light: np.ndarray,
-                 view: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(h (T, 3) float32 folded into the upper hemisphere, c (T,) float32 in units of L_ref,
-        non-finite terms replaced by (0, 0, 1) and 0) of the triples (point, light, view) given by
-        their indices (T each)."""
-        t = self.t
-        i_p, i_l, i_v = (t.UInt32(np.asarray(x, dtype=np.uint32)) for x in (point, light, view))
-        return self._terms(L, E, V, i_p, i_l, i_v)
-
     def dense(self, L: np.ndarray, E: np.ndarray, V: np.ndarray, point: np.ndarray, view: np.ndarray,
               light0: np.ndarray, width: int, index: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """:meth:`__call__` of the triples of a block of pairs (their ``point``, ``view`` and
-        first light ``light0`` indices, each (P,)) with the ``width`` lights from each pair's first:
-        triple ``index[t]`` (uint32, < P x width) is pair ``index // width`` with light
-        ``light0 + index % width``. The per-triple indices are made on the device, from one array."""
+        """(h (T, 3) float32 folded into the upper hemisphere, c (T,) float32 in units of L_ref,
+        non-finite terms replaced by (0, 0, 1) and 0) of the triples of a block of pairs (their
+        ``point``, ``view`` and first light ``light0`` indices, each (P,)) with the ``width``
+        lights from each pair's first: triple ``index[t]`` (uint32, < P x width) is pair
+        ``index // width`` with light ``light0 + index % width``. The per-triple indices are made
+        on the device, from one array."""
         dr, t = self.dr, self.t
         idx = t.UInt32(np.asarray(index, dtype=np.uint32))
         w = dr.opaque(t.UInt32, int(width))
@@ -645,15 +657,17 @@ def _setting_pairs(L, E, V, points, n_geo, n_sh, mesh, convex) -> _PosePairs:
     return _PosePairs(pi, pv, pair_weight, lit)
 
 
-#: (pair, light) cells per kernel call of :func:`_all_triples` (the bound of the per-pose path's chunks)
+#: (pair, light) cells per kernel call of :func:`_all_triples` (and the bound of the numpy
+#: reference's chunks, :func:`_setting_triples`)
 DENSE_CHUNK = 4_000_000
 
 
-def _all_triples(settings: list[Setting], scale: list[float], poses: list[_PosePairs],
-                 cull: tuple[np.ndarray, float] | None, kernel: _TripleKernel, sink: Any) -> None:
+def _all_triples(settings: list[Setting], scale: list[float], poses: list[_PosePairs], point: np.ndarray,
+                 view: np.ndarray, cull: tuple[np.ndarray, float] | None, kernel: _TripleKernel, sink: Any) -> None:
     """The triples of every pose at once (:func:`_setting_triples`'s triples, in its order: pose,
     pair, light), handed to ``sink(h, c, pair)`` chunk by chunk, ``pair`` an index into all poses'
-    pairs. Each pose's lights (irradiance times ``scale``) fill a row of ``width`` slots (the
+    pairs (``point`` and ``view``: each pair's point and view index, the views of all poses in pose
+    order, as :func:`build_problem` concatenates them). Each pose's lights (irradiance times ``scale``) fill a row of ``width`` slots (the
     most lights of a pose; empty slots unlit); the (pair, light slot) cells a pair's point sees
     lit are its triples, evaluated by :meth:`_TripleKernel.dense` per chunk of
     :data:`DENSE_CHUNK` cells: one call for a problem at standard quality rather than one per pose,
@@ -669,9 +683,6 @@ def _all_triples(settings: list[Setting], scale: list[float], poses: list[_PoseP
     L, E = L.reshape(-1, 3), E.reshape(-1)
     first_pair = np.cumsum([0] + [len(pose.pi) for pose in poses])  # each pose's pairs among all
     V = np.concatenate([st.views.directions for st in settings])
-    view_offset = np.cumsum([0] + [len(st.views.directions) for st in settings])
-    point = np.concatenate([pose.pi for pose in poses])
-    view = np.concatenate([pose.pv + view_offset[k] for k, pose in enumerate(poses)])
     pose_of = np.concatenate([np.full(len(pose.pi), k, dtype=np.int64) for k, pose in enumerate(poses)])
     light0 = pose_of * width
     chunk = max(1, DENSE_CHUNK // width)
@@ -699,8 +710,9 @@ def _all_triples(settings: list[Setting], scale: list[float], poses: list[_PoseP
 
 
 def _setting_triples(L, E, V, pose, n_sh, eta, table, l_ref, count, cull, sink) -> None:
-    """Triples of one pose (its :class:`_PosePairs`) in float64 numpy passes (the reference of
-    :func:`_all_triples`'s kernel, ``TRIPLES_IN_DRJIT`` off), handed to ``sink(h, c, pair)`` chunk
+    """Triples of one pose (its :class:`_PosePairs`) in float64 numpy passes: the reference of
+    :func:`_all_triples`'s kernel for the tests (``TRIPLES_IN_DRJIT`` off; labcut itself always
+    takes the kernel), handed to ``sink(h, c, pair)`` chunk
     by chunk (pair: index into the pose's pairs). ``cull = (centre, cos)``: only the triples with
     ``|h·centre| >= cos`` (their values as without the cull)."""
     pi, pv, lit = pose.pi, pose.pv, pose.lit
@@ -708,7 +720,7 @@ def _setting_triples(L, E, V, pose, n_sh, eta, table, l_ref, count, cull, sink) 
     # triples: each pair x the lights its point sees; built in chunks of points and
     # stored in float32 (20 bytes a triple) so high quality stays within memory
     pair_first = np.searchsorted(pi, np.arange(count + 1))  # pairs are sorted by point
-    chunk = max(1, 4_000_000 // max(1, len(V) * max(1, int(lit.sum(axis=1).max(initial=1)))))
+    chunk = max(1, DENSE_CHUNK // max(1, len(V) * max(1, int(lit.sum(axis=1).max(initial=1)))))
     for p0 in range(0, count, chunk):
         p1 = min(count, p0 + chunk)
         q0, q1 = pair_first[p0], pair_first[p1]

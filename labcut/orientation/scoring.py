@@ -465,16 +465,17 @@ class Scorer:
 
     def _triples(self) -> _DeviceTriples:
         """(h, c, pair rows, view rows, pair weights, view weights) on the Dr.Jit device, built the
-        first time an objective other than energy is scored: the energy objective sums the binned
-        triples and the metrics are numpy sums (:meth:`FlashProblem.pair_radiance`), so a copy of
-        every triple (16 bytes each) on the device is made only where it is used.
+        first time an objective other than energy is scored (the energy objective sums the binned
+        triples). h and c are the problem's own device copy
+        (:attr:`FlashProblem.device_triples`, which the metrics' pair sums also read), not a second one.
 
         Deterministic segment sums: every pair's triples (and every view's pairs) are gathered
         into fixed-width padded rows and summed with block_sum, so results do not depend on the
         order in which threads add (atomic scatter-adds would)."""
         if self._device is None:
             t, p = self.t, self.problem
-            self._device = _DeviceTriples(t.Array3f(p.h[:, 0], p.h[:, 1], p.h[:, 2]), t.Float(p.c),
+            h, c = p.device_triples
+            self._device = _DeviceTriples(h, c,
                                           _padded_rows(p.pair, self.n_pairs, t), _padded_rows(p.pair_view, self.n_views, t),
                                           t.Float(p.pair_weight), t.Float(p.view_weight))
         return self._device

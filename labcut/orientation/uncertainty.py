@@ -237,15 +237,16 @@ def objective_values(problem: FlashProblem, radiance: np.ndarray, point_weights:
         den = np.maximum(np.einsum("rn,n->r", point_weights, area_w)[:, None], 1e-300)
         seg = seg[lit[seg]]
         # (R, n) point weights of the view's pairs times their (n, K) weighted values: BLAS products
-        # (2.5x faster than einsum's loops for the standard oval's 33 x 4,300 x 17 per view; the
+        # (faster than einsum's loops: the replicates' row of benchmarks/recommend_stages.py; the
         # bootstrap's spread does not hang on the last bit a machine's BLAS kernel rounds)
         w_seg = point_weights[:, pp[seg]]
-        x_seg = pw[seg][:, None] * radiance[seg]
+        pw_seg = pw[seg][:, None]
+        x_seg = pw_seg * radiance[seg]
         e_v = (w_seg @ x_seg) / den
         energy += wv * e_v
         if objective != "energy":
             f_seg = flash[seg]
-            ar_v = (w_seg @ (pw[seg][:, None] * f_seg)) / den
+            ar_v = (w_seg @ (pw_seg * f_seg)) / den
             in_v = (w_seg @ (x_seg * f_seg)) / den
             area += wv * ar_v
             intensity += wv * np.where(ar_v > 1e-12, in_v / np.maximum(ar_v, 1e-12), 0.0)
@@ -260,9 +261,10 @@ def objective_values(problem: FlashProblem, radiance: np.ndarray, point_weights:
 
 def stencil_values(problem: FlashProblem, normals: np.ndarray, objective: str) -> np.ndarray:
     """The objective at each stencil normal with every surface point weighted 1 (the problem's own
-    estimator): (1, K). The energy is linear in the pair radiances, so it is summed straight from
-    the triples within reach (:meth:`FlashProblem.energy_near`, no per-pair sums); the thresholded
-    objectives need the pairs (:func:`objective_values` of :func:`pair_radiance`)."""
+    estimator): (1, K). The energy is linear in the pair radiances: the pair sums within reach
+    weighted, or where the pair-sum kernel does not run the triples summed straight, no per-pair
+    sums (:meth:`FlashProblem.energy_near`); the thresholded objectives need the pairs
+    (:func:`objective_values` of :func:`pair_radiance`)."""
     normals = np.asarray(normals, dtype=np.float64)
     if objective == "energy":
         return problem.energy_near(normals, _reach(problem.kappa, normals))[None, :]
