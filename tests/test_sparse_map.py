@@ -11,6 +11,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import labcut
+from labcut.orientation import scoring as scoring_module
 from labcut.orientation.problem import build_problem
 from labcut.orientation.scoring import Scorer, SparseLobeMap, grid_inverse
 from labcut.scene import resolve_scene
@@ -48,15 +49,16 @@ def _unit_normals(seed: int, k: int) -> np.ndarray:
        k=st.sampled_from([1, 7, 64, 65, 300]))
 def test_sparse_map_equals_the_dense_sum(seed, kappa, spread, k):
     """Random bins, lobe widths and normals (either hemisphere: the lobe is axial): the culled sum
-    agrees with the full float64 sum to 1e-6 of the map's largest value, in both code paths
-    (one product over the union of the tiles needed; a product per tile) and in the one chosen."""
+    agrees with the full float64 sum to 1e-6 of the map's largest value, in every code path
+    (one product over the union of the tiles needed; a product per tile; the Dr.Jit kernel's
+    float32 terms about the tiles' centres) and in the one chosen."""
     h, a = _random_bins(seed, 3000, spread)
     norm = kappa / (2 * math.pi * (1 - math.exp(-kappa)))
     sparse = SparseLobeMap(h, a, kappa, norm)
     m = _unit_normals(seed, k)
     m = np.vstack([m, h[:3]])  # and normals right on a bin: the peak values
     want = sparse.dense(m)
-    for path in ("auto", "union", "tiles"):
+    for path in ("auto", "union", "tiles", "device"):
         got = sparse(m, path=path)
         assert np.all(np.abs(got - want) <= 1e-6 * want.max() + 1e-300), path
     # the analytic gradient of one normal's value is the derivative of the same sum
@@ -177,5 +179,47 @@ def test_auto_path_takes_the_union_for_a_ring_and_the_tiles_for_a_map(scorer, mo
     monkeypatch.setattr(sm, "_union", lambda tiles: unions.append(len(tiles)) or real(tiles))
     sm(ring(np.array([0.05, -0.05, 1.0]) / np.linalg.norm([0.05, -0.05, 1.0]), 2.0, 16))
     assert len(unions) == 1
+    monkeypatch.setattr(scoring_module, "MAP_IN_DRJIT", False)
     sm(hemisphere_grid(3.0, Constraint()))
     assert len(unions) == 1
+
+
+def test_auto_path_takes_the_kernel_for_a_map_of_many_terms(scorer, monkeypatch):
+    """A map of at least DEVICE_MAP_TERMS terms within reach goes to the Dr.Jit kernel, a ring to
+    the numpy union; MAP_IN_DRJIT off: never the kernel."""
+    from labcut.orientation.optimize import Constraint, hemisphere_grid
+    from labcut.reports.analysis import ring
+
+    sm = scorer.sparse_map
+    grid = hemisphere_grid(3.0, Constraint())
+    calls = []
+    real = sm._device_sums
+    monkeypatch.setattr(sm, "_device_sums", lambda *a: calls.append(len(a[0])) or real(*a))
+    monkeypatch.setattr(scoring_module, "DEVICE_MAP_TERMS", 10_000)
+    want = sm(grid, path="tiles")
+    got = sm(grid)
+    assert calls == [len(grid)]
+    np.testing.assert_allclose(got, want, rtol=0.0, atol=1e-6 * want.max())
+    monkeypatch.setattr(scoring_module, "DEVICE_MAP_TERMS", 1 << 20)
+    sm(ring(np.array([0.05, -0.05, 1.0]) / np.linalg.norm([0.05, -0.05, 1.0]), 0.5, 16))
+    assert calls == [len(grid)]  # a ring of 16: fewer terms than the kernel takes
+    monkeypatch.setattr(scoring_module, "MAP_IN_DRJIT", False)
+    sm(grid)
+    assert calls == [len(grid)]
+
+
+@pytest.mark.parametrize("kappa", [1.0, 4.0, 30.0])
+def test_the_kernel_keeps_the_axial_lobes_far_side(kappa):
+    """Broad lobes over big tiles: a tile can straddle a normal's equator, where some of its bins
+    lie on the lobe's far (axial) side; the kernel's terms there are exp(κ(|m·h| - 1)) too."""
+    rng = np.random.default_rng(3)
+    h = rng.normal(size=(4000, 3))
+    h /= np.linalg.norm(h, axis=1, keepdims=True)
+    h[h[:, 2] < 0] *= -1
+    a = rng.random(4000)
+    sparse = SparseLobeMap(h, a, kappa, 1.0)
+    t = np.radians(np.linspace(0.0, 360.0, 73))
+    m = np.stack([np.cos(t), np.sin(t), np.full_like(t, 0.02)], axis=1)  # normals at the equator
+    m /= np.linalg.norm(m, axis=1, keepdims=True)
+    want = sparse.dense(m)
+    np.testing.assert_allclose(sparse(m, path="device"), want, rtol=1e-6, atol=0.0)
