@@ -46,6 +46,7 @@ blocked or not, which misses the light a carving's parts let through from the re
 from __future__ import annotations
 
 import functools
+import time
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -97,6 +98,9 @@ class EffectPlan:
     predicted_seconds: dict[str, float] = field(default_factory=dict)
     convex: bool = True
     facts: dict[str, Any] = field(default_factory=dict)
+    #: wall seconds this plan spent on pilot renders (0 when they were cached: a stone's first plan
+    #: pays them); not part of the plan's answer (nor of :meth:`to_dict`), for time budgets
+    pilot_seconds: float = field(default=0.0, compare=False)
 
     def __getitem__(self, effect: str) -> Decision:
         for d in self.decisions:
@@ -462,6 +466,7 @@ def plan_effects(
     if estimator not in ESTIMATORS:
         raise ParameterError(f"estimator must be one of {', '.join(ESTIMATORS)}, got {estimator!r}")
     forced = check_effects(effects)
+    pilot_seconds = 0.0
     from .validation import check_number
 
     resolution = None if resolution is None else check_number(resolution, "resolution", 8, 8192, integer=True)
@@ -526,7 +531,9 @@ def plan_effects(
         if bound > INTERREFLECTION_TOLERANCE and "inter_reflection" not in forced and command in ("recommend", "evaluate"):
             # the bound is loose (the returning light is mostly the lamps' mirror images, which
             # rarely meet the lamellae's flash direction): measure it with pilot renders
+            t_pilots = time.perf_counter()
             measured = measured_interreflection(mesh, material, scene)
+            pilot_seconds = time.perf_counter() - t_pilots
             facts["interreflection_measured"] = round(measured, 5)
         size = bound if measured is None else measured
         ir_on = forced.get("inter_reflection", size > INTERREFLECTION_TOLERANCE)
@@ -655,7 +662,7 @@ def plan_effects(
             predicted = _predicted_render_seconds(facts["mode"], polarizer_deg is not None, integrator, *size, look)
         else:
             predicted = estimator_seconds(scene, command, occ_on, ir_on, convex, zoning is not None)
-    return EffectPlan(command, tuple(decisions), chosen, est_why, predicted, convex, facts)
+    return EffectPlan(command, tuple(decisions), chosen, est_why, predicted, convex, facts, pilot_seconds)
 
 
 def estimator_seconds(scene: Any, command: str, occlusion: bool, inter_reflection: bool, convex: bool,

@@ -165,7 +165,7 @@ def test_recommend_hands_its_plan_to_the_budget(monkeypatch):
     class Stop(Exception):
         pass
 
-    def spy(budget, scene_spec, occlusion, *, plan=None):
+    def spy(budget, scene_spec, occlusion, *, plan=None, spent=0.0, planned=None):
         seen["estimator"] = plan.estimator
         raise Stop
 
@@ -175,3 +175,63 @@ def test_recommend_hands_its_plan_to_the_budget(monkeypatch):
         with pytest.raises(Stop):
             labcut.recommend_orientation(oval, "blue", time_budget=5.0, estimator=estimator)
         assert seen["estimator"] == estimator
+
+
+class _PlanWithPilots:
+    """An effect plan of the sample estimator that spent ``pilot_seconds`` on pilot renders."""
+
+    estimator = "samples"
+
+    def __init__(self, pilot_seconds: float) -> None:
+        self.pilot_seconds = pilot_seconds
+
+
+def test_the_plans_time_is_the_budgets(monkeypatch):
+    """The seconds the budget's own plan spent on a first plan's pilot renders are spent: the rungs
+    must fit in the rest; the other rungs than the planned quality count the pilots once more (their
+    own plan renders its pilots again), so the planned quality is chosen where a richer rung would
+    fit only without them; with nothing left the note says what the plan took."""
+    _fake_timing(monkeypatch, 1e-4)  # standard 0.8 s, budget-4 1.39 s, high 2.4 s
+    assert choose(2.0, ("bench", None, None), False).quality.name == "budget-4"
+    assert choose(2.0, ("bench", None, None), False, spent=0.7).quality.name == "standard"
+    plan = _PlanWithPilots(0.4)
+    got = choose(2.0, ("bench", None, None), False, plan=plan, spent=0.4, planned="standard")
+    assert got.quality.name == "standard" and got.replan_seconds == 0.0  # budget-4 + its own pilots: 1.79 s > 1.6 s left
+    got = choose(2.0, ("bench", None, None), False, plan=plan, spent=0.4, planned="draft")
+    assert got.quality.name == "standard" and got.replan_seconds == 0.4
+    assert got.predicted_seconds == pytest.approx(0.8 + 0.4)
+    tight = choose(0.25, ("bench", None, None), False, plan=_PlanWithPilots(1.2), spent=1.21, planned="standard")
+    assert tight.quality.name == "budget-0" and tight.budget_seconds == 0.25
+    assert "first plan took 1.2 s of the 0.25 s time budget" in tight.note and "pilot renders 1.2 s" in tight.note
+    plain = choose(0.01, ("bench", None, None), False, spent=0.001)
+    assert plain.note.startswith("a time budget of 0.01 s is below")
+
+
+def test_a_first_plans_pilots_are_counted_and_kept_out_of_the_correction(monkeypatch):
+    """A carving's first budgeted recommendation: the budget's plan measures the pilot renders (here
+    a stand-in that takes 0.4 s), the choice counts them as spent, and the correction learns from the
+    recommendation alone (its time without the pilots)."""
+    import time
+
+    from labcut import planner
+    from labcut.orientation import budget as budget_module
+
+    monkeypatch.setattr(planner, "_PILOT_CACHE", {})
+    slow = {"n": 0}
+
+    def pilots(mesh, material, scene):
+        slow["n"] += 1
+        time.sleep(0.4)
+        return 0.001
+
+    monkeypatch.setattr(planner, "measured_interreflection", pilots)
+    seen = []
+    monkeypatch.setattr(budget_module, "record", lambda kind, predicted, actual: seen.append((predicted, actual)))
+    mesh = labcut.load_mesh("meshes/carving-biplane.ply")
+    t = time.perf_counter()
+    rec = labcut.recommend_orientation(mesh, "blue", time_budget=30.0)
+    total = time.perf_counter() - t
+    choice = rec.settings["time_budget"]
+    assert slow["n"] >= 1 and choice["spent_seconds"] == choice["pilot_seconds"] >= 0.4
+    (predicted, actual), = seen
+    assert actual <= total - 0.4 * slow["n"] + 0.05

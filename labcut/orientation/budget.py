@@ -67,6 +67,13 @@ class BudgetChoice:
     occlusion: bool = False
     #: the estimator the prediction is of (``samples`` or ``render``): the correction's kind follows it
     estimator: str = "samples"
+    #: seconds of the budget already spent before choosing (a stone's first plan: its pilot renders,
+    #: which the calibration does not include), and the pilot renders' seconds: the rungs had the rest
+    spent_seconds: float = 0.0
+    pilot_seconds: float = 0.0
+    #: of the predicted seconds, the pilot renders the chosen rung's own plan makes again (a rung
+    #: other than the planned quality: pilots are measured per scene at each quality)
+    replan_seconds: float = 0.0
 
     @property
     def kind(self) -> bool | str:
@@ -149,7 +156,8 @@ def record(kind: bool | str, predicted_seconds: float, actual_seconds: float) ->
     return data[name]
 
 
-def choose(budget: Any, scene_spec: tuple[Any, Any, Any], occlusion: bool, *, plan: Any = None) -> BudgetChoice:
+def choose(budget: Any, scene_spec: tuple[Any, Any, Any], occlusion: bool, *, plan: Any = None,
+           spent: float = 0.0, planned: str | None = None) -> BudgetChoice:
     """The most accurate rung of :func:`ladder` predicted to fit ``budget`` seconds for the scene
     ``scene_spec`` (``(scenario, lighting, viewing)`` as asked), occlusion as planned.
 
@@ -157,11 +165,21 @@ def choose(budget: Any, scene_spec: tuple[Any, Any, Any], occlusion: bool, *, pl
     render estimator, the rungs are the three presets (the render estimator's own settings go by
     them) and each is predicted as the planner predicts that estimator
     (:func:`labcut.planner.estimator_seconds`: the sample answer it starts from, then the renders);
-    the correction is then the ``render`` kind's. Otherwise the sample estimator's calibration."""
+    the correction is then the ``render`` kind's. Otherwise the sample estimator's calibration.
+
+    ``spent``: seconds of the budget already spent (the pilot renders of a stone not planned before,
+    ``plan.pilot_seconds``, which the calibration does not include): the rungs must fit in what is left, and
+    when nothing is left or the cheapest rung does not fit, the note says what the plan took.
+    ``planned``: the quality ``plan`` was made at; when its pilot renders were made just now, every
+    other rung's prediction includes them once more (that rung's plan measures its own: the
+    pilots' lamp and view directions follow the quality), so a rung at the planned quality, whose
+    pilots are cached, is preferred where the others would not fit with them."""
     from ..scene import resolve_scene
     from .timing import predict_sample_seconds
 
     seconds = check_budget(budget)
+    spent = max(0.0, float(spent))
+    pilots = float(getattr(plan, "pilot_seconds", 0.0) or 0.0)
     renders = plan is not None and plan.estimator == "render"
     factor = correction("render" if renders else occlusion)
     rungs = []
@@ -176,9 +194,22 @@ def choose(budget: Any, scene_spec: tuple[Any, Any, Any], occlusion: bool, *, pl
                                   plan.on("zoning"))["render"]
         else:
             t = predict_sample_seconds(scene.settings(), q.surface_points, occlusion)
-        rungs.append((q, factor * t))
-    return pick(rungs, seconds, "the cheapest setting's", correction=factor, occlusion=occlusion,
-                estimator="render" if renders else "samples")
+        replan = pilots if (pilots > 0.0 and planned is not None and q.name != planned) else 0.0
+        rungs.append((q, factor * t + replan))
+    fields = {"correction": factor, "occlusion": occlusion, "estimator": "render" if renders else "samples",
+              "spent_seconds": spent, "pilot_seconds": pilots}
+    choice = pick(rungs, seconds - spent, "the cheapest setting's", **fields)
+    if pilots > 0.0 and planned is not None and choice.quality.name != planned:
+        choice = BudgetChoice(**{**choice.__dict__, "replan_seconds": pilots})
+    if choice.note is not None and pilots <= 0.0:  # the note names the whole budget
+        choice = BudgetChoice(**{**choice.__dict__, "note": pick(rungs, seconds, "the cheapest setting's").note or choice.note})
+    elif choice.note is not None:  # the plan's pilot renders, not the rungs, took the budget
+        q, t = rungs[0]
+        note = (f"the stone's first plan took {spent:.2g} s of the {seconds:g} s time budget (its pilot renders "
+                f"{pilots:.2g} s, cached for the next call): running the cheapest setting ({q.name}, predicted {t:.2g} s)")
+        choice = BudgetChoice(q, float(t), seconds, choice.rungs, note=note, **fields,
+                              replan_seconds=pilots if (planned is not None and q.name != planned) else 0.0)
+    return BudgetChoice(**{**choice.__dict__, "budget_seconds": seconds})
 
 
 def pick(rungs: list[tuple[Quality, float]], seconds: float, cheapest: str, detail: str = "",

@@ -519,7 +519,9 @@ def recommend_orientation(
     if budget is not None:  # the calibration learns from this run (orientation/budget.py)
         from .budget import record
 
-        record(budget.kind, budget.predicted_seconds / budget.correction, time.perf_counter() - start)
+        # what the calibration predicts: the recommendation, not the plans' pilot renders
+        record(budget.kind, (budget.predicted_seconds - budget.replan_seconds) / budget.correction,
+               time.perf_counter() - start - budget.pilot_seconds - plan.pilot_seconds)
     return Recommendation(
         normal=normal, tilt_deg=tilt, azimuth_deg=az, score=float(score), objective=objective, metrics=metrics,
         tolerance_deg=float(tol), tolerance_by_axis=by_axis, runners_up=runners, map_normals=map_normals, map_scores=map_scores,
@@ -551,9 +553,12 @@ def _within_budget(mesh: Any, ask: FlashSetup, time_budget: Any, *, quality_give
     if quality_given:
         raise ParameterError("give quality or time_budget, not both (the budget chooses the quality)")
     # which estimator answers (the planner's choice does not depend on the quality): the budget predicts that one
+    # a stone's first plan makes its pilot renders: their seconds are the budget's (the calibration's
+    # recommendations, which the rungs are predicted from, include a plan but not its pilots)
     plan = plan_effects(mesh, ask.material, command="recommend", scenario=ask.scenario, quality=ask.quality,
                         estimator=ask.estimator, effects=ask.effect_overrides, zoning=ask.zoning, predict=False)
-    choice = choose(time_budget, ask.scene_spec, occlusion_on(is_convex(mesh), ask.effect_overrides), plan=plan)
+    choice = choose(time_budget, ask.scene_spec, occlusion_on(is_convex(mesh), ask.effect_overrides), plan=plan,
+                    spent=plan.pilot_seconds, planned=ask.quality.name)
     if choice.note:
         warnings.warn(choice.note, LabcutWarning, stacklevel=3)
     return ask.at_quality(choice.quality), choice
