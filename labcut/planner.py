@@ -287,7 +287,7 @@ PILOT_CELLS = 256
 _PILOT_CACHE: dict[str, float] = {}
 
 
-def measured_interreflection(mesh: Any, material: Any, scene: Any) -> float:
+def measured_interreflection(mesh: Any, material: Any, scene: Any, timing: dict[str, float] | None = None) -> float:
     """The share of the best flash energy that light between the parts of ``mesh`` adds under
     ``scene`` (:func:`labcut.orientation.render_objective.interreflection_share` with pilot renders
     of :data:`PILOT_RESOLUTION`² px at :data:`PILOT_SPP` spp, seed 0, at most :data:`PILOT_POSES`
@@ -295,7 +295,8 @@ def measured_interreflection(mesh: Any, material: Any, scene: Any) -> float:
     on disk (the user cache folder, keyed by the mesh's vertices and faces, the material, the
     scene's lights, views and poses), so a second plan of the same stone costs nothing. A stone of
     more than :data:`PILOT_FACES` triangles (a scan) is rendered as its clustered copy
-    (:func:`pilot_mesh`): a 64-pixel pilot sees the same shape, at a fraction of the cost."""
+    (:func:`pilot_mesh`): a 64-pixel pilot sees the same shape, at a fraction of the cost.
+    ``timing``: a dict that gets ``"pilot_seconds"``, the seconds the renders took (0 when cached)."""
     import hashlib
     import json
 
@@ -328,7 +329,10 @@ def measured_interreflection(mesh: Any, material: Any, scene: Any) -> float:
     if key in stored:
         _PILOT_CACHE[key] = stored[key]
         return stored[key]
+    t0 = time.perf_counter()
     value = interreflection_share(pilot_mesh(mesh), material, settings, resolution=PILOT_RESOLUTION, spp=PILOT_SPP)
+    if timing is not None:
+        timing["pilot_seconds"] = time.perf_counter() - t0
     _PILOT_CACHE[key] = value
     stored[key] = value
     write_cache(path, dict(list(stored.items())[-512:]))  # the latest 512 stones and scenes
@@ -531,9 +535,9 @@ def plan_effects(
         if bound > INTERREFLECTION_TOLERANCE and "inter_reflection" not in forced and command in ("recommend", "evaluate"):
             # the bound is loose (the returning light is mostly the lamps' mirror images, which
             # rarely meet the lamellae's flash direction): measure it with pilot renders
-            t_pilots = time.perf_counter()
-            measured = measured_interreflection(mesh, material, scene)
-            pilot_seconds = time.perf_counter() - t_pilots
+            timing: dict[str, float] = {}
+            measured = measured_interreflection(mesh, material, scene, timing=timing)
+            pilot_seconds = timing.get("pilot_seconds", 0.0)
             facts["interreflection_measured"] = round(measured, 5)
         size = bound if measured is None else measured
         ir_on = forced.get("inter_reflection", size > INTERREFLECTION_TOLERANCE)

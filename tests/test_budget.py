@@ -219,9 +219,11 @@ def test_a_first_plans_pilots_are_counted_and_kept_out_of_the_correction(monkeyp
     monkeypatch.setattr(planner, "_PILOT_CACHE", {})
     slow = {"n": 0}
 
-    def pilots(mesh, material, scene):
+    def pilots(mesh, material, scene, timing=None):
         slow["n"] += 1
         time.sleep(0.4)
+        if timing is not None:
+            timing["pilot_seconds"] = 0.4
         return 0.001
 
     monkeypatch.setattr(planner, "measured_interreflection", pilots)
@@ -235,3 +237,17 @@ def test_a_first_plans_pilots_are_counted_and_kept_out_of_the_correction(monkeyp
     assert slow["n"] >= 1 and choice["spent_seconds"] == choice["pilot_seconds"] >= 0.4
     (predicted, actual), = seen
     assert actual <= total - 0.4 * slow["n"] + 0.05
+
+
+def test_cached_pilots_cost_the_budget_nothing(monkeypatch, tmp_path):
+    """A plan whose pilot renders are cached reports no pilot seconds (the cache's lookup is not a
+    render): the budget spends nothing on them and no rung counts them again."""
+    from labcut import planner
+
+    monkeypatch.setattr(planner, "_PILOT_CACHE", {})
+    monkeypatch.setattr(planner, "_pilot_cache_path", lambda: tmp_path / "planner-pilot.json")
+    mesh = labcut.load_mesh("meshes/carving-biplane.ply")
+    first = planner.plan_effects(mesh, "blue", scenario="bench", quality="draft")
+    again = planner.plan_effects(mesh, "blue", scenario="bench", quality="draft")
+    assert "interreflection_measured" in first.facts
+    assert first.pilot_seconds > 0.0 and again.pilot_seconds == 0.0
