@@ -283,6 +283,11 @@ PILOT_POSES = 5
 #: of cells :data:`PILOT_CELLS` to the bounding diagonal (a pilot pixel is about 1/64 of it: four
 #: cells to a pixel); at or below it, on the mesh itself
 PILOT_FACES = 200_000
+#: the quality whose lamp, map and viewing-cone directions and rocking poses the pilot renders
+#: sample (:func:`plan_effects`' ``pilot_scene``): one measurement per stone and scene, whatever the
+#: plan's quality, so a plan decides the same at every quality and a time budget's plan (made at
+#: the asked quality) has measured what the chosen rung's plan needs
+PILOT_QUALITY = "standard"
 PILOT_CELLS = 256
 _PILOT_CACHE: dict[str, float] = {}
 
@@ -431,6 +436,7 @@ def plan_effects(
     spp: int | None = None,
     views: int = 1,
     look: str = "diagram",
+    pilot_scene: Any = None,
 ) -> EffectPlan:
     """Decide which effects ``command`` simulates for a stone in a scene (module docstring).
 
@@ -443,7 +449,11 @@ def plan_effects(
     ``compare`` the sample estimator's recommendation of the cut (its curves and renders come on
     top), for ``render`` the render at ``resolution``² px (default 512), ``spp`` samples per pixel
     (default 64), ``views`` views (default 1) and ``look`` (``diagram`` or ``studio``), as
-    ``facts["predicted_for"]`` says.
+    ``facts["predicted_for"]`` says. ``pilot_scene``: the scene the pilot renders of inter-reflection
+    measure under (:func:`measured_interreflection`); default: ``scenario``, ``lighting`` and
+    ``viewing`` drawn at :data:`PILOT_QUALITY` (a scene given as a :class:`~labcut.Scenario` object
+    keeps its own directions: pass ``FlashSetup.pilot_scene()`` to pilot the question's scene at
+    that quality).
 
     Raises :class:`~labcut.errors.ParameterError` for combinations the scene cannot have (a
     polariser with mono colour, inter-reflection in a convex stone, an unknown effect ...).
@@ -464,6 +474,7 @@ def plan_effects(
     """
     from .physics.material import Labradorite
     from .scene import resolve_scene
+    from .scene.quality import Quality
 
     if command not in COMMANDS:
         raise ParameterError(f"command must be one of {', '.join(COMMANDS)}, got {command!r}")
@@ -480,6 +491,9 @@ def plan_effects(
         raise ParameterError(f"look must be diagram or studio, got {look!r}")
     material = Labradorite.coerce(material)
     scene = resolve_scene(scenario, lighting, viewing, quality)
+    if pilot_scene is None:
+        pilot_scene = scene if Quality.coerce(quality) == Quality.coerce(PILOT_QUALITY) else resolve_scene(
+            scenario, lighting, viewing, PILOT_QUALITY)
     rendering = command == "render"
     if not rendering and (polarizer_deg is not None or mode is not None):
         raise ParameterError(f"{command} scores luminance flash: colour mode and polariser apply to renders only")
@@ -536,7 +550,7 @@ def plan_effects(
             # the bound is loose (the returning light is mostly the lamps' mirror images, which
             # rarely meet the lamellae's flash direction): measure it with pilot renders
             timing: dict[str, float] = {}
-            measured = measured_interreflection(mesh, material, scene, timing=timing)
+            measured = measured_interreflection(mesh, material, pilot_scene, timing=timing)
             pilot_seconds = timing.get("pilot_seconds", 0.0)
             facts["interreflection_measured"] = round(measured, 5)
         size = bound if measured is None else measured

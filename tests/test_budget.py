@@ -188,23 +188,38 @@ class _PlanWithPilots:
 
 def test_the_plans_time_is_the_budgets(monkeypatch):
     """The seconds the budget's own plan spent on a first plan's pilot renders are spent: the rungs
-    must fit in the rest; the other rungs than the planned quality count the pilots once more (their
-    own plan renders its pilots again), so the planned quality is chosen where a richer rung would
-    fit only without them; with nothing left the note says what the plan took."""
+    must fit in the rest; with too little left the note says what the plan took."""
     _fake_timing(monkeypatch, 1e-4)  # standard 0.8 s, budget-4 1.39 s, high 2.4 s
     assert choose(2.0, ("bench", None, None), False).quality.name == "budget-4"
-    assert choose(2.0, ("bench", None, None), False, spent=0.7).quality.name == "standard"
-    plan = _PlanWithPilots(0.4)
-    got = choose(2.0, ("bench", None, None), False, plan=plan, spent=0.4, planned="standard")
-    assert got.quality.name == "standard" and got.replan_seconds == 0.0  # budget-4 + its own pilots: 1.79 s > 1.6 s left
-    got = choose(2.0, ("bench", None, None), False, plan=plan, spent=0.4, planned="draft")
-    assert got.quality.name == "standard" and got.replan_seconds == 0.4
-    assert got.predicted_seconds == pytest.approx(0.8 + 0.4)
-    tight = choose(0.25, ("bench", None, None), False, plan=_PlanWithPilots(1.2), spent=1.21, planned="standard")
+    got = choose(2.0, ("bench", None, None), False, plan=_PlanWithPilots(0.7), spent=0.7)
+    assert got.quality.name == "standard" and got.budget_seconds == 2.0
+    assert got.spent_seconds == got.pilot_seconds == 0.7 and got.note is None
+    tight = choose(0.25, ("bench", None, None), False, plan=_PlanWithPilots(1.2), spent=1.2)
     assert tight.quality.name == "budget-0" and tight.budget_seconds == 0.25
     assert "first plan took 1.2 s of the 0.25 s time budget" in tight.note and "pilot renders 1.2 s" in tight.note
-    plain = choose(0.01, ("bench", None, None), False, spent=0.001)
+    plain = choose(0.01, ("bench", None, None), False)
     assert plain.note.startswith("a time budget of 0.01 s is below")
+
+
+def test_every_quality_pilots_the_same_scene(monkeypatch, tmp_path):
+    """The pilot renders sample the scene at PILOT_QUALITY whatever the plan's quality: a draft and
+    a high plan of the same stone and scene measure once and decide alike; a budgeted
+    recommendation's rung finds its plan's pilots made by the budget's."""
+    from labcut import planner
+
+    monkeypatch.setattr(planner, "_PILOT_CACHE", {})
+    monkeypatch.setattr(planner, "_pilot_cache_path", lambda: tmp_path / "planner-pilot.json")
+    seen = []
+    from labcut.orientation import render_objective
+
+    real = render_objective.interreflection_share
+    monkeypatch.setattr(render_objective, "interreflection_share",
+                        lambda mesh, material, settings, **k: seen.append(len(settings)) or real(mesh, material, settings, **k))
+    mesh = labcut.load_mesh("meshes/carving-biplane.ply")
+    plans = [planner.plan_effects(mesh, "blue", scenario="display", quality=q) for q in ("draft", "high", "standard")]
+    assert len(seen) == 1
+    assert len({p.facts["interreflection_measured"] for p in plans}) == 1
+    assert plans[1].pilot_seconds == plans[2].pilot_seconds == 0.0 < plans[0].pilot_seconds
 
 
 def test_a_first_plans_pilots_are_counted_and_kept_out_of_the_correction(monkeypatch):

@@ -207,7 +207,8 @@ def recommend_orientation(
         from labcut.planner import plan_effects
 
         the_plan = plan_effects(mesh, material, command="recommend", scenario=scene, quality=setup.quality,
-                                estimator=estimator, effects=setup.effect_overrides, zoning=zone, predict=True)
+                                estimator=estimator, effects=setup.effect_overrides, zoning=zone, predict=True,
+                                pilot_scene=setup.pilot_scene())
     if plan or plan_only:
         po.show(the_plan, mesh_path.name, to_stderr=json_path == "-")
         if plan_only:
@@ -328,7 +329,7 @@ def evaluate_orientation(
     from labcut.planner import plan_effects
 
     the_plan = plan_effects(mesh, material, command="evaluate", scenario=scene, quality=setup.quality, estimator=estimator,
-                            effects=setup.effect_overrides, zoning=setup.zoning)
+                            effects=setup.effect_overrides, zoning=setup.zoning, pilot_scene=setup.pilot_scene())
     if plan or plan_only:
         po.show(the_plan, mesh_path.name, to_stderr=json_path == "-")
         if plan_only:

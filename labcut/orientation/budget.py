@@ -71,9 +71,6 @@ class BudgetChoice:
     #: which the calibration does not include), and the pilot renders' seconds: the rungs had the rest
     spent_seconds: float = 0.0
     pilot_seconds: float = 0.0
-    #: of the predicted seconds, the pilot renders the chosen rung's own plan makes again (a rung
-    #: other than the planned quality: pilots are measured per scene at each quality)
-    replan_seconds: float = 0.0
 
     @property
     def kind(self) -> bool | str:
@@ -157,7 +154,7 @@ def record(kind: bool | str, predicted_seconds: float, actual_seconds: float) ->
 
 
 def choose(budget: Any, scene_spec: tuple[Any, Any, Any], occlusion: bool, *, plan: Any = None,
-           spent: float = 0.0, planned: str | None = None) -> BudgetChoice:
+           spent: float = 0.0) -> BudgetChoice:
     """The most accurate rung of :func:`ladder` predicted to fit ``budget`` seconds for the scene
     ``scene_spec`` (``(scenario, lighting, viewing)`` as asked), occlusion as planned.
 
@@ -169,11 +166,9 @@ def choose(budget: Any, scene_spec: tuple[Any, Any, Any], occlusion: bool, *, pl
 
     ``spent``: seconds of the budget already spent (the pilot renders of a stone not planned before,
     ``plan.pilot_seconds``, which the calibration does not include): the rungs must fit in what is left, and
-    when nothing is left or the cheapest rung does not fit, the note says what the plan took.
-    ``planned``: the quality ``plan`` was made at; when its pilot renders were made just now, every
-    other rung's prediction includes them once more (that rung's plan measures its own: the
-    pilots' lamp and view directions follow the quality), so a rung at the planned quality, whose
-    pilots are cached, is preferred where the others would not fit with them."""
+    when nothing is left or the cheapest rung does not fit, the note says what the plan took. (The
+    pilots sample the scene at :data:`labcut.planner.PILOT_QUALITY` whatever the plan's quality, so
+    the chosen rung's plan finds them cached.)"""
     from ..scene import resolve_scene
     from .timing import predict_sample_seconds
 
@@ -194,21 +189,17 @@ def choose(budget: Any, scene_spec: tuple[Any, Any, Any], occlusion: bool, *, pl
                                   plan.on("zoning"))["render"]
         else:
             t = predict_sample_seconds(scene.settings(), q.surface_points, occlusion)
-        replan = pilots if (pilots > 0.0 and planned is not None and q.name != planned) else 0.0
-        rungs.append((q, factor * t + replan))
+        rungs.append((q, factor * t))
     fields = {"correction": factor, "occlusion": occlusion, "estimator": "render" if renders else "samples",
               "spent_seconds": spent, "pilot_seconds": pilots}
     choice = pick(rungs, seconds - spent, "the cheapest setting's", **fields)
-    if pilots > 0.0 and planned is not None and choice.quality.name != planned:
-        choice = BudgetChoice(**{**choice.__dict__, "replan_seconds": pilots})
     if choice.note is not None and pilots <= 0.0:  # the note names the whole budget
         choice = BudgetChoice(**{**choice.__dict__, "note": pick(rungs, seconds, "the cheapest setting's").note or choice.note})
     elif choice.note is not None:  # the plan's pilot renders, not the rungs, took the budget
         q, t = rungs[0]
         note = (f"the stone's first plan took {spent:.2g} s of the {seconds:g} s time budget (its pilot renders "
                 f"{pilots:.2g} s, cached for the next call): running the cheapest setting ({q.name}, predicted {t:.2g} s)")
-        choice = BudgetChoice(q, float(t), seconds, choice.rungs, note=note, **fields,
-                              replan_seconds=pilots if (planned is not None and q.name != planned) else 0.0)
+        choice = BudgetChoice(q, float(t), seconds, choice.rungs, note=note, **fields)
     return BudgetChoice(**{**choice.__dict__, "budget_seconds": seconds})
 
 

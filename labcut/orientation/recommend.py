@@ -371,7 +371,7 @@ def _setup(mesh: Any, setup: FlashSetup, command: str = "recommend", plan: Any =
     else:
         plan = plan_effects(mesh, setup.material, command=command, scenario=setup.scenario, quality=setup.quality,
                             estimator=setup.estimator, effects=setup.effect_overrides, zoning=setup.zoning,
-                            predict=command == "recommend")  # a recommendation's JSON holds its predicted seconds
+                            predict=command == "recommend", pilot_scene=setup.pilot_scene())  # a recommendation's JSON holds its predicted seconds
     problem = build_problem(mesh, setup.material, quality=setup.quality, tau=setup.tau, seed=setup.seed,
                             settings=setup.scenario.settings(), occlusion=plan.on("occlusion"))
     return Scorer(problem, setup.objective), plan
@@ -520,7 +520,7 @@ def recommend_orientation(
         from .budget import record
 
         # what the calibration predicts: the recommendation, not the plans' pilot renders
-        record(budget.kind, (budget.predicted_seconds - budget.replan_seconds) / budget.correction,
+        record(budget.kind, budget.predicted_seconds / budget.correction,
                time.perf_counter() - start - budget.pilot_seconds - plan.pilot_seconds)
     return Recommendation(
         normal=normal, tilt_deg=tilt, azimuth_deg=az, score=float(score), objective=objective, metrics=metrics,
@@ -553,12 +553,14 @@ def _within_budget(mesh: Any, ask: FlashSetup, time_budget: Any, *, quality_give
     if quality_given:
         raise ParameterError("give quality or time_budget, not both (the budget chooses the quality)")
     # which estimator answers (the planner's choice does not depend on the quality): the budget predicts that one
-    # a stone's first plan makes its pilot renders: their seconds are the budget's (the calibration's
-    # recommendations, which the rungs are predicted from, include a plan but not its pilots)
+    # a stone's first plan makes its pilot renders (at the pilot quality, whatever the rung: the rung's
+    # plan finds them cached): their seconds are the budget's (the calibration's recommendations,
+    # which the rungs are predicted from, include a plan but not its pilots)
     plan = plan_effects(mesh, ask.material, command="recommend", scenario=ask.scenario, quality=ask.quality,
-                        estimator=ask.estimator, effects=ask.effect_overrides, zoning=ask.zoning, predict=False)
+                        estimator=ask.estimator, effects=ask.effect_overrides, zoning=ask.zoning, predict=False,
+                        pilot_scene=ask.pilot_scene())
     choice = choose(time_budget, ask.scene_spec, occlusion_on(is_convex(mesh), ask.effect_overrides), plan=plan,
-                    spent=plan.pilot_seconds, planned=ask.quality.name)
+                    spent=plan.pilot_seconds)
     if choice.note:
         warnings.warn(choice.note, LabcutWarning, stacklevel=3)
     return ask.at_quality(choice.quality), choice

@@ -114,6 +114,16 @@ class FlashSetup:
         q = Quality.coerce(quality)
         return replace(self, quality=q, scenario=resolve_scene(*self.scene_spec, q), scene_spec=self.scene_spec)
 
+    def pilot_scene(self) -> Scenario:
+        """The scene of this question drawn at the effect planner's pilot quality
+        (:data:`labcut.planner.PILOT_QUALITY`): what its pilot renders measure under, whatever the
+        question's quality (``plan_effects(..., pilot_scene=)``)."""
+        from ..planner import PILOT_QUALITY
+
+        if self.quality == Quality.coerce(PILOT_QUALITY):
+            return self.scenario
+        return resolve_scene(*self.scene_spec, PILOT_QUALITY)
+
     @property
     def effect_overrides(self) -> dict[str, bool]:
         return dict(self.effects)
