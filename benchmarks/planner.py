@@ -74,7 +74,7 @@ def main() -> None:
     labcut.recommend_orientation(labcut.cabochon(outline="oval", length=16, width=12, dome="medium"), quality="draft")  # warm
     own: list[str] = []  # the planner's own cost
     # calibrate the predictions here, as quiet as the measurements, and time each calibration
-    for label, fn in (("calibration: sample estimator (4 recommendations of an oval)", lambda: sample_timing(refresh=True)),
+    for label, fn in (("calibration: sample estimator (5 recommendations of an oval: 2 warm-ups, 3 timed)", lambda: sample_timing(refresh=True)),
                       ("calibration: render estimator (2 integrators x 2 sizes)", lambda: render_timing(refresh=True)),
                       ("calibration: evaluate (7 evaluations of an oval)", lambda: evaluate_timing(refresh=True)),
                       ("calibration: render command, rgb direct diagram (4 renders of a sphere)",

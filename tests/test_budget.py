@@ -266,3 +266,16 @@ def test_cached_pilots_cost_the_budget_nothing(monkeypatch, tmp_path):
     again = planner.plan_effects(mesh, "blue", scenario="bench", quality="draft")
     assert "interreflection_measured" in first.facts
     assert first.pilot_seconds > 0.0 and again.pilot_seconds == 0.0
+
+
+def test_the_calibration_warms_the_occluded_path_before_timing_it():
+    """time_three warms each stone (the occluded one's first call in a process loads a Mitsuba
+    variant and builds its ray scene: timed, it made the per-ray cost ten times too large), then
+    times draft, standard and the occluded draft once each."""
+    from labcut.orientation.timing import time_three
+
+    calls = []
+    time_three(lambda mesh, quality: calls.append((mesh.metadata["labcut"].get("convex"), quality)))
+    hidden = [c for c in calls if c[0] is False]
+    assert len(calls) == 5 and calls[:2] == [calls[0], hidden[0]] and calls[0][0] is not False
+    assert calls[2:] == [(calls[0][0], "draft"), (calls[0][0], "standard"), (False, "draft")]

@@ -57,14 +57,16 @@ def _key() -> str:
 
     from .. import __version__
 
-    return f"labcut {__version__} numpy {np.__version__} cpus {os.cpu_count()} v3 (einsum lobe sums, error bars from the near triples)"
+    return f"labcut {__version__} numpy {np.__version__} cpus {os.cpu_count()} v4 (the occluded call warmed too)"
 
 
 def time_three(call: Any, repeats: int = 1) -> tuple[float, float, float]:
     """Fit ``seconds = fixed + per_term x terms + per_ray x rays`` to three timed calls of
     ``call(mesh, quality)`` on a 16 x 12 mm oval cabochon under the bench scenario: draft and
     standard (the per-term cost), and draft with occlusion forced on (the per-ray cost); each the
-    best of ``repeats``, after one warm-up. Returns ``(fixed, per_term, per_ray)``."""
+    best of ``repeats``, after a warm-up of each stone (the occluded one's first call loads a
+    Mitsuba variant and builds its ray scene, once per process: timed, it made the per-ray cost
+    ten times too large, 1.2e-5 s). Returns ``(fixed, per_term, per_ray)``."""
     import copy
 
     from ..geometry.cabochon import cabochon
@@ -78,6 +80,7 @@ def time_three(call: Any, repeats: int = 1) -> tuple[float, float, float]:
     _CALIBRATING = True
     try:
         call(mesh, "draft")  # warm: imports and kernels
+        call(hidden, "draft")  # and the occluded path's: a Mitsuba variant, the ray scene, their kernels
         for m, quality, occl in ((mesh, "draft", False), (mesh, "standard", False), (hidden, "draft", True)):
             scene = resolve_scene("bench", quality=quality)
             terms, rays = work(scene.settings(), scene.quality.surface_points)
