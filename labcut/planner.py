@@ -474,7 +474,6 @@ def plan_effects(
     """
     from .physics.material import Labradorite
     from .scene import resolve_scene
-    from .scene.quality import Quality
 
     if command not in COMMANDS:
         raise ParameterError(f"command must be one of {', '.join(COMMANDS)}, got {command!r}")
@@ -491,9 +490,6 @@ def plan_effects(
         raise ParameterError(f"look must be diagram or studio, got {look!r}")
     material = Labradorite.coerce(material)
     scene = resolve_scene(scenario, lighting, viewing, quality)
-    if pilot_scene is None:
-        pilot_scene = scene if Quality.coerce(quality) == Quality.coerce(PILOT_QUALITY) else resolve_scene(
-            scenario, lighting, viewing, PILOT_QUALITY)
     rendering = command == "render"
     if not rendering and (polarizer_deg is not None or mode is not None):
         raise ParameterError(f"{command} scores luminance flash: colour mode and polariser apply to renders only")
@@ -550,6 +546,8 @@ def plan_effects(
             # the bound is loose (the returning light is mostly the lamps' mirror images, which
             # rarely meet the lamellae's flash direction): measure it with pilot renders
             timing: dict[str, float] = {}
+            if pilot_scene is None:  # drawn here, where pilots are needed: a plan without them never resolves it
+                pilot_scene = resolve_scene(scenario, lighting, viewing, PILOT_QUALITY)
             measured = measured_interreflection(mesh, material, pilot_scene, timing=timing)
             pilot_seconds = timing.get("pilot_seconds", 0.0)
             facts["interreflection_measured"] = round(measured, 5)

@@ -165,7 +165,7 @@ def test_recommend_hands_its_plan_to_the_budget(monkeypatch):
     class Stop(Exception):
         pass
 
-    def spy(budget, scene_spec, occlusion, *, plan=None, spent=0.0, planned=None):
+    def spy(budget, scene_spec, occlusion, *, plan=None):
         seen["estimator"] = plan.estimator
         raise Stop
 
@@ -191,12 +191,13 @@ def test_the_plans_time_is_the_budgets(monkeypatch):
     must fit in the rest; with too little left the note says what the plan took."""
     _fake_timing(monkeypatch, 1e-4)  # standard 0.8 s, budget-4 1.39 s, high 2.4 s
     assert choose(2.0, ("bench", None, None), False).quality.name == "budget-4"
-    got = choose(2.0, ("bench", None, None), False, plan=_PlanWithPilots(0.7), spent=0.7)
+    got = choose(2.0, ("bench", None, None), False, plan=_PlanWithPilots(0.7))
     assert got.quality.name == "standard" and got.budget_seconds == 2.0
-    assert got.spent_seconds == got.pilot_seconds == 0.7 and got.note is None
-    tight = choose(0.25, ("bench", None, None), False, plan=_PlanWithPilots(1.2), spent=1.2)
+    assert got.pilot_seconds == 0.7 and got.note is None
+    tight = choose(0.25, ("bench", None, None), False, plan=_PlanWithPilots(1.2))
     assert tight.quality.name == "budget-0" and tight.budget_seconds == 0.25
-    assert "first plan took 1.2 s of the 0.25 s time budget" in tight.note and "pilot renders 1.2 s" in tight.note
+    assert "first plan took 1.2 s of the 0.25 s time budget on its pilot renders" in tight.note
+    assert "predicted 0.15 s" in tight.note and "(budget-0) anyway" in tight.note
     plain = choose(0.01, ("bench", None, None), False)
     assert plain.note.startswith("a time budget of 0.01 s is below")
 
@@ -249,7 +250,7 @@ def test_a_first_plans_pilots_are_counted_and_kept_out_of_the_correction(monkeyp
     rec = labcut.recommend_orientation(mesh, "blue", time_budget=30.0)
     total = time.perf_counter() - t
     choice = rec.settings["time_budget"]
-    assert slow["n"] >= 1 and choice["spent_seconds"] == choice["pilot_seconds"] >= 0.4
+    assert slow["n"] >= 1 and choice["pilot_seconds"] >= 0.4
     (predicted, actual), = seen
     assert actual <= total - 0.4 * slow["n"] + 0.05
 

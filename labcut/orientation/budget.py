@@ -67,9 +67,8 @@ class BudgetChoice:
     occlusion: bool = False
     #: the estimator the prediction is of (``samples`` or ``render``): the correction's kind follows it
     estimator: str = "samples"
-    #: seconds of the budget already spent before choosing (a stone's first plan: its pilot renders,
-    #: which the calibration does not include), and the pilot renders' seconds: the rungs had the rest
-    spent_seconds: float = 0.0
+    #: seconds of the budget a stone's first plan spent on its pilot renders before choosing (which
+    #: the calibration does not include): the rungs had the rest
     pilot_seconds: float = 0.0
 
     @property
@@ -153,8 +152,7 @@ def record(kind: bool | str, predicted_seconds: float, actual_seconds: float) ->
     return data[name]
 
 
-def choose(budget: Any, scene_spec: tuple[Any, Any, Any], occlusion: bool, *, plan: Any = None,
-           spent: float = 0.0) -> BudgetChoice:
+def choose(budget: Any, scene_spec: tuple[Any, Any, Any], occlusion: bool, *, plan: Any = None) -> BudgetChoice:
     """The most accurate rung of :func:`ladder` predicted to fit ``budget`` seconds for the scene
     ``scene_spec`` (``(scenario, lighting, viewing)`` as asked), occlusion as planned.
 
@@ -164,16 +162,14 @@ def choose(budget: Any, scene_spec: tuple[Any, Any, Any], occlusion: bool, *, pl
     (:func:`labcut.planner.estimator_seconds`: the sample answer it starts from, then the renders);
     the correction is then the ``render`` kind's. Otherwise the sample estimator's calibration.
 
-    ``spent``: seconds of the budget already spent (the pilot renders of a stone not planned before,
-    ``plan.pilot_seconds``, which the calibration does not include): the rungs must fit in what is left, and
-    when nothing is left or the cheapest rung does not fit, the note says what the plan took. (The
-    pilots sample the scene at :data:`labcut.planner.PILOT_QUALITY` whatever the plan's quality, so
-    the chosen rung's plan finds them cached.)"""
+    The pilot renders ``plan`` made (``plan.pilot_seconds``: a stone not planned before; the
+    calibration does not include them) are spent: the rungs must fit in what is left (:func:`pick`).
+    They sample the scene at :data:`labcut.planner.PILOT_QUALITY` whatever the plan's quality, so
+    the chosen rung's plan finds them cached."""
     from ..scene import resolve_scene
     from .timing import predict_sample_seconds
 
     seconds = check_budget(budget)
-    spent = max(0.0, float(spent))
     pilots = float(getattr(plan, "pilot_seconds", 0.0) or 0.0)
     renders = plan is not None and plan.estimator == "render"
     factor = correction("render" if renders else occlusion)
@@ -190,30 +186,27 @@ def choose(budget: Any, scene_spec: tuple[Any, Any, Any], occlusion: bool, *, pl
         else:
             t = predict_sample_seconds(scene.settings(), q.surface_points, occlusion)
         rungs.append((q, factor * t))
-    fields = {"correction": factor, "occlusion": occlusion, "estimator": "render" if renders else "samples",
-              "spent_seconds": spent, "pilot_seconds": pilots}
-    choice = pick(rungs, seconds - spent, "the cheapest setting's", **fields)
-    if choice.note is not None and pilots <= 0.0:  # the note names the whole budget
-        choice = BudgetChoice(**{**choice.__dict__, "note": pick(rungs, seconds, "the cheapest setting's").note or choice.note})
-    elif choice.note is not None:  # the plan's pilot renders, not the rungs, took the budget
-        q, t = rungs[0]
-        note = (f"the stone's first plan took {spent:.2g} s of the {seconds:g} s time budget (its pilot renders "
-                f"{pilots:.2g} s, cached for the next call): running the cheapest setting ({q.name}, predicted {t:.2g} s)")
-        choice = BudgetChoice(q, float(t), seconds, choice.rungs, note=note, **fields)
-    return BudgetChoice(**{**choice.__dict__, "budget_seconds": seconds})
+    return pick(rungs, seconds, "the cheapest setting's", pilot_seconds=pilots, correction=factor, occlusion=occlusion,
+                estimator="render" if renders else "samples")
 
 
 def pick(rungs: list[tuple[Quality, float]], seconds: float, cheapest: str, detail: str = "",
-         **fields: Any) -> BudgetChoice:
+         pilot_seconds: float = 0.0, **fields: Any) -> BudgetChoice:
     """The last (most accurate) of ``rungs`` (``(quality, predicted seconds)``, cheapest first)
-    predicted to fit ``seconds``; none fitting, the first with a one-line note naming ``cheapest``
-    (e.g. "the cheapest setting's") prediction, then ``detail``. ``fields``: the rest of the
-    :class:`BudgetChoice`."""
+    predicted to fit ``seconds``, less the ``pilot_seconds`` a stone's first plan already spent on
+    its pilot renders (which no rung's prediction includes); none fitting, the first with a one-line
+    note naming ``cheapest`` (e.g. "the cheapest setting's") prediction, then ``detail``, and what
+    the pilots took. ``fields``: the rest of the :class:`BudgetChoice`."""
     named = tuple((q.name, float(t)) for q, t in rungs)
-    fitting = [(q, t) for q, t in rungs if t <= seconds]
+    fitting = [(q, t) for q, t in rungs if t <= seconds - pilot_seconds]
     if fitting:
         q, t = fitting[-1]
-        return BudgetChoice(q, float(t), seconds, named, **fields)
+        return BudgetChoice(q, float(t), seconds, named, pilot_seconds=pilot_seconds, **fields)
     q, t = rungs[0]
-    return BudgetChoice(q, float(t), seconds, named, note=f"a time budget of {seconds:g} s is below {cheapest} predicted "
-                        f"{t:.2g} s on this machine{detail}: running that ({q.name}) anyway", **fields)
+    if pilot_seconds > 0.0:
+        note = (f"the stone's first plan took {pilot_seconds:.2g} s of the {seconds:g} s time budget on its pilot "
+                f"renders (cached for the next call), which leaves less than {cheapest} predicted {t:.2g} s on this "
+                f"machine{detail}: running that ({q.name}) anyway")
+    else:
+        note = f"a time budget of {seconds:g} s is below {cheapest} predicted {t:.2g} s on this machine{detail}: running that ({q.name}) anyway"
+    return BudgetChoice(q, float(t), seconds, named, note=note, pilot_seconds=pilot_seconds, **fields)

@@ -172,7 +172,7 @@ class FlashProblem:
         """``(h, c)``: the triples' mirror orientations (``Array3f``) and schiller factors (``Float``)
         on the Dr.Jit device, float32 as stored (16 bytes a triple), copied once per problem and
         shared by the pair-sum kernel (:class:`_PairSums`) and the scorer's device objectives
-        (:meth:`labcut.orientation.scoring.Scorer`)."""
+        (:class:`labcut.orientation.scoring.Scorer`)."""
         from ..backend import ad_types
 
         _, t = ad_types()
@@ -505,7 +505,8 @@ def build_problem(
     pair_point = np.concatenate(pp_parts)
     pair_view = np.concatenate(pv_parts)
     if kernel is not None:  # every pose's triples in one kernel call per chunk of pairs
-        _all_triples(settings, [1.0 / e for e in total_irradiance], poses, pair_point, pair_view, cull, kernel, sink)
+        _all_triples(settings, [1.0 / e for e in total_irradiance], poses, np.array(offsets + [pair_offset]), pair_point,
+                     pair_view, cull, kernel, sink)
     else:
         for k, (st, pose) in enumerate(zip(settings, poses)):
             _setting_triples(st.lights.directions, st.lights.weights / total_irradiance[k], st.views.directions, pose,
@@ -662,12 +663,14 @@ def _setting_pairs(L, E, V, points, n_geo, n_sh, mesh, convex) -> _PosePairs:
 DENSE_CHUNK = 4_000_000
 
 
-def _all_triples(settings: list[Setting], scale: list[float], poses: list[_PosePairs], point: np.ndarray,
-                 view: np.ndarray, cull: tuple[np.ndarray, float] | None, kernel: _TripleKernel, sink: Any) -> None:
+def _all_triples(settings: list[Setting], scale: list[float], poses: list[_PosePairs], first_pair: np.ndarray,
+                 point: np.ndarray, view: np.ndarray, cull: tuple[np.ndarray, float] | None, kernel: _TripleKernel,
+                 sink: Any) -> None:
     """The triples of every pose at once (:func:`_setting_triples`'s triples, in its order: pose,
     pair, light), handed to ``sink(h, c, pair)`` chunk by chunk, ``pair`` an index into all poses'
-    pairs (``point`` and ``view``: each pair's point and view index, the views of all poses in pose
-    order, as :func:`build_problem` concatenates them). Each pose's lights (irradiance times ``scale``) fill a row of ``width`` slots (the
+    pairs (``first_pair``: each pose's first pair among all, and their count last; ``point`` and
+    ``view``: each pair's point and view index, the views of all poses in pose order, as
+    :func:`build_problem` concatenates them). Each pose's lights (irradiance times ``scale``) fill a row of ``width`` slots (the
     most lights of a pose; empty slots unlit); the (pair, light slot) cells a pair's point sees
     lit are its triples, evaluated by :meth:`_TripleKernel.dense` per chunk of
     :data:`DENSE_CHUNK` cells: one call for a problem at standard quality rather than one per pose,
@@ -681,7 +684,6 @@ def _all_triples(settings: list[Setting], scale: list[float], poses: list[_PoseP
         n = len(st.lights.directions)
         L[k, :n], E[k, :n] = st.lights.directions, st.lights.weights * scale[k]
     L, E = L.reshape(-1, 3), E.reshape(-1)
-    first_pair = np.cumsum([0] + [len(pose.pi) for pose in poses])  # each pose's pairs among all
     V = np.concatenate([st.views.directions for st in settings])
     pose_of = np.concatenate([np.full(len(pose.pi), k, dtype=np.int64) for k, pose in enumerate(poses)])
     light0 = pose_of * width

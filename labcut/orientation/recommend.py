@@ -559,8 +559,7 @@ def _within_budget(mesh: Any, ask: FlashSetup, time_budget: Any, *, quality_give
     plan = plan_effects(mesh, ask.material, command="recommend", scenario=ask.scenario, quality=ask.quality,
                         estimator=ask.estimator, effects=ask.effect_overrides, zoning=ask.zoning, predict=False,
                         pilot_scene=ask.pilot_scene())
-    choice = choose(time_budget, ask.scene_spec, occlusion_on(is_convex(mesh), ask.effect_overrides), plan=plan,
-                    spent=plan.pilot_seconds)
+    choice = choose(time_budget, ask.scene_spec, occlusion_on(is_convex(mesh), ask.effect_overrides), plan=plan)
     if choice.note:
         warnings.warn(choice.note, LabcutWarning, stacklevel=3)
     return ask.at_quality(choice.quality), choice

@@ -120,9 +120,7 @@ class FlashSetup:
         question's quality (``plan_effects(..., pilot_scene=)``)."""
         from ..planner import PILOT_QUALITY
 
-        if self.quality == Quality.coerce(PILOT_QUALITY):
-            return self.scenario
-        return resolve_scene(*self.scene_spec, PILOT_QUALITY)
+        return self.scenario if self.quality == Quality.coerce(PILOT_QUALITY) else self.at_quality(PILOT_QUALITY).scenario
 
     @property
     def effect_overrides(self) -> dict[str, bool]:
