@@ -481,6 +481,10 @@ def plan_effects(
         raise ParameterError(f"estimator must be one of {', '.join(ESTIMATORS)}, got {estimator!r}")
     forced = check_effects(effects)
     pilot_seconds = 0.0
+    from .scene import Scenario
+
+    if pilot_scene is not None and not isinstance(pilot_scene, Scenario):
+        raise ParameterError(f"pilot_scene must be a labcut.Scenario (FlashSetup.pilot_scene()), got {type(pilot_scene).__name__}")
     from .validation import check_number
 
     resolution = None if resolution is None else check_number(resolution, "resolution", 8, 8192, integer=True)

@@ -280,3 +280,11 @@ def test_the_calibration_warms_the_occluded_path_before_timing_it():
     hidden = [c for c in calls if c[0] is False]
     assert len(calls) == 5 and calls[:2] == [calls[0], hidden[0]] and calls[0][0] is not False
     assert calls[2:] == [(calls[0][0], "draft"), (calls[0][0], "standard"), (False, "draft")]
+
+
+def test_a_pilot_scene_that_is_not_a_scenario_is_a_parameter_error():
+    from labcut import planner
+
+    cab = labcut.cabochon("oval", 16, 12, resolution=48)
+    with pytest.raises(ParameterError, match="pilot_scene must be a labcut.Scenario"):
+        planner.plan_effects(cab, "blue", scenario="bench", pilot_scene="bench")
