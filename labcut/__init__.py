@@ -18,7 +18,9 @@ import importlib
 from typing import Any
 
 from . import backend as _backend
+from . import deferred_imports as _deferred_imports
 
+_deferred_imports.install()  # trimesh's first import leaves scipy.spatial & co. for first use
 _backend.configure_environment()
 _backend.check_llvm()
 

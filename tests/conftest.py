@@ -10,6 +10,8 @@ from pathlib import Path
 import pytest
 from hypothesis import HealthCheck, settings
 
+import labcut  # noqa: F401 - first, so trimesh loads as in the CLI: its optional libraries deferred
+
 settings.register_profile(
     "labcut",
     deadline=None,

@@ -82,3 +82,28 @@ def test_set_variant_selects_mitsuba_variant():
 
     name = backend.set_variant("mono")
     assert mi.variant() == name
+
+
+def test_cuda_probe_loads_the_driver_library_by_name(monkeypatch):
+    """The probe asks the dynamic loader (no ldconfig/gcc subprocesses): a library that loads
+    means a driver, none means none."""
+    import ctypes
+
+    tried: list[str] = []
+
+    def fake(name, *a, **k):
+        tried.append(name)
+        if name != "libcuda.so":
+            raise OSError(name)
+        return object()
+
+    monkeypatch.setattr(ctypes, "CDLL", fake)
+    backend._cuda_driver_present.cache_clear()
+    try:
+        assert backend._cuda_driver_present() is True
+        assert tried[:2] == ["libcuda.so.1", "libcuda.so"]
+        monkeypatch.setattr(ctypes, "CDLL", lambda name, *a, **k: (_ for _ in ()).throw(OSError(name)))
+        backend._cuda_driver_present.cache_clear()
+        assert backend._cuda_driver_present() is False
+    finally:
+        backend._cuda_driver_present.cache_clear()
