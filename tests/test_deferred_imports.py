@@ -85,6 +85,8 @@ SAME = """
             "nx": trimesh.graph.nx is sys.modules["networkx"],
             "cKDTree": trimesh.base.cKDTree is sys.modules["scipy.spatial"].cKDTree,
             "spatial": trimesh.nsphere.spatial is sys.modules["scipy.spatial"],
+            "annotation": __import__("inspect").unwrap(trimesh.Trimesh.kdtree.fget).__annotations__.get("return")
+                          is sys.modules["scipy.spatial"].cKDTree,
         },
         "stubs_left": [n for n, m in sys.modules.items() if type(m).__name__ == "_StubModule"],
     }
@@ -117,10 +119,64 @@ def test_a_later_import_gets_the_real_library():
     assert out == {"spatial": "module", "hull": "type", "nx": True, "csgraph": "module", "file": True}
 
 
-def test_exception_names_are_classes_until_resolved():
+def test_exception_names_are_classes_until_resolved(monkeypatch):
+    import threading
+
     stub = deferred_imports._StubModule("scipy.fake_for_test")
-    err = stub.QhullError
-    assert isinstance(err, type) and issubclass(err, Exception) and stub.QhullError is err
-    assert isinstance(stub.cKDTree, deferred_imports._Deferred)
-    with pytest.raises(AttributeError):
-        stub.__wrapped__  # noqa: B018 - dunders are not deferred (the import system probes them)
+    monkeypatch.setitem(deferred_imports._state, "window", threading.get_ident())  # as while trimesh imports
+    in_trimesh: dict = {"__name__": "trimesh.fake_module", "stub": stub}  # code of a trimesh module asks
+    exec("err = stub.QhullError; again = stub.QhullError; tree = stub.cKDTree", in_trimesh)
+    err = in_trimesh["err"]
+    assert isinstance(err, type) and issubclass(err, Exception) and in_trimesh["again"] is err
+    assert isinstance(in_trimesh["tree"], deferred_imports._Deferred)
+    with pytest.raises(AttributeError):  # dunders are not deferred (the import system probes them)
+        exec("stub.__wrapped__", in_trimesh)
+    with pytest.raises(ImportError):  # anyone else asks: the real module, which this one is not
+        stub.anything  # noqa: B018
+    monkeypatch.setitem(deferred_imports._state, "window", None)
+    with pytest.raises(ImportError):  # after the window, trimesh's own later use: the real module too
+        exec("stub.anything", in_trimesh)
+
+
+def test_isinstance_against_a_stand_in_checks_the_real_class():
+    from scipy.spatial import cKDTree
+
+    proxy = deferred_imports._Deferred("scipy.spatial", "cKDTree")
+    tree = cKDTree([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]])
+    assert isinstance(tree, proxy) and not isinstance(object(), proxy)
+    assert issubclass(cKDTree, proxy) and not issubclass(int, proxy)
+
+
+def test_other_threads_mean_a_plain_import():
+    out = _run(f"""
+        import json, sys, threading
+        stop = threading.Event()
+        threading.Thread(target=stop.wait, daemon=True).start()
+        import labcut, trimesh
+        print(json.dumps({{"loaded": {LOADED}}}))
+        stop.set()
+    """)
+    assert set(out["loaded"]) >= {"scipy.spatial", "networkx"}
+
+
+def test_a_library_other_than_trimesh_gets_the_real_objects_even_while_trimesh_imports():
+    """A library that trimesh's import chain brings in (here: code run when trimesh.graph is
+    about to load, after trimesh.base took its stand-ins) imports the real scipy.spatial."""
+    out = _run("""
+        import importlib.abc, json, sys
+        seen = {}
+        class Hook(importlib.abc.MetaPathFinder):
+            def find_spec(self, name, path=None, target=None):
+                if name == "trimesh.graph" and not seen:
+                    space = {"__name__": "some_library"}
+                    exec("import scipy.spatial\\nfrom scipy.spatial import ConvexHull, QhullError", space)
+                    seen["hull"] = type(space["ConvexHull"]).__name__
+                    seen["error_module"] = space["QhullError"].__module__
+                    seen["module_real"] = bool(getattr(sys.modules["scipy.spatial"], "__file__", None))
+                return None
+        sys.meta_path.insert(0, Hook())
+        import labcut, trimesh
+        seen["base_tree_real"] = trimesh.base.cKDTree is sys.modules["scipy.spatial"].cKDTree  # swapped at once
+        print(json.dumps(seen))
+    """)
+    assert out == {"hull": "type", "error_module": "scipy.spatial._qhull", "module_real": True, "base_tree_real": True}

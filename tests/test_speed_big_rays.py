@@ -28,7 +28,7 @@ def mi():
 
     from labcut.backend import set_variant
 
-    set_variant("rgb")
+    set_variant(rays.RAY_MODE)
     return mitsuba
 
 
@@ -90,3 +90,23 @@ def test_surface_offset_is_the_extents(name):
     loose = trimesh.Trimesh(v, mesh.faces, process=False)
     assert rays.surface_offset(loose) == 1e-4 * float(np.linalg.norm(loose.extents))
     assert rays.surface_offset(loose) == rays.surface_offset(mesh)
+
+
+def test_rays_run_in_the_estimators_variant(mi):
+    """The rays run in mono, the variant of the planner's pilot renders and the render estimator:
+    a carving's recommendation switches variant (a reload of Mitsuba's Python modules) at most
+    once, and builds its ray scene once."""
+    from labcut.backend import set_variant, variant_name
+
+    mesh = labcut.load_mesh(MESHES / "carving-biplane.ply")
+    set_variant("mono")
+    switches = []
+    real = mi.set_variant
+    mi.set_variant = lambda *a, **k: (switches.append(a), real(*a, **k))[1]
+    try:
+        o, d = _rays(mesh, 64, 3)
+        rays.escapes_paired(mesh, o, d)
+        rays.self_view_fraction(mesh, points=32, directions=8)
+    finally:
+        mi.set_variant = real
+    assert switches == [] and mi.variant() == variant_name("mono")

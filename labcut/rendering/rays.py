@@ -43,6 +43,13 @@ def surface_offset(mesh: Any) -> float:
     return mesh_cached(mesh, "labcut_ray_surface_offset", build)
 
 
+#: the colour mode of the variant the ray queries run in: a shadow ray's answer is the triangles'
+#: alone, the same in every mode, and the flash estimators' renders (the planner's pilots, the
+#: render estimator) run in mono too, so a carving's recommendation never switches variant (each
+#: switch reloads Mitsuba's Python modules: 0.06-0.1 s, five of them in a carving's first plan
+#: when the rays ran in rgb) and builds its ray scene once
+RAY_MODE = "mono"
+
 #: Mitsuba variants whose ray scene is an instance of a shape group (:func:`occlusion_scene`)
 INSTANCED = ("llvm_", "scalar_")
 
@@ -94,7 +101,7 @@ def escapes_paired(mesh: Any, origins: np.ndarray, dirs: np.ndarray) -> np.ndarr
 
     o = np.asarray(origins, dtype=np.float64).reshape(-1, 3)
     w = np.asarray(dirs, dtype=np.float64).reshape(-1, 3)
-    set_variant("rgb")
+    set_variant(RAY_MODE)
     scene = occlusion_scene(mesh)  # the bare triangles, built once per mesh
     ray = mi.Ray3f(mi.Point3f(o[:, 0], o[:, 1], o[:, 2]), mi.Vector3f(w[:, 0], w[:, 1], w[:, 2]))
     hit = scene.ray_test(ray)
