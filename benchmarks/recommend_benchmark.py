@@ -29,6 +29,7 @@ from pathlib import Path
 from labcut.fileio import cache_path
 
 from speed_ratio import BEGIN as SPEED_RATIO_BEGIN  # its sections of the report are kept (this folder is on sys.path)
+from speed_ratio import user_env  # child processes write and read Python's bytecode caches, as in a user's shell
 
 ROOT = Path(__file__).resolve().parents[1]
 MESHES = {"oval cabochon (22k triangles)": "oval-16x12-low.ply", "biplane carving": "carving-biplane.ply"}
@@ -54,7 +55,7 @@ print(json.dumps({"import_load": t1 - t0, "first": t2 - t1, "second": min(again)
 
 
 def timed_child(mesh: str, cache: str) -> dict:
-    env = {**os.environ, "DRJIT_CACHE_DIR": cache}
+    env = {**user_env(), "DRJIT_CACHE_DIR": cache}
     out = subprocess.run([sys.executable, "-c", CHILD, str(ROOT / "meshes" / mesh)], env=env, capture_output=True, text=True, check=True)
     return json.loads(out.stdout.strip().splitlines()[-1])
 
