@@ -244,7 +244,7 @@ def test_a_first_plans_pilots_are_counted_and_kept_out_of_the_correction(monkeyp
 
     monkeypatch.setattr(planner, "measured_interreflection", pilots)
     seen = []
-    monkeypatch.setattr(budget_module, "record", lambda kind, predicted, actual: seen.append((predicted, actual)))
+    monkeypatch.setattr(budget_module, "record", lambda kind, predicted, actual, **kw: seen.append((predicted, actual)))
     mesh = labcut.load_mesh("meshes/carving-biplane.ply")
     t = time.perf_counter()
     rec = labcut.recommend_orientation(mesh, "blue", time_budget=30.0)
@@ -288,3 +288,48 @@ def test_a_pilot_scene_that_is_not_a_scenario_is_a_parameter_error():
     cab = labcut.cabochon("oval", 16, 12, resolution=48)
     with pytest.raises(ParameterError, match="pilot_scene must be a labcut.Scenario"):
         planner.plan_effects(cab, "blue", scenario="bench", pilot_scene="bench")
+
+
+def test_a_first_call_in_a_process_learns_its_own_seconds(monkeypatch):
+    """The first recommendation of a kind in a process (a CLI call) costs more than the warm ones
+    the calibration times: that is learnt as seconds added to every rung, and leaves the factor alone."""
+    from labcut.orientation import budget as budget_module
+
+    _fake_timing(monkeypatch, 1e-4)  # standard 0.8 s
+    monkeypatch.setattr(budget_module, "_WARM", set())
+    c = choose(1.0, ("bench", None, None), False)
+    assert c.cold and c.first_call_seconds == 0.0 and c.quality.name == "standard"
+    assert c.uncorrected(c.predicted_seconds) == pytest.approx(0.8)
+    record(False, 0.8, 1.3, first_call=True)
+    assert budget_module.first_call_seconds(False) == pytest.approx(0.5) and correction(False) == 1.0
+    record(False, 0.8, 1.1, first_call=True)  # a running mean
+    assert budget_module.first_call_seconds(False) == pytest.approx(0.4)
+    assert budget_module.first_call_seconds(True) == 0.0  # the other kind is not touched
+    c = choose(1.0, ("bench", None, None), False)  # still cold: 0.4 s more on every rung, one rung down
+    assert c.first_call_seconds == pytest.approx(0.4) and c.quality.name == "budget-2"
+    assert c.predicted_seconds == pytest.approx(1e-4 * c.quality.surface_points + 0.4)
+    assert c.uncorrected(c.predicted_seconds) == pytest.approx(1e-4 * c.quality.surface_points)
+    budget_module.mark_warm(False)
+    w = choose(1.0, ("bench", None, None), False)  # warm: the calibration's prediction alone
+    assert not w.cold and w.first_call_seconds == 0.0 and w.quality.name == "standard"
+    budget_module.forget(False)
+    assert budget_module.first_call_seconds(False) == 0.0
+
+
+def test_recommend_tells_the_budget_whether_it_is_the_first_of_its_kind(monkeypatch):
+    from labcut.orientation import budget as budget_module
+
+    _fake_timing(monkeypatch, 1e-4)
+    monkeypatch.setattr(budget_module, "_WARM", set())
+    seen = []
+    real = budget_module.record
+    monkeypatch.setattr(budget_module, "record", lambda *a, **kw: (seen.append(kw.get("first_call")), real(*a, **kw))[1])
+    mesh = labcut.load_mesh("meshes/oval-16x12-low.ply")
+    labcut.recommend_orientation(mesh, "blue", scenario="bench", time_budget=0.5)
+    labcut.recommend_orientation(mesh, "blue", scenario="bench", time_budget=0.5)
+    assert seen == [True, False]
+    assert budget_module.is_warm(False) and not budget_module.is_warm("render")
+    assert budget_module.first_call_seconds(False) >= 0.0
+    monkeypatch.setattr(budget_module, "_WARM", set())
+    labcut.recommend_orientation(mesh, "blue", scenario="bench", quality="draft")  # no budget: still warms the process
+    assert budget_module.is_warm(False)

@@ -16,6 +16,13 @@ occlusion and one without, kept in the user cache beside the calibration and res
 measured again), so a machine that runs slower or faster than its calibration, or meshes whose
 shadow rays cost more than the calibration's, are predicted better the next time.
 
+The calibration times warm recommendations; the first one of its kind in a process (every CLI
+call) also pays for what a warm one finds done: modules imported on first use, compiled kernels
+loaded from Dr.Jit's cache, the first Mitsuba variant. That cost is a few tenths of a second
+whatever the rung, so it is learnt apart, as seconds added to every rung's prediction
+(:func:`first_call_seconds`, a running mean over budgeted first calls), and such a call does not
+feed the factor: a machine's CLI calls then predict its CLI calls and its warm calls its warm ones.
+
 A budget below the cheapest rung's prediction is not refused: the cheapest rung runs, and
 :attr:`BudgetChoice.note` says so in one line (the CLI prints it as a ``note:``). A budget that is
 not a positive finite number of seconds is a :class:`~labcut.errors.ParameterError`.
@@ -70,6 +77,15 @@ class BudgetChoice:
     #: seconds of the budget a stone's first plan spent on its pilot renders before choosing (which
     #: the calibration does not include): the rungs had the rest
     pilot_seconds: float = 0.0
+    #: whether this process had not yet run a recommendation of this kind (:func:`is_warm`), and the
+    #: learnt seconds such a first call costs beyond a warm one, included in every rung's prediction
+    cold: bool = False
+    first_call_seconds: float = 0.0
+
+    def uncorrected(self, seconds: float) -> float:
+        """A rung's prediction ``seconds`` as the calibration alone made it (without the correction
+        and the first call's seconds): what :func:`record` is fed."""
+        return (seconds - self.first_call_seconds) / self.correction
 
     @property
     def kind(self) -> bool | str:
@@ -127,18 +143,44 @@ def correction(kind: bool | str) -> float:
     return float(data.get(_kind(kind), 1.0))
 
 
+#: the kinds (:func:`_kind`) whose recommendation has run in this process (:func:`mark_warm`)
+_WARM: set[str] = set()
+#: the range of the learnt first-call seconds
+FIRST_CALL_RANGE = (0.0, 60.0)
+
+
+def mark_warm(kind: bool | str) -> None:
+    """Note that a recommendation of ``kind`` ran in this process: the next is predicted warm."""
+    _WARM.add(_kind(kind))
+
+
+def is_warm(kind: bool | str) -> bool:
+    """Whether a recommendation of ``kind`` has run in this process (:func:`mark_warm`)."""
+    return _kind(kind) in _WARM
+
+
+def first_call_seconds(kind: bool | str) -> float:
+    """The seconds the first recommendation of ``kind`` in a process costs on this machine beyond
+    a warm one's prediction, learnt from budgeted first calls (0 before any)."""
+    _, data = _corrections()
+    return float(data.get(f"first call {_kind(kind)}", 0.0))
+
+
 def forget(kind: bool | str) -> None:
     """Drop the learnt correction of ``kind`` (the next prediction is the calibration's alone)."""
     from ..fileio import write_cache
 
     path, data = _corrections()
-    if data.pop(_kind(kind), None) is not None:
+    dropped = [data.pop(k, None) for k in (_kind(kind), f"first call {_kind(kind)}")]
+    if any(v is not None for v in dropped):
         write_cache(path, data)
 
 
-def record(kind: bool | str, predicted_seconds: float, actual_seconds: float) -> float:
+def record(kind: bool | str, predicted_seconds: float, actual_seconds: float, *, first_call: bool = False) -> float:
     """Fold one run of ``kind`` (predicted seconds before correction, actual seconds) into its
-    correction; returns it."""
+    correction; returns it. ``first_call``: the first of its kind in its process (the choice's
+    ``cold``): what it took beyond the corrected prediction feeds :func:`first_call_seconds`
+    instead, the factor is left as it is."""
     from ..fileio import write_cache
 
     path, data = _corrections()
@@ -146,6 +188,14 @@ def record(kind: bool | str, predicted_seconds: float, actual_seconds: float) ->
     if not (predicted_seconds > 0 and actual_seconds > 0 and math.isfinite(predicted_seconds) and math.isfinite(actual_seconds)):
         return float(data.get(name, 1.0))
     old = float(data.get(name, 1.0))
+    if first_call:
+        key = f"first call {name}"
+        extra = max(actual_seconds - old * predicted_seconds, 0.0)
+        seen = data.get(key)
+        value = extra if seen is None else (1.0 - ADAPT) * float(seen) + ADAPT * extra
+        data[key] = float(min(max(value, FIRST_CALL_RANGE[0]), FIRST_CALL_RANGE[1]))
+        write_cache(path, data)
+        return old
     new = math.exp((1.0 - ADAPT) * math.log(old) + ADAPT * math.log(actual_seconds / predicted_seconds))
     data[name] = float(min(max(new, CORRECTION_RANGE[0]), CORRECTION_RANGE[1]))
     write_cache(path, data)
@@ -172,7 +222,10 @@ def choose(budget: Any, scene_spec: tuple[Any, Any, Any], occlusion: bool, *, pl
     seconds = check_budget(budget)
     pilots = float(getattr(plan, "pilot_seconds", 0.0) or 0.0)
     renders = plan is not None and plan.estimator == "render"
-    factor = correction("render" if renders else occlusion)
+    kind = "render" if renders else occlusion
+    factor = correction(kind)
+    cold = not is_warm(kind)
+    extra = first_call_seconds(kind) if cold else 0.0
     rungs = []
     from ..planner import estimator_seconds
 
@@ -185,9 +238,9 @@ def choose(budget: Any, scene_spec: tuple[Any, Any, Any], occlusion: bool, *, pl
                                   plan.on("zoning"))["render"]
         else:
             t = predict_sample_seconds(scene.settings(), q.surface_points, occlusion)
-        rungs.append((q, factor * t))
+        rungs.append((q, factor * t + extra))
     return pick(rungs, seconds, "the cheapest setting's", pilot_seconds=pilots, correction=factor, occlusion=occlusion,
-                estimator="render" if renders else "samples")
+                estimator="render" if renders else "samples", cold=cold, first_call_seconds=extra)
 
 
 def pick(rungs: list[tuple[Quality, float]], seconds: float, cheapest: str, detail: str = "",

@@ -516,12 +516,16 @@ def recommend_orientation(
     elif tilt < 0.5:
         parallel = float(tol)
     report("done", 1.0)
+    from .budget import mark_warm
+
     if budget is not None:  # the calibration learns from this run (orientation/budget.py)
         from .budget import record
 
-        # what the calibration predicts: the recommendation, not the plans' pilot renders
-        record(budget.kind, budget.predicted_seconds / budget.correction,
-               time.perf_counter() - start - budget.pilot_seconds - plan.pilot_seconds)
+        # what the calibration predicts: the recommendation, not the plans' pilot renders; the
+        # first of its kind in this process feeds the first-call seconds instead of the factor
+        record(budget.kind, budget.uncorrected(budget.predicted_seconds),
+               time.perf_counter() - start - budget.pilot_seconds - plan.pilot_seconds, first_call=budget.cold)
+    mark_warm("render" if renders else plan.on("occlusion"))  # the next one of its kind here is predicted warm
     return Recommendation(
         normal=normal, tilt_deg=tilt, azimuth_deg=az, score=float(score), objective=objective, metrics=metrics,
         tolerance_deg=float(tol), tolerance_by_axis=by_axis, runners_up=runners, map_normals=map_normals, map_scores=map_scores,
