@@ -197,3 +197,18 @@ def test_the_bootstraps_objective_with_unit_weights_is_the_scorers_metric(oval, 
     assert want.max() > 0
     np.testing.assert_allclose(got, want, rtol=1e-9, atol=1e-12)
     np.testing.assert_allclose(objective_values(p, rad, np.full((1, n), 2.0), objective)[0], want, rtol=1e-9, atol=1e-12)
+
+
+def test_bootstrap_weights_are_drawn_once_per_question_and_read_only():
+    """The replicates' Poisson(1) point weights (a row of ones first) are the same stream for every
+    recommendation of a question: drawn once, kept read-only, a new seed a new draw."""
+    from labcut.orientation.uncertainty import bootstrap_weights
+
+    w = bootstrap_weights(3, 500, 8)
+    assert w.shape == (9, 500) and w.dtype == np.float64 and np.all(w[0] == 1.0)
+    assert bootstrap_weights(3, 500, 8) is w  # kept
+    assert abs(float(w[1:].mean()) - 1.0) < 0.1 and abs(float(w[1:].var()) - 1.0) < 0.15  # Poisson(1)
+    assert np.all(w[1:] == np.round(w[1:])) and w.min() >= 0
+    assert not np.array_equal(bootstrap_weights(4, 500, 8), w)
+    with pytest.raises(ValueError):
+        w[1, 0] = 5.0
