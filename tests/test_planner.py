@@ -307,3 +307,20 @@ def test_polarisation_bias_is_kept_per_material_and_direction_set(monkeypatch, t
     assert polarisation_bias(blue, L2, V) != first and len(calls) == 3
     assert polarisation_bias(blue, Lights([[0.5, 0.0, 0.87]]), V) != first and len(calls) == 4
     assert polarisation_bias(blue, L, Views([[-0.3, 0.1, 0.95]])) != first and len(calls) == 5
+
+
+def test_a_question_plans_itself_as_plan_effects_would():
+    """FlashSetup.plan passes every part of the question (material, scene, quality, estimator,
+    effect overrides, the pilots' scene): the plan plan_effects makes of the same parts."""
+    import labcut
+    from labcut.orientation.setup import FlashSetup
+
+    mesh = labcut.load_mesh("meshes/carving-biplane.ply")
+    setup = FlashSetup.build("blue", "pendant", None, None, quality="draft", estimator="samples", effects={"occlusion": True})
+    mine = setup.plan(mesh, "evaluate", predict=False)
+    theirs = labcut.plan_effects(mesh, setup.material, command="evaluate", scenario=setup.scenario, quality=setup.quality,
+                                 estimator="samples", effects={"occlusion": True}, predict=False,
+                                 pilot_scene=setup.pilot_scene())
+    assert mine.to_dict() == theirs.to_dict()
+    assert mine.on("occlusion") and mine.estimator == "samples" and mine.command == "evaluate"
+    assert setup.plan(mesh, "recommend").predicted_seconds  # predicting by default, as plan_effects

@@ -204,11 +204,7 @@ def recommend_orientation(
     mesh = mesh_options.load(mesh_path)
     the_plan = None
     if plan or plan_only or setup.effects or estimator != "auto" or zone is not None:  # a bad combination fails before the work
-        from labcut.planner import plan_effects
-
-        the_plan = plan_effects(mesh, material, command="recommend", scenario=scene, quality=setup.quality,
-                                estimator=estimator, effects=setup.effect_overrides, zoning=zone, predict=True,
-                                pilot_scene=setup.pilot_scene())
+        the_plan = setup.plan(mesh, "recommend")
     if plan or plan_only:
         po.show(the_plan, mesh_path.name, to_stderr=json_path == "-")
         if plan_only:
@@ -326,10 +322,7 @@ def evaluate_orientation(
     setup = _question(material, scenario, lighting, viewing, quality, estimator, effect, zoning)
     scene = setup.scenario
     mesh = mesh_options.load(mesh_path)
-    from labcut.planner import plan_effects
-
-    the_plan = plan_effects(mesh, material, command="evaluate", scenario=scene, quality=setup.quality, estimator=estimator,
-                            effects=setup.effect_overrides, zoning=setup.zoning, pilot_scene=setup.pilot_scene())
+    the_plan = setup.plan(mesh, "evaluate")
     if plan or plan_only:
         po.show(the_plan, mesh_path.name, to_stderr=json_path == "-")
         if plan_only:

@@ -361,7 +361,7 @@ def _setup(mesh: Any, setup: FlashSetup, command: str = "recommend", plan: Any =
     already made for them, used as it is) and build the sample estimator's problem as planned:
     ``(scorer, plan)``."""
     from ..geometry.meshio import validate_mesh
-    from ..planner import EffectPlan, plan_effects
+    from ..planner import EffectPlan
 
     validate_mesh(mesh)
     if plan is not None:
@@ -369,9 +369,7 @@ def _setup(mesh: Any, setup: FlashSetup, command: str = "recommend", plan: Any =
             raise ParameterError(f"plan must be the labcut.planner.plan_effects(..., command={command!r}) of this mesh "
                                  f"and question, got {plan!r:.80}")
     else:
-        plan = plan_effects(mesh, setup.material, command=command, scenario=setup.scenario, quality=setup.quality,
-                            estimator=setup.estimator, effects=setup.effect_overrides, zoning=setup.zoning,
-                            predict=command == "recommend", pilot_scene=setup.pilot_scene())  # a recommendation's JSON holds its predicted seconds
+        plan = setup.plan(mesh, command, predict=command == "recommend")  # a recommendation's JSON holds its predicted seconds
     problem = build_problem(mesh, setup.material, quality=setup.quality, tau=setup.tau, seed=setup.seed,
                             settings=setup.scenario.settings(), occlusion=plan.on("occlusion"))
     return Scorer(problem, setup.objective), plan
@@ -551,7 +549,7 @@ def _within_budget(mesh: Any, ask: FlashSetup, time_budget: Any, *, quality_give
     import warnings
 
     from ..errors import LabcutWarning
-    from ..planner import is_convex, occlusion_on, plan_effects
+    from ..planner import is_convex, occlusion_on
     from .budget import choose
 
     if quality_given:
@@ -560,9 +558,7 @@ def _within_budget(mesh: Any, ask: FlashSetup, time_budget: Any, *, quality_give
     # a stone's first plan makes its pilot renders (at the pilot quality, whatever the rung: the rung's
     # plan finds them cached): their seconds are the budget's (the calibration's recommendations,
     # which the rungs are predicted from, include a plan but not its pilots)
-    plan = plan_effects(mesh, ask.material, command="recommend", scenario=ask.scenario, quality=ask.quality,
-                        estimator=ask.estimator, effects=ask.effect_overrides, zoning=ask.zoning, predict=False,
-                        pilot_scene=ask.pilot_scene())
+    plan = ask.plan(mesh, "recommend", predict=False)
     choice = choose(time_budget, ask.scene_spec, occlusion_on(is_convex(mesh), ask.effect_overrides), plan=plan)
     if choice.note:
         warnings.warn(choice.note, LabcutWarning, stacklevel=3)

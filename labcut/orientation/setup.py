@@ -114,6 +114,17 @@ class FlashSetup:
         q = Quality.coerce(quality)
         return replace(self, quality=q, scenario=resolve_scene(*self.scene_spec, q), scene_spec=self.scene_spec)
 
+    def plan(self, mesh: Any, command: str = "recommend", *, predict: bool = True) -> Any:
+        """The effect plan of this question for ``mesh`` (:func:`labcut.planner.plan_effects` given
+        every part of the question: material, scene, quality, estimator, effect overrides, zoning,
+        and the pilots' scene :meth:`pilot_scene`). ``predict``: also predict each estimator's seconds (as
+        ``plan_effects``, on by default)."""
+        from ..planner import plan_effects
+
+        return plan_effects(mesh, self.material, command=command, scenario=self.scenario, quality=self.quality,
+                            estimator=self.estimator, effects=self.effect_overrides, zoning=self.zoning,
+                            predict=predict, pilot_scene=self.pilot_scene())
+
     def pilot_scene(self) -> Scenario:
         """The scene of this question drawn at the effect planner's pilot quality
         (:data:`labcut.planner.PILOT_QUALITY`): what its pilot renders measure under, whatever the
