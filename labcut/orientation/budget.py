@@ -149,6 +149,11 @@ _WARM: set[str] = set()
 FIRST_CALL_RANGE = (0.0, 60.0)
 
 
+def _first_key(kind: bool | str) -> str:
+    """The corrections file's key of ``kind``'s learnt first-call seconds."""
+    return f"first call {_kind(kind)}"
+
+
 def mark_warm(kind: bool | str) -> None:
     """Note that a recommendation of ``kind`` ran in this process: the next is predicted warm."""
     _WARM.add(_kind(kind))
@@ -163,7 +168,7 @@ def first_call_seconds(kind: bool | str) -> float:
     """The seconds the first recommendation of ``kind`` in a process costs on this machine beyond
     a warm one's prediction, learnt from budgeted first calls (0 before any)."""
     _, data = _corrections()
-    return float(data.get(f"first call {_kind(kind)}", 0.0))
+    return float(data.get(_first_key(kind), 0.0))
 
 
 def forget(kind: bool | str) -> None:
@@ -171,7 +176,7 @@ def forget(kind: bool | str) -> None:
     from ..fileio import write_cache
 
     path, data = _corrections()
-    dropped = [data.pop(k, None) for k in (_kind(kind), f"first call {_kind(kind)}")]
+    dropped = [data.pop(k, None) for k in (_kind(kind), _first_key(kind))]
     if any(v is not None for v in dropped):
         write_cache(path, data)
 
@@ -189,7 +194,7 @@ def record(kind: bool | str, predicted_seconds: float, actual_seconds: float, *,
         return float(data.get(name, 1.0))
     old = float(data.get(name, 1.0))
     if first_call:
-        key = f"first call {name}"
+        key = _first_key(kind)
         extra = max(actual_seconds - old * predicted_seconds, 0.0)
         seen = data.get(key)
         value = extra if seen is None else (1.0 - ADAPT) * float(seen) + ADAPT * extra
@@ -223,9 +228,10 @@ def choose(budget: Any, scene_spec: tuple[Any, Any, Any], occlusion: bool, *, pl
     pilots = float(getattr(plan, "pilot_seconds", 0.0) or 0.0)
     renders = plan is not None and plan.estimator == "render"
     kind = "render" if renders else occlusion
-    factor = correction(kind)
+    _, learnt = _corrections()  # one read of the corrections file: the factor and the first-call seconds
+    factor = float(learnt.get(_kind(kind), 1.0))
     cold = not is_warm(kind)
-    extra = first_call_seconds(kind) if cold else 0.0
+    extra = float(learnt.get(_first_key(kind), 0.0)) if cold else 0.0
     rungs = []
     from ..planner import estimator_seconds
 
