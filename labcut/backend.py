@@ -17,13 +17,15 @@ module imports neither drjit nor mitsuba at import time.
 
 from __future__ import annotations
 
+import contextlib
 import ctypes
 import functools
 import glob
 import os
 import re
+from collections.abc import Callable, Iterator
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 from .errors import BackendError, LLVMVersionError, ParameterError
 
@@ -170,3 +172,45 @@ def ad_types() -> tuple[Any, Any]:
     import drjit as dr
 
     return dr, (dr.cuda.ad if device() == "cuda" else dr.llvm.ad)
+
+
+@functools.lru_cache(maxsize=1)
+def _blas_controller() -> Any:
+    """threadpoolctl's view of the BLAS libraries loaded (made once: it walks the loaded
+    libraries, about 3 ms), or None where threadpoolctl cannot load."""
+    try:
+        from threadpoolctl import ThreadpoolController
+    except ImportError:  # pragma: no cover - a dependency of labcut
+        return None
+    return ThreadpoolController()
+
+
+@contextlib.contextmanager
+def serial_blas() -> Iterator[None]:
+    """numpy's BLAS on one thread for the block: labcut's host work beside its Dr.Jit kernels.
+
+    Dr.Jit's LLVM backend keeps a pool of worker threads on every core; OpenBLAS's own threads,
+    woken for each of the small products a recommendation makes (the error bars' replicates, the
+    facing tests), contend with them, and a standard recommendation on 2 cores took 10-20 ms
+    longer with them than without (``benchmarks/recommend_stages.py``, docs/performance.md). The
+    previous thread counts come back on leaving the block; nested blocks are fine."""
+    controller = _blas_controller()
+    if controller is None or not controller.select(user_api="blas").lib_controllers:
+        yield
+        return
+    with controller.limit(limits=1, user_api="blas"):
+        yield
+
+
+F = TypeVar("F", bound=Callable[..., Any])
+
+
+def with_serial_blas(func: F) -> F:
+    """``func`` run inside :func:`serial_blas` (the public entry points that mix kernels and
+    host products: a recommendation, an evaluation)."""
+    @functools.wraps(func)
+    def wrapper(*args: Any, **kwargs: Any) -> Any:
+        with serial_blas():
+            return func(*args, **kwargs)
+
+    return wrapper  # type: ignore[return-value]

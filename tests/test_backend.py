@@ -5,6 +5,7 @@ from __future__ import annotations
 import os
 import subprocess
 import sys
+from pathlib import Path
 
 import pytest
 
@@ -107,3 +108,39 @@ def test_cuda_probe_loads_the_driver_library_by_name(monkeypatch):
         assert backend._cuda_driver_present() is False
     finally:
         backend._cuda_driver_present.cache_clear()
+
+
+def test_recommendation_runs_numpy_blas_on_one_thread_and_restores_it(monkeypatch):
+    """Inside a recommendation (and an evaluation) numpy's BLAS runs on one thread beside
+    Dr.Jit's pool (backend.serial_blas); the caller's thread count comes back afterwards."""
+    from threadpoolctl import threadpool_info, threadpool_limits
+
+    import labcut
+    from labcut.orientation import recommend as rec_module
+
+    def blas_threads() -> set[int]:
+        return {lib["num_threads"] for lib in threadpool_info() if lib["user_api"] == "blas"}
+
+    seen: list[set[int]] = []
+    real = rec_module.run_optimizer
+
+    def spy(*args, **kwargs):
+        seen.append(blas_threads())
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(rec_module, "run_optimizer", spy)
+    real_metrics = rec_module.Scorer.metrics
+
+    def spy_metrics(self, *args, **kwargs):
+        seen.append(blas_threads())
+        return real_metrics(self, *args, **kwargs)
+
+    monkeypatch.setattr(rec_module.Scorer, "metrics", spy_metrics)
+    mesh = labcut.load_mesh(Path(__file__).resolve().parents[1] / "meshes" / "oval-16x12-low.ply")
+    with threadpool_limits(limits=2, user_api="blas"):
+        assert blas_threads() == {2}
+        labcut.recommend_orientation(mesh, "blue", scenario="bench", quality="draft")
+        assert blas_threads() == {2}
+        labcut.evaluate_orientation(mesh, (0, 0, 1), "blue", scenario="bench", quality="draft")
+        assert blas_threads() == {2}
+    assert len(seen) >= 2 and all(s == {1} for s in seen), seen

@@ -120,13 +120,17 @@ def test_grid_inverse_is_unique_inverse(seed, n, cells):
     assert np.array_equal(grid_inverse(key, cells * cells), want)
 
 
+@pytest.mark.parametrize("device_keys", [True, False])
 @pytest.mark.parametrize("chunk", [None, 1000])
-def test_binned_triples_match_the_unique_reference(scorer, chunk, monkeypatch):
-    """_bin_triples (bincount on the grid key, in chunks of triples) against the np.unique
-    formulation it replaced: the same bins, their sums to rounding (a bin whose triples straddle
-    two chunks sums its parts); with a small chunk every bin straddles some."""
+def test_binned_triples_match_the_unique_reference(scorer, chunk, device_keys, monkeypatch):
+    """_bin_triples (bincount on the grid key, in chunks of triples; the keys from the Dr.Jit
+    kernel or from numpy) against the np.unique formulation it replaced: the same bins, their
+    sums to rounding (a bin whose triples straddle two chunks sums its parts); with a small chunk
+    every bin straddles some."""
     from labcut.orientation import scoring as scoring_module
 
+    monkeypatch.setattr(scoring_module, "KEYS_IN_DRJIT", device_keys)
+    assert scoring_module._device_keys_apply(scorer.problem, 612 * 612) is device_keys
     if chunk is not None:
         monkeypatch.setattr(scoring_module, "CHUNK", chunk)
         assert scorer.problem.n_triples > 10 * chunk
@@ -148,6 +152,38 @@ def test_binned_triples_match_the_unique_reference(scorer, chunk, monkeypatch):
     np.testing.assert_allclose(ab, weight, rtol=1e-12, atol=0)
     np.testing.assert_allclose(hb, centroid, rtol=0, atol=1e-13)
     assert ab.sum() == pytest.approx(a.sum(), rel=1e-12)
+
+
+def _numpy_keys(h: np.ndarray, bins: int) -> np.ndarray:
+    """The numpy grid keys of :meth:`Scorer._bin_triples` (float32 h, its operations)."""
+    hu, hv = h[:, 0] / (1.0 + h[:, 2]), h[:, 1] / (1.0 + h[:, 2])
+    iu = np.clip(((hu + 1.0) * 0.5 * bins).astype(np.int64), 0, bins - 1)
+    iv = np.clip(((hv + 1.0) * 0.5 * bins).astype(np.int64), 0, bins - 1)
+    return iu * bins + iv
+
+
+@settings(max_examples=30, deadline=None)
+@given(seed=st.integers(0, 2**31 - 1), bins=st.integers(2, 16384), n=st.integers(1, 3000))
+def test_device_grid_keys_are_the_numpy_keys(seed, bins, n):
+    """The Dr.Jit kernel's stereographic keys equal numpy's float32 keys bit for bit, on random
+    upper-hemisphere directions and on the awkward ones: the pole, the horizon (h_z = 0, where the
+    stereographic coordinates reach ±1 and the clip acts) and directions on cell boundaries."""
+    from labcut.backend import ad_types
+
+    rng = np.random.default_rng(seed)
+    h = rng.normal(size=(n, 3))
+    h[:, 2] = np.abs(h[:, 2])
+    h /= np.linalg.norm(h, axis=1, keepdims=True)
+    edge = np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [-1.0, 0.0, 0.0], [0.0, -1.0, 0.0], [0.0, 1.0, 0.0],
+                     [math.sqrt(0.5), math.sqrt(0.5), 0.0]])
+    u = (rng.integers(0, bins + 1, 8) / bins) * 2.0 - 1.0  # stereographic coordinates on cell boundaries
+    r2 = u * u
+    boundary = np.stack([2 * u / (1 + r2), np.zeros_like(u), (1 - r2) / (1 + r2)], axis=1)
+    h = np.vstack([h, edge, boundary]).astype(np.float32)
+    _, t = ad_types()
+    got = scoring_module._device_grid_keys(t.Array3f(h[:, 0], h[:, 1], h[:, 2]), bins)
+    np.testing.assert_array_equal(got, _numpy_keys(h, bins))
+    assert got.min() >= 0 and got.max() < bins * bins
 
 
 def test_tile_unions_are_contiguous_and_the_path_is_checked(scorer):

@@ -634,15 +634,21 @@ class _PosePairs:
 
     @property
     def n_triples(self) -> int:
-        """Every pair times the lights its point sees (a point without pairs has no triples)."""
-        return int(np.count_nonzero(self.lit, axis=1)[self.pi].sum())
+        """Every pair times the lights its point sees (a point without pairs has no triples): the
+        points' pair counts times their lit lights, one float64 product (whole numbers below 2^53:
+        exact), no per-pair gather and no row sums of the (points x lights) table (slow over short rows)."""
+        if self.pi.size == 0:
+            return 0
+        pairs_per_point = np.bincount(self.pi, minlength=self.lit.shape[0]).astype(np.float64)
+        return int(round(float((pairs_per_point @ self.lit).sum())))
 
 
 def _setting_pairs(L, E, V, points, n_geo, n_sh, mesh, convex) -> _PosePairs:
     """The pairs and lit lights of one pose: facing tests (geometric and shading normal) and, for a
     stone that is not convex, occlusion rays."""
     # facing and visibility: point x view, point x light
-    face_v = (n_geo @ V.T > 1e-6) & (n_sh @ V.T > 1e-6)
+    cos_v = n_geo @ V.T  # (points, views): the facing test, then the pairs' projected areas
+    face_v = (cos_v > 1e-6) & (n_sh @ V.T > 1e-6)
     lit = (n_geo @ L.T > 1e-6) & (n_sh @ L.T > 1e-6) & (E[None, :] > 0)
     if not convex:
         from ..rendering.rays import escapes  # one cached ray scene per mesh
@@ -652,7 +658,7 @@ def _setting_pairs(L, E, V, points, n_geo, n_sh, mesh, convex) -> _PosePairs:
 
     # projected-area weights per (point, view) pair
     pi, pv = np.nonzero(face_v)
-    proj = np.einsum("ij,ij->i", n_geo[pi], V[pv])
+    proj = cos_v[pi, pv]
     per_view = np.bincount(pv, weights=proj, minlength=len(V))
     pair_weight = proj / np.where(per_view[pv] > 0, per_view[pv], 1.0)
     return _PosePairs(pi, pv, pair_weight, lit)

@@ -11,6 +11,7 @@ from typing import Any
 
 import numpy as np
 
+from ..backend import with_serial_blas
 from ..errors import ParameterError
 from ..validation import given_besides, is_default
 from ..physics.material import Labradorite
@@ -375,6 +376,7 @@ def _setup(mesh: Any, setup: FlashSetup, command: str = "recommend", plan: Any =
     return Scorer(problem, setup.objective), plan
 
 
+@with_serial_blas
 def recommend_orientation(
     mesh: Any,
     material: Labradorite | str | None = None,
@@ -606,6 +608,7 @@ def _runners_up(scorer: Scorer, constraint: Constraint, normals: np.ndarray, sco
     return out
 
 
+@with_serial_blas
 def evaluate_orientation(
     mesh: Any,
     normal: Any,
