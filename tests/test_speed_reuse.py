@@ -1,9 +1,10 @@
 """The error bars' fast path (issue 17 §4) gives the bars of the whole problems.
 
-``uncertainty_for`` builds its half-direction and finer-pose problems only as far as the stencil
-sums need them (``build_problem(near=...)``) and the half-direction one from the answer's own
-surface samples; the bars must equal those of the fully built problems, and the partial problems'
-sums those of the whole ones.
+``uncertainty_for`` builds its half-direction and finer-pose problems as pairs only
+(``labcut.orientation.pairs.build_pairs``: their stencil sums make each term in one kernel,
+``tests/test_pairs.py``) and the half-direction one from the answer's own surface samples; the bars
+must equal those of the fully built problems. ``build_problem(near=...)`` (a problem of the
+triples near a normal) must sum what the whole problem sums.
 """
 
 from __future__ import annotations

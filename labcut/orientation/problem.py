@@ -643,24 +643,33 @@ class _PosePairs:
         return int(round(float((pairs_per_point @ self.lit).sum())))
 
 
-def _setting_pairs(L, E, V, points, n_geo, n_sh, mesh, convex) -> _PosePairs:
-    """The pairs and lit lights of one pose: facing tests (geometric and shading normal) and, for a
-    stone that is not convex, occlusion rays."""
-    # facing and visibility: point x view, point x light
+def view_pairs(V: np.ndarray, points: np.ndarray, n_geo: np.ndarray, n_sh: np.ndarray, mesh: Any,
+               occluded: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """One pose's (point, view) pairs, sorted by point, and their projected-area weights (summing
+    to 1 within each view): a point counts for a view (unit directions ``V``, mesh frame) when its
+    geometric and shading normals face it and, ``occluded``, the ray towards it leaves the stone.
+    ``(point index, view index, weight)`` per pair."""
     cos_v = n_geo @ V.T  # (points, views): the facing test, then the pairs' projected areas
     face_v = (cos_v > 1e-6) & (n_sh @ V.T > 1e-6)
+    if occluded:
+        from ..rendering.rays import escapes  # one cached ray scene per mesh
+
+        face_v &= escapes(mesh, points, n_geo, V)
+    pi, pv = np.nonzero(face_v)
+    proj = cos_v[pi, pv]
+    per_view = np.bincount(pv, weights=proj, minlength=len(V))
+    return pi, pv, proj / np.where(per_view[pv] > 0, per_view[pv], 1.0)
+
+
+def _setting_pairs(L, E, V, points, n_geo, n_sh, mesh, convex) -> _PosePairs:
+    """The pairs (:func:`view_pairs`) and lit lights of one pose: facing tests (geometric and
+    shading normal) and, for a stone that is not convex, occlusion rays."""
+    pi, pv, pair_weight = view_pairs(V, points, n_geo, n_sh, mesh, not convex)
     lit = (n_geo @ L.T > 1e-6) & (n_sh @ L.T > 1e-6) & (E[None, :] > 0)
     if not convex:
         from ..rendering.rays import escapes  # one cached ray scene per mesh
 
-        face_v &= escapes(mesh, points, n_geo, V)
         lit &= escapes(mesh, points, n_geo, L)
-
-    # projected-area weights per (point, view) pair
-    pi, pv = np.nonzero(face_v)
-    proj = cos_v[pi, pv]
-    per_view = np.bincount(pv, weights=proj, minlength=len(V))
-    pair_weight = proj / np.where(per_view[pv] > 0, per_view[pv], 1.0)
     return _PosePairs(pi, pv, pair_weight, lit)
 
 

@@ -344,27 +344,21 @@ def estimate_uncertainty(problem: FlashProblem, normal: Any, objective: str = "e
 def uncertainty_for(mesh: Any, setup: Any, problem: FlashProblem, normal: Any, *, occlusion: bool | None,
                     tolerance_deg: float | None) -> Uncertainty:
     """:func:`estimate_uncertainty` of a recommendation asked as ``setup`` (a
-    :class:`~labcut.orientation.setup.FlashSetup`) whose sample problem is ``problem``: builds
-    the half-direction problem of the same question (:meth:`FlashSetup.at_quality
-    <labcut.orientation.setup.FlashSetup.at_quality>` with :func:`half_directions`) and, for a
-    scenario that rocks, the finer-pose one (:func:`finer_poses`).
+    :class:`~labcut.orientation.setup.FlashSetup`) whose sample problem is ``problem``: the
+    half-direction problem of the same question (:meth:`FlashSetup.at_quality
+    <labcut.orientation.setup.FlashSetup.at_quality>` with :func:`half_directions`, the answer's
+    own surface samples) and, for a scenario that rocks, the finer-pose one (:func:`finer_poses`).
 
-    Both are built only as far as the stencil sums need them (:func:`build_problem`'s ``near``:
-    the triples within reach of the stencil around ``normal``, every pair), the half-direction
-    one from the answer's own surface samples (it keeps the points): the bars are those of the
-    whole problems (the sums drop the other triples anyway) at a fraction of the cost."""
-    from .problem import build_problem
+    Both are built as pairs only (:func:`labcut.orientation.pairs.build_pairs`): their stencil sums
+    make each (pair, light) term in one kernel, within reach of the stencil around ``normal``, the
+    terms and sums of whole problems' (:func:`build_problem`) without their triples."""
+    from .pairs import build_pairs
 
-    m = np.asarray(normal, dtype=np.float64)
-    m = m / np.linalg.norm(m)
-    normals, _ = stencil(m, stencil_radius(tolerance_deg))
-    near = (m, _reach(problem.kappa, normals) + NEAR_MARGIN_RAD)
-
-    def build(q: Quality) -> FlashProblem:
+    def build(q: Quality) -> Any:
         other = setup.at_quality(q)
         # the same point count and seed as the answer's: its surface samples, from the mesh's cache
-        return build_problem(mesh, setup.material, quality=other.quality, tau=setup.tau, seed=setup.seed,
-                             settings=other.scenario.settings(), occlusion=occlusion, near=near)
+        return build_pairs(mesh, setup.material, other.quality, setup.tau, setup.seed, other.scenario.settings(),
+                           occlusion=occlusion)
 
     coarse = build(half_directions(setup.quality))
     rocks = setup.scenario.rock_deg > 0.0 or setup.scenario.sway_deg > 0.0

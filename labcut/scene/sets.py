@@ -187,7 +187,13 @@ class Lights(DirectionSet):
     def rotated(self, r: np.ndarray) -> Lights:
         """The same lights in a frame rotated by ``r`` (new direction = r @ old)."""
         env = None if self.environment is None else self.environment.rotated(r)
-        return Lights._make(self.directions @ np.asarray(r).T, self.weights, self.name, env, self.n_lamps)
+        # a rotation of validated unit directions: no second validation (a scenario's settings
+        # rotate every pose's lights, several times per recommendation)
+        out = object.__new__(Lights)
+        for key, value in (("directions", self.directions @ np.asarray(r, dtype=np.float64).T), ("weights", self.weights),
+                           ("name", self.name), ("environment", env), ("n_lamps", self.n_lamps)):
+            object.__setattr__(out, key, value)
+        return out
 
     @property
     def lamp_directions(self) -> np.ndarray:

@@ -1,0 +1,250 @@
+"""The error bars' partial problems as (point, view) pairs only: stencil sums in one Dr.Jit kernel.
+
+The error bars (:mod:`labcut.orientation.uncertainty`) fit the objective at a small stencil of
+normals around the answer on two more problems of the same question: half the directions, and
+twice the rocking poses at a quarter of the surface points. All they need of such a problem is
+``L_s/L_ref`` of every (point, view) pair at the stencil's normals (and the pairs' weights): no
+binned map, no optimiser, no triples kept. :func:`build_pairs` therefore builds only the pairs
+(the facing tests and, for a stone that is not convex, occlusion rays towards the views), and
+:class:`PairProblem` sums the pairs' radiance in one kernel that makes each (pair, light) term as
+it goes: a thread per pair runs over its pose's lights, tests that the light reaches the point
+(the facing tests of :func:`~labcut.orientation.problem.build_problem`, in float64 as there, and
+the occlusion rays' answers for a stone that is not convex), makes the triple's mirror orientation
+``h`` and factor ``c`` in float32 (the lobe functions of :mod:`labcut.physics.schiller`, the
+operations of the triple kernel :class:`~labcut.orientation.problem._TripleKernel`) and adds, for
+each normal, the lobe term ``q_norm c exp(κ(|h·m| - 1))`` within reach of the first normal to a
+float64 sum, in light order.
+
+These are the terms and the order of :func:`~labcut.orientation.problem.build_problem`'s triples
+summed by :meth:`FlashProblem.pair_radiance <labcut.orientation.problem.FlashProblem.pair_radiance>`
+(the reference ``tests/test_pairs.py`` compares with), without writing the triples out, reading
+them back, culling them on the host and copying them to the device again: the error bars cost
+a third of what the two partial :class:`~labcut.orientation.problem.FlashProblem` builds did.
+
+Frames and units: the mesh frame; directions unit vectors towards the light or the viewer;
+radiance in units of ``L_ref`` (DESIGN.md §4); angles in radians.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from ..colour import luminance_table
+from ..errors import MeshError, ParameterError
+from ..physics import schiller as lobe
+from ..physics.material import Labradorite
+from ..scene import Setting
+from ..scene.quality import Quality
+from .problem import reference_radiance, surface_samples, view_pairs
+
+
+@dataclass
+class PairProblem:
+    """The (point, view) pairs of a flash problem and what its stencil sums need (no triples).
+
+    The fields mean what :class:`~labcut.orientation.problem.FlashProblem`'s of the same name do;
+    ``info["pair_point"]`` is each pair's surface point."""
+
+    pair_view: np.ndarray  # (P,) view index of each pair (all poses' views, in pose order)
+    pair_weight: np.ndarray  # (P,) projected-area weight, sums to 1 within each view
+    view_weight: np.ndarray  # (V,) normalised view weights (pose weight x view weight)
+    kappa: float
+    q_norm: float
+    tau: float
+    convex: bool
+    n_points: int
+    info: dict[str, Any] = field(default_factory=dict)
+    _sums: _TermSums | None = None
+
+    @functools.cached_property
+    def pair_alpha(self) -> np.ndarray:
+        """Per pair: its projected-area weight x its view's weight (float64)."""
+        return self.pair_weight * self.view_weight[self.pair_view]
+
+    def pair_radiance(self, normals: np.ndarray, reach: float | None = None) -> np.ndarray:
+        """``L_s/L_ref`` of every pair at each unit normal (rows, mesh frame): (P, K) float64 sums of
+        the float32 lobe terms, each pair's in light order; ``reach`` (radians): only the terms whose
+        mirror orientation lies within it of ``normals[0]`` (None: every term)."""
+        normals = np.atleast_2d(np.asarray(normals, dtype=np.float64))
+        if normals.ndim != 2 or normals.shape[1] != 3 or not np.all(np.isfinite(normals)):
+            raise ParameterError("normals must be rows of three finite numbers")
+        if self._sums is None or self.pair_view.size == 0:
+            return np.zeros((int(self.pair_view.size), len(normals)))
+        return self._sums(normals, reach)
+
+    def energy_near(self, normals: np.ndarray, reach: float | None = None) -> np.ndarray:
+        """The energy objective (DESIGN.md §4) at each unit normal: ``pair_alpha @ pair_radiance``, (K,)."""
+        return self.pair_alpha @ self.pair_radiance(normals, reach)
+
+
+def build_pairs(mesh: Any, material: Labradorite, quality: Quality | str, tau: float, seed: int, settings: list[Setting],
+                occlusion: bool | None = None) -> PairProblem:
+    """The pairs of :func:`~labcut.orientation.problem.build_problem`'s problem of the same
+    arguments (``settings``: a scenario's poses in the mesh frame; ``occlusion``: as there) and the
+    kernel that sums their radiance (module docstring). The surface samples are the mesh's cached
+    ones of this point count and seed."""
+    if not settings:
+        raise ParameterError("build_pairs needs at least one setting")
+    quality = Quality.coerce(quality)
+    if not (isinstance(seed, int | np.integer) and 0 <= int(seed) < 2**63):
+        raise ParameterError(f"seed must be a whole number >= 0, got {seed!r}")
+    if not (isinstance(tau, int | float) and math.isfinite(tau) and 0.0 < tau < 10.0):
+        raise ParameterError(f"flash threshold tau must lie in (0, 10), got {tau!r}")
+    if len(getattr(mesh, "faces", ())) == 0:
+        raise MeshError("the mesh is empty or not a trimesh.Trimesh (load it with labcut.load_mesh)")
+    count = int(quality.surface_points)
+    samples = surface_samples(mesh, count, int(seed))
+    points, n_geo, n_sh, convex = samples.points, samples.n_geo, samples.n_sh, samples.convex
+    occluded = not (convex if occlusion is None else not occlusion)
+    l_ref = reference_radiance(material, 1.0)
+    if not l_ref > 0:
+        raise ParameterError("the material reflects nothing at normal incidence: no flash can be scored")
+    pose_w = np.array([float(st.weight) for st in settings])
+    pose_w = pose_w / pose_w.sum()
+    width = max(1, max(len(st.lights.directions) for st in settings))
+    n_pose = len(settings)
+    # each pose's lights (irradiance normalised to 1: L_ref is per unit irradiance) in a row of
+    # `width` slots; empty slots carry no irradiance (never lit)
+    L = np.zeros((n_pose, width, 3))
+    L[..., 2] = 1.0
+    E = np.zeros((n_pose, width))
+    blocked = np.zeros((n_pose, count, width), dtype=bool) if occluded else None
+    pp_parts, pv_parts, pw_parts, vw_parts, pose_parts = [], [], [], [], []
+    view_offset = 0
+    for k, st in enumerate(settings):
+        n = len(st.lights.directions)
+        L[k, :n] = st.lights.directions
+        E[k, :n] = st.lights.weights / float(st.lights.weights.sum())
+        pi, pv, pw = view_pairs(st.views.directions, points, n_geo, n_sh, mesh, occluded)
+        if occluded:  # the lights' occlusion rays, as build_problem's lit tests cast them
+            from ..rendering.rays import escapes
+
+            blocked[k, :, :n] = ~escapes(mesh, points, n_geo, st.lights.directions)
+        pp_parts.append(pi)
+        pv_parts.append(pv + view_offset)
+        pw_parts.append(pw)
+        vw_parts.append(pose_w[k] * st.views.weights)
+        pose_parts.append(np.full(len(pi), k, dtype=np.int64))
+        view_offset += len(st.views.weights)
+    pair_point = np.concatenate(pp_parts)
+    pair_view = np.concatenate(pv_parts).astype(np.int64)
+    view_weight = np.concatenate(vw_parts)
+    V = np.concatenate([st.views.directions for st in settings])
+    sums = None
+    if pair_point.size:
+        sums = _TermSums(n_sh, n_geo, L.reshape(-1, 3), E.reshape(-1), V, pair_point, pair_view,
+                         np.concatenate(pose_parts), width, None if blocked is None else blocked.reshape(-1),
+                         count, material.n_surface, luminance_table(material), l_ref,
+                         float(material.lobe_kappa), float(material.lobe_norm))
+    return PairProblem(
+        pair_view=pair_view, pair_weight=np.concatenate(pw_parts), view_weight=view_weight / view_weight.sum(),
+        kappa=float(material.lobe_kappa), q_norm=float(material.lobe_norm), tau=float(tau), convex=convex, n_points=count,
+        info={"l_ref": l_ref, "pairs": int(pair_point.size), "poses": n_pose, "pair_point": pair_point.astype(np.int32)},
+        _sums=sums,
+    )
+
+
+class _TermSums:
+    """The pair sums of :class:`PairProblem` as one Dr.Jit kernel (module docstring): the points'
+    normals, the poses' lights and views and each pair's indices live on the device once per
+    problem; the normals, κ, the lobe's norm and the reach are opaque, so one compiled kernel serves
+    every problem and stencil of the same number of normals (with and without occlusion)."""
+
+    def __init__(self, n_sh: np.ndarray, n_geo: np.ndarray, L: np.ndarray, E: np.ndarray, V: np.ndarray,
+                 point: np.ndarray, view: np.ndarray, pose: np.ndarray, width: int, blocked: np.ndarray | None,
+                 n_points: int, eta: float, table: tuple[np.ndarray, np.ndarray], l_ref: float, kappa: float,
+                 q_norm: float) -> None:
+        from ..backend import ad_types
+
+        dr, t = ad_types()
+        self.dr, self.t = dr, t
+        self.n_pairs = int(point.size)
+        n32 = np.asarray(n_sh, dtype=np.float32)
+        self.n32 = t.Array3f(n32[:, 0], n32[:, 1], n32[:, 2])
+        # the facing tests in float64, as build_problem's (n_geo @ L.T > 1e-6 and n_sh @ L.T > 1e-6)
+        self.ng64 = t.Array3f64(*(np.ascontiguousarray(n_geo[:, k], dtype=np.float64) for k in range(3)))
+        self.ns64 = t.Array3f64(*(np.ascontiguousarray(n_sh[:, k], dtype=np.float64) for k in range(3)))
+        self.L32 = t.Array3f(*(np.ascontiguousarray(L[:, k], dtype=np.float32) for k in range(3)))
+        self.L64 = t.Array3f64(*(np.ascontiguousarray(L[:, k], dtype=np.float64) for k in range(3)))
+        self.E32 = t.Float(np.asarray(E, dtype=np.float32))
+        self.lit_E = t.Bool(np.asarray(E) > 0)
+        v32 = np.asarray(V, dtype=np.float32)
+        self.V32 = t.Array3f(v32[:, 0], v32[:, 1], v32[:, 2])
+        self.point = t.UInt32(np.asarray(point, dtype=np.uint32))
+        self.view = t.UInt32(np.asarray(view, dtype=np.uint32))
+        self.light0 = t.UInt32((np.asarray(pose, dtype=np.int64) * width).astype(np.uint32))
+        # occlusion: blocked[(pose x points + point) x width + slot]
+        self.blocked = None if blocked is None else t.Bool(blocked)
+        self.row0 = (None if blocked is None else
+                     t.UInt32(((np.asarray(pose, dtype=np.int64) * n_points + point) * width).astype(np.uint32)))
+        self.width = dr.opaque(t.UInt32, int(width))
+        self.eta = dr.opaque(t.Float, float(eta))
+        self.inv_l_ref = dr.opaque(t.Float, 1.0 / float(l_ref))
+        self.table = t.Float(np.asarray(table[1], dtype=np.float32))
+        self.cells = dr.opaque(t.Float, float(len(table[1]) - 1))  # the table is a uniform grid over cos 0..1
+        self.last = dr.opaque(t.UInt32, len(table[1]) - 2)
+        self.kappa = float(np.float32(kappa))
+        self.q_norm = float(np.float32(q_norm))
+
+    def __call__(self, normals: np.ndarray, reach: float | None) -> np.ndarray:
+        """(P, K) float64 pair sums at the unit ``normals`` (K, 3); ``reach`` as in :meth:`PairProblem.pair_radiance`."""
+        from ..physics.ops import drjit_ops
+
+        dr, t = self.dr, self.t
+        ops = drjit_ops()
+        n32 = np.asarray(normals, dtype=np.float32)
+        m = [[dr.opaque(t.Float, float(x)) for x in row] for row in n32]
+        kappa = dr.opaque(t.Float, self.kappa)
+        cos_reach = dr.opaque(t.Float, float(np.float32(-1.0 if reach is None else math.cos(min(float(reach), math.pi / 2)))))
+        q_norm = dr.opaque(t.Float, self.q_norm)
+        eta, cells, last, table = self.eta, self.cells, self.last, self.table
+        # per pair: its point's normals, its view's direction and terms (the same for all its lights)
+        n = dr.gather(t.Array3f, self.n32, self.point)
+        ng = dr.gather(t.Array3f64, self.ng64, self.point)
+        ns = dr.gather(t.Array3f64, self.ns64, self.point)
+        w_v = dr.gather(t.Array3f, self.V32, self.view)
+        b = lobe.internal_direction(w_v, n, eta, ops)
+        t_v = lobe.transmission(dr.dot(w_v, n), eta, ops)
+        light0, row0, blocked = self.light0, self.row0, self.blocked
+
+        def body(j: Any, *sums: Any) -> tuple[Any, ...]:
+            i_l = light0 + j
+            l64 = dr.gather(t.Array3f64, self.L64, i_l)
+            lit = (dr.dot(ng, l64) > 1e-6) & (dr.dot(ns, l64) > 1e-6) & dr.gather(t.Bool, self.lit_E, i_l)
+            if blocked is not None:
+                lit &= ~dr.gather(t.Bool, blocked, row0 + j)
+            # the triple kernel's terms (problem._TripleKernel._terms), in float32
+            w_l = dr.gather(t.Array3f, self.L32, i_l)
+            cos_nl = dr.dot(w_l, n)
+            a = lobe.internal_direction(w_l, n, eta, ops)
+            e_t_l = dr.gather(t.Float, self.E32, i_l) * lobe.transmission(cos_nl, eta, ops) * cos_nl
+            h, cos_l, max_ab = lobe.mirror_terms(a, b, n, ops)
+            x = dr.clip(cos_l, 0.0, 1.0) * cells  # np.interp on the uniform cos grid of the luminance table
+            cell = dr.minimum(t.UInt32(x), last)
+            frac = x - t.Float(cell)
+            y0 = dr.gather(t.Float, table, cell)
+            r_y = y0 + frac * (dr.gather(t.Float, table, cell + 1) - y0)
+            c = lobe.schiller_factor(e_t_l, t_v, cos_l, max_ab, eta, ops) * r_y * self.inv_l_ref
+            ok = lit & dr.isfinite(c) & dr.isfinite(h.x) & dr.isfinite(h.y) & dr.isfinite(h.z)
+            c = q_norm * c  # the pair-sum kernel's float32 q_norm c_t
+            out = []
+            near = None
+            for k, (mx, my, mz) in enumerate(m):
+                d = dr.abs(h.x * mx + h.y * my + h.z * mz)
+                if k == 0:
+                    near = ok & (d >= cos_reach)
+                term = dr.exp((d - 1.0) * kappa) * c
+                out.append(sums[k] + t.Float64(dr.select(near, term, 0.0)))
+            return (j + 1, *out)
+
+        state = (dr.zeros(t.UInt32, self.n_pairs), *(dr.zeros(t.Float64, self.n_pairs) for _ in range(len(m))))
+        width = self.width
+        result = dr.while_loop(state, lambda j, *sums: j < width, body)
+        sums = result[1:]
+        dr.eval(*sums)
+        return np.stack([np.asarray(s, dtype=np.float64) for s in sums], axis=1)
