@@ -120,16 +120,18 @@ def test_grid_inverse_is_unique_inverse(seed, n, cells):
     assert np.array_equal(grid_inverse(key, cells * cells), want)
 
 
-@pytest.mark.parametrize("device_keys", [True, False])
+@pytest.mark.parametrize("device_keys, device_bins", [(True, True), (True, False), (False, False)])
 @pytest.mark.parametrize("chunk", [None, 1000])
-def test_binned_triples_match_the_unique_reference(scorer, chunk, device_keys, monkeypatch):
+def test_binned_triples_match_the_unique_reference(scorer, chunk, device_keys, device_bins, monkeypatch):
     """_bin_triples (bincount on the grid key, in chunks of triples; the keys from the Dr.Jit
-    kernel or from numpy) against the np.unique formulation it replaced: the same bins, their
-    sums to rounding (a bin whose triples straddle two chunks sums its parts); with a small chunk
-    every bin straddles some."""
+    kernel or from numpy; or every step in Dr.Jit kernels with 64-bit fixed-point sums) against the
+    np.unique formulation it replaced: the same bins, their sums to rounding (a bin whose triples
+    straddle two chunks sums its parts; with a small chunk every bin straddles some), the
+    fixed-point sums within about 1e-13 of the total weight (their units: 2^-62 of it)."""
     from labcut.orientation import scoring as scoring_module
 
     monkeypatch.setattr(scoring_module, "KEYS_IN_DRJIT", device_keys)
+    monkeypatch.setattr(scoring_module, "BINS_IN_DRJIT", device_bins)
     assert scoring_module._device_keys_apply(scorer.problem, 612 * 612) is device_keys
     if chunk is not None:
         monkeypatch.setattr(scoring_module, "CHUNK", chunk)
@@ -149,8 +151,20 @@ def test_binned_triples_match_the_unique_reference(scorer, chunk, device_keys, m
     centroid = np.stack([np.bincount(inv.ravel(), weights=a * h[:, k]) for k in range(3)], axis=1)
     centroid /= np.linalg.norm(centroid, axis=1, keepdims=True)
     assert ab.shape == weight.shape and hb.shape == centroid.shape  # the same bins
-    np.testing.assert_allclose(ab, weight, rtol=1e-12, atol=0)
-    np.testing.assert_allclose(hb, centroid, rtol=0, atol=1e-13)
+    if device_bins:  # fixed point (chunks do not apply): each bin within its count of units
+        total = float(a.sum())
+        assert np.abs(ab - weight).max() <= 1e-13 * total
+        assert np.abs(weight[:, None] * (hb - centroid)).max() <= 1e-13 * total
+        assert np.abs(ab - weight).max() > 0.0  # not the float path by mistake
+        # each term rounded to the nearest unit: no bias in the total (truncation loses half a
+        # unit a term, ~1e-13 of it over the 0.7 M triples)
+        assert abs(float(ab.sum()) - total) <= 2e-15 * total
+        again = scorer._bin_triples()  # the same sums whatever order the threads add in
+        np.testing.assert_array_equal(again[0], hb)
+        np.testing.assert_array_equal(again[1], ab)
+    else:
+        np.testing.assert_allclose(ab, weight, rtol=1e-12, atol=0)
+        np.testing.assert_allclose(hb, centroid, rtol=0, atol=1e-13)
     assert ab.sum() == pytest.approx(a.sum(), rel=1e-12)
 
 

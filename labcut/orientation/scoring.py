@@ -115,19 +115,80 @@ def _device_grid_keys(h: Any, bins: int) -> np.ndarray:
     (:meth:`Scorer._bin_triples`'s ``grid_key``) in its order, truncated and clipped alike."""
     from ..backend import ad_types
 
+    dr, _ = ad_types()
+    key = _device_grid_key_array(h, bins)
+    dr.eval(key)
+    return np.asarray(key)
+
+
+def _device_grid_key_array(h: Any, bins: int) -> Any:
+    """The keys of :func:`_device_grid_keys` as a Dr.Jit ``Int32`` array (not evaluated)."""
+    from ..backend import ad_types
+
     dr, t = ad_types()
     b = dr.opaque(t.Float, float(bins))
     z1 = 1.0 + h.z
     top = dr.opaque(t.Int32, bins - 1)
     iu = dr.clip(t.Int32((h.x / z1 + 1.0) * 0.5 * b), 0, top)
     iv = dr.clip(t.Int32((h.y / z1 + 1.0) * 0.5 * b), 0, top)
-    key = iu * dr.opaque(t.Int32, bins) + iv
-    dr.eval(key)
-    return np.asarray(key)
+    return iu * dr.opaque(t.Int32, bins) + iv
 
 
 #: largest grid (cells) binned with a dense bincount; finer grids sort the occupied keys instead
 DENSE_KEY_LIMIT = 1 << 24
+
+#: bin the triples in Dr.Jit kernels over the problem's device copy (:func:`_device_bins`: exact
+#: 64-bit fixed-point sums, the same whatever order threads add in) where the grid keys come from
+#: the device (:func:`_device_keys_apply`) and the grid is dense; numpy's bincounts stay the
+#: reference (``tests/test_sparse_map.py``)
+BINS_IN_DRJIT = True
+#: headroom of the fixed-point bin sums: every sum's magnitude stays below 2^(63 - FIXED_HEADROOM)
+FIXED_HEADROOM = 1
+
+
+def _device_bins(problem: Any, bins: int) -> tuple[np.ndarray, np.ndarray]:
+    """:meth:`Scorer._bin_triples` in Dr.Jit kernels over the problem's device copy of the triples
+    (:attr:`~labcut.orientation.problem.FlashProblem.device_triples`): each triple's energy weight
+    ``alpha_t = c_t x pair_alpha[pair_t]`` (float64, the host's product), its grid key
+    (:func:`_device_grid_keys`), the occupied cells ranked in key order (a prefix sum), and the
+    bins' weights and weighted directions summed as 64-bit integers: ``round(x 2^S)`` with ``S``
+    such that the sum of every |alpha| stays below 2^62, so each sum is exact in its units and the
+    same whatever order the threads add in (float atomics are not); each bin's sums lie within
+    ``count x 2^-S`` (about 1e-13 of the total weight over all bins together) of the float64 sums.
+    ``(centroids (B, 3), weights (B,))`` in ascending key order, as the numpy path gives them."""
+    from ..backend import ad_types
+
+    dr, t = ad_types()
+    h, c = problem.device_triples
+    pair = t.UInt32(np.asarray(problem.pair, dtype=np.uint32))
+    alpha = t.Float64(c) * dr.gather(t.Float64, t.Float64(problem.pair_alpha), pair)
+    keep = alpha > 0.0
+    n_keys = bins * bins
+    key = t.UInt32(_device_grid_key_array(h, bins))
+    present = dr.zeros(t.UInt32, n_keys)
+    dr.scatter(present, t.UInt32(1), key, keep)
+    rank = dr.prefix_sum(present)  # exclusive: the cell's bin index among the occupied cells
+    total_a = dr.sum(dr.select(keep, alpha, 0.0))
+    dr.eval(rank, alpha, total_a)
+    last = t.UInt32(n_keys - 1)
+    n_bins = int(dr.gather(t.UInt32, rank, last)[0] + dr.gather(t.UInt32, present, last)[0])
+    if n_bins == 0:
+        return np.array([[0.0, 0.0, 1.0]]), np.zeros(1)
+    total = float(total_a[0])
+    shift = 62 - FIXED_HEADROOM - max(0, math.ceil(math.log2(max(total, 1e-300))))
+    unit = math.ldexp(1.0, shift)
+    inv = dr.gather(t.UInt32, rank, key, keep)
+    scaled = alpha * dr.opaque(t.Float64, unit)
+    sums = []
+    for value in (scaled, scaled * t.Float64(h.x), scaled * t.Float64(h.y), scaled * t.Float64(h.z)):
+        out = dr.zeros(t.Int64, n_bins)
+        dr.scatter_reduce(dr.ReduceOp.Add, out, t.Int64(dr.round(value)), inv, keep)
+        sums.append(out)
+    dr.eval(*sums)
+    weight, cx, cy, cz = (np.asarray(x).astype(np.float64) * math.ldexp(1.0, -shift) for x in sums)
+    centroid = np.stack([cx, cy, cz], axis=1)
+    centroid /= np.linalg.norm(centroid, axis=1, keepdims=True)
+    return centroid, weight
 
 
 def grid_inverse(key: np.ndarray, n_keys: int) -> np.ndarray:
@@ -519,6 +580,8 @@ class Scorer:
             return iu * bins + iv
 
         starts = range(0, p.n_triples, CHUNK)
+        if BINS_IN_DRJIT and n_keys <= DENSE_KEY_LIMIT and _device_keys_apply(p, n_keys):
+            return _device_bins(p, bins)
         if _device_keys_apply(p, n_keys):  # one kernel over the device copy the pair sums read anyway
             every = _device_grid_keys(p.device_triples[0], bins)
             keys = [every[s0:s0 + CHUNK] for s0 in starts]
