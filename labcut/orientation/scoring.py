@@ -271,7 +271,8 @@ class SparseLobeMap:
             self.cos_reach = np.zeros(0)
             return
         # probe normals: the heaviest bins' directions give a lower bound of the best energy
-        probes = h[np.argsort(a)[::-1][:16]]
+        heavy = np.argpartition(a, len(a) - 16)[-16:] if len(a) > 16 else np.arange(len(a))  # the 16 heaviest, any order
+        probes = h[heavy]
         lower = float(np.max(self._dense(h, a, probes)))
         t_cut = max(12.5, math.log(max(self.norm * total / max(rtol * lower, 1e-300), 1.0)))
         self.cos_cut = 1.0 - t_cut / self.kappa
@@ -282,7 +283,8 @@ class SparseLobeMap:
         iu = np.clip(((h[:, 0] / zp + 1.0) * 0.5 * g).astype(np.int64), 0, g - 1)
         iv = np.clip(((h[:, 1] / zp + 1.0) * 0.5 * g).astype(np.int64), 0, g - 1)
         key = iu * g + iv
-        order = np.argsort(key, kind="stable")
+        # stable, on keys below 2^14: numpy's radix sort of 16-bit integers (linear, not a merge sort)
+        order = np.argsort(key.astype(np.int16), kind="stable")
         self.h, self.a = h[order], a[order]
         self.ht = np.ascontiguousarray(self.h.T)  # (3, B): contiguous coordinate rows for the products
         key = key[order]
