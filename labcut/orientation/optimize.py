@@ -320,11 +320,23 @@ def run_optimizer(name: str, scorer: Scorer, constraint: Constraint, quality: Qu
     raise ParameterError(f"optimizer must be one of {', '.join(OPTIMIZERS)}, got {name!r}")
 
 
+#: the tolerance's precision (degrees): the answer lies within this of the first failing ring
+TOLERANCE_STEP_DEG = 0.05
+
+
 def tolerance_deg(scores: Callable[[np.ndarray], np.ndarray], best: np.ndarray, best_score: float, constraint: Constraint, keep: float = 0.9, limit_deg: float = 30.0, directions: list[np.ndarray] | None = None) -> float:
     """How far (degrees) the normal may miss in any direction and keep ``keep`` x the score.
 
-    Rings of 16 directions (scored together) at growing angular distance; the first
-    ring with a point below ``keep * best_score`` bounds the tolerance (bisected to 0.05°).
+    Rings of 16 directions (scored together) around ``best``; the smallest angle whose ring has a
+    point below ``keep * best_score`` bounds the tolerance, found to :data:`TOLERANCE_STEP_DEG`.
+    The score falls off a peak about quadratically in the angle, so the search predicts where a
+    ring first fails from the rings it has scored (the root of ``α + β a²`` through the last two
+    rings that keep, from the centre and a ring at 0.25°; then regula falsi in the squared angle
+    between a ring that keeps and one that fails, scoring the two rings a step apart around the
+    prediction at once, halving when that is slow): four to six calls where a bisection from 0.25°
+    in steps of 1.6x took nine to fourteen (the rings that keep grow at most 4x from one to the
+    next). Returns the largest angle known to keep, 0 when the centre itself does not, or
+    ``limit_deg`` when no ring up to it fails.
     """
     target = keep * best_score
     best = best / np.linalg.norm(best)
@@ -346,27 +358,66 @@ def tolerance_deg(scores: Callable[[np.ndarray], np.ndarray], best: np.ndarray, 
         dirs = [np.cross(k, best), -np.cross(k, best)]
     else:
         dirs = [math.cos(p) * e1 + math.sin(p) * e2 for p in np.linspace(0, 2 * math.pi, 16, endpoint=False)]
+    tangent = np.array(dirs)
+    step = TOLERANCE_STEP_DEG
 
-    def fails(angle_deg: float) -> bool:
-        t = math.radians(angle_deg)
-        ring = np.array([best * math.cos(t) + d * math.sin(t) for d in dirs])
-        ring = np.where(ring[:, 2:3] < 0, -ring, ring)
-        return bool(np.min(scores(ring)) < target)
+    def worst(angles_deg: list[float], centre: bool = False) -> list[float]:
+        """The lowest score on each ring (one call for all of them), after the centre's score
+        when ``centre``."""
+        t = np.radians(np.asarray(angles_deg, dtype=np.float64))
+        rings = (np.cos(t)[:, None, None] * best[None, None, :] + np.sin(t)[:, None, None] * tangent[None, :, :]).reshape(-1, 3)
+        if centre:
+            rings = np.vstack([best[None, :], rings])
+        rings = np.where(rings[:, 2:3] < 0, -rings, rings)
+        values = np.asarray(scores(rings), dtype=np.float64)
+        head = [float(values[0])] if centre else []
+        return head + [float(x) for x in values[int(centre):].reshape(len(t), len(tangent)).min(axis=1)]
 
-    lo, hi = 0.0, None
-    a = 0.25
-    while a <= limit_deg:
-        if fails(a):
-            hi = a
-            break
-        lo = a
-        a *= 1.6
-    if hi is None:
-        return limit_deg
-    while hi - lo > 0.05:
-        mid = 0.5 * (lo + hi)
-        lo, hi = (lo, mid) if fails(mid) else (mid, hi)
-    return lo
+    def narrow(kept: list[tuple[float, float]], hi: float | None, v_hi: float) -> tuple[float, float | None, float]:
+        """From rings that keep (``kept``, by angle) and the nearest that fails (``hi``; None: none
+        found yet), the ring that keeps and the one that fails within ``step`` of each other."""
+        while hi is None:  # bracket: the root of v = α + β a² through the last two rings that keep
+            (a1, v1), (a2, v2) = kept[-2], kept[-1]
+            if a2 >= limit_deg:
+                return a2, None, v_hi
+            guess = 4.0 * a2
+            if v2 < v1:
+                guess = 1.05 * math.sqrt(max(a2 * a2 + (a2 * a2 - a1 * a1) * (v2 - target) / (v1 - v2), 0.0))
+            guess = min(max(guess, 1.6 * a2), 4.0 * a2, limit_deg)
+            value = worst([guess])[0]
+            if value < target:
+                hi, v_hi = guess, value
+            else:
+                kept.append((guess, value))
+        lo, v_lo = kept[-1]
+        halve = False
+        while hi - lo > step + 1e-9:  # regula falsi in a², the two rings a step apart around it; halving when slow
+            width = hi - lo
+            if halve:
+                pair = [0.5 * (lo + hi)]
+            else:
+                frac = min(max((v_lo - target) / (v_lo - v_hi), 0.0), 1.0) if v_lo > v_hi else 0.5
+                guess = math.sqrt(lo * lo + (hi * hi - lo * lo) * frac)
+                gap = min(0.25 * step, 0.25 * width)
+                a, b = max(guess - 0.5 * step, lo + gap), min(guess + 0.5 * step, hi - gap)
+                pair = [a, b] if a < b else [0.5 * (lo + hi)]
+            for angle, value in zip(pair, worst(pair)):
+                if value < target:
+                    hi, v_hi = angle, value
+                    break
+                lo, v_lo = angle, value
+                kept.append((angle, value))
+            halve = not halve and hi - lo > 0.5 * width
+        return lo, hi, v_hi
+
+    centre, v0 = worst([0.25], centre=True)
+    if centre < target:
+        return 0.0
+    if v0 < target:
+        lo, hi, _ = narrow([(0.0, centre)], 0.25, v0)
+    else:
+        lo, hi, _ = narrow([(0.0, centre), (0.25, v0)], None, v0)
+    return lo if hi is not None else limit_deg
 
 
 def _dots(normals: np.ndarray, t: np.ndarray) -> np.ndarray:
