@@ -215,46 +215,43 @@ def _reach(kappa: float, normals: np.ndarray) -> float:
 
 def objective_values(problem: FlashProblem, radiance: np.ndarray, point_weights: np.ndarray, objective: str) -> np.ndarray:
     """The objective at each stencil normal for each set of surface-point weights (R, n_points):
-    (R, K). Weights 1 give the problem's own estimator (DESIGN.md §4's metrics)."""
+    (R, K). Weights 1 give the problem's own estimator (DESIGN.md §4's metrics).
+
+    Every view's sums at once: a pair is one (point, view), so the pairs' values laid out by point
+    and view, ``X[point, view, column]`` (zero where the point does not face the view), give each
+    replicate's weighted sums per view as one product ``W @ X`` (float32 BLAS: the weights are
+    small whole numbers, exact in float32, and the sums' rounding, ~1e-7 of them, lies far below
+    the bootstrap's spread; the projected areas that divide them in float64). Columns: the pairs'
+    ``pair weight x L_s/L_ref`` per normal (energy) and, for the thresholded objectives, their
+    flashing area and in-flash radiance."""
     pw = problem.pair_weight.astype(np.float64)
     pv = problem.pair_view
     pp = problem.info.get("pair_point")
     pp = np.arange(pw.size) if pp is None else np.asarray(pp)  # without points: a bootstrap over pairs
-    order = np.argsort(pv, kind="stable")
-    bounds = np.searchsorted(pv[order], np.arange(problem.view_weight.size + 1))
-    flash = (radiance >= problem.tau).astype(np.float64)
-    R, K = point_weights.shape[0], radiance.shape[1]
-    energy = np.zeros((R, K))
-    area = np.zeros((R, K))
-    intensity = np.zeros((R, K))
-    lit = np.any(radiance > 0.0, axis=1)  # pairs with any radiance: the only ones in the numerators (tau > 0)
-    n_w = point_weights.shape[1]
-    for v, wv in enumerate(problem.view_weight):
-        seg = order[bounds[v]:bounds[v + 1]]
-        if seg.size == 0 or wv <= 0:
-            continue
-        # the view's projected area under each replicate's weights: Σ_pairs w(point) x pair weight
-        area_w = np.bincount(pp[seg], weights=pw[seg], minlength=n_w)
-        den = np.maximum(np.einsum("rn,n->r", point_weights, area_w)[:, None], 1e-300)
-        seg = seg[lit[seg]]
-        # (R, n) point weights of the view's pairs times their (n, K) weighted values: BLAS products
-        # (faster than einsum's loops: the replicates' row of benchmarks/recommend_stages.py; the
-        # bootstrap's spread does not hang on the last bit a machine's BLAS kernel rounds)
-        w_seg = point_weights[:, pp[seg]]
-        pw_seg = pw[seg][:, None]
-        x_seg = pw_seg * radiance[seg]
-        e_v = (w_seg @ x_seg) / den
-        energy += wv * e_v
-        if objective != "energy":
-            f_seg = flash[seg]
-            ar_v = (w_seg @ (pw_seg * f_seg)) / den
-            in_v = (w_seg @ (x_seg * f_seg)) / den
-            area += wv * ar_v
-            intensity += wv * np.where(ar_v > 1e-12, in_v / np.maximum(ar_v, 1e-12), 0.0)
+    n_w, n_views, K = point_weights.shape[1], problem.view_weight.size, radiance.shape[1]
+    # the view's projected area under each replicate's weights: Σ_pairs w(point) x pair weight
+    area_w = np.zeros((n_w, n_views))
+    area_w[pp, pv] = pw
+    den = np.maximum(point_weights @ area_w, 1e-300)[:, :, None]  # (R, V, 1)
+    x = pw[:, None] * radiance
+    blocks = [x]
+    if objective != "energy":
+        flash = radiance >= problem.tau
+        blocks += [np.where(flash, pw[:, None], 0.0), np.where(flash, x, 0.0)]
+    cols = len(blocks) * K
+    X = np.zeros((n_w, n_views, cols), dtype=np.float32)
+    X[pp, pv, :] = np.concatenate(blocks, axis=1) if len(blocks) > 1 else x
+    sums = (point_weights.astype(np.float32) @ X.reshape(n_w, n_views * cols)).reshape(-1, n_views, cols)
+    per_view = sums.astype(np.float64) / den  # (R, V, cols): each view's mean over its visible area
+    wv = problem.view_weight.astype(np.float64)
+    energy = np.einsum("rvk,v->rk", per_view[:, :, :K], wv)
     if objective == "energy":
         return energy
+    ar_v, in_v = per_view[:, :, K:2 * K], per_view[:, :, 2 * K:]
+    area = np.einsum("rvk,v->rk", ar_v, wv)
     if objective == "area":
         return area
+    intensity = np.einsum("rvk,v->rk", np.where(ar_v > 1e-12, in_v / np.maximum(ar_v, 1e-12), 0.0), wv)
     if objective == "intensity":
         return intensity
     return np.sqrt(np.maximum(area * intensity, 0.0))
