@@ -106,6 +106,49 @@ def test_every_optimizer_lands_within_1_degree_of_the_grid(problems, name):
         assert res.score >= 0.99 * grid.score
 
 
+@pytest.mark.parametrize("name", ["oval", "biplane", "oval-ceiling"])
+def test_nlopt_seeded_from_the_hemisphere_map_finds_the_grid_optimum(problems, name):
+    """The recommendation's hemisphere map seeds NLopt's polishes (instead of a 6° map of their
+    own): the same optimum as the grid's, and the seeds are the map's best distinct cells."""
+    from labcut.orientation import optimize as opt
+
+    scorer = Scorer(problems[name])
+    constraint = Constraint()
+    grid = run_optimizer("grid", scorer, constraint, "draft")
+    normals = opt.hemisphere_grid(3.0, constraint)
+    energies = scorer.energy_map(normals)
+    seeded = run_optimizer("nlopt", scorer, constraint, "standard", seed_map=(normals, energies))
+    assert angle_deg(seeded.normal, grid.normal) < 1.0
+    assert seeded.score >= 0.999 * grid.score
+    seeds = opt._best_cells(normals, energies, 3)
+    assert angle_deg(seeds[0], normals[int(np.argmax(energies))]) == 0.0
+    assert all(angle_deg(a, b) >= 8.0 for i, a in enumerate(seeds) for b in seeds[:i])
+
+
+def test_the_recommendation_seeds_its_optimiser_from_its_map(oval, monkeypatch):
+    """One energy map per recommendation: the optimiser gets the hemisphere map's cells and makes no
+    seed map of its own."""
+    from labcut.orientation import optimize as opt
+    from labcut.orientation import recommend as rec_module
+
+    got = {}
+    real = rec_module.run_optimizer
+
+    def spy(name, scorer, constraint, quality, seed_map=None):
+        got["seed_map"] = seed_map
+        return real(name, scorer, constraint, quality, seed_map=seed_map)
+
+    def no_seed_map(*args, **kwargs):
+        raise AssertionError("the optimiser made a seed map of its own")
+
+    monkeypatch.setattr(rec_module, "run_optimizer", spy)
+    monkeypatch.setattr(opt, "_map_seeds", no_seed_map)
+    rec = labcut.recommend_orientation(oval, LAB, scenario="bench", quality="draft")
+    normals, energies = got["seed_map"]
+    np.testing.assert_array_equal(normals, rec.map_normals)
+    np.testing.assert_array_equal(energies, rec.map_scores)
+
+
 def test_gradient_vanishes_at_the_optimum_and_matches_finite_differences(problems):
     scorer = Scorer(problems["oval"])
     best = run_optimizer("nlopt", scorer, Constraint(), "standard")

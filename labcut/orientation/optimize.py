@@ -162,10 +162,14 @@ def _local_lbfgs(scorer: Scorer, u0: float, v0: float, constraint: Constraint) -
     return u, v, scorer.score_uv(u, v)
 
 
-def optimize_nlopt(scorer: Scorer, constraint: Constraint, global_evals: int | None = None) -> OptimumResult:
+def optimize_nlopt(scorer: Scorer, constraint: Constraint, global_evals: int | None = None,
+                   seed_map: tuple[np.ndarray, np.ndarray] | None = None) -> OptimumResult:
     """NLopt: DIRECT-L (global, derivative-free) over the disc's bounding box, then an L-BFGS
     polish (``LD_LBFGS``) with Dr.Jit gradients. A fixed axis uses the same pair in 1D.
-    ``global_evals``: DIRECT-L's evaluations (default: the standard quality's ``nlopt_evals``)."""
+    ``global_evals``: DIRECT-L's evaluations (default: the standard quality's ``nlopt_evals``).
+    ``seed_map``: ``(normals, energies)`` of an energy map already made over the allowed region
+    (the recommendation's hemisphere map, :data:`SEED_SPACING_DEG` or finer), whose best distinct
+    cells seed the polishes instead of a map of their own."""
     import nlopt
 
     if global_evals is None:
@@ -213,7 +217,8 @@ def optimize_nlopt(scorer: Scorer, constraint: Constraint, global_evals: int | N
     # DIRECT's few hundred samples can miss a peak narrower than its cells (a lobe of a few
     # degrees): L-BFGS also starts from the best distinct cells of a coarse energy map (one
     # batched kernel), and the best polished point wins
-    starts = [best[0]] + [normal_to_stereo(n) for n in _map_seeds(scorer, constraint, 6.0, 3)]
+    seeds = _map_seeds(scorer, constraint, SEED_SPACING_DEG, 3) if seed_map is None else _best_cells(*seed_map, 3)
+    starts = [best[0]] + [normal_to_stereo(n) for n in seeds]
     result = (best[0], best[1])
     for u0, v0 in starts:
         u, v, value = _local_lbfgs(scorer, u0, v0, constraint)
@@ -223,16 +228,25 @@ def optimize_nlopt(scorer: Scorer, constraint: Constraint, global_evals: int | N
     return OptimumResult(stereo_to_normal(u, v), value, scorer.evaluations - start, "nlopt")
 
 
+#: spacing (degrees) of the energy map whose best cells seed the optimisers' local searches
+SEED_SPACING_DEG = 6.0
+
+
 def _map_seeds(scorer: Scorer, constraint: Constraint, spacing_deg: float, count: int, separation_deg: float = 8.0) -> list[np.ndarray]:
     """The best ``count`` cells of an energy map at ``spacing_deg``, at least ``separation_deg`` apart."""
     coarse = hemisphere_grid(spacing_deg, constraint)
-    values = scorer.energy_map(coarse)
+    return _best_cells(coarse, scorer.energy_map(coarse), count, separation_deg)
+
+
+def _best_cells(normals: np.ndarray, values: np.ndarray, count: int, separation_deg: float = 8.0) -> list[np.ndarray]:
+    """The best ``count`` of the map's cells (``normals`` with their ``values``) scoring above 0, at
+    least ``separation_deg`` apart (axial)."""
     seeds: list[np.ndarray] = []
     for i in np.argsort(values)[::-1]:
         if len(seeds) >= count or values[i] <= 0:
             break
-        if all(abs(float(coarse[i] @ s)) < math.cos(math.radians(separation_deg)) for s in seeds):
-            seeds.append(coarse[i])
+        if all(abs(float(normals[i] @ s)) < math.cos(math.radians(separation_deg)) for s in seeds):
+            seeds.append(normals[i])
     return seeds
 
 
@@ -245,7 +259,7 @@ def optimize_gradient(scorer: Scorer, constraint: Constraint, starts: int = 12, 
     inits = hemisphere_grid(max(2.0, math.degrees(math.sqrt(2 * math.pi * (1 - math.cos(math.radians(constraint.max_tilt_deg))) / starts))), constraint)
     inits = inits[np.linspace(0, len(inits) - 1, min(starts, len(inits))).astype(int)]
     # plus the best distinct cells of a coarse (6°) energy map: one batched evaluation
-    seeds = _map_seeds(scorer, constraint, 6.0, max(4, starts // 2))
+    seeds = _map_seeds(scorer, constraint, SEED_SPACING_DEG, max(4, starts // 2))
     if seeds:
         inits = np.vstack([np.array(seeds), inits])
     best_uv, best_value = (0.0, 0.0), -np.inf
@@ -307,14 +321,17 @@ def _axis_gradient(scorer: Scorer, constraint: Constraint, starts: int, iteratio
     return OptimumResult(n, best[1], scorer.evaluations - start, "gradient")
 
 
-def run_optimizer(name: str, scorer: Scorer, constraint: Constraint, quality: Quality | str = "standard") -> OptimumResult:
+def run_optimizer(name: str, scorer: Scorer, constraint: Constraint, quality: Quality | str = "standard",
+                  seed_map: tuple[np.ndarray, np.ndarray] | None = None) -> OptimumResult:
     """Run optimiser ``name`` with its budget from ``quality`` (:class:`~labcut.scene.quality.Quality`:
-    ``grid_coarse_deg``, ``nlopt_evals``, ``gradient_starts``)."""
+    ``grid_coarse_deg``, ``nlopt_evals``, ``gradient_starts``). ``seed_map``: an energy map
+    already made (``(normals, energies)``, :func:`optimize_nlopt`); NLopt's polishes start from
+    its best cells (the other optimisers ignore it)."""
     q = Quality.coerce(quality)
     if name == "grid":
         return optimize_grid(scorer, constraint, coarse_deg=q.grid_coarse_deg)
     if name == "nlopt":
-        return optimize_nlopt(scorer, constraint, global_evals=q.nlopt_evals)
+        return optimize_nlopt(scorer, constraint, global_evals=q.nlopt_evals, seed_map=seed_map)
     if name == "gradient":
         return optimize_gradient(scorer, constraint, starts=q.gradient_starts)
     raise ParameterError(f"optimizer must be one of {', '.join(OPTIMIZERS)}, got {name!r}")

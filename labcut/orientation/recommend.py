@@ -17,7 +17,8 @@ from ..validation import given_besides, is_default
 from ..physics.material import Labradorite
 from ..scene import Lights, Scenario, Views, resolve_scene
 from ..scene.quality import Quality
-from .optimize import OPTIMIZERS, Constraint, hemisphere_grid, polish_grid, run_optimizer, score_map, tolerance_deg
+from .optimize import (OPTIMIZERS, SEED_SPACING_DEG, Constraint, hemisphere_grid, polish_grid, run_optimizer, score_map,
+                       tolerance_deg)
 from ..geometry.meshio import provenance as mesh_provenance
 from .problem import build_problem
 from .scoring import OBJECTIVES, FlashMetrics, Scorer
@@ -467,12 +468,16 @@ def recommend_orientation(
     scorer, plan = _setup(mesh, ask, "recommend", plan)
     renders = plan.estimator == "render"
     stage = (lambda fraction: 0.3 * fraction) if renders else (lambda fraction: fraction)
-    report("optimising", stage(0.3))
-    best = run_optimizer(optimizer, scorer, constraint, quality)
-    normal = _upper(best.normal)
-    report("mapping the hemisphere", stage(0.6))
+    report("mapping the hemisphere", stage(0.3))
     map_normals = hemisphere_grid(quality.map_spacing_deg, constraint)
     map_scores = score_map(scorer, map_normals)
+    report("optimising", stage(0.6))
+    # the map's best cells seed the optimiser's polishes where the map is at least as fine as the
+    # seed map it would make (and holds energies: the seeds are the energy's)
+    seeds = ((map_normals, map_scores) if objective == "energy" and quality.map_spacing_deg <= SEED_SPACING_DEG
+             and constraint.tilt_axis is None else None)
+    best = run_optimizer(optimizer, scorer, constraint, quality, seed_map=seeds)
+    normal = _upper(best.normal)
     score = scorer.score(normal)
     if map_scores.max() > score * (1.0 + 1e-4):  # the map found better: trust the better point, polished
         normal, score = polish_grid(scorer, map_normals[int(np.argmax(map_scores))], constraint, quality.map_spacing_deg, 0.1)
