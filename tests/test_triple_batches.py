@@ -67,3 +67,19 @@ def test_chunks_of_cells_give_the_one_call_triples(oval, monkeypatch, near):
         np.testing.assert_array_equal(getattr(chunked, key), getattr(whole, key))
     monkeypatch.setattr(problem_module, "TRIPLES_IN_DRJIT", False)
     _same(whole, build_problem(oval, lab, quality="draft", settings=settings, **kw))
+
+
+@pytest.mark.parametrize("chunk", [None, 20_000])
+def test_the_device_copy_of_the_triples_is_the_host_arrays(oval, chunk, monkeypatch):
+    """A problem made in one kernel call keeps that call's device arrays as its device copy (no copy
+    back from the host); made in several chunks, the copy is made from the host arrays. Either way
+    the device copy holds the host arrays' values bit for bit."""
+    if chunk is not None:
+        monkeypatch.setattr(problem_module, "DENSE_CHUNK", chunk)
+    setup_settings = labcut.Scenario.preset("bench", "draft").settings()
+    p = build_problem(oval, labcut.Labradorite.preset("blue"), quality="draft", settings=setup_settings)
+    kept = "device_triples" in p.__dict__
+    assert kept is (chunk is None)  # one call: its arrays were kept
+    h, c = p.device_triples
+    np.testing.assert_array_equal(np.stack([np.asarray(h.x), np.asarray(h.y), np.asarray(h.z)], axis=1), p.h)
+    np.testing.assert_array_equal(np.asarray(c), p.c)

@@ -213,3 +213,43 @@ def test_bootstrap_weights_are_drawn_once_per_question_and_read_only():
     assert not np.array_equal(bootstrap_weights(4, 500, 8), w)
     with pytest.raises(ValueError):
         w[1, 0] = 5.0
+
+
+def _fit_peaks_reference(xy, values, radius_deg):
+    """fit_peaks row by row: the Hessian's eigenvalues and a linear solve (the closed form's reference)."""
+    x, y = xy[:, 0], xy[:, 1]
+    design = np.stack([np.ones_like(x), x, y, x * x, x * y, y * y], axis=1)
+    coef = np.linalg.lstsq(design, values.T, rcond=None)[0].T
+    peaks, heights = np.empty((len(values), 2)), np.empty(len(values))
+    for i, c in enumerate(coef):
+        hess = np.array([[2 * c[3], c[4]], [c[4], 2 * c[5]]])
+        best = int(np.argmax(values[i]))
+        p = -np.linalg.solve(hess, c[1:3]) if np.all(np.linalg.eigvalsh(hess) < 0.0) else None
+        if p is None or np.hypot(*p) > radius_deg:
+            peaks[i], heights[i] = xy[best], values[i, best]
+        else:
+            peaks[i] = p
+            heights[i] = c[0] + c[1] * p[0] + c[2] * p[1] + c[3] * p[0] ** 2 + c[4] * p[0] * p[1] + c[5] * p[1] ** 2
+    return peaks, heights
+
+
+def test_fit_peaks_in_closed_form_equals_the_row_by_row_fit():
+    """Concave and saddle-shaped quadratics, peaks inside and beyond the stencil, with noise."""
+    from labcut.orientation.uncertainty import fit_peaks
+
+    rng = np.random.default_rng(1)
+    _, xy = stencil(np.array([0.0, 0.0, 1.0]), 2.0)
+    kinds = {"inside": 0, "fallback": 0}
+    for _ in range(200):
+        px, py = rng.normal(0.0, 1.5, 2)
+        a, c, b = rng.uniform(-1.0, 0.3), rng.uniform(-1.0, 0.3), rng.uniform(-0.5, 0.5)
+        v = 1.0 + 0.5 * a * (xy[:, 0] - px) ** 2 + b * (xy[:, 0] - px) * (xy[:, 1] - py) + 0.5 * c * (xy[:, 1] - py) ** 2
+        values = v[None, :] + rng.normal(0.0, 1e-3, (5, len(xy)))
+        got, got_h = fit_peaks(xy, values, 2.0)
+        want, want_h = _fit_peaks_reference(xy, values, 2.0)
+        np.testing.assert_allclose(got, want, rtol=0, atol=1e-12)
+        np.testing.assert_allclose(got_h, want_h, rtol=1e-12, atol=1e-12)
+        on_grid = np.any(np.all(np.isclose(got[:, None, :], xy[None, :, :], atol=1e-12), axis=2), axis=1)
+        kinds["fallback"] += int(on_grid.sum())
+        kinds["inside"] += int((~on_grid).sum())
+    assert kinds["inside"] > 100 and kinds["fallback"] > 100  # both branches exercised

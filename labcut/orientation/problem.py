@@ -496,11 +496,13 @@ def build_problem(
     c = np.empty(total, dtype=np.float32)
     pair_of_t = np.empty(total, dtype=np.int32)
     at = [0]
+    sunk: list[int] = []  # the size of each chunk written
 
     def sink(h_t: np.ndarray, c_t: np.ndarray, pair_t: np.ndarray) -> None:
         n = len(c_t)
         h[at[0]:at[0] + n], c[at[0]:at[0] + n], pair_of_t[at[0]:at[0] + n] = h_t, c_t, pair_t
         at[0] += n
+        sunk.append(n)
 
     pair_point = np.concatenate(pp_parts)
     pair_view = np.concatenate(pv_parts)
@@ -523,7 +525,7 @@ def build_problem(
             "the surfaces the views look at (+Z is face-up)"
         )
     view_weight = np.concatenate(vw_parts)
-    return FlashProblem(
+    problem = FlashProblem(
         h=h,
         c=c,
         pair=pair_of_t,
@@ -542,6 +544,11 @@ def build_problem(
               "pair_point": pair_point.astype(np.int32),
               **({} if near is None else {"near": (cull[0].tolist(), float(near[1]))})},
     )
+    if kernel is not None and cull is None and sunk == [c.size] and kernel.last_device is not None:
+        # one kernel call made every triple: its device arrays are the problem's device copy
+        # (FlashProblem.device_triples), not copied back from the host arrays
+        problem.__dict__["device_triples"] = kernel.last_device
+    return problem
 
 
 #: evaluate the triple terms in Dr.Jit kernels, every pose at once per chunk of (pair, light)
@@ -570,6 +577,9 @@ class _TripleKernel:
         self.table = t.Float(np.asarray(table[1], dtype=np.float32))
         self.cells = dr.opaque(t.Float, float(len(table[1]) - 1))  # the table is a uniform grid over cos 0..1
         self.last = dr.opaque(t.UInt32, len(table[1]) - 2)
+        #: the device arrays (h, c) of the last call's triples, when every term was finite (the host
+        #: arrays hold the same values); None after a call that replaced non-finite terms
+        self.last_device: tuple[Any, Any] | None = None
 
     def dense(self, L: np.ndarray, E: np.ndarray, V: np.ndarray, point: np.ndarray, view: np.ndarray,
               light0: np.ndarray, width: int, index: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -615,7 +625,9 @@ class _TripleKernel:
         dr.eval(h, c)
         hn = np.stack([np.asarray(h.x), np.asarray(h.y), np.asarray(h.z)], axis=1)
         cn = np.asarray(c)
+        self.last_device = (h, c)
         if not (np.isfinite(cn).all() and np.isfinite(hn).all()):
+            self.last_device = None
             finite = np.isfinite(cn) & np.all(np.isfinite(hn), axis=1)
             cn = np.where(finite, cn, 0.0).astype(np.float32)
             hn = np.where(finite[:, None], hn, np.array([0.0, 0.0, 1.0], dtype=np.float32)).astype(np.float32)

@@ -175,23 +175,25 @@ def stencil(m: np.ndarray, radius_deg: float) -> tuple[np.ndarray, np.ndarray]:
 def fit_peaks(xy: np.ndarray, values: np.ndarray, radius_deg: float) -> tuple[np.ndarray, np.ndarray]:
     """Peaks of quadratics fitted to rows of ``values`` (R, K) over stencil coordinates ``xy``
     (K, 2): ``(peaks (R, 2) in degrees, peak values (R,))``. A fit that is not concave, or
-    whose peak lies beyond the stencil, falls back on the best stencil point."""
+    whose peak lies beyond the stencil, falls back on the best stencil point. All rows at once
+    (the 2 x 2 Hessians' concavity and stationary points in closed form)."""
     x, y = xy[:, 0], xy[:, 1]
     design = np.stack([np.ones_like(x), x, y, x * x, x * y, y * y], axis=1)
     coef = np.linalg.lstsq(design, values.T, rcond=None)[0].T  # (R, 6)
-    peaks = np.empty((len(values), 2))
-    heights = np.empty(len(values))
-    for i, c in enumerate(coef):
-        hess = np.array([[2 * c[3], c[4]], [c[4], 2 * c[5]]])
-        best = int(np.argmax(values[i]))
-        ok = np.all(np.linalg.eigvalsh(hess) < 0.0)
-        p = -np.linalg.solve(hess, c[1:3]) if ok else xy[best]
-        if not ok or np.hypot(*p) > radius_deg:
-            p = xy[best]
-            heights[i] = values[i, best]
-        else:
-            heights[i] = c[0] + c[1] * p[0] + c[2] * p[1] + c[3] * p[0] ** 2 + c[4] * p[0] * p[1] + c[5] * p[1] ** 2
-        peaks[i] = p
+    a, b, c = 2.0 * coef[:, 3], coef[:, 4], 2.0 * coef[:, 5]  # Hessian [[a, b], [b, c]]
+    det = a * c - b * b
+    concave = (a < 0.0) & (det > 0.0)  # both eigenvalues negative
+    safe = np.where(concave, det, 1.0)
+    # the stationary point -H^-1 g of g = (c1, c2)
+    px = -(c * coef[:, 1] - b * coef[:, 2]) / safe
+    py = -(a * coef[:, 2] - b * coef[:, 1]) / safe
+    inside = concave & (np.hypot(px, py) <= radius_deg)
+    best = np.argmax(values, axis=1)
+    rows = np.arange(len(values))
+    peaks = np.where(inside[:, None], np.stack([px, py], axis=1), xy[best])
+    fitted = (coef[:, 0] + coef[:, 1] * px + coef[:, 2] * py + coef[:, 3] * px * px + coef[:, 4] * px * py
+              + coef[:, 5] * py * py)
+    heights = np.where(inside, fitted, values[rows, best])
     return peaks, heights
 
 
