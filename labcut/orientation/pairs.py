@@ -40,7 +40,7 @@ from ..physics import schiller as lobe
 from ..physics.material import Labradorite
 from ..scene import Setting
 from ..scene.quality import Quality
-from .problem import reference_radiance, surface_samples, view_pairs
+from .problem import pair_major, reference_radiance, surface_samples, view_pairs
 
 
 @dataclass
@@ -247,4 +247,4 @@ class _TermSums:
         result = dr.while_loop(state, lambda j, *sums: j < width, body)
         sums = result[1:]
         dr.eval(*sums)
-        return np.stack([np.asarray(s, dtype=np.float64) for s in sums], axis=1)
+        return pair_major(sums)
