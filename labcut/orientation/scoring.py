@@ -244,6 +244,12 @@ DEVICE_MAP_TERMS = 1 << 20
 #: (its float32 terms are good to ~1e-6 anyway; :data:`SPARSE_RTOL`'s 1e-8 asked 24 % more terms
 #: of the bundled oval's hemisphere map, which moved by 2e-9 of its best value)
 DEVICE_MAP_RTOL = 1e-6
+#: a call of at least this many normals goes to the kernel straight away, which also finds the
+#: (normal, tile) pairs within reach (a map, a polishing grid: the host's (tiles x normals) cosines
+#: and their selection cost more than the kernel's sums for the hemisphere map)
+DEVICE_MAP_NORMALS = 128
+#: (tile, normal) pairs tested for reach per kernel call (bounded temporaries for huge maps)
+DEVICE_PAIR_BLOCK = 1 << 24
 
 
 class SparseLobeMap:
@@ -348,6 +354,8 @@ class SparseLobeMap:
         out = np.zeros(len(m))
         if self.n_tiles == 0 or len(m) == 0:
             return out
+        if path == "device" or (path == "auto" and MAP_IN_DRJIT and len(m) >= DEVICE_MAP_NORMALS):
+            return self._device_sums(m)
         # (tiles, k) cosines of the tiles' centres and the normals, and which pairs lie within reach
         cos_tm = _cos_matrix(self.centre, np.ascontiguousarray(m.T))
         need = np.abs(cos_tm) >= self.cos_reach[:, None]
@@ -361,8 +369,8 @@ class SparseLobeMap:
         # map of many normals in one kernel
         union_terms = len(m) * int(self.counts[tiles].sum())
         need_terms = int(per_tile @ self.counts)
-        if path == "device" or (path == "auto" and MAP_IN_DRJIT and need_terms >= DEVICE_MAP_TERMS):
-            return self._device_sums(m, cos_tm, np.abs(cos_tm) >= self.cos_reach_device[:, None])
+        if path == "auto" and MAP_IN_DRJIT and need_terms >= DEVICE_MAP_TERMS:
+            return self._device_sums(m)
         tile_terms = need_terms + TILE_CALL_TERMS * len(tiles)
         if path == "union" or (path == "auto" and union_terms <= tile_terms):
             ht, a = self._union(tiles)
@@ -376,16 +384,17 @@ class SparseLobeMap:
             out[sel] += _lobe_sums(m[sel], self.ht[:, s : s + c], self.a[s : s + c], self.kappa)
         return self.norm * out
 
-    def _device_sums(self, m: np.ndarray, cos_tm: np.ndarray, need: np.ndarray) -> np.ndarray:
-        """The map at the normals ``m`` (K, 3) in one Dr.Jit kernel: a thread per (normal, tile)
-        pair within reach (``need``, (tiles, K), from the cosines ``cos_tm`` of the tiles' centres
-        and the normals) runs over the tile's bins and adds ``a_b exp(κ(|m·h_b| - 1))`` to a float64
-        sum; numpy adds each normal's tiles. The exponent is taken about the tile's centre c, where
-        float32 keeps it exact to about 1e-6: with s = sign(m·c), ``κ(s m·h_b - 1) = κ(|m·c| - 1) +
-        κ s m·(h_b - c)``, the first part per pair in float64, the bins' offsets ``h_b - c`` from
-        their centre in float32; the axial lobe's other side, ``κ(-s m·h_b - 1)``, is the larger
-        where the tile straddles the normal's equator. Threads go in tile order (a SIMD packet's
-        lanes run over the same bins)."""
+    def _device_sums(self, m: np.ndarray) -> np.ndarray:
+        """The map at the normals ``m`` (K, 3) in Dr.Jit kernels: the (tile, normal) pairs within
+        the kernel's reach (:data:`DEVICE_MAP_RTOL`: ``|m·c_tile| >= cos(radius + cut)``, float64)
+        found and compacted on the device, in tile order; then a thread per pair runs over the
+        tile's bins and adds ``a_b exp(κ(|m·h_b| - 1))`` to a float64 sum; numpy adds each
+        normal's pairs. The exponent is taken about the tile's centre c, where float32 keeps it
+        exact to about 1e-6: with s = sign(m·c), ``κ(s m·h_b - 1) = κ(|m·c| - 1) + κ s m·(h_b -
+        c)``, the first part per pair in float64, the bins' offsets ``h_b - c`` from their centre
+        in float32; the axial lobe's other side, ``κ(-s m·h_b - 1)``, is the larger where the tile
+        straddles the normal's equator. Threads go in tile order (a SIMD packet's lanes run over
+        the same bins)."""
         from ..backend import ad_types
 
         dr, t = ad_types()
@@ -394,28 +403,47 @@ class SparseLobeMap:
             packed = np.empty((len(self.a), 4), dtype=np.float32)
             packed[:, :3] = self.h - self.centre[tile]
             packed[:, 3] = self.a
-            self._device = t.Float(packed.ravel())
-        bins = self._device
-        ti, ni = np.nonzero(need)  # pairs in tile order
-        c = cos_tm[ti, ni]
-        sign = np.where(c >= 0.0, 1.0, -1.0)
-        base = t.Float((self.kappa * (np.abs(c) - 1.0)).astype(np.float32))
-        ms = (m[ni] * (sign * self.kappa)[:, None]).astype(np.float32)
-        mx, my, mz = (t.Float(np.ascontiguousarray(ms[:, k])) for k in range(3))
-        first = self.starts[ti]
-        end = t.UInt32((first + self.counts[ti]).astype(np.uint32))
+            self._device = (t.Float(packed.ravel()), t.Array3f64(*(np.ascontiguousarray(self.centre[:, k]) for k in range(3))),
+                            t.Float64(self.cos_reach_device), t.UInt32(self.starts.astype(np.uint32)),
+                            t.UInt32((self.starts + self.counts).astype(np.uint32)))
+        bins, centre, cos_reach, starts, ends = self._device
+        out = np.zeros(len(m))
+        kappa = dr.opaque(t.Float64, self.kappa)
         two_kappa = dr.opaque(t.Float, float(np.float32(2.0 * self.kappa)))
+        step = max(1, DEVICE_PAIR_BLOCK // max(self.n_tiles, 1))
+        for s0 in range(0, len(m), step):
+            block = m[s0:s0 + step]
+            k_count = len(block)
+            mv = t.Array3f64(*(np.ascontiguousarray(block[:, k]) for k in range(3)))
+            width = dr.opaque(t.UInt32, k_count)
+            pair = dr.arange(t.UInt32, self.n_tiles * k_count)  # tile-major: tile * K + normal
+            ti = pair // width
+            ni = pair - ti * width
+            c = dr.dot(dr.gather(t.Array3f64, centre, ti), dr.gather(t.Array3f64, mv, ni))
+            sel = dr.compress(dr.abs(c) >= dr.gather(t.Float64, cos_reach, ti))  # the pairs within reach, in order
+            if dr.width(sel) == 0:
+                continue
+            ti = sel // width
+            ni = sel - ti * width
+            c = dr.dot(dr.gather(t.Array3f64, centre, ti), dr.gather(t.Array3f64, mv, ni))
+            sign = dr.select(c >= 0.0, 1.0, -1.0)
+            base = t.Float(kappa * (dr.abs(c) - 1.0))
+            ms = dr.gather(t.Array3f64, mv, ni) * (sign * kappa)
+            mx, my, mz = t.Float(ms.x), t.Float(ms.y), t.Float(ms.z)
+            end = dr.gather(t.UInt32, ends, ti)
 
-        def body(j: Any, acc: Any) -> tuple[Any, Any]:
-            d = dr.gather(t.Array4f, bins, j)
-            y = dr.fma(d.x, mx, dr.fma(d.y, my, dr.fma(d.z, mz, base)))  # κ(s m·h_b - 1)
-            term = dr.exp(dr.maximum(y, -two_kappa - y)) * d.w
-            return j + 1, acc + t.Float64(term)
+            def body(j: Any, acc: Any) -> tuple[Any, Any]:
+                d = dr.gather(t.Array4f, bins, j)
+                y = dr.fma(d.x, mx, dr.fma(d.y, my, dr.fma(d.z, mz, base)))  # κ(s m·h_b - 1)
+                term = dr.exp(dr.maximum(y, -two_kappa - y)) * d.w
+                return j + 1, acc + t.Float64(term)
 
-        _, acc = dr.while_loop((t.UInt32(first.astype(np.uint32)), dr.zeros(t.Float64, len(ni))),
-                               lambda j, acc: j < end, body)
-        dr.eval(acc)
-        return self.norm * np.bincount(ni, weights=np.asarray(acc, dtype=np.float64), minlength=len(m))
+            _, acc = dr.while_loop((dr.gather(t.UInt32, starts, ti), dr.zeros(t.Float64, dr.width(sel))),
+                                   lambda j, acc: j < end, body)
+            dr.eval(acc)
+            normal = np.asarray(sel).astype(np.int64) % k_count
+            out[s0:s0 + k_count] = np.bincount(normal, weights=np.asarray(acc, dtype=np.float64), minlength=k_count)
+        return self.norm * out
 
     def value_and_grad(self, m: np.ndarray) -> tuple[float, np.ndarray]:
         """Energy at one unit normal ``m`` and its gradient with respect to ``m`` (a 3-vector,
