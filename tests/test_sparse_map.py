@@ -218,8 +218,9 @@ def test_tile_unions_are_contiguous_and_the_path_is_checked(scorer):
 
 
 def test_auto_path_takes_the_union_for_a_ring_and_the_tiles_for_a_map(scorer, monkeypatch):
-    """The cost model: a ring of 16 normals 2° around one normal (all need nearly the same tiles)
-    is one block over their union; the hemisphere map (spread-out normals) is a block per tile."""
+    """The numpy cost model (the kernel off, or fewer normals than it takes): a ring of normals 2°
+    around one normal (all need nearly the same tiles) is one block over their union; the
+    hemisphere map (spread-out normals) is a block per tile."""
     from labcut.orientation.optimize import Constraint, hemisphere_grid
     from labcut.reports.analysis import ring
 
@@ -227,15 +228,19 @@ def test_auto_path_takes_the_union_for_a_ring_and_the_tiles_for_a_map(scorer, mo
     unions = []
     real = sm._union
     monkeypatch.setattr(sm, "_union", lambda tiles: unions.append(len(tiles)) or real(tiles))
-    sm(ring(np.array([0.05, -0.05, 1.0]) / np.linalg.norm([0.05, -0.05, 1.0]), 2.0, 16))
+    centre = np.array([0.05, -0.05, 1.0]) / np.linalg.norm([0.05, -0.05, 1.0])
+    sm(ring(centre, 2.0, 4))
     assert len(unions) == 1
     monkeypatch.setattr(scoring_module, "MAP_IN_DRJIT", False)
+    sm(ring(centre, 2.0, 16))
+    assert len(unions) == 2
     sm(hemisphere_grid(3.0, Constraint()))
-    assert len(unions) == 1
+    assert len(unions) == 2
 
 
 def test_auto_path_takes_the_kernel_for_a_map_of_many_terms(scorer, monkeypatch):
-    """A map of at least DEVICE_MAP_TERMS terms within reach goes to the Dr.Jit kernel, a ring to
+    """A call of DEVICE_MAP_NORMALS normals or more (a tolerance's ring of 16, a map), or of fewer
+    with at least DEVICE_MAP_TERMS terms within reach, goes to the Dr.Jit kernel; a few normals to
     the numpy union; MAP_IN_DRJIT off: never the kernel."""
     from labcut.orientation.optimize import Constraint, hemisphere_grid
     from labcut.reports.analysis import ring
@@ -251,11 +256,20 @@ def test_auto_path_takes_the_kernel_for_a_map_of_many_terms(scorer, monkeypatch)
     assert calls == [len(grid)]
     np.testing.assert_allclose(got, want, rtol=0.0, atol=1e-6 * want.max())
     monkeypatch.setattr(scoring_module, "DEVICE_MAP_TERMS", 1 << 20)
-    sm(ring(np.array([0.05, -0.05, 1.0]) / np.linalg.norm([0.05, -0.05, 1.0]), 0.5, 16))
-    assert calls == [len(grid)]  # a ring of 16: fewer terms than the kernel takes
+    centre = np.array([0.05, -0.05, 1.0]) / np.linalg.norm([0.05, -0.05, 1.0])
+    few = ring(centre, 0.5, scoring_module.DEVICE_MAP_NORMALS - 1)
+    sm(few)
+    assert calls == [len(grid)]  # fewer normals and terms than the kernel takes
+    monkeypatch.setattr(scoring_module, "DEVICE_MAP_TERMS", 1000)
+    np.testing.assert_allclose(sm(few), sm(few, path="union"), rtol=0.0, atol=1e-6 * want.max())
+    assert calls == [len(grid), len(few)]  # as many terms as the kernel takes
+    monkeypatch.setattr(scoring_module, "DEVICE_MAP_TERMS", 1 << 20)
+    sixteen = ring(centre, 0.5, 16)
+    np.testing.assert_allclose(sm(sixteen), sm(sixteen, path="union"), rtol=0.0, atol=1e-6 * want.max())
+    assert calls == [len(grid), len(few), 16]  # a tolerance's ring
     monkeypatch.setattr(scoring_module, "MAP_IN_DRJIT", False)
     sm(grid)
-    assert calls == [len(grid)]
+    assert calls == [len(grid), len(few), 16]
 
 
 @pytest.mark.parametrize("kappa", [1.0, 4.0, 30.0])

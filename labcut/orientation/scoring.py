@@ -245,9 +245,10 @@ DEVICE_MAP_TERMS = 1 << 20
 #: of the bundled oval's hemisphere map, which moved by 2e-9 of its best value)
 DEVICE_MAP_RTOL = 1e-6
 #: a call of at least this many normals goes to the kernel straight away, which also finds the
-#: (normal, tile) pairs within reach (a map, a polishing grid: the host's (tiles x normals) cosines
-#: and their selection cost more than the kernel's sums for the hemisphere map)
-DEVICE_MAP_NORMALS = 128
+#: (normal, tile) pairs within reach (the host's (tiles x normals) cosines and their selection cost
+#: more than the kernel's sums for the hemisphere map; a tolerance's ring of 16 took 0.38 ms there
+#: and 0.64 ms as numpy's union block, 8 normals 0.35 and 0.40 ms, one 0.18 and 0.08 ms)
+DEVICE_MAP_NORMALS = 8
 #: (tile, normal) pairs tested for reach per kernel call (bounded temporaries for huge maps)
 DEVICE_PAIR_BLOCK = 1 << 24
 
@@ -346,8 +347,10 @@ class SparseLobeMap:
         cheapest), ``union`` (one block over the union of the tiles needed), ``tiles`` (one block
         per tile needed), both float64 numpy, or ``device`` (every (normal, tile) pair within reach
         in one Dr.Jit kernel, :meth:`_device_sums`: float32 terms, float64 sums, within 2e-8 of the
-        best energy of the numpy paths' sums on the bundled oval's map, 1e-6 in the tests); ``auto`` takes the kernel for a call of at
-        least :data:`DEVICE_MAP_TERMS` terms (:data:`MAP_IN_DRJIT`)."""
+        best energy of the numpy paths' sums on the bundled oval's map, 1e-6 in the tests); ``auto``
+        takes the kernel (:data:`MAP_IN_DRJIT`) for a call of at least :data:`DEVICE_MAP_NORMALS`
+        normals (a tolerance's ring, a map: the kernel also finds their tiles) or of at least
+        :data:`DEVICE_MAP_TERMS` terms, numpy's cheaper block form for fewer (an optimiser's step)."""
         if path not in ("auto", "union", "tiles", "device"):
             raise ParameterError(f"path must be 'auto', 'union', 'tiles' or 'device', got {path!r}")
         m = np.atleast_2d(np.asarray(normals, dtype=np.float64))
