@@ -253,3 +253,30 @@ def test_fit_peaks_in_closed_form_equals_the_row_by_row_fit():
         kinds["fallback"] += int(on_grid.sum())
         kinds["inside"] += int((~on_grid).sum())
     assert kinds["inside"] > 100 and kinds["fallback"] > 100  # both branches exercised
+
+
+@pytest.mark.parametrize("objective", ["energy", "balanced"])
+def test_the_replicates_in_groups_of_views_equal_all_views_at_once(oval, objective, monkeypatch):
+    """objective_values lays the pairs out by (point, view) a group of views at a time when all of
+    them would take more than VALUES_BLOCK_BYTES: the same values, views of unequal weight and
+    pairs not sorted by view."""
+    from labcut.orientation import uncertainty as unc
+    from labcut.orientation.problem import build_problem
+
+    lab = labcut.Labradorite.preset("blue")
+    p = build_problem(oval, lab, quality="draft", lights=labcut.Lights([[0.0, 0.1, 1.0], [0.2, 0.0, 0.98]]),
+                      views=labcut.Views([[0.0, 0.0, 1.0], [0.3, 0.0, 0.95], [0.0, -0.4, 0.92], [-0.2, 0.2, 0.96]],
+                                         weights=[0.4, 0.3, 0.1, 0.2]))
+    assert np.any(np.diff(p.pair_view) < 0)  # pairs by point, then view
+    m = np.array([0.02, -0.06, 1.0])
+    m /= np.linalg.norm(m)
+    normals, _ = stencil(m, 2.0)
+    rad = p.pair_radiance(normals)
+    weights = unc.bootstrap_weights(0, unc._point_count(p), 8)
+    whole = unc.objective_values(p, rad, weights, objective)
+    cols = normals.shape[0] * (1 if objective == "energy" else 3) + 1
+    monkeypatch.setattr(unc, "VALUES_BLOCK_BYTES", 4 * weights.shape[1] * cols * 2)  # two views a group
+    grouped = unc.objective_values(p, rad, weights, objective)
+    np.testing.assert_allclose(grouped, whole, rtol=3e-6, atol=0)  # float32 products of other shapes round apart
+    monkeypatch.setattr(unc, "VALUES_BLOCK_BYTES", 1)  # one view a group
+    np.testing.assert_allclose(unc.objective_values(p, rad, weights, objective), whole, rtol=3e-6, atol=0)

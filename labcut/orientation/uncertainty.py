@@ -40,6 +40,7 @@ from __future__ import annotations
 
 import functools
 import math
+import threading
 from dataclasses import asdict, dataclass
 from typing import Any
 
@@ -215,36 +216,52 @@ def _reach(kappa: float, normals: np.ndarray) -> float:
     return lobe_reach(kappa, math.radians(spread))
 
 
+#: bytes of the (points x views x columns) float32 layout :func:`objective_values` fills per product:
+#: views go in groups of at most this much (a high-quality problem's every view at once would take
+#: hundreds of MB)
+VALUES_BLOCK_BYTES = 32 << 20
+
+
 def objective_values(problem: FlashProblem, radiance: np.ndarray, point_weights: np.ndarray, objective: str) -> np.ndarray:
     """The objective at each stencil normal for each set of surface-point weights (R, n_points):
     (R, K). Weights 1 give the problem's own estimator (DESIGN.md §4's metrics).
 
-    Every view's sums at once: a pair is one (point, view), so the pairs' values laid out by point
-    and view, ``X[point, view, column]`` (zero where the point does not face the view), give each
-    replicate's weighted sums per view as one product ``W @ X`` (float32 BLAS: the weights are
+    The views' sums a group at a time: a pair is one (point, view), so the pairs' values laid out by
+    point and view, ``X[point, view, column]`` (zero where the point does not face the view), give
+    each replicate's weighted sums per view as one product ``W @ X`` (float32 BLAS: the weights are
     small whole numbers, exact in float32, and the sums' rounding, ~1e-7 of them, lies far below
     the bootstrap's spread; the projected areas that divide them in float64). Columns: the pairs'
     ``pair weight x L_s/L_ref`` per normal (energy) and, for the thresholded objectives, their
-    flashing area and in-flash radiance."""
+    flashing area and in-flash radiance. A standard problem's views fit one group
+    (:data:`VALUES_BLOCK_BYTES`)."""
     pw = problem.pair_weight.astype(np.float64)
-    pv = problem.pair_view
+    pv = np.asarray(problem.pair_view)
     pp = problem.info.get("pair_point")
     pp = np.arange(pw.size) if pp is None else np.asarray(pp)  # without points: a bootstrap over pairs
     n_w, n_views, K = point_weights.shape[1], problem.view_weight.size, radiance.shape[1]
-    # the view's projected area under each replicate's weights: Σ_pairs w(point) x pair weight
-    area_w = np.zeros((n_w, n_views))
-    area_w[pp, pv] = pw
-    den = np.maximum(point_weights @ area_w, 1e-300)[:, :, None]  # (R, V, 1)
     x = pw[:, None] * radiance
     blocks = [x]
     if objective != "energy":
         flash = radiance >= problem.tau
         blocks += [np.where(flash, pw[:, None], 0.0), np.where(flash, x, 0.0)]
-    cols = len(blocks) * K
-    X = np.zeros((n_w, n_views, cols), dtype=np.float32)
-    X[pp, pv, :] = np.concatenate(blocks, axis=1) if len(blocks) > 1 else x
-    sums = (point_weights.astype(np.float32) @ X.reshape(n_w, n_views * cols)).reshape(-1, n_views, cols)
-    per_view = sums.astype(np.float64) / den  # (R, V, cols): each view's mean over its visible area
+    values = np.concatenate(blocks, axis=1) if len(blocks) > 1 else x
+    cols = values.shape[1]
+    w32 = point_weights.astype(np.float32)
+    group = max(1, min(n_views, VALUES_BLOCK_BYTES // max(1, 4 * n_w * (cols + 1))))
+    per_view = np.empty((point_weights.shape[0], n_views, cols))
+    order = bounds = None
+    if group < n_views:  # the pairs of each group of views
+        order = np.argsort(pv, kind="stable")
+        bounds = np.searchsorted(pv[order], np.arange(0, n_views + group, group).clip(max=n_views))
+    for g, v0 in enumerate(range(0, n_views, group)):
+        v1 = min(n_views, v0 + group)
+        seg = slice(None) if order is None else order[bounds[g]:bounds[g + 1]]
+        X = _zeroed_buffer((n_w, v1 - v0, cols + 1))  # the last column: the pair's projected area
+        X[pp[seg], pv[seg] - v0, :cols] = values[seg]
+        X[pp[seg], pv[seg] - v0, cols] = pw[seg]
+        sums = (w32 @ X.reshape(n_w, (v1 - v0) * (cols + 1))).reshape(-1, v1 - v0, cols + 1).astype(np.float64)
+        # each view's mean over its visible area under each replicate's weights
+        per_view[:, v0:v1] = sums[:, :, :cols] / np.maximum(sums[:, :, cols:], 1e-300)
     wv = problem.view_weight.astype(np.float64)
     energy = np.einsum("rvk,v->rk", per_view[:, :, :K], wv)
     if objective == "energy":
@@ -257,6 +274,22 @@ def objective_values(problem: FlashProblem, radiance: np.ndarray, point_weights:
     if objective == "intensity":
         return intensity
     return np.sqrt(np.maximum(area * intensity, 0.0))
+
+
+_BUFFERS = threading.local()
+
+
+def _zeroed_buffer(shape: tuple[int, int, int]) -> np.ndarray:
+    """A zeroed float32 array of ``shape``, this thread's own, kept for the next call of the same
+    shape (at most :data:`VALUES_BLOCK_BYTES`: a standard problem's 7 MB of fresh pages cost every
+    recommendation ~1 ms of page faults; zeroing the kept one costs a memset)."""
+    held = getattr(_BUFFERS, "array", None)
+    if held is None or held.shape != shape:
+        held = np.zeros(shape, dtype=np.float32)
+        _BUFFERS.array = held if held.nbytes <= VALUES_BLOCK_BYTES else None
+    else:
+        held.fill(0.0)
+    return held
 
 
 def stencil_values(problem: FlashProblem, normals: np.ndarray, objective: str) -> np.ndarray:
