@@ -142,11 +142,16 @@ def test_the_recommendation_seeds_its_optimiser_from_its_map(oval, monkeypatch):
         raise AssertionError("the optimiser made a seed map of its own")
 
     monkeypatch.setattr(rec_module, "run_optimizer", spy)
+    real_seeds = opt._map_seeds
     monkeypatch.setattr(opt, "_map_seeds", no_seed_map)
-    rec = labcut.recommend_orientation(oval, LAB, scenario="bench", quality="draft")
+    rec = labcut.recommend_orientation(oval, LAB, scenario="bench", quality="standard")
     normals, energies = got["seed_map"]
     np.testing.assert_array_equal(normals, rec.map_normals)
     np.testing.assert_array_equal(energies, rec.map_scores)
+    # draft's 4° map is coarser than twice the 6° seed map's fineness: the optimiser seeds itself
+    monkeypatch.setattr(opt, "_map_seeds", real_seeds)
+    labcut.recommend_orientation(oval, LAB, scenario="bench", quality="draft")
+    assert got["seed_map"] is None
 
 
 def test_gradient_vanishes_at_the_optimum_and_matches_finite_differences(problems):

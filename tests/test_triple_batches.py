@@ -83,3 +83,38 @@ def test_the_device_copy_of_the_triples_is_the_host_arrays(oval, chunk, monkeypa
     h, c = p.device_triples
     np.testing.assert_array_equal(np.stack([np.asarray(h.x), np.asarray(h.y), np.asarray(h.z)], axis=1), p.h)
     np.testing.assert_array_equal(np.asarray(c), p.c)
+
+
+@pytest.mark.parametrize("scenario", ["bench", "ring", "pendant"])
+@pytest.mark.parametrize("chunk", [None, 30_000])
+def test_lights_tested_on_the_device_give_the_host_tables_triples(oval, scenario, chunk, monkeypatch):
+    """Without occlusion rays the kernel path tests which lights reach each pair's point on the
+    device (LIT_ON_DEVICE) instead of the host's (points x lights) tables: the same triples in the
+    same order, in one chunk or several."""
+    if chunk is not None:
+        monkeypatch.setattr(problem_module, "DENSE_CHUNK", chunk)
+    settings = labcut.Scenario.preset(scenario, "draft").settings()
+    lab = labcut.Labradorite.preset("blue")
+    on_device = build_problem(oval, lab, quality="draft", settings=settings)
+    monkeypatch.setattr(problem_module, "LIT_ON_DEVICE", False)
+    on_host = build_problem(oval, lab, quality="draft", settings=settings)
+    assert on_device.n_triples == on_host.n_triples > 0
+    for key in ("h", "c", "pair", "pair_view", "pair_weight", "view_weight"):
+        np.testing.assert_array_equal(getattr(on_device, key), getattr(on_host, key))
+
+
+def test_the_device_light_test_is_the_hosts(oval, monkeypatch):
+    """Lights at the horizon of some points and one of no irradiance: a light counts where it faces
+    the point's geometric and shading normals and carries light, as on the host."""
+    rng = np.random.default_rng(5)
+    d = rng.normal(size=(9, 3)) * [0.9, 0.9, 0.3] + [0.0, 0.0, 0.35]
+    weights = rng.uniform(0.5, 2.0, 9)
+    weights[4] = 0.0
+    settings = [Setting(Lights(d / np.linalg.norm(d, axis=1, keepdims=True), weights=weights),
+                        Views([[0.0, 0.0, 1.0], [0.4, 0.0, 0.9]]), 1.0, np.eye(3))]
+    lab = labcut.Labradorite.preset("blue")
+    on_device = build_problem(oval, lab, quality="draft", settings=settings)
+    monkeypatch.setattr(problem_module, "LIT_ON_DEVICE", False)
+    on_host = build_problem(oval, lab, quality="draft", settings=settings)
+    for key in ("h", "c", "pair"):
+        np.testing.assert_array_equal(getattr(on_device, key), getattr(on_host, key))

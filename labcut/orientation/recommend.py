@@ -472,9 +472,10 @@ def recommend_orientation(
     map_normals = hemisphere_grid(quality.map_spacing_deg, constraint)
     map_scores = score_map(scorer, map_normals)
     report("optimising", stage(0.6))
-    # the map's best cells seed the optimiser's polishes where the map is at least as fine as the
-    # seed map it would make (and holds energies: the seeds are the energy's)
-    seeds = ((map_normals, map_scores) if objective == "energy" and quality.map_spacing_deg <= SEED_SPACING_DEG
+    # the map's best cells seed the optimiser's polishes where the map is at least twice as fine as
+    # the seed map it would make (standard's 3° and high's 1.5°, not draft's 4°: a peak narrower
+    # than its cells can hide between them, and the seeds are the energy's)
+    seeds = ((map_normals, map_scores) if objective == "energy" and quality.map_spacing_deg <= 0.5 * SEED_SPACING_DEG
              and constraint.tilt_axis is None else None)
     best = run_optimizer(optimizer, scorer, constraint, quality, seed_map=seeds)
     normal = _upper(best.normal)

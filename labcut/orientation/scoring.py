@@ -187,8 +187,15 @@ def _device_bins(problem: Any, bins: int) -> tuple[np.ndarray, np.ndarray]:
     dr.eval(*sums)
     weight, cx, cy, cz = (np.asarray(x).astype(np.float64) * math.ldexp(1.0, -shift) for x in sums)
     centroid = np.stack([cx, cy, cz], axis=1)
-    centroid /= np.linalg.norm(centroid, axis=1, keepdims=True)
-    return centroid, weight
+    norm = np.linalg.norm(centroid, axis=1, keepdims=True)
+    # a bin whose every weight lies below half a unit sums to zero: it holds under 2^-62 of the
+    # total weight per triple, nothing a map can see, and has no direction: dropped
+    kept = (weight > 0.0) & (norm[:, 0] > 0.0)
+    if not kept.all():
+        centroid, weight, norm = centroid[kept], weight[kept], norm[kept]
+        if weight.size == 0:
+            return np.array([[0.0, 0.0, 1.0]]), np.zeros(1)
+    return centroid / norm, weight
 
 
 def grid_inverse(key: np.ndarray, n_keys: int) -> np.ndarray:
