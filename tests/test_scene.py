@@ -315,3 +315,19 @@ def test_import_labcut_registers_the_plugin_in_either_order(order):
     }[order]
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert proc.returncode == 0 and proc.stdout.strip() == "ok", proc.stderr
+
+
+def test_a_scenarios_settings_are_made_once():
+    """settings() makes the poses' rotated lights and views once per scenario (a recommendation asks
+    for them several times); another scenario (a new quality, other lights) makes its own."""
+    import dataclasses
+
+    import labcut
+
+    sc = labcut.Scenario.preset("bench", "draft")
+    first, second = sc.settings(), sc.settings()
+    assert first is not second and all(a is b for a, b in zip(first, second))
+    finer = labcut.Scenario.preset("bench", "standard")
+    assert len(finer.settings()) > len(first)  # more rocking poses, its own settings
+    moved = dataclasses.replace(sc, rock_deg=0.0, sway_deg=0.0)
+    assert len(moved.settings()) == 1 and len(sc.settings()) == len(first)

@@ -143,11 +143,16 @@ class Scenario:
         return [(p, 1.0 / len(out)) for p in out]
 
     def settings(self) -> list[Setting]:
-        """The scenario in the mesh frame, one :class:`Setting` per pose."""
-        out = [Setting(self.lights.rotated(p.T), self.views.rotated(p.T), w, p) for p, w in self.poses()]
-        if not any(np.any(s.views.directions[:, 2] > 0.0) for s in out):
-            raise ParameterError(f"scenario {self.name!r}: no viewer sees the face of the stone")
-        return out
+        """The scenario in the mesh frame, one :class:`Setting` per pose (made once per scenario:
+        a recommendation asks for them from its planner, its problem and its error bars; a new
+        list of the same frozen settings each time)."""
+        made = self.__dict__.get("_settings")
+        if made is None:
+            made = [Setting(self.lights.rotated(p.T), self.views.rotated(p.T), w, p) for p, w in self.poses()]
+            if not any(np.any(s.views.directions[:, 2] > 0.0) for s in made):
+                raise ParameterError(f"scenario {self.name!r}: no viewer sees the face of the stone")
+            object.__setattr__(self, "_settings", made)
+        return list(made)
 
     def main_setting(self) -> Setting:
         """The rest pose in the mesh frame: what a render of this scenario shows."""
