@@ -112,3 +112,26 @@ def test_a_stone_with_pairs_and_no_triples_sums_to_zero(oval):
     assert part._pair_sums is None
     got = part.pair_radiance(np.array([down]), reach=0.005)
     assert got.shape == (part.pair_view.size, 1) and not got.any()
+
+
+def test_the_stencil_call_brings_every_triples_sum_at_its_centre(oval):
+    """A stencil's sums within reach also give its centre's sum over every triple: the next call
+    for that one normal without a reach (a recommendation's metrics at its answer) reads it, the
+    same as summing it afresh; another normal is summed afresh."""
+    lab = labcut.Labradorite.preset("blue")
+    settings_ = resolve_scene("bench", None, None, "draft").settings()
+    p = build_problem(oval, lab, quality="draft", settings=settings_)
+    fresh = build_problem(oval, lab, quality="draft", settings=settings_)
+    m = np.array([0.04, -0.03, 1.0])
+    m /= np.linalg.norm(m)
+    normals, _ = stencil(m, 1.5)
+    reach = _reach(p.kappa, normals)
+    within = p.pair_radiance(normals, reach)
+    np.testing.assert_array_equal(within, fresh.pair_radiance(normals, reach))
+    kept = p.pair_radiance(m[None, :])
+    want = fresh._pair_sums(m[None, :], None)[0]
+    np.testing.assert_array_equal(kept, want)
+    assert float(np.abs(kept[:, 0] - within[:, 0]).max()) > 0.0  # the reach dropped some terms
+    other = normals[3]
+    np.testing.assert_array_equal(p.pair_radiance(other[None, :]), fresh._pair_sums(other[None, :], None)[0])
+    np.testing.assert_allclose(kept, p.pair_radiance_numpy(m[None, :]), rtol=2e-5, atol=1e-9 * float(kept.max()))

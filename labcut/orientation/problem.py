@@ -198,9 +198,18 @@ class FlashProblem:
         normals = np.atleast_2d(np.asarray(normals, dtype=np.float64))
         self._check_near(normals, reach)
         kernel = self._pair_sums
-        if kernel is not None:
-            return kernel(normals, reach)
-        return self.pair_radiance_numpy(normals, reach)
+        if kernel is None:
+            return self.pair_radiance_numpy(normals, reach)
+        kept = self.__dict__.get("_full_first")
+        if reach is None and len(normals) == 1 and kept is not None and kept[0] == normals[0].tobytes():
+            return kept[1][:, None]  # every triple's sum at this normal, made by the last stencil call
+        if reach is None:
+            return kernel(normals, None)[0]
+        sums, full = kernel(normals, reach, full_first=True)
+        # the first normal's sum over every triple came with the stencil's (one more add a triple):
+        # a recommendation's metrics at its answer, the error bars' stencil centre, read it here
+        self.__dict__["_full_first"] = (normals[0].tobytes(), full)
+        return sums
 
     def pair_radiance_numpy(self, normals: np.ndarray, reach: float | None = None) -> np.ndarray:
         """:meth:`pair_radiance` in numpy passes, one normal at a time over chunks of
@@ -256,7 +265,7 @@ class FlashProblem:
         normals = np.atleast_2d(np.asarray(normals, dtype=np.float64))
         self._check_near(normals, reach)
         if self._pair_sums is not None:  # the kernel's pair sums, weighted: a few ms instead of the blocks below
-            return self.pair_alpha @ self._pair_sums(normals, reach)
+            return self.pair_alpha @ self._pair_sums(normals, reach)[0]
         n32 = normals.astype(np.float32)
         kappa = np.float32(self.kappa)
         out = np.zeros(len(normals))
@@ -304,8 +313,10 @@ class _PairSums:
         self.kappa = float(np.float32(problem.kappa))
         self.n_pairs = int(problem.pair_view.size)
 
-    def __call__(self, normals: np.ndarray, reach: float | None) -> np.ndarray:
-        """(P, K) float64 pair sums at the unit ``normals`` (K, 3); ``reach`` as in :meth:`FlashProblem.pair_radiance`."""
+    def __call__(self, normals: np.ndarray, reach: float | None, full_first: bool = False) -> tuple[np.ndarray, np.ndarray | None]:
+        """``(sums, full)``: (P, K) float64 pair sums at the unit ``normals`` (K, 3), ``reach`` as in
+        :meth:`FlashProblem.pair_radiance`; with ``full_first`` also the first normal's (P,) sums
+        over every triple (its terms and order, without the reach), else None."""
         dr, t = self.dr, self.t
         n32 = np.asarray(normals, dtype=np.float32)
         k_count = len(n32)
@@ -328,13 +339,19 @@ class _PairSums:
                     near = d >= cos_reach
                 term = dr.exp((d - 1.0) * kappa) * c
                 out.append(sums[k] + t.Float64(dr.select(near, term, 0.0)))
+                if k == 0 and full_first:
+                    first_all = sums[k_count] + t.Float64(term)
+            if full_first:
+                out.append(first_all)
             return (j + 1, *out)
 
-        state = (t.UInt32(self.first), *(dr.zeros(t.Float64, self.n_pairs) for _ in range(k_count)))
+        columns = k_count + int(full_first)
+        state = (t.UInt32(self.first), *(dr.zeros(t.Float64, self.n_pairs) for _ in range(columns)))
         result = dr.while_loop(state, lambda j, *sums: j < end, body)
         sums = result[1:]
         dr.eval(*sums)
-        return pair_major(sums)
+        full = np.asarray(sums[k_count], dtype=np.float64) if full_first else None
+        return pair_major(sums[:k_count]), full
 
 
 def _smooth_normals(split: Any, face_idx: np.ndarray, bary: np.ndarray) -> np.ndarray:

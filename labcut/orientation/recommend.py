@@ -507,10 +507,10 @@ def recommend_orientation(
     tol = tolerance_deg(scorer.scores, normal, sample_score, constraint, keep=KEEP)
     runners = _runners_up(scorer, constraint, map_normals, map_scores, normal, sample_score, scenario=scene)
     by_axis = axis_tolerances(scorer, normal, sample_score, constraint)
-    if metrics is None:
-        metrics = scorer.metrics(normal)
     report("error bars", 0.95)
     bars = uncertainty_for(mesh, ask, scorer.problem, normal, occlusion=plan.on("occlusion"), tolerance_deg=float(tol))
+    if metrics is None:  # after the bars: their stencil's sums came with every triple's sum at the answer
+        metrics = scorer.metrics(normal)
     tilt, az = tilt_azimuth(normal)
     # lamellae parallel to the base score as well as the optimum: that is the instruction
     pole = np.array([0.0, 0.0, 1.0])
