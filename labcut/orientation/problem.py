@@ -530,15 +530,24 @@ def build_problem(
         total = sum(int(kernel.dr.width(idx)) for _, _, idx in cells)
     else:
         total = sum(pose.n_triples for pose in poses)
-    h = np.empty((total, 3), dtype=np.float32)
-    c = np.empty(total, dtype=np.float32)
-    pair_of_t = np.empty(total, dtype=np.int32)
     at = [0]
     sunk: list[int] = []  # the size of each chunk written
+    whole: list[Any] = []  # the first chunk's own arrays while it is the only one (kept as they are)
+    out: list[np.ndarray] = []  # (h, c, pair) of every triple, allocated at a second chunk
 
     def sink(h_t: np.ndarray, c_t: np.ndarray, pair_t: np.ndarray) -> None:
         n = len(c_t)
-        h[at[0]:at[0] + n], c[at[0]:at[0] + n], pair_of_t[at[0]:at[0] + n] = h_t, c_t, pair_t
+        if not sunk and n == total and cull is None:  # every triple in one chunk: no copy
+            whole.append((h_t, c_t, np.asarray(pair_t, dtype=np.int32)))
+        else:
+            if not out:
+                out.extend([np.empty((total, 3), dtype=np.float32), np.empty(total, dtype=np.float32),
+                            np.empty(total, dtype=np.int32)])
+                for first in whole:  # pragma: no cover - a whole problem's chunk is its only one
+                    out[0][:len(first[1])], out[1][:len(first[1])], out[2][:len(first[1])] = first
+                whole.clear()
+            h, c, pair_of_t = out
+            h[at[0]:at[0] + n], c[at[0]:at[0] + n], pair_of_t[at[0]:at[0] + n] = h_t, c_t, pair_t
         at[0] += n
         sunk.append(n)
 
@@ -553,7 +562,12 @@ def build_problem(
     del poses
     if cull is None and at[0] != total:  # pragma: no cover - the count and the triples written must agree
         raise RuntimeError(f"built {at[0]} triples, counted {total}")
-    h, c, pair_of_t = h[:at[0]], c[:at[0]], pair_of_t[:at[0]]
+    if whole:
+        h, c, pair_of_t = whole[0]
+    elif out:
+        h, c, pair_of_t = out[0][:at[0]], out[1][:at[0]], out[2][:at[0]]
+    else:  # no triple at all
+        h, c, pair_of_t = np.zeros((0, 3), dtype=np.float32), np.zeros(0, dtype=np.float32), np.zeros(0, dtype=np.int32)
     lit_any = c.size > 0 and float(c.sum(dtype=np.float64)) > 0.0
     if near is None and not lit_any:
         raise ParameterError(
@@ -613,8 +627,7 @@ class _TripleKernel:
         self.table = t.Float(np.asarray(table[1], dtype=np.float32))
         self.cells = dr.opaque(t.Float, float(len(table[1]) - 1))  # the table is a uniform grid over cos 0..1
         self.last = dr.opaque(t.UInt32, len(table[1]) - 2)
-        #: the device arrays (h, c) of the last call's triples, when every term was finite (the host
-        #: arrays hold the same values); None after a call that replaced non-finite terms
+        #: the device arrays (h, c) of the last call's triples (the host arrays hold the same values)
         self.last_device: tuple[Any, Any] | None = None
 
     def dense(self, L: np.ndarray, E: np.ndarray, V: np.ndarray, point: np.ndarray, view: np.ndarray,
@@ -659,16 +672,13 @@ class _TripleKernel:
         r_y = y0 + frac * (dr.gather(t.Float, self.table, cell + 1) - y0)
         c = lobe.schiller_factor(e_t_l, t_v, cos_l, max_ab, self.eta, ops) * r_y * self.inv_l_ref
         h = dr.select(h.z < 0.0, -h, h)  # axial: fold into the upper hemisphere
+        # a non-finite term (a degenerate refraction) is no triple: (0, 0, 1) and 0, on the device
+        finite = dr.isfinite(c) & dr.isfinite(h.x) & dr.isfinite(h.y) & dr.isfinite(h.z)
+        h = dr.select(finite, h, t.Array3f(0.0, 0.0, 1.0))
+        c = dr.select(finite, c, 0.0)
         dr.eval(h, c)
-        hn = np.stack([np.asarray(h.x), np.asarray(h.y), np.asarray(h.z)], axis=1)
-        cn = np.asarray(c)
         self.last_device = (h, c)
-        if not (np.isfinite(cn).all() and np.isfinite(hn).all()):
-            self.last_device = None
-            finite = np.isfinite(cn) & np.all(np.isfinite(hn), axis=1)
-            cn = np.where(finite, cn, 0.0).astype(np.float32)
-            hn = np.where(finite[:, None], hn, np.array([0.0, 0.0, 1.0], dtype=np.float32)).astype(np.float32)
-        return hn, cn
+        return np.stack([np.asarray(h.x), np.asarray(h.y), np.asarray(h.z)], axis=1), np.asarray(c)
 
 
 @dataclass(frozen=True)
