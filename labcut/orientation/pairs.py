@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import functools
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -70,12 +71,18 @@ class PairProblem:
         """``L_s/L_ref`` of every pair at each unit normal (rows, mesh frame): (P, K) float64 sums of
         the float32 lobe terms, each pair's in light order; ``reach`` (radians): only the terms whose
         mirror orientation lies within it of ``normals[0]`` (None: every term)."""
+        return self.pair_radiance_later(normals, reach)()
+
+    def pair_radiance_later(self, normals: np.ndarray, reach: float | None = None) -> Callable[[], np.ndarray]:
+        """:meth:`pair_radiance`, started: the kernel is launched (it runs on Dr.Jit's threads while
+        the caller goes on) and the returned function waits for it and gives the sums."""
         normals = np.atleast_2d(np.asarray(normals, dtype=np.float64))
         if normals.ndim != 2 or normals.shape[1] != 3 or not np.all(np.isfinite(normals)):
             raise ParameterError("normals must be rows of three finite numbers")
         if self._sums is None or self.pair_view.size == 0:
-            return np.zeros((int(self.pair_view.size), len(normals)))
-        return self._sums(normals, reach)
+            zeros = np.zeros((int(self.pair_view.size), len(normals)))
+            return lambda: zeros
+        return self._sums.launch(normals, reach)
 
     def energy_near(self, normals: np.ndarray, reach: float | None = None) -> np.ndarray:
         """The energy objective (DESIGN.md §4) at each unit normal: ``pair_alpha @ pair_radiance``, (K,)."""
@@ -193,6 +200,10 @@ class _TermSums:
 
     def __call__(self, normals: np.ndarray, reach: float | None) -> np.ndarray:
         """(P, K) float64 pair sums at the unit ``normals`` (K, 3); ``reach`` as in :meth:`PairProblem.pair_radiance`."""
+        return self.launch(normals, reach)()
+
+    def launch(self, normals: np.ndarray, reach: float | None) -> Callable[[], np.ndarray]:
+        """:meth:`__call__`, launched: the returned function waits for the kernel and gives the sums."""
         from ..physics.ops import drjit_ops
 
         dr, t = self.dr, self.t
@@ -246,5 +257,5 @@ class _TermSums:
         width = self.width
         result = dr.while_loop(state, lambda j, *sums: j < width, body)
         sums = result[1:]
-        dr.eval(*sums)
-        return pair_major(sums)
+        dr.eval(*sums)  # launched: the host reads the sums when asked
+        return lambda: pair_major(sums)

@@ -28,7 +28,7 @@ from __future__ import annotations
 
 import functools
 import math
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -195,21 +195,35 @@ class FlashProblem:
         mirror orientation lies within it of ``normals[0]`` (the error bars' stencil sums,
         :func:`labcut.orientation.uncertainty.pair_radiance`); None: every triple. Summed by the
         Dr.Jit kernel (:class:`_PairSums`) where there is one, else :meth:`pair_radiance_numpy`."""
+        return self.pair_radiance_later(normals, reach)()
+
+    def pair_radiance_later(self, normals: np.ndarray, reach: float | None = None) -> Callable[[], np.ndarray]:
+        """:meth:`pair_radiance`, started: the Dr.Jit kernel is launched (it runs on Dr.Jit's threads
+        while the caller goes on) and the returned function waits for it and gives the sums. Where
+        no kernel sums them, the sums are made now."""
         normals = np.atleast_2d(np.asarray(normals, dtype=np.float64))
         self._check_near(normals, reach)
         kernel = self._pair_sums
         if kernel is None:
-            return self.pair_radiance_numpy(normals, reach)
+            done = self.pair_radiance_numpy(normals, reach)
+            return lambda: done
         kept = self.__dict__.get("_full_first")
         if reach is None and len(normals) == 1 and kept is not None and kept[0] == normals[0].tobytes():
-            return kept[1][:, None]  # every triple's sum at this normal, made by the last stencil call
+            every = kept[1][:, None]  # every triple's sum at this normal, made by the last stencil call
+            return lambda: every
         if reach is None:
-            return kernel(normals, None)[0]
-        sums, full = kernel(normals, reach, full_first=True)
-        # the first normal's sum over every triple came with the stencil's (one more add a triple):
-        # a recommendation's metrics at its answer, the error bars' stencil centre, read it here
-        self.__dict__["_full_first"] = (normals[0].tobytes(), full)
-        return sums
+            pending = kernel.launch(normals, None)
+            return lambda: pending()[0]
+        pending = kernel.launch(normals, reach, full_first=True)
+
+        def finish() -> np.ndarray:
+            sums, full = pending()
+            # the first normal's sum over every triple came with the stencil's (one more add a triple):
+            # a recommendation's metrics at its answer, the error bars' stencil centre, read it here
+            self.__dict__["_full_first"] = (normals[0].tobytes(), full)
+            return sums
+
+        return finish
 
     def pair_radiance_numpy(self, normals: np.ndarray, reach: float | None = None) -> np.ndarray:
         """:meth:`pair_radiance` in numpy passes, one normal at a time over chunks of
@@ -317,6 +331,12 @@ class _PairSums:
         """``(sums, full)``: (P, K) float64 pair sums at the unit ``normals`` (K, 3), ``reach`` as in
         :meth:`FlashProblem.pair_radiance`; with ``full_first`` also the first normal's (P,) sums
         over every triple (its terms and order, without the reach), else None."""
+        return self.launch(normals, reach, full_first)()
+
+    def launch(self, normals: np.ndarray, reach: float | None,
+               full_first: bool = False) -> Callable[[], tuple[np.ndarray, np.ndarray | None]]:
+        """:meth:`__call__`, launched: Dr.Jit's LLVM threads (or the GPU) run the kernel while the
+        caller goes on; the returned function waits for it and gives ``(sums, full)``."""
         dr, t = self.dr, self.t
         n32 = np.asarray(normals, dtype=np.float32)
         k_count = len(n32)
@@ -349,9 +369,8 @@ class _PairSums:
         state = (t.UInt32(self.first), *(dr.zeros(t.Float64, self.n_pairs) for _ in range(columns)))
         result = dr.while_loop(state, lambda j, *sums: j < end, body)
         sums = result[1:]
-        dr.eval(*sums)
-        full = np.asarray(sums[k_count], dtype=np.float64) if full_first else None
-        return pair_major(sums[:k_count]), full
+        dr.eval(*sums)  # launched: the host reads the sums below, when asked
+        return lambda: (pair_major(sums[:k_count]), np.asarray(sums[k_count], dtype=np.float64) if full_first else None)
 
 
 def _smooth_normals(split: Any, face_idx: np.ndarray, bary: np.ndarray) -> np.ndarray:

@@ -41,6 +41,7 @@ from __future__ import annotations
 import functools
 import math
 import threading
+from collections.abc import Callable
 from dataclasses import asdict, dataclass
 from typing import Any
 
@@ -304,6 +305,21 @@ def stencil_values(problem: FlashProblem, normals: np.ndarray, objective: str) -
     return objective_values(problem, pair_radiance(problem, normals), np.ones((1, _point_count(problem))), objective)
 
 
+def _stencil_sums_later(problem: Any, normals: np.ndarray) -> Callable[[], np.ndarray] | None:
+    """:func:`pair_radiance` of ``problem`` (None: none) at the stencil ``normals``, launched
+    (``pair_radiance_later``); the returned function gives the sums."""
+    if problem is None:
+        return None
+    return problem.pair_radiance_later(np.asarray(normals, dtype=np.float64), _reach(problem.kappa, normals))
+
+
+def _stencil_values_of(problem: Any, radiance: np.ndarray, objective: str) -> np.ndarray:
+    """:func:`stencil_values` from the stencil's pair sums ``radiance`` already made: (1, K)."""
+    if objective == "energy":
+        return (problem.pair_alpha @ radiance)[None, :]
+    return objective_values(problem, radiance, np.ones((1, _point_count(problem))), objective)
+
+
 def _point_count(problem: FlashProblem) -> int:
     pp = problem.info.get("pair_point")
     return int(problem.n_points if pp is not None else problem.pair_view.size)
@@ -345,7 +361,10 @@ def estimate_uncertainty(problem: FlashProblem, normal: Any, objective: str = "e
         raise ParameterError(f"replicates must be a whole number >= 4, got {replicates!r}")
     radius = stencil_radius(tolerance_deg)
     normals, xy = stencil(m, radius)
-    rad = pair_radiance(problem, normals)
+    # every problem's stencil sums launched at once: the discretisation problems' kernels run on
+    # Dr.Jit's threads while the host makes the answer's bootstrap
+    later = [_stencil_sums_later(p, normals) for p in (problem, coarse, fine)]
+    rad = later[0]()
     weights = bootstrap_weights(seed, _point_count(problem), replicates)
     values = objective_values(problem, rad, weights, objective)
     peaks, heights = fit_peaks(xy, values, radius)
@@ -356,10 +375,10 @@ def estimate_uncertainty(problem: FlashProblem, normal: Any, objective: str = "e
     score_sd = float(np.std(heights[1:], ddof=1) / scale)
     fit = float(np.hypot(*base_peak))
     d_angle = d_score = 0.0
-    for other, factor in ((coarse, DIRECTION_FACTOR), (fine, POSE_FACTOR)):
+    for other, factor, sums in ((coarse, DIRECTION_FACTOR, later[1]), (fine, POSE_FACTOR, later[2])):
         if other is None:
             continue
-        o_vals = stencil_values(other, normals, objective)
+        o_vals = _stencil_values_of(other, sums(), objective)
         o_peak, o_height = fit_peaks(xy, o_vals, radius)
         d_angle = math.hypot(d_angle, factor * float(np.hypot(*(o_peak[0] - base_peak))))
         d_score = math.hypot(d_score, factor * float(abs(o_height[0] - base_height) / scale))
