@@ -287,3 +287,23 @@ def test_the_kernel_keeps_the_axial_lobes_far_side(kappa):
     m /= np.linalg.norm(m, axis=1, keepdims=True)
     want = sparse.dense(m)
     np.testing.assert_allclose(sparse(m, path="device"), want, rtol=1e-6, atol=0.0)
+
+
+def test_a_map_started_and_read_later_is_the_map(scorer, monkeypatch):
+    """SparseLobeMap.later launches the kernel and returns at once; what it gives later is the map
+    (made once); a call the kernel does not take is summed at once, the same as calling the map."""
+    from labcut.orientation.optimize import Constraint, hemisphere_grid
+    from labcut.reports.analysis import ring
+
+    sm = scorer.sparse_map
+    grid = hemisphere_grid(3.0, Constraint())
+    later = sm.later(grid)
+    np.testing.assert_array_equal(later(), sm(grid))
+    assert later() is later()
+    few = ring(np.array([0.0, 0.0, 1.0]), 1.0, 3)
+    np.testing.assert_array_equal(sm.later(few)(), sm(few))
+    monkeypatch.setattr(scoring_module, "MAP_IN_DRJIT", False)
+    np.testing.assert_allclose(sm.later(grid)(), sm(grid, path="tiles"), rtol=0.0, atol=0.0)
+    counted = scorer.evaluations
+    scorer.energy_map_later(grid)
+    assert scorer.evaluations == counted + len(grid)

@@ -163,13 +163,15 @@ def _local_lbfgs(scorer: Scorer, u0: float, v0: float, constraint: Constraint) -
 
 
 def optimize_nlopt(scorer: Scorer, constraint: Constraint, global_evals: int | None = None,
-                   seed_map: tuple[np.ndarray, np.ndarray] | None = None) -> OptimumResult:
+                   seed_map: tuple[np.ndarray, Any] | None = None) -> OptimumResult:
     """NLopt: DIRECT-L (global, derivative-free) over the disc's bounding box, then an L-BFGS
     polish (``LD_LBFGS``) with Dr.Jit gradients. A fixed axis uses the same pair in 1D.
     ``global_evals``: DIRECT-L's evaluations (default: the standard quality's ``nlopt_evals``).
     ``seed_map``: ``(normals, energies)`` of an energy map already made over the allowed region
     (the recommendation's hemisphere map, :data:`SEED_SPACING_DEG` or finer), whose best distinct
-    cells seed the polishes instead of a map of their own."""
+    cells seed the polishes instead of a map of their own; ``energies`` may be a function that
+    gives them (a map still being summed on Dr.Jit's threads while DIRECT-L steps in numpy: asked
+    for after DIRECT-L)."""
     import nlopt
 
     if global_evals is None:
@@ -217,7 +219,8 @@ def optimize_nlopt(scorer: Scorer, constraint: Constraint, global_evals: int | N
     # DIRECT's few hundred samples can miss a peak narrower than its cells (a lobe of a few
     # degrees): L-BFGS also starts from the best distinct cells of a coarse energy map (one
     # batched kernel), and the best polished point wins
-    seeds = _map_seeds(scorer, constraint, SEED_SPACING_DEG, 3) if seed_map is None else _best_cells(*seed_map, 3)
+    seeds = (_map_seeds(scorer, constraint, SEED_SPACING_DEG, 3) if seed_map is None else
+             _best_cells(seed_map[0], seed_map[1]() if callable(seed_map[1]) else seed_map[1], 3))
     starts = [best[0]] + [normal_to_stereo(n) for n in seeds]
     result = (best[0], best[1])
     for u0, v0 in starts:
@@ -322,7 +325,7 @@ def _axis_gradient(scorer: Scorer, constraint: Constraint, starts: int, iteratio
 
 
 def run_optimizer(name: str, scorer: Scorer, constraint: Constraint, quality: Quality | str = "standard",
-                  seed_map: tuple[np.ndarray, np.ndarray] | None = None) -> OptimumResult:
+                  seed_map: tuple[np.ndarray, Any] | None = None) -> OptimumResult:
     """Run optimiser ``name`` with its budget from ``quality`` (:class:`~labcut.scene.quality.Quality`:
     ``grid_coarse_deg``, ``nlopt_evals``, ``gradient_starts``). ``seed_map``: an energy map
     already made (``(normals, energies)``, :func:`optimize_nlopt`); NLopt's polishes start from

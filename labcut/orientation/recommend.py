@@ -470,14 +470,17 @@ def recommend_orientation(
     stage = (lambda fraction: 0.3 * fraction) if renders else (lambda fraction: fraction)
     report("mapping the hemisphere", stage(0.3))
     map_normals = hemisphere_grid(quality.map_spacing_deg, constraint)
-    map_scores = score_map(scorer, map_normals)
+    # the energy map is launched (Dr.Jit's threads sum it while the optimiser's DIRECT-L steps in
+    # numpy) and read when its cells seed the polishes, or after the optimiser
+    map_later = scorer.energy_map_later(map_normals) if objective == "energy" else None
     report("optimising", stage(0.6))
     # the map's best cells seed the optimiser's polishes where the map is at least twice as fine as
     # the seed map it would make (standard's 3° and high's 1.5°, not draft's 4°: a peak narrower
     # than its cells can hide between them, and the seeds are the energy's)
-    seeds = ((map_normals, map_scores) if objective == "energy" and quality.map_spacing_deg <= 0.5 * SEED_SPACING_DEG
+    seeds = ((map_normals, map_later) if map_later is not None and quality.map_spacing_deg <= 0.5 * SEED_SPACING_DEG
              and constraint.tilt_axis is None else None)
     best = run_optimizer(optimizer, scorer, constraint, quality, seed_map=seeds)
+    map_scores = map_later() if map_later is not None else score_map(scorer, map_normals)
     normal = _upper(best.normal)
     score = scorer.score(normal)
     if map_scores.max() > score * (1.0 + 1e-4):  # the map found better: trust the better point, polished

@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import asdict, dataclass
+from collections.abc import Callable
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -394,7 +395,21 @@ class SparseLobeMap:
             out[sel] += _lobe_sums(m[sel], self.ht[:, s : s + c], self.a[s : s + c], self.kappa)
         return self.norm * out
 
+    def later(self, normals: np.ndarray) -> Callable[[], np.ndarray]:
+        """:meth:`__call__` (path ``auto``), started: where the Dr.Jit kernel sums the call its
+        sums are launched (they run on Dr.Jit's threads while the caller goes on, e.g. an optimiser's
+        single-normal steps in numpy) and the returned function waits for them; else made now."""
+        m = np.atleast_2d(np.asarray(normals, dtype=np.float64))
+        if self.n_tiles and len(m) and MAP_IN_DRJIT and len(m) >= DEVICE_MAP_NORMALS:
+            return self._device_sums_later(m)
+        done = self(m)
+        return lambda: done
+
     def _device_sums(self, m: np.ndarray) -> np.ndarray:
+        """:meth:`_device_sums_later`, waited for."""
+        return self._device_sums_later(m)()
+
+    def _device_sums_later(self, m: np.ndarray) -> Callable[[], np.ndarray]:
         """The map at the normals ``m`` (K, 3) in Dr.Jit kernels: the (tile, normal) pairs within
         the kernel's reach (:data:`DEVICE_MAP_RTOL`: ``|m·c_tile| >= cos(radius + cut)``, float64)
         found and compacted on the device, in tile order; then a thread per pair runs over the
@@ -417,7 +432,7 @@ class SparseLobeMap:
                             t.Float64(self.cos_reach_device), t.UInt32(self.starts.astype(np.uint32)),
                             t.UInt32((self.starts + self.counts).astype(np.uint32)))
         bins, centre, cos_reach, starts, ends = self._device
-        out = np.zeros(len(m))
+        pending: list[tuple[int, int, Any, Any]] = []
         kappa = dr.opaque(t.Float64, self.kappa)
         two_kappa = dr.opaque(t.Float, float(np.float32(2.0 * self.kappa)))
         step = max(1, DEVICE_PAIR_BLOCK // max(self.n_tiles, 1))
@@ -450,10 +465,20 @@ class SparseLobeMap:
 
             _, acc = dr.while_loop((dr.gather(t.UInt32, starts, ti), dr.zeros(t.Float64, dr.width(sel))),
                                    lambda j, acc: j < end, body)
-            dr.eval(acc)
-            normal = np.asarray(sel).astype(np.int64) % k_count
-            out[s0:s0 + k_count] = np.bincount(normal, weights=np.asarray(acc, dtype=np.float64), minlength=k_count)
-        return self.norm * out
+            dr.eval(acc)  # launched: read below, when asked
+            pending.append((s0, k_count, sel, acc))
+        done: list[np.ndarray] = []
+
+        def finish() -> np.ndarray:
+            if not done:
+                out = np.zeros(len(m))
+                for s0, k_count, sel, acc in pending:
+                    normal = np.asarray(sel).astype(np.int64) % k_count
+                    out[s0:s0 + k_count] = np.bincount(normal, weights=np.asarray(acc, dtype=np.float64), minlength=k_count)
+                done.append(self.norm * out)
+            return done[0]
+
+        return finish
 
     def value_and_grad(self, m: np.ndarray) -> tuple[float, np.ndarray]:
         """Energy at one unit normal ``m`` and its gradient with respect to ``m`` (a 3-vector,
@@ -809,6 +834,13 @@ class Scorer:
         out = self.sparse_map(normals)
         self.evaluations += len(normals)
         return out
+
+    def energy_map_later(self, normals: np.ndarray) -> Callable[[], np.ndarray]:
+        """:meth:`energy_map`, started (:meth:`SparseLobeMap.later`): the returned function gives the
+        energies (made once, kept)."""
+        normals = np.atleast_2d(np.asarray(normals, dtype=np.float64))
+        self.evaluations += len(normals)
+        return self.sparse_map.later(normals)
 
     def energy_map_dense(self, normals: np.ndarray) -> np.ndarray:
         """Energy at many unit normals from every binned term, on the Dr.Jit device, in blocks."""
