@@ -5,7 +5,8 @@
 The bundled oval cabochon under the ``bench`` scenario, standard quality, the blue preset: after
 three warm-up calls, ``N`` (default 20) further calls of ``labcut.recommend_orientation`` in one
 process, each stage timed by wrapping the function that does it (``time.perf_counter``; a stage
-that calls another includes it). Medians and minima over the calls; the table replaces the
+that calls another includes it; a kernel launched in one stage and read in another counts where
+it is waited for). Medians and minima over the calls; the table replaces the
 section between the ``recommend-stages`` markers of the report (printed too). Figures move by
 ±30 % with other load on the machine; the shares are steadier than the seconds.
 """
@@ -26,23 +27,24 @@ BEGIN, END = "<!-- recommend-stages: begin -->", "<!-- recommend-stages: end -->
 STAGES = [
     ("labcut.orientation.recommend", "_setup", "plan the effects and build the answer's flash problem"),
     ("labcut.planner", "plan_effects", "the effect planner (inside the set-up)"),
-    ("labcut.orientation.scoring", "Scorer._bin_triples", "bin the triples by mirror orientation (the energy map's input; inside the optimiser, its first user)"),
-    ("labcut.orientation.recommend", "run_optimizer", "NLopt: DIRECT-L, a coarse 6° energy map for seeds, the L-BFGS polishes"),
-    ("labcut.orientation.recommend", "score_map", "the hemisphere map"),
+    ("labcut.orientation.recommend", "build_problem", "the answer's flash problem (inside the set-up)"),
+    ("labcut.orientation.scoring", "Scorer.energy_map_later", "bin the triples, set up the tile-culled map, launch the hemisphere map's kernel"),
+    ("labcut.orientation.scoring", "Scorer._bin_triples", "bin the triples by mirror orientation (inside the line above)"),
+    ("labcut.orientation.scoring", "SparseLobeMap.__init__", "the map's tiles (inside the line above the binning)"),
+    ("labcut.orientation.recommend", "run_optimizer", "NLopt: DIRECT-L while the map's kernel runs, then the L-BFGS polishes from the map's best cells (waiting for the map)"),
     ("labcut.orientation.recommend", "tolerance_deg", "every tolerance search: the answer's, the base's, the two axes'"),
     ("labcut.orientation.recommend", "axis_tolerances", "front-to-back and side-to-side tolerances (inside the line above)"),
     ("labcut.orientation.recommend", "_runners_up", "distinct runner-up optima"),
     ("labcut.orientation.recommend", "uncertainty_for", "the error bars, in all"),
-    ("labcut.orientation.recommend", "build_problem", "the answer's flash problem (inside the set-up)"),
-    ("labcut.orientation.problem", "build_problem", "the error bars' two partial problems (half the directions, twice the poses)"),
-    ("labcut.orientation.uncertainty", "pair_radiance", "the bootstrap's per-pair stencil sums"),
-    ("labcut.orientation.uncertainty", "objective_values", "the bootstrap's replicates"),
-    ("labcut.orientation.uncertainty", "stencil_values", "the two discretisation problems' stencil energies"),
+    ("labcut.orientation.pairs", "build_pairs", "the error bars' two discretisation problems, as pairs (half the directions, twice the poses)"),
+    ("labcut.orientation.uncertainty", "objective_values", "the bootstrap's replicates (the three stencil kernels run meanwhile)"),
+    ("labcut.orientation.uncertainty", "fit_peaks", "the quadratic fits of the replicates and of the two discretisation problems"),
+    ("labcut.orientation.scoring", "Scorer.metrics", "the answer's flash metrics (its every-triple sums came with the error bars' stencil)"),
 ]
 
 
 def _label(module: str, name: str) -> str:
-    """``recommend.build_problem`` and ``problem.build_problem`` are different stages."""
+    """A stage's label: its module's last name and the function's."""
     return f"{module.rsplit('.', 1)[-1]}.{name}"
 
 
@@ -73,7 +75,9 @@ def table(labels: list[str], out: dict[str, list[float]], calls: int) -> list[st
     what = {_label(m, a): w for m, a, w in STAGES}
     rows = [f"Made by `.venv/bin/python benchmarks/recommend_stages.py` on {platform.machine()}, {calls} warm calls of the "
             "standard recommendation of `meshes/oval-16x12-low.ply` under `bench` in one process (stages nest: "
-            "the set-up holds the planner, the error bars their problems and sums).", "",
+            "the set-up holds the planner and the answer's problem, the error bars their problems and sums; a "
+            "Dr.Jit kernel launched in one stage runs on Dr.Jit's threads while the host goes on, and counts "
+            "in the stage that waits for it).", "",
             "| stage | what | median | min | share of the median call |", "|---|---|---|---|---|",
             f"| whole call | `labcut.recommend_orientation` | {total * 1e3:.0f} ms | {min(out['total']) * 1e3:.0f} ms | 100 % |"]
     for k in labels:

@@ -181,8 +181,8 @@ def main() -> None:
              f"Made by `.venv/bin/python benchmarks/speed_ratio.py{' --big' if args.big else ''}{' --env' if args.env else ''}` on {os.cpu_count()} cores "
              f"({cpu}). The unit is one 256 x 256, 16 spp render of the same stone in the same process "
              f"({inproc['render']:.3f} s here), so the ratios compare across machines. The recommendation includes its "
-             "error bars (the answer's flash problem, and the triples near the answer of two more: half the directions "
-             "from the same surface samples, twice the rocking poses).", "",
+             "error bars (the answer's flash problem, and the stencil sums of two more built as pairs: half the "
+             "directions from the same surface samples, twice the rocking poses).", "",
              "| what | seconds | in renders | target |", "|---|---|---|---|",
              f"| standard recommendation, oval cabochon, bench, warm in-process (best of {inproc['rounds']} calls; the "
              f"render: best of {inproc['rounds']} before them) | {inproc['recommend']:.3f} s | "
