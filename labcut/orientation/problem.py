@@ -546,7 +546,7 @@ def build_problem(
     cells = None
     if lit_on_device:  # each chunk's lit (pair, light) cells, found on the device: their count sizes the arrays
         cells = _lit_cells(settings, poses, pair_point, n_geo, n_sh)
-        total = sum(int(kernel.dr.width(idx)) for _, _, idx in cells)
+        total = cells.total
     else:
         total = sum(pose.n_triples for pose in poses)
     at = [0]
@@ -775,13 +775,44 @@ def _light_rows(settings: list[Setting], scale: list[float] | None = None) -> tu
     return L.reshape(-1, 3), E.reshape(-1), width
 
 
+class _LitCells:
+    """The (pair, light slot) cells of :func:`_all_triples`'s chunks whose light reaches the pair's
+    point, found on the device (:func:`_lit_cells`): their count over every chunk (:attr:`total`,
+    which sizes the problem's arrays) and each chunk's compacted cell indices (:meth:`chunk`).
+    A problem of one chunk keeps its indices from the count; one of several finds a chunk's again
+    when it is made (the test is a few multiply-adds a cell), so that only one chunk's indices
+    live at a time (a high-quality problem under an environment map has tens of millions)."""
+
+    def __init__(self, test: Callable[[int], Any], chunks: int) -> None:
+        from ..backend import ad_types
+
+        dr, _ = ad_types()
+        self._test = test
+        self._kept: dict[int, Any] = {}
+        counts = []
+        for k in range(chunks):
+            index = dr.compress(test(k))
+            counts.append(int(dr.width(index)))
+            if chunks == 1:
+                self._kept[k] = index
+        self.total = sum(counts)
+
+    def chunk(self, k: int) -> Any:
+        """The Dr.Jit ``UInt32`` indices ``(pair - first pair of the chunk) x width + slot`` of chunk
+        ``k``'s lit cells, in order."""
+        from ..backend import ad_types
+
+        dr, _ = ad_types()
+        kept = self._kept.pop(k, None)
+        return kept if kept is not None else dr.compress(self._test(k))
+
+
 def _lit_cells(settings: list[Setting], poses: list[_PosePairs], point: np.ndarray, n_geo: np.ndarray,
-               n_sh: np.ndarray) -> list[tuple[int, int, Any]]:
-    """``(first pair, end pair, cells)`` per chunk of :data:`DENSE_CHUNK` (pair, light slot) cells of
-    :func:`_all_triples`: ``cells`` the Dr.Jit ``UInt32`` indices (pair - first) x width + slot of
-    the cells whose light reaches the pair's point, in order (``np.flatnonzero`` of the host's
-    table): the light faces the point's geometric and shading normals (> 1e-6, float64, the host's
-    tests) and carries irradiance. For a stone without occlusion rays."""
+               n_sh: np.ndarray) -> _LitCells:
+    """The lit cells of every chunk of :data:`DENSE_CHUNK` (pair, light slot) cells of
+    :func:`_all_triples` (:class:`_LitCells`): a cell counts, as in the host's table, where the
+    pose's light faces the pair's point's geometric and shading normals (> 1e-6, float64, the
+    host's tests) and carries irradiance. For a stone without occlusion rays."""
     from ..backend import ad_types
 
     dr, t = ad_types()
@@ -793,8 +824,9 @@ def _lit_cells(settings: list[Setting], poses: list[_PosePairs], point: np.ndarr
     pose_of = np.concatenate([np.full(len(pose.pi), k, dtype=np.int64) for k, pose in enumerate(poses)])
     w = dr.opaque(t.UInt32, width)
     chunk = max(1, DENSE_CHUNK // width)
-    out = []
-    for g0 in range(0, point.size, chunk):
+
+    def test(k: int) -> Any:
+        g0 = k * chunk
         g1 = min(point.size, g0 + chunk)
         p_point = t.UInt32(np.asarray(point[g0:g1], dtype=np.uint32))
         p_light = t.UInt32((pose_of[g0:g1] * width).astype(np.uint32))
@@ -803,15 +835,15 @@ def _lit_cells(settings: list[Setting], poses: list[_PosePairs], point: np.ndarr
         i_p = dr.gather(t.UInt32, p_point, j)
         i_l = dr.gather(t.UInt32, p_light, j) + (cell - j * w)
         l64 = dr.gather(t.Array3f64, L64, i_l)
-        lit = ((dr.dot(dr.gather(t.Array3f64, ng, i_p), l64) > 1e-6) & (dr.dot(dr.gather(t.Array3f64, ns, i_p), l64) > 1e-6)
-               & dr.gather(t.Bool, bright, i_l))
-        out.append((g0, g1, dr.compress(lit)))
-    return out
+        return ((dr.dot(dr.gather(t.Array3f64, ng, i_p), l64) > 1e-6) & (dr.dot(dr.gather(t.Array3f64, ns, i_p), l64) > 1e-6)
+                & dr.gather(t.Bool, bright, i_l))
+
+    return _LitCells(test, -(-point.size // chunk))
 
 
 def _all_triples(settings: list[Setting], scale: list[float], poses: list[_PosePairs], first_pair: np.ndarray,
                  point: np.ndarray, view: np.ndarray, cull: tuple[np.ndarray, float] | None, kernel: _TripleKernel,
-                 sink: Any, lit_cells: list[tuple[int, int, Any]] | None = None) -> None:
+                 sink: Any, lit_cells: _LitCells | None = None) -> None:
     """The triples of every pose at once (:func:`_setting_triples`'s triples, in its order: pose,
     pair, light), handed to ``sink(h, c, pair)`` chunk by chunk, ``pair`` an index into all poses'
     pairs (``first_pair``: each pose's first pair among all, and their count last; ``point`` and
@@ -830,7 +862,7 @@ def _all_triples(settings: list[Setting], scale: list[float], poses: list[_PoseP
     for n_chunk, g0 in enumerate(range(0, point.size, chunk)):
         g1 = min(point.size, g0 + chunk)
         if lit_cells is not None:
-            index = lit_cells[n_chunk][2]
+            index = lit_cells.chunk(n_chunk)
             if kernel.dr.width(index) == 0:
                 continue
         else:
