@@ -36,12 +36,12 @@ from typing import Any
 import numpy as np
 
 from ..colour import luminance_table
-from ..errors import MeshError, ParameterError
+from ..errors import ParameterError
 from ..physics import schiller as lobe
 from ..physics.material import Labradorite
 from ..scene import Setting
 from ..scene.quality import Quality
-from .problem import pair_major, reference_radiance, surface_samples, view_pairs
+from .problem import check_problem_inputs, pair_major, reference_radiance, surface_samples, view_pairs
 
 
 @dataclass
@@ -98,12 +98,7 @@ def build_pairs(mesh: Any, material: Labradorite, quality: Quality | str, tau: f
     if not settings:
         raise ParameterError("build_pairs needs at least one setting")
     quality = Quality.coerce(quality)
-    if not (isinstance(seed, int | np.integer) and 0 <= int(seed) < 2**63):
-        raise ParameterError(f"seed must be a whole number >= 0, got {seed!r}")
-    if not (isinstance(tau, int | float) and math.isfinite(tau) and 0.0 < tau < 10.0):
-        raise ParameterError(f"flash threshold tau must lie in (0, 10), got {tau!r}")
-    if len(getattr(mesh, "faces", ())) == 0:
-        raise MeshError("the mesh is empty or not a trimesh.Trimesh (load it with labcut.load_mesh)")
+    check_problem_inputs(mesh, seed, tau)
     count = int(quality.surface_points)
     samples = surface_samples(mesh, count, int(seed))
     points, n_geo, n_sh, convex = samples.points, samples.n_geo, samples.n_sh, samples.convex

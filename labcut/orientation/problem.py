@@ -456,6 +456,20 @@ def lobe_reach(kappa: float, spread_rad: float = 0.0) -> float:
     return float(spread_rad) + 5.0 / math.sqrt(max(float(kappa), 1e-6))
 
 
+def check_problem_inputs(mesh: Any, seed: Any, tau: Any) -> None:
+    """Refuse, with a :class:`~labcut.errors.ParameterError` or :class:`~labcut.errors.MeshError`,
+    a seed that is not a whole number in [0, 2^63), a flash threshold outside (0, 10) and a mesh
+    that is not a non-empty ``trimesh.Trimesh`` (what a flash problem, whole or as pairs, is built from)."""
+    import trimesh
+
+    if not (isinstance(seed, int | np.integer) and 0 <= int(seed) < 2**63):
+        raise ParameterError(f"seed must be a whole number >= 0, got {seed!r}")
+    if not (isinstance(tau, int | float) and math.isfinite(tau) and 0.0 < tau < 10.0):
+        raise ParameterError(f"flash threshold tau must lie in (0, 10), got {tau!r}")
+    if not isinstance(mesh, trimesh.Trimesh) or len(mesh.faces) == 0:
+        raise MeshError("the mesh is empty or not a trimesh.Trimesh (load it with labcut.load_mesh)")
+
+
 def build_problem(
     mesh: Any,
     material: Labradorite,
@@ -486,8 +500,6 @@ def build_problem(
     (:func:`labcut.orientation.uncertainty.pair_radiance`), at a fraction of the cost; such a
     problem serves only sums near ``centre`` (``info["near"]``).
     """
-    import trimesh
-
     if settings is None:
         if lights is None or views is None:
             raise ParameterError("build_problem needs lights and views, or settings")
@@ -495,12 +507,7 @@ def build_problem(
     if not settings:
         raise ParameterError("build_problem needs at least one setting")
     quality = Quality.coerce(quality)
-    if not (isinstance(seed, int | np.integer) and 0 <= int(seed) < 2**63):
-        raise ParameterError(f"seed must be a whole number >= 0, got {seed!r}")
-    if not (isinstance(tau, int | float) and math.isfinite(tau) and 0.0 < tau < 10.0):
-        raise ParameterError(f"flash threshold tau must lie in (0, 10), got {tau!r}")
-    if not isinstance(mesh, trimesh.Trimesh) or len(mesh.faces) == 0:
-        raise MeshError("the mesh is empty or not a trimesh.Trimesh (load it with labcut.load_mesh)")
+    check_problem_inputs(mesh, seed, tau)
     count = int(n_points or quality.surface_points)
     samples = surface_samples(mesh, count, int(seed))
     points, n_geo, n_sh, convex = samples.points, samples.n_geo, samples.n_sh, samples.convex
