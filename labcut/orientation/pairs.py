@@ -28,7 +28,6 @@ radiance in units of ``L_ref`` (DESIGN.md §4); angles in radians.
 from __future__ import annotations
 
 import functools
-import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
@@ -37,11 +36,11 @@ import numpy as np
 
 from ..colour import luminance_table
 from ..errors import ParameterError
-from ..physics import schiller as lobe
 from ..physics.material import Labradorite
 from ..scene import Setting
 from ..scene.quality import Quality
-from .problem import check_problem_inputs, pair_major, reference_radiance, surface_samples, view_pairs
+from .problem import (DeviceTerms, add_lobe_terms, check_problem_inputs, light_rows, lights_reach, opaque_stencil, pair_major,
+                      reference_radiance, surface_samples, view_pairs)
 
 
 @dataclass
@@ -108,25 +107,19 @@ def build_pairs(mesh: Any, material: Labradorite, quality: Quality | str, tau: f
         raise ParameterError("the material reflects nothing at normal incidence: no flash can be scored")
     pose_w = np.array([float(st.weight) for st in settings])
     pose_w = pose_w / pose_w.sum()
-    width = max(1, max(len(st.lights.directions) for st in settings))
     n_pose = len(settings)
     # each pose's lights (irradiance normalised to 1: L_ref is per unit irradiance) in a row of
-    # `width` slots; empty slots carry no irradiance (never lit)
-    L = np.zeros((n_pose, width, 3))
-    L[..., 2] = 1.0
-    E = np.zeros((n_pose, width))
+    # `width` slots, as the triple kernel has them
+    L, E, width = light_rows(settings, [1.0 / float(st.lights.weights.sum()) for st in settings])
     blocked = np.zeros((n_pose, count, width), dtype=bool) if occluded else None
     pp_parts, pv_parts, pw_parts, vw_parts, pose_parts = [], [], [], [], []
     view_offset = 0
     for k, st in enumerate(settings):
-        n = len(st.lights.directions)
-        L[k, :n] = st.lights.directions
-        E[k, :n] = st.lights.weights / float(st.lights.weights.sum())
         pi, pv, pw = view_pairs(st.views.directions, points, n_geo, n_sh, mesh, occluded)
         if occluded:  # the lights' occlusion rays, as build_problem's lit tests cast them
             from ..rendering.rays import escapes
 
-            blocked[k, :, :n] = ~escapes(mesh, points, n_geo, st.lights.directions)
+            blocked[k, :, :len(st.lights.directions)] = ~escapes(mesh, points, n_geo, st.lights.directions)
         pp_parts.append(pi)
         pv_parts.append(pv + view_offset)
         pw_parts.append(pw)
@@ -139,7 +132,7 @@ def build_pairs(mesh: Any, material: Labradorite, quality: Quality | str, tau: f
     V = np.concatenate([st.views.directions for st in settings])
     sums = None
     if pair_point.size:
-        sums = _TermSums(n_sh, n_geo, L.reshape(-1, 3), E.reshape(-1), V, pair_point, pair_view,
+        sums = _TermSums(n_sh, n_geo, L, E, V, pair_point, pair_view,
                          np.concatenate(pose_parts), width, None if blocked is None else blocked.reshape(-1),
                          count, material.n_surface, luminance_table(material), l_ref,
                          float(material.lobe_kappa), float(material.lobe_norm))
@@ -185,13 +178,8 @@ class _TermSums:
         self.row0 = (None if blocked is None else
                      t.UInt32(((np.asarray(pose, dtype=np.int64) * n_points + point) * width).astype(np.uint32)))
         self.width = dr.opaque(t.UInt32, int(width))
-        self.eta = dr.opaque(t.Float, float(eta))
-        self.inv_l_ref = dr.opaque(t.Float, 1.0 / float(l_ref))
-        self.table = t.Float(np.asarray(table[1], dtype=np.float32))
-        self.cells = dr.opaque(t.Float, float(len(table[1]) - 1))  # the table is a uniform grid over cos 0..1
-        self.last = dr.opaque(t.UInt32, len(table[1]) - 2)
-        self.kappa = float(np.float32(kappa))
-        self.q_norm = float(np.float32(q_norm))
+        self.terms = DeviceTerms(eta, table, l_ref)
+        self.kappa, self.q_norm = float(kappa), float(q_norm)
 
     def __call__(self, normals: np.ndarray, reach: float | None) -> np.ndarray:
         """(P, K) float64 pair sums at the unit ``normals`` (K, 3); ``reach`` as in :meth:`PairProblem.pair_radiance`."""
@@ -199,56 +187,28 @@ class _TermSums:
 
     def launch(self, normals: np.ndarray, reach: float | None) -> Callable[[], np.ndarray]:
         """:meth:`__call__`, launched: the returned function waits for the kernel and gives the sums."""
-        from ..physics.ops import drjit_ops
-
         dr, t = self.dr, self.t
-        ops = drjit_ops()
-        n32 = np.asarray(normals, dtype=np.float32)
-        m = [[dr.opaque(t.Float, float(x)) for x in row] for row in n32]
-        kappa = dr.opaque(t.Float, self.kappa)
-        cos_reach = dr.opaque(t.Float, float(np.float32(-1.0 if reach is None else math.cos(min(float(reach), math.pi / 2)))))
-        q_norm = dr.opaque(t.Float, self.q_norm)
-        eta, cells, last, table = self.eta, self.cells, self.last, self.table
+        stencil = opaque_stencil(normals, reach, self.kappa, self.q_norm)
+        q_norm, terms = stencil[3], self.terms
         # per pair: its point's normals, its view's direction and terms (the same for all its lights)
         n = dr.gather(t.Array3f, self.n32, self.point)
         ng = dr.gather(t.Array3f64, self.ng64, self.point)
         ns = dr.gather(t.Array3f64, self.ns64, self.point)
-        w_v = dr.gather(t.Array3f, self.V32, self.view)
-        b = lobe.internal_direction(w_v, n, eta, ops)
-        t_v = lobe.transmission(dr.dot(w_v, n), eta, ops)
+        b, t_v = terms.view(dr.gather(t.Array3f, self.V32, self.view), n)
         light0, row0, blocked = self.light0, self.row0, self.blocked
 
         def body(j: Any, *sums: Any) -> tuple[Any, ...]:
             i_l = light0 + j
-            l64 = dr.gather(t.Array3f64, self.L64, i_l)
-            lit = (dr.dot(ng, l64) > 1e-6) & (dr.dot(ns, l64) > 1e-6) & dr.gather(t.Bool, self.lit_E, i_l)
+            lit = lights_reach(ng, ns, dr.gather(t.Array3f64, self.L64, i_l), dr.gather(t.Bool, self.lit_E, i_l))
             if blocked is not None:
                 lit &= ~dr.gather(t.Bool, blocked, row0 + j)
-            # the triple kernel's terms (problem._TripleKernel._terms), in float32
-            w_l = dr.gather(t.Array3f, self.L32, i_l)
-            cos_nl = dr.dot(w_l, n)
-            a = lobe.internal_direction(w_l, n, eta, ops)
-            e_t_l = dr.gather(t.Float, self.E32, i_l) * lobe.transmission(cos_nl, eta, ops) * cos_nl
-            h, cos_l, max_ab = lobe.mirror_terms(a, b, n, ops)
-            x = dr.clip(cos_l, 0.0, 1.0) * cells  # np.interp on the uniform cos grid of the luminance table
-            cell = dr.minimum(t.UInt32(x), last)
-            frac = x - t.Float(cell)
-            y0 = dr.gather(t.Float, table, cell)
-            r_y = y0 + frac * (dr.gather(t.Float, table, cell + 1) - y0)
-            c = lobe.schiller_factor(e_t_l, t_v, cos_l, max_ab, eta, ops) * r_y * self.inv_l_ref
+            # the triple kernel's terms (problem.DeviceTerms), in float32
+            h, c = terms.light(dr.gather(t.Array3f, self.L32, i_l), dr.gather(t.Float, self.E32, i_l), n, b, t_v)
             ok = lit & dr.isfinite(c) & dr.isfinite(h.x) & dr.isfinite(h.y) & dr.isfinite(h.z)
-            c = q_norm * c  # the pair-sum kernel's float32 q_norm c_t
-            out = []
-            near = None
-            for k, (mx, my, mz) in enumerate(m):
-                d = dr.abs(h.x * mx + h.y * my + h.z * mz)
-                if k == 0:
-                    near = ok & (d >= cos_reach)
-                term = dr.exp((d - 1.0) * kappa) * c
-                out.append(sums[k] + t.Float64(dr.select(near, term, 0.0)))
+            out, _ = add_lobe_terms(sums, h, q_norm * c, stencil, valid=ok)  # the pair-sum kernel's float32 q_norm c_t
             return (j + 1, *out)
 
-        state = (dr.zeros(t.UInt32, self.n_pairs), *(dr.zeros(t.Float64, self.n_pairs) for _ in range(len(m))))
+        state = (dr.zeros(t.UInt32, self.n_pairs), *(dr.zeros(t.Float64, self.n_pairs) for _ in range(len(normals))))
         width = self.width
         result = dr.while_loop(state, lambda j, *sums: j < width, body)
         sums = result[1:]

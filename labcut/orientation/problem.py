@@ -306,6 +306,45 @@ def pair_major(sums: Any) -> np.ndarray:
     return np.stack([np.asarray(s, dtype=np.float64) for s in sums], axis=0).T
 
 
+def opaque_stencil(normals: np.ndarray, reach: float | None, kappa: float, q_norm: float) -> tuple[Any, Any, Any, Any]:
+    """The stencil of a pair-sum kernel as opaque Dr.Jit scalars (one compiled kernel serves every
+    stencil of the same number of normals): the float32 normals (a list of (x, y, z)), κ, the
+    reach's cosine (the numpy path's test in float32, ``|h·m_0| >= cos(reach)``; no reach: -1, every
+    term) and the lobe's norm."""
+    from ..backend import ad_types
+
+    dr, t = ad_types()
+    m = [[dr.opaque(t.Float, float(x)) for x in row] for row in np.asarray(normals, dtype=np.float32)]
+    cos_reach = float(np.float32(-1.0 if reach is None else math.cos(min(float(reach), math.pi / 2))))
+    return (m, dr.opaque(t.Float, float(np.float32(kappa))), dr.opaque(t.Float, cos_reach),
+            dr.opaque(t.Float, float(np.float32(q_norm))))
+
+
+def add_lobe_terms(sums: Any, h: Any, cq: Any, stencil: tuple[Any, Any, Any, Any], valid: Any = None,
+                   every_first: Any = None) -> tuple[list[Any], Any]:
+    """One triple's lobe terms ``cq exp(κ(|h·m_k| - 1))`` (float32; ``cq`` the triple's ``q_norm c``)
+    added to the stencil's float64 sums, the terms beyond the reach of the first normal (and, with
+    ``valid``, those of invalid triples) adding 0: the step of :class:`_PairSums` and of the pairs'
+    kernel (:mod:`labcut.orientation.pairs`), the terms and order of
+    :meth:`FlashProblem.pair_radiance_numpy`. ``every_first``: a sum of the first normal's terms
+    without the reach, also stepped (None: none). Returns the new sums and that one."""
+    from ..backend import ad_types
+
+    dr, t = ad_types()
+    m, kappa, cos_reach, _ = stencil
+    out = []
+    near = every = None
+    for k, (mx, my, mz) in enumerate(m):
+        d = dr.abs(h.x * mx + h.y * my + h.z * mz)
+        term = dr.exp((d - 1.0) * kappa) * cq
+        if k == 0:
+            near = d >= cos_reach if valid is None else valid & (d >= cos_reach)
+            if every_first is not None:
+                every = every_first + t.Float64(term)
+        out.append(sums[k] + t.Float64(dr.select(near, term, 0.0)))
+    return out, every
+
+
 class _PairSums:
     """:meth:`FlashProblem.pair_radiance` as one Dr.Jit kernel: a thread per (point, view) pair
     runs over the pair's triples (contiguous: the problem is sorted by pair) in their order and
@@ -321,10 +360,10 @@ class _PairSums:
         dr, t = ad_types()
         self.dr, self.t = dr, t
         self.h, self.c = problem.device_triples
-        self.q_norm = float(np.float32(problem.q_norm))
+        self.q_norm = float(problem.q_norm)
         starts = np.searchsorted(problem.pair, np.arange(problem.pair_view.size + 1)).astype(np.uint32)
         self.first, self.end = t.UInt32(starts[:-1]), t.UInt32(starts[1:])
-        self.kappa = float(np.float32(problem.kappa))
+        self.kappa = float(problem.kappa)
         self.n_pairs = int(problem.pair_view.size)
 
     def __call__(self, normals: np.ndarray, reach: float | None, full_first: bool = False) -> tuple[np.ndarray, np.ndarray | None]:
@@ -338,32 +377,16 @@ class _PairSums:
         """:meth:`__call__`, launched: Dr.Jit's LLVM threads (or the GPU) run the kernel while the
         caller goes on; the returned function waits for it and gives ``(sums, full)``."""
         dr, t = self.dr, self.t
-        n32 = np.asarray(normals, dtype=np.float32)
-        k_count = len(n32)
-        m = [[dr.opaque(t.Float, float(x)) for x in row] for row in n32]
-        kappa = dr.opaque(t.Float, self.kappa)
-        # the numpy path's test, in float32: |h·m_0| >= cos(reach); no reach: every triple (-1 <= |h·m|)
-        cos_reach = dr.opaque(t.Float, float(np.float32(-1.0 if reach is None else math.cos(min(float(reach), math.pi / 2)))))
-        q_norm = dr.opaque(t.Float, self.q_norm)
+        k_count = len(normals)
+        stencil = opaque_stencil(normals, reach, self.kappa, self.q_norm)
+        q_norm = stencil[3]
         h_all, c_all, end = self.h, self.c, self.end
 
         def body(j: Any, *sums: Any) -> tuple[Any, ...]:
-            h = dr.gather(t.Array3f, h_all, j)
-            x, y, z = h.x, h.y, h.z
-            c = q_norm * dr.gather(t.Float, c_all, j)  # the numpy path's float32 q_norm c_t
-            out = []
-            near = None
-            for k, (mx, my, mz) in enumerate(m):
-                d = dr.abs(x * mx + y * my + z * mz)
-                if k == 0:
-                    near = d >= cos_reach
-                term = dr.exp((d - 1.0) * kappa) * c
-                out.append(sums[k] + t.Float64(dr.select(near, term, 0.0)))
-                if k == 0 and full_first:
-                    first_all = sums[k_count] + t.Float64(term)
-            if full_first:
-                out.append(first_all)
-            return (j + 1, *out)
+            cq = q_norm * dr.gather(t.Float, c_all, j)  # the numpy path's float32 q_norm c_t
+            out, every = add_lobe_terms(sums, dr.gather(t.Array3f, h_all, j), cq, stencil,
+                                        every_first=sums[k_count] if full_first else None)
+            return (j + 1, *out, *([every] if full_first else []))
 
         columns = k_count + int(full_first)
         state = (t.UInt32(self.first), *(dr.zeros(t.Float64, self.n_pairs) for _ in range(columns)))
@@ -557,25 +580,20 @@ def build_problem(
     else:
         total = sum(pose.n_triples for pose in poses)
     at = [0]
-    sunk: list[int] = []  # the size of each chunk written
-    whole: list[Any] = []  # the first chunk's own arrays while it is the only one (kept as they are)
-    out: list[np.ndarray] = []  # (h, c, pair) of every triple, allocated at a second chunk
+    whole: list[Any] = []  # every triple in one chunk: that chunk's own arrays, kept as they are (no copy)
+    out: list[np.ndarray] = []  # else (h, c, pair) of every triple, allocated at the first chunk
 
     def sink(h_t: np.ndarray, c_t: np.ndarray, pair_t: np.ndarray) -> None:
         n = len(c_t)
-        if not sunk and n == total and cull is None:  # every triple in one chunk: no copy
+        if at[0] == 0 and n == total and cull is None:
             whole.append((h_t, c_t, np.asarray(pair_t, dtype=np.int32)))
         else:
             if not out:
                 out.extend([np.empty((total, 3), dtype=np.float32), np.empty(total, dtype=np.float32),
                             np.empty(total, dtype=np.int32)])
-                for first in whole:  # pragma: no cover - a whole problem's chunk is its only one
-                    out[0][:len(first[1])], out[1][:len(first[1])], out[2][:len(first[1])] = first
-                whole.clear()
             h, c, pair_of_t = out
             h[at[0]:at[0] + n], c[at[0]:at[0] + n], pair_of_t[at[0]:at[0] + n] = h_t, c_t, pair_t
         at[0] += n
-        sunk.append(n)
 
     if kernel is not None:  # every pose's triples in one kernel call per chunk of pairs
         _all_triples(settings, [1.0 / e for e in total_irradiance], poses, np.array(offsets + [pair_offset]), pair_point,
@@ -620,7 +638,7 @@ def build_problem(
               "pair_point": pair_point.astype(np.int32),
               **({} if near is None else {"near": (cull[0].tolist(), float(near[1]))})},
     )
-    if kernel is not None and cull is None and sunk == [c.size] and kernel.last_device is not None:
+    if kernel is not None and whole and kernel.last_device is not None:
         # one kernel call made every triple: its device arrays are the problem's device copy
         # (FlashProblem.device_triples), not copied back from the host arrays
         problem.__dict__["device_triples"] = kernel.last_device
@@ -632,6 +650,56 @@ def build_problem(
 #: passes per pose (:func:`_setting_triples`); nothing in labcut turns it off: the numpy path is
 #: the reference the tests compare with (``tests/test_speed_reuse.py``, ``tests/test_triple_batches.py``)
 TRIPLES_IN_DRJIT = True
+
+
+def lights_reach(n_geo: Any, n_sh: Any, light: Any, bright: Any) -> Any:
+    """Whether a light reaches a surface point, as Dr.Jit operations: the light (unit direction,
+    ``Array3f64``) faces the point's geometric and shading normals (``Array3f64``; > 1e-6, the
+    host's tests of :func:`_setting_pairs` in float64) and carries irradiance (``bright``)."""
+    from ..backend import ad_types
+
+    dr, _ = ad_types()
+    return (dr.dot(n_geo, light) > 1e-6) & (dr.dot(n_sh, light) > 1e-6) & bright
+
+
+class DeviceTerms:
+    """The schiller triple terms of :func:`triple_terms` as Dr.Jit operations in float32 (lobe
+    functions of :mod:`labcut.physics.schiller`; the luminance table interpolated on its uniform
+    cos grid as ``np.interp`` does): one implementation for the triple kernel
+    (:class:`_TripleKernel`) and the pairs' kernel (:mod:`labcut.orientation.pairs`). The
+    material's numbers are opaque, so one compiled kernel serves every stone and material."""
+
+    def __init__(self, eta: float, table: tuple[np.ndarray, np.ndarray], l_ref: float) -> None:
+        from ..backend import ad_types
+        from ..physics.ops import drjit_ops
+
+        dr, t = ad_types()
+        self.dr, self.t, self.ops = dr, t, drjit_ops()
+        self.eta = dr.opaque(t.Float, float(eta))
+        self.inv_l_ref = dr.opaque(t.Float, 1.0 / float(l_ref))
+        self.table = t.Float(np.asarray(table[1], dtype=np.float32))
+        self.cells = dr.opaque(t.Float, float(len(table[1]) - 1))  # the table is a uniform grid over cos 0..1
+        self.last = dr.opaque(t.UInt32, len(table[1]) - 2)
+
+    def view(self, w_v: Any, n: Any) -> tuple[Any, Any]:
+        """Per (point, view): the internal direction ``b`` and ``T(n·v)``."""
+        return lobe.internal_direction(w_v, n, self.eta, self.ops), lobe.transmission(self.dr.dot(w_v, n), self.eta, self.ops)
+
+    def light(self, w_l: Any, irradiance: Any, n: Any, b: Any, t_v: Any) -> tuple[Any, Any]:
+        """Per triple (light direction ``w_l`` and its irradiance, shading normal ``n``, the view's
+        :meth:`view` terms): the mirror orientation ``h`` (not folded) and the factor ``c`` in front
+        of the lobe, in units of L_ref."""
+        dr, t, ops = self.dr, self.t, self.ops
+        cos_nl = dr.dot(w_l, n)
+        a = lobe.internal_direction(w_l, n, self.eta, ops)
+        e_t_l = irradiance * lobe.transmission(cos_nl, self.eta, ops) * cos_nl
+        h, cos_l, max_ab = lobe.mirror_terms(a, b, n, ops)
+        x = dr.clip(cos_l, 0.0, 1.0) * self.cells  # np.interp on the uniform cos grid of the luminance table
+        cell = dr.minimum(t.UInt32(x), self.last)
+        frac = x - t.Float(cell)
+        y0 = dr.gather(t.Float, self.table, cell)
+        r_y = y0 + frac * (dr.gather(t.Float, self.table, cell + 1) - y0)
+        return h, lobe.schiller_factor(e_t_l, t_v, cos_l, max_ab, self.eta, ops) * r_y * self.inv_l_ref
 
 
 class _TripleKernel:
@@ -648,11 +716,7 @@ class _TripleKernel:
         self.dr, self.t = dr, t
         n = np.asarray(n_sh, dtype=np.float32)
         self.n = t.Array3f(n[:, 0], n[:, 1], n[:, 2])
-        self.eta = dr.opaque(t.Float, float(eta))
-        self.inv_l_ref = dr.opaque(t.Float, 1.0 / float(l_ref))
-        self.table = t.Float(np.asarray(table[1], dtype=np.float32))
-        self.cells = dr.opaque(t.Float, float(len(table[1]) - 1))  # the table is a uniform grid over cos 0..1
-        self.last = dr.opaque(t.UInt32, len(table[1]) - 2)
+        self.terms = DeviceTerms(eta, table, l_ref)
         #: the device arrays (h, c) of the last call's triples (the host arrays hold the same values)
         self.last_device: tuple[Any, Any] | None = None
 
@@ -674,29 +738,14 @@ class _TripleKernel:
         return self._terms(L, E, V, dr.gather(t.UInt32, p_point, j), i_l, dr.gather(t.UInt32, p_view, j))
 
     def _terms(self, L: np.ndarray, E: np.ndarray, V: np.ndarray, i_p: Any, i_l: Any, i_v: Any) -> tuple[np.ndarray, np.ndarray]:
-        from ..physics.ops import drjit_ops
-
         dr, t = self.dr, self.t
-        ops = drjit_ops()
         L32, V32 = np.asarray(L, dtype=np.float32), np.asarray(V, dtype=np.float32)
         lights = t.Array3f(L32[:, 0], L32[:, 1], L32[:, 2])
         views = t.Array3f(V32[:, 0], V32[:, 1], V32[:, 2])
         irr = t.Float(np.asarray(E, dtype=np.float32))
         n = dr.gather(t.Array3f, self.n, i_p)
-        w_l = dr.gather(t.Array3f, lights, i_l)
-        w_v = dr.gather(t.Array3f, views, i_v)
-        cos_nl = dr.dot(w_l, n)
-        a = lobe.internal_direction(w_l, n, self.eta, ops)
-        e_t_l = dr.gather(t.Float, irr, i_l) * lobe.transmission(cos_nl, self.eta, ops) * cos_nl
-        b = lobe.internal_direction(w_v, n, self.eta, ops)
-        t_v = lobe.transmission(dr.dot(w_v, n), self.eta, ops)
-        h, cos_l, max_ab = lobe.mirror_terms(a, b, n, ops)
-        x = dr.clip(cos_l, 0.0, 1.0) * self.cells  # np.interp on the uniform cos grid of the luminance table
-        cell = dr.minimum(t.UInt32(x), self.last)
-        frac = x - t.Float(cell)
-        y0 = dr.gather(t.Float, self.table, cell)
-        r_y = y0 + frac * (dr.gather(t.Float, self.table, cell + 1) - y0)
-        c = lobe.schiller_factor(e_t_l, t_v, cos_l, max_ab, self.eta, ops) * r_y * self.inv_l_ref
+        b, t_v = self.terms.view(dr.gather(t.Array3f, views, i_v), n)
+        h, c = self.terms.light(dr.gather(t.Array3f, lights, i_l), dr.gather(t.Float, irr, i_l), n, b, t_v)
         h = dr.select(h.z < 0.0, -h, h)  # axial: fold into the upper hemisphere
         # a non-finite term (a degenerate refraction) is no triple: (0, 0, 1) and 0, on the device
         finite = dr.isfinite(c) & dr.isfinite(h.x) & dr.isfinite(h.y) & dr.isfinite(h.z)
@@ -769,9 +818,10 @@ DENSE_CHUNK = 4_000_000
 LIT_ON_DEVICE = True
 
 
-def _light_rows(settings: list[Setting], scale: list[float] | None = None) -> tuple[np.ndarray, np.ndarray, int]:
+def light_rows(settings: list[Setting], scale: list[float] | None = None) -> tuple[np.ndarray, np.ndarray, int]:
     """Every pose's lights in a row of ``width`` slots (the most lights of a pose): directions
-    (poses x width, 3) and irradiances times ``scale`` (poses x width; empty slots: 0, never lit)."""
+    (poses x width, 3) and irradiances times ``scale`` (poses x width; empty slots: 0, never lit),
+    and ``width``."""
     width = max(1, max(len(st.lights.directions) for st in settings))
     L = np.zeros((len(settings), width, 3))
     L[..., 2] = 1.0
@@ -823,7 +873,7 @@ def _lit_cells(settings: list[Setting], poses: list[_PosePairs], point: np.ndarr
     from ..backend import ad_types
 
     dr, t = ad_types()
-    L, E, width = _light_rows(settings)
+    L, E, width = light_rows(settings)
     L64 = t.Array3f64(*(np.ascontiguousarray(L[:, k]) for k in range(3)))
     bright = t.Bool(E > 0)
     ng = t.Array3f64(*(np.ascontiguousarray(n_geo[:, k], dtype=np.float64) for k in range(3)))
@@ -841,9 +891,8 @@ def _lit_cells(settings: list[Setting], poses: list[_PosePairs], point: np.ndarr
         j = cell // w
         i_p = dr.gather(t.UInt32, p_point, j)
         i_l = dr.gather(t.UInt32, p_light, j) + (cell - j * w)
-        l64 = dr.gather(t.Array3f64, L64, i_l)
-        return ((dr.dot(dr.gather(t.Array3f64, ng, i_p), l64) > 1e-6) & (dr.dot(dr.gather(t.Array3f64, ns, i_p), l64) > 1e-6)
-                & dr.gather(t.Bool, bright, i_l))
+        return lights_reach(dr.gather(t.Array3f64, ng, i_p), dr.gather(t.Array3f64, ns, i_p),
+                            dr.gather(t.Array3f64, L64, i_l), dr.gather(t.Bool, bright, i_l))
 
     return _LitCells(test, -(-point.size // chunk))
 
@@ -861,7 +910,7 @@ def _all_triples(settings: list[Setting], scale: list[float], poses: list[_PoseP
     :data:`DENSE_CHUNK` cells: one call for a problem at standard quality rather than one per pose,
     the per-triple indices made on the device. ``lit_cells``: the lit cells of each chunk found on
     the device (:func:`_lit_cells`; the poses then carry no ``lit`` tables)."""
-    L, E, width = _light_rows(settings, scale)
+    L, E, width = light_rows(settings, scale)
     V = np.concatenate([st.views.directions for st in settings])
     pose_of = np.concatenate([np.full(len(pose.pi), k, dtype=np.int64) for k, pose in enumerate(poses)])
     light0 = pose_of * width
