@@ -14,7 +14,6 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import labcut
-from labcut.errors import ParameterError
 from labcut.orientation import problem as problem_module
 from labcut.orientation import scoring as scoring_module
 from labcut.orientation.problem import build_problem
@@ -113,20 +112,6 @@ def test_energy_scorer_puts_no_triples_on_the_device(problem):
     area = Scorer(problem, "area")
     area.score(m)
     assert area._device is not None
-
-
-def test_a_partial_problem_refuses_sums_beyond_its_triples():
-    """A problem of the triples near a centre (build_problem(near=...)) refuses the sums of every
-    triple, and sums that reach beyond what it holds."""
-    mesh = labcut.load_mesh(MESHES / "oval-16x12-low.ply")
-    lab = labcut.Labradorite.preset("blue")
-    part = build_problem(mesh, lab, quality="draft", settings=resolve_scene("bench", None, None, "draft").settings(),
-                         near=((0.0, 0.0, 1.0), 0.3))
-    with pytest.raises(ParameterError, match="every triple"):
-        part.pair_radiance(np.array([[0.0, 0.0, 1.0]]))
-    with pytest.raises(ParameterError, match="too few"):
-        part.pair_radiance(np.array([[0.0, 0.0, 1.0]]), reach=0.5)
-    assert part.pair_radiance(np.array([[0.0, 0.0, 1.0]]), reach=0.2).shape[1] == 1
 
 
 @pytest.fixture(scope="module")

@@ -2,7 +2,7 @@
 the numpy reference's sums: the same terms in the same order per pair, float64 sums.
 
 The kernel (``problem._PairSums``: a thread per (point, view) pair over its triples) serves the
-error bars' bootstrap, their discretisation energies (``energy_near``) and the metrics of every
+error bars' bootstrap and discretisation energies and the metrics of every
 answer; the numpy passes (``FlashProblem.pair_radiance_numpy``) stay as the reference and the
 path of problems the kernel does not take (over ``PAIRS_DRJIT_MAX`` triples, or not sorted by pair).
 """
@@ -72,17 +72,16 @@ def test_the_reach_drops_the_far_triples_in_the_kernel_too(bench):
     assert near[:, 0].sum() == pytest.approx(whole[:, 0].sum(), rel=1e-4)
 
 
-def test_energy_near_from_the_kernel_equals_the_numpy_blocks(bench, monkeypatch):
+def test_stencil_sums_within_reach_from_the_kernel_equal_the_numpy_path(bench, monkeypatch):
     m = np.array([0.03, -0.05, 1.0])
     m /= np.linalg.norm(m)
     normals, _ = stencil(m, 1.5)
     r = _reach(bench.kappa, normals)
-    got = bench.energy_near(normals, r)
+    got = bench.pair_radiance(normals, r)
     monkeypatch.setattr(problem_module, "PAIRS_IN_DRJIT", False)
     slow = _fresh(bench)
     assert slow._pair_sums is None
-    np.testing.assert_allclose(got, slow.energy_near(normals, r), rtol=1e-6)
-    np.testing.assert_allclose(slow.pair_radiance(normals, r), bench.pair_radiance(normals, r), rtol=1e-6, atol=1e-12)
+    np.testing.assert_allclose(slow.pair_radiance(normals, r), got, rtol=1e-6, atol=1e-12)
 
 
 def test_problems_the_kernel_does_not_take_use_the_numpy_path(bench, monkeypatch):
@@ -101,17 +100,15 @@ def test_problems_the_kernel_does_not_take_use_the_numpy_path(bench, monkeypatch
 
 
 def test_a_stone_with_pairs_and_no_triples_sums_to_zero(oval):
-    """A partial problem whose cull keeps no triple: zero sums (the numpy path: the kernel declines
-    a problem without triples)."""
+    """A problem with pairs and no triple (every triple of a stone dropped): zero sums (the numpy
+    path: the kernel declines a problem without triples)."""
     lab = labcut.Labradorite.preset("blue")
-    settings_ = resolve_scene("bench", None, None, "draft").settings()
-    down = np.array([1.0, 0.0, 0.0])  # mirror orientations of a face-up bench lie near +z, none near +x
-    part = build_problem(oval, lab, quality="draft", settings=settings_, near=(down, 0.01))
-    if part.n_triples:
-        pytest.skip("this stone has triples near +x")
-    assert part._pair_sums is None
-    got = part.pair_radiance(np.array([down]), reach=0.005)
-    assert got.shape == (part.pair_view.size, 1) and not got.any()
+    whole = build_problem(oval, lab, quality="draft", settings=resolve_scene("bench", None, None, "draft").settings())
+    part = replace(whole, h=whole.h[:0], c=whole.c[:0], pair=whole.pair[:0])
+    assert part._pair_sums is None and part.pair_view.size > 0
+    for reach in (None, 0.005):
+        got = part.pair_radiance(np.array([[1.0, 0.0, 0.0]]), reach=reach)
+        assert got.shape == (part.pair_view.size, 1) and not got.any()
 
 
 def test_the_stencil_call_brings_every_triples_sum_at_its_centre(oval):

@@ -69,7 +69,6 @@ def test_pairs_and_stencil_sums_equal_the_whole_problem(meshes, name, scenario, 
     np.testing.assert_allclose(got, want, rtol=1e-6, atol=1e-12 * float(want.max()))
     numpy_ref = whole.pair_radiance_numpy(normals, reach)  # numpy's exp over the stored triples
     np.testing.assert_allclose(got, numpy_ref, rtol=2e-5, atol=1e-9 * float(numpy_ref.max()))
-    np.testing.assert_allclose(pairs.energy_near(normals, reach), whole.energy_near(normals, reach), rtol=1e-9)
     # without a reach every term counts
     np.testing.assert_allclose(pairs.pair_radiance(normals[:3]), whole.pair_radiance(normals[:3]), rtol=1e-6,
                                atol=1e-12 * float(want.max()))

@@ -3,8 +3,7 @@
 ``uncertainty_for`` builds its half-direction and finer-pose problems as pairs only
 (``labcut.orientation.pairs.build_pairs``: their stencil sums make each term in one kernel,
 ``tests/test_pairs.py``) and the half-direction one from the answer's own surface samples; the bars
-must equal those of the fully built problems. ``build_problem(near=...)`` (a problem of the
-triples near a normal) must sum what the whole problem sums.
+must equal those of the fully built problems.
 """
 
 from __future__ import annotations
@@ -16,18 +15,12 @@ import numpy as np
 import pytest
 
 import labcut
-from labcut.errors import ParameterError
 from labcut.orientation.problem import build_problem, surface_samples
 from labcut.orientation.setup import FlashSetup
 from labcut.orientation.uncertainty import (
-    NEAR_MARGIN_RAD,
-    _reach,
     estimate_uncertainty,
     finer_poses,
     half_directions,
-    pair_radiance,
-    stencil,
-    stencil_radius,
     uncertainty_for,
 )
 
@@ -59,25 +52,6 @@ def test_reused_error_bars_equal_the_direct_computation(oval, scenario, objectiv
                                 fine=_full(oval, setup, finer_poses(setup.quality)) if rocks else None,
                                 tolerance_deg=3.0, seed=setup.seed)
     assert got == want
-
-
-def test_a_near_problem_sums_what_the_whole_problem_sums(oval):
-    setup = FlashSetup.build("blue", "bench", quality="draft")
-    whole = _full(oval, setup, half_directions(setup.quality))
-    m = np.array([0.05, -0.02, 1.0])
-    m /= np.linalg.norm(m)
-    normals, _ = stencil(m, stencil_radius(2.0))
-    reach = _reach(whole.kappa, normals)
-    part = build_problem(oval, setup.material, quality=half_directions(setup.quality), tau=setup.tau, seed=setup.seed,
-                         settings=setup.at_quality(half_directions(setup.quality)).scenario.settings(),
-                         near=(m, reach + NEAR_MARGIN_RAD))
-    assert 0 < part.n_triples < 0.75 * whole.n_triples  # it keeps fewer triples ...
-    np.testing.assert_array_equal(part.pair_weight, whole.pair_weight)  # ... and every pair
-    np.testing.assert_array_equal(pair_radiance(part, normals), pair_radiance(whole, normals))
-    # a normal beyond what the partial problem holds is refused, not summed short
-    far = stencil(np.array([0.5, 0.0, 1.0]) / math.hypot(0.5, 1.0), 1.0)[0]
-    with pytest.raises(ParameterError, match="holds only the triples"):
-        pair_radiance(part, far)
 
 
 def test_problems_of_one_stone_share_their_surface_samples(oval):

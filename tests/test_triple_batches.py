@@ -50,14 +50,12 @@ def test_poses_of_unequal_light_counts(oval, monkeypatch):
     _same(fast, slow)
 
 
-@pytest.mark.parametrize("near", [False, True])
-def test_chunks_of_cells_give_the_one_call_triples(oval, monkeypatch, near):
+def test_chunks_of_cells_give_the_one_call_triples(oval, monkeypatch):
     """A chunk far smaller than the problem (pairs of one pose split between calls): the triples
-    of one call, bit for bit; with a cull (a partial problem) too."""
+    of one call, bit for bit."""
     lab = labcut.Labradorite.preset("blue")
     settings = resolve_scene("bench", None, None, "draft").settings()
-    m = np.array([0.05, 0.0, 1.0]) / np.hypot(0.05, 1.0)
-    kw = {"near": (m, 0.2)} if near else {}
+    kw: dict = {}
     whole = build_problem(oval, lab, quality="draft", settings=settings, **kw)
     monkeypatch.setattr(problem_module, "DENSE_CHUNK", 1000)
     width = max(len(st.lights.directions) for st in settings)  # light slots per pair

@@ -138,14 +138,13 @@ def test_bad_inputs_are_one_line_errors(oval):
 @pytest.mark.parametrize("kernel", [True, False])
 @pytest.mark.parametrize("views", [None, "weighted"])
 def test_stencil_energy_equals_the_pair_sums(oval, views, kernel, monkeypatch):
-    """The discretisation parts' energy at the stencil (FlashProblem.energy_near: the pair-sum
-    kernel's sums weighted by pair_alpha, or with the kernel off summed straight from the triples in
-    numpy blocks) equals the view-weighted pair sums the bootstrap uses (objective_values of
-    pair_radiance, every point weighted 1), on a whole problem and on a partial one
-    (build_problem(near=...)), with views of unequal weight too."""
+    """The discretisation parts' energy at the stencil (stencil_values: the pair sums, from the
+    kernel or the numpy path, weighted by pair_alpha) equals the view-weighted pair sums the
+    bootstrap uses (objective_values of pair_radiance, every point weighted 1), with views of
+    unequal weight too."""
     from labcut.orientation import problem as problem_module
     from labcut.orientation.problem import build_problem
-    from labcut.orientation.uncertainty import _point_count, _reach, objective_values, pair_radiance, stencil_values
+    from labcut.orientation.uncertainty import _point_count, objective_values, pair_radiance, stencil_values
     from labcut.scene import resolve_scene
 
     monkeypatch.setattr(problem_module, "PAIRS_IN_DRJIT", kernel)
@@ -159,16 +158,11 @@ def test_stencil_energy_equals_the_pair_sums(oval, views, kernel, monkeypatch):
     m = np.array([0.02, -0.06, 1.0])
     m /= np.linalg.norm(m)
     normals, _ = stencil(m, 1.5)
-    near = build_problem(oval, lab, quality="draft", near=(m, _reach(whole.kappa, normals) + 1e-3), **kw)
-    assert near.n_triples < whole.n_triples
-    for p in (whole, near):
-        assert (p._pair_sums is not None) == kernel
-        want = objective_values(p, pair_radiance(p, normals), np.ones((1, _point_count(p))), "energy")
-        got = stencil_values(p, normals, "energy")
-        assert got.shape == want.shape == (1, len(normals))
-        assert np.allclose(got, want, rtol=1e-6, atol=0.0)
-    # the partial problem's sums are the whole problem's
-    assert np.allclose(stencil_values(near, normals, "energy"), stencil_values(whole, normals, "energy"), rtol=1e-6)
+    assert (whole._pair_sums is not None) == kernel
+    want = objective_values(whole, pair_radiance(whole, normals), np.ones((1, _point_count(whole))), "energy")
+    got = stencil_values(whole, normals, "energy")
+    assert got.shape == want.shape == (1, len(normals))
+    assert np.allclose(got, want, rtol=1e-6, atol=0.0)
     # the thresholded objectives go through the pairs
     area = stencil_values(whole, normals, "area")
     assert np.array_equal(area, objective_values(whole, pair_radiance(whole, normals), np.ones((1, _point_count(whole))), "area"))

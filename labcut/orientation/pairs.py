@@ -83,10 +83,6 @@ class PairProblem:
             return lambda: zeros
         return self._sums.launch(normals, reach)
 
-    def energy_near(self, normals: np.ndarray, reach: float | None = None) -> np.ndarray:
-        """The energy objective (DESIGN.md §4) at each unit normal: ``pair_alpha @ pair_radiance``, (K,)."""
-        return self.pair_alpha @ self.pair_radiance(normals, reach)
-
 
 def build_pairs(mesh: Any, material: Labradorite, quality: Quality | str, tau: float, seed: int, settings: list[Setting],
                 occlusion: bool | None = None) -> PairProblem:

@@ -87,9 +87,7 @@ def reference_radiance(material: Labradorite, total_irradiance: float) -> float:
 #: triples per chunk of :meth:`FlashProblem.pair_radiance`: its (stencil normals x chunk) float32 lobe
 #: values stay near 17 MB (a first call in a process paid 0.1 s of fresh pages at 2^21)
 PAIR_CHUNK = 1 << 18
-#: triples per block of :meth:`FlashProblem.energy_near` ((stencil normals x block) float32 lobe values, ~0.5 MB)
-ENERGY_BLOCK = 1 << 13
-#: sum :meth:`FlashProblem.pair_radiance` (and :meth:`FlashProblem.energy_near`) in one Dr.Jit
+#: sum :meth:`FlashProblem.pair_radiance` in one Dr.Jit
 #: kernel (:class:`_PairSums`: a thread per pair runs over its triples in order, float64 sums) rather
 #: than in numpy passes per normal; the numpy path stays the reference (``tests/test_pair_sums.py``)
 PAIRS_IN_DRJIT = True
@@ -139,16 +137,6 @@ class FlashProblem:
     def pairs_sorted(self) -> bool:
         """Whether the triples are sorted by pair (:func:`build_problem`'s order), checked once."""
         return self.pair.size < 2 or bool(np.all(self.pair[1:] >= self.pair[:-1]))
-
-    def _check_near(self, normals: np.ndarray, reach: float | None) -> None:
-        """Refuse sums that reach beyond the triples a partial problem holds (build_problem(near=...))."""
-        built = self.info.get("near")
-        if built is not None:  # a problem of the triples near some centre only (build_problem(near=...))
-            off = math.acos(min(1.0, abs(float(np.dot(np.asarray(built[0]), normals[0])))))
-            if reach is None or off + reach > float(built[1]):
-                wanted = "every triple" if reach is None else f"sums {math.degrees(off + reach):.2f}° around the normals given"
-                raise ParameterError(f"this problem holds only the triples within {math.degrees(built[1]):.2f}° of "
-                                     f"{built[0]}: too few for {wanted}")
 
     def _near_chunks(self, normals: np.ndarray, reach: float | None) -> Iterator[tuple[int, Any]]:
         """``(start, rows)`` per chunk of :data:`PAIR_CHUNK` triples: the rows (indices into the chunk,
@@ -202,7 +190,6 @@ class FlashProblem:
         while the caller goes on) and the returned function waits for it and gives the sums. Where
         no kernel sums them, the sums are made now."""
         normals = np.atleast_2d(np.asarray(normals, dtype=np.float64))
-        self._check_near(normals, reach)
         kernel = self._pair_sums
         if kernel is None:
             done = self.pair_radiance_numpy(normals, reach)
@@ -230,7 +217,6 @@ class FlashProblem:
         :data:`PAIR_CHUNK` triples (the reference the kernel is tested against; the path of problems
         the kernel does not take)."""
         normals = np.atleast_2d(np.asarray(normals, dtype=np.float64))
-        self._check_near(normals, reach)
         n32 = normals.astype(np.float32)
         n_pairs = int(self.pair_view.size)
         out = np.zeros((n_pairs, len(normals)))
@@ -265,35 +251,6 @@ class FlashProblem:
                     out[:, k] += np.bincount(pairs, weights=term, minlength=n_pairs)
             del hx, hy, hz, term, wide
         return out
-
-    def energy_near(self, normals: np.ndarray, reach: float | None = None) -> np.ndarray:
-        """The energy objective (DESIGN.md §4) at each unit normal (rows, mesh frame): (K,) float64,
-        ``Σ_t alpha_t q(|h_t·m|)`` over the triples within ``reach`` (radians) of ``normals[0]``
-        (every triple for None): the view-weighted mean pair radiance that :meth:`pair_radiance`
-        gives. Where the pair-sum kernel runs (:class:`_PairSums`) its pair sums, weighted by
-        :attr:`pair_alpha`; else (the kernel off, a problem over :data:`PAIRS_DRJIT_MAX` triples or
-        not sorted by pair) summed straight from the triples, no per-pair sums (the energy is linear
-        in them): float32 lobe terms (as the triples are stored and :meth:`pair_radiance` computes
-        them), float64 sums, in blocks of :data:`ENERGY_BLOCK` triples (the (K, block) lobe values
-        stay in cache)."""
-        normals = np.atleast_2d(np.asarray(normals, dtype=np.float64))
-        self._check_near(normals, reach)
-        if self._pair_sums is not None:  # the kernel's pair sums, weighted: a few ms instead of the blocks below
-            return self.pair_alpha @ self._pair_sums(normals, reach)[0]
-        n32 = normals.astype(np.float32)
-        kappa = np.float32(self.kappa)
-        out = np.zeros(len(normals))
-        for s0, near in self._near_chunks(normals, reach):
-            ht = np.ascontiguousarray(self.h[s0:s0 + PAIR_CHUNK][near].T)  # (3, n) float32
-            a = self.alpha(slice(s0, s0 + PAIR_CHUNK))[near].astype(np.float64)
-            for b0 in range(0, a.size, ENERGY_BLOCK):
-                d = np.einsum("kj,jt->kt", n32, ht[:, b0:b0 + ENERGY_BLOCK])
-                np.abs(d, out=d)  # the float32 lobe terms of pair_radiance: κ(|h·m| - 1), then exp
-                d -= np.float32(1.0)
-                d *= kappa
-                np.exp(d, out=d)
-                out += np.einsum("kt,t->k", d, a[b0:b0 + ENERGY_BLOCK], dtype=np.float64)
-        return float(self.q_norm) * out
 
 
 def pair_major(sums: Any) -> np.ndarray:
@@ -505,7 +462,6 @@ def build_problem(
     *,
     settings: list[Setting] | None = None,
     occlusion: bool | None = None,
-    near: tuple[Any, float] | None = None,
 ) -> FlashProblem:
     """Sample the surface and build every (point, light, view) triple (see the module docstring).
 
@@ -517,11 +473,7 @@ def build_problem(
     the stone in the way (default: when the stone is not convex; the effect planner may switch it).
 
     The surface samples are :func:`surface_samples` of this mesh, point count and ``seed`` (drawn
-    once, then found in the mesh's cache: problems of the same stone share them). ``near = (centre, angle_rad)``: keep
-    only the triples whose (axial) mirror orientation lies within ``angle_rad`` of the unit vector
-    ``centre`` (every pair is kept): what the error bars' stencil sums need
-    (:func:`labcut.orientation.uncertainty.pair_radiance`), at a fraction of the cost; such a
-    problem serves only sums near ``centre`` (``info["near"]``).
+    once, then found in the mesh's cache: problems of the same stone share them).
     """
     if settings is None:
         if lights is None or views is None:
@@ -534,11 +486,6 @@ def build_problem(
     count = int(n_points or quality.surface_points)
     samples = surface_samples(mesh, count, int(seed))
     points, n_geo, n_sh, convex = samples.points, samples.n_geo, samples.n_sh, samples.convex
-    cull = None
-    if near is not None:
-        centre = np.asarray(near[0], dtype=np.float64).reshape(3)
-        centre = centre / np.linalg.norm(centre)
-        cull = (centre, math.cos(min(float(near[1]), math.pi / 2)))
 
     table = luminance_table(material)
     total_irradiance = [float(st.lights.weights.sum()) for st in settings]
@@ -568,9 +515,7 @@ def build_problem(
         offsets.append(pair_offset)
         pair_offset += len(pose.pi)
         view_offset += len(st.views.weights)
-    # the triples are written into arrays of their count without a cull (known from the pairs
-    # and lit lights), then trimmed: pages a cull leaves unwritten are never touched, so a
-    # partial problem costs only what it keeps (no list of parts and concatenated copy)
+    # the triples are written into arrays of their count (known from the pairs and lit lights)
     pair_point = np.concatenate(pp_parts)
     pair_view = np.concatenate(pv_parts)
     cells = None
@@ -585,7 +530,7 @@ def build_problem(
 
     def sink(h_t: np.ndarray, c_t: np.ndarray, pair_t: np.ndarray) -> None:
         n = len(c_t)
-        if at[0] == 0 and n == total and cull is None:
+        if at[0] == 0 and n == total:
             whole.append((h_t, c_t, np.asarray(pair_t, dtype=np.int32)))
         else:
             if not out:
@@ -597,14 +542,14 @@ def build_problem(
 
     if kernel is not None:  # every pose's triples in one kernel call per chunk of pairs
         _all_triples(settings, [1.0 / e for e in total_irradiance], poses, np.array(offsets + [pair_offset]), pair_point,
-                     pair_view, cull, kernel, sink, cells)
+                     pair_view, kernel, sink, cells)
     else:
         for k, (st, pose) in enumerate(zip(settings, poses)):
             _setting_triples(st.lights.directions, st.lights.weights / total_irradiance[k], st.views.directions, pose,
-                             n_sh, material.n_surface, table, l_ref, count, cull,
+                             n_sh, material.n_surface, table, l_ref, count,
                              lambda h_t, c_t, pair_t, off=offsets[k]: sink(h_t, c_t, pair_t + off))
     del poses
-    if cull is None and at[0] != total:  # pragma: no cover - the count and the triples written must agree
+    if at[0] != total:  # pragma: no cover - the count and the triples written must agree
         raise RuntimeError(f"built {at[0]} triples, counted {total}")
     if whole:
         h, c, pair_of_t = whole[0]
@@ -613,7 +558,7 @@ def build_problem(
     else:  # no triple at all
         h, c, pair_of_t = np.zeros((0, 3), dtype=np.float32), np.zeros(0, dtype=np.float32), np.zeros(0, dtype=np.int32)
     lit_any = c.size > 0 and float(c.sum(dtype=np.float64)) > 0.0
-    if near is None and not lit_any:
+    if not lit_any:
         raise ParameterError(
             "no light reaches a part of the stone that a viewer sees: check that the lights are above "
             "the surfaces the views look at (+Z is face-up)"
@@ -635,8 +580,7 @@ def build_problem(
         convex=convex,
         n_points=count,
         info={"l_ref": l_ref, "pairs": int(pair_offset), "triples": int(c.size), "poses": len(settings),
-              "pair_point": pair_point.astype(np.int32),
-              **({} if near is None else {"near": (cull[0].tolist(), float(near[1]))})},
+              "pair_point": pair_point.astype(np.int32)},
     )
     if kernel is not None and whole and kernel.last_device is not None:
         # one kernel call made every triple: its device arrays are the problem's device copy
@@ -898,7 +842,7 @@ def _lit_cells(settings: list[Setting], poses: list[_PosePairs], point: np.ndarr
 
 
 def _all_triples(settings: list[Setting], scale: list[float], poses: list[_PosePairs], first_pair: np.ndarray,
-                 point: np.ndarray, view: np.ndarray, cull: tuple[np.ndarray, float] | None, kernel: _TripleKernel,
+                 point: np.ndarray, view: np.ndarray, kernel: _TripleKernel,
                  sink: Any, lit_cells: _LitCells | None = None) -> None:
     """The triples of every pose at once (:func:`_setting_triples`'s triples, in its order: pose,
     pair, light), handed to ``sink(h, c, pair)`` chunk by chunk, ``pair`` an index into all poses'
@@ -932,22 +876,14 @@ def _all_triples(settings: list[Setting], scale: list[float], poses: list[_PoseP
             if index.size == 0:
                 continue
         h, c = kernel.dense(L, E, V, point[g0:g1], view[g0:g1], light0[g0:g1], width, index)
-        pair_t = (np.asarray(index) // width).astype(np.int32) + np.int32(g0)
-        if cull is not None:  # only the triples whose (float32) mirror orientation lies near the centre
-            cx, cy, cz = (np.float32(x) for x in cull[0])
-            keep = np.abs(h[:, 0] * cx + h[:, 1] * cy + h[:, 2] * cz) >= np.float32(cull[1])
-            h, c, pair_t = h[keep], c[keep], pair_t[keep]
-            if pair_t.size == 0:
-                continue
-        sink(h, c, pair_t)
+        sink(h, c, (np.asarray(index) // width).astype(np.int32) + np.int32(g0))
 
 
-def _setting_triples(L, E, V, pose, n_sh, eta, table, l_ref, count, cull, sink) -> None:
+def _setting_triples(L, E, V, pose, n_sh, eta, table, l_ref, count, sink) -> None:
     """Triples of one pose (its :class:`_PosePairs`) in float64 numpy passes: the reference of
     :func:`_all_triples`'s kernel for the tests (``TRIPLES_IN_DRJIT`` off; labcut itself always
     takes the kernel), handed to ``sink(h, c, pair)`` chunk
-    by chunk (pair: index into the pose's pairs). ``cull = (centre, cos)``: only the triples with
-    ``|h·centre| >= cos`` (their values as without the cull)."""
+    by chunk (pair: index into the pose's pairs)."""
     pi, pv, lit = pose.pi, pose.pv, pose.lit
 
     # triples: each pair x the lights its point sees; built in chunks of points and
@@ -986,15 +922,6 @@ def _setting_triples(L, E, V, pose, n_sh, eta, table, l_ref, count, cull, sink) 
         a_t = a_lit[lit_of_t]
         s_t = a_t + b_pair[local]
         ss = NUMPY.dot(s_t, s_t)
-        if cull is not None:  # only the triples whose mirror orientation lies near the centre
-            cx, cy, cz = cull[0]
-            dot = s_t[:, 0] * cx + s_t[:, 1] * cy + s_t[:, 2] * cz  # no BLAS call (threads next to Dr.Jit's wait)
-            keep = np.abs(dot) >= cull[1] * np.sqrt(ss)
-            del dot
-            pair_of_t, lit_of_t, local = pair_of_t[keep], lit_of_t[keep], local[keep]
-            a_t, s_t, ss = a_t[keep], s_t[keep], ss[keep]
-            if pair_of_t.size == 0:
-                continue
         # lobe.mirror_terms and triple_terms, term by term
         h = NUMPY.scale(s_t, 1.0 / np.sqrt(np.maximum(ss, NUMPY.tiny)))
         del s_t, ss

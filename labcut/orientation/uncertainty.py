@@ -63,9 +63,6 @@ COVER = 2.0
 #: (poses, full vs double)
 DIRECTION_FACTOR = 1.5
 POSE_FACTOR = 2.5
-#: the error bars' partial problems hold the triples this far (radians) beyond the stencil sums'
-#: reach (:func:`uncertainty_for`): float32 rounding of the mirror orientations stays far below it
-NEAR_MARGIN_RAD = 1e-3
 #: stencil: rings at these fractions of the fit radius, directions per ring
 RINGS = (0.5, 1.0)
 RING_DIRECTIONS = 8
@@ -293,16 +290,16 @@ def _zeroed_buffer(shape: tuple[int, int, int]) -> np.ndarray:
     return held
 
 
-def stencil_values(problem: FlashProblem, normals: np.ndarray, objective: str) -> np.ndarray:
+def stencil_values(problem: Any, normals: np.ndarray, objective: str, radiance: np.ndarray | None = None) -> np.ndarray:
     """The objective at each stencil normal with every surface point weighted 1 (the problem's own
-    estimator): (1, K). The energy is linear in the pair radiances: the pair sums within reach
-    weighted, or where the pair-sum kernel does not run the triples summed straight, no per-pair
-    sums (:meth:`FlashProblem.energy_near`); the thresholded objectives need the pairs
-    (:func:`objective_values` of :func:`pair_radiance`)."""
-    normals = np.asarray(normals, dtype=np.float64)
+    estimator): (1, K), from the stencil's pair sums (:func:`pair_radiance`, or ``radiance`` when
+    they are made already). The energy is linear in the pair radiances: their ``pair_alpha``
+    weighted sum; the thresholded objectives go through :func:`objective_values`."""
+    if radiance is None:
+        radiance = pair_radiance(problem, normals)
     if objective == "energy":
-        return problem.energy_near(normals, _reach(problem.kappa, normals))[None, :]
-    return objective_values(problem, pair_radiance(problem, normals), np.ones((1, _point_count(problem))), objective)
+        return (problem.pair_alpha @ radiance)[None, :]
+    return objective_values(problem, radiance, np.ones((1, _point_count(problem))), objective)
 
 
 def _stencil_sums_later(problem: Any, normals: np.ndarray) -> Callable[[], np.ndarray] | None:
@@ -311,13 +308,6 @@ def _stencil_sums_later(problem: Any, normals: np.ndarray) -> Callable[[], np.nd
     if problem is None:
         return None
     return problem.pair_radiance_later(np.asarray(normals, dtype=np.float64), _reach(problem.kappa, normals))
-
-
-def _stencil_values_of(problem: Any, radiance: np.ndarray, objective: str) -> np.ndarray:
-    """:func:`stencil_values` from the stencil's pair sums ``radiance`` already made: (1, K)."""
-    if objective == "energy":
-        return (problem.pair_alpha @ radiance)[None, :]
-    return objective_values(problem, radiance, np.ones((1, _point_count(problem))), objective)
 
 
 def _point_count(problem: FlashProblem) -> int:
@@ -378,7 +368,7 @@ def estimate_uncertainty(problem: FlashProblem, normal: Any, objective: str = "e
     for other, factor, sums in ((coarse, DIRECTION_FACTOR, later[1]), (fine, POSE_FACTOR, later[2])):
         if other is None:
             continue
-        o_vals = _stencil_values_of(other, sums(), objective)
+        o_vals = stencil_values(other, normals, objective, radiance=sums())
         o_peak, o_height = fit_peaks(xy, o_vals, radius)
         d_angle = math.hypot(d_angle, factor * float(np.hypot(*(o_peak[0] - base_peak))))
         d_score = math.hypot(d_score, factor * float(abs(o_height[0] - base_height) / scale))
