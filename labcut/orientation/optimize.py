@@ -394,13 +394,14 @@ def tolerance_deg(scores: Callable[[np.ndarray], np.ndarray], best: np.ndarray, 
         head = [float(values[0])] if centre else []
         return head + [float(x) for x in values[int(centre):].reshape(len(t), len(tangent)).min(axis=1)]
 
-    def narrow(kept: list[tuple[float, float]], hi: float | None, v_hi: float) -> tuple[float, float | None, float]:
-        """From rings that keep (``kept``, by angle) and the nearest that fails (``hi``; None: none
-        found yet), the ring that keeps and the one that fails within ``step`` of each other."""
+    def narrow(kept: list[tuple[float, float]], hi: float | None, v_hi: float) -> tuple[float, float | None]:
+        """From rings that keep (``kept``: (angle, lowest score), by angle) and the nearest that
+        fails (``hi`` with its lowest score ``v_hi``; None: none found yet), the angles of the ring
+        that keeps and the one that fails within ``step`` of each other (None: none up to the limit)."""
         while hi is None:  # bracket: the root of v = α + β a² through the last two rings that keep
             (a1, v1), (a2, v2) = kept[-2], kept[-1]
             if a2 >= limit_deg:
-                return a2, None, v_hi
+                return a2, None
             guess = 4.0 * a2
             if v2 < v1:
                 guess = 1.05 * math.sqrt(max(a2 * a2 + (a2 * a2 - a1 * a1) * (v2 - target) / (v1 - v2), 0.0))
@@ -427,17 +428,16 @@ def tolerance_deg(scores: Callable[[np.ndarray], np.ndarray], best: np.ndarray, 
                     hi, v_hi = angle, value
                     break
                 lo, v_lo = angle, value
-                kept.append((angle, value))
             halve = not halve and hi - lo > 0.5 * width
-        return lo, hi, v_hi
+        return lo, hi
 
     centre, v0 = worst([0.25], centre=True)
     if centre < target:
         return 0.0
     if v0 < target:
-        lo, hi, _ = narrow([(0.0, centre)], 0.25, v0)
+        lo, hi = narrow([(0.0, centre)], 0.25, v0)
     else:
-        lo, hi, _ = narrow([(0.0, centre), (0.25, v0)], None, v0)
+        lo, hi = narrow([(0.0, centre), (0.25, v0)], None, v0)
     return lo if hi is not None else limit_deg
 
 

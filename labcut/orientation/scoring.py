@@ -320,12 +320,13 @@ class SparseLobeMap:
         self.centre_t = np.ascontiguousarray(centre.T)  # (3, tiles): einsum over a transposed view is 7x slower
         cos_in = np.clip(np.einsum("ij,ij->i", self.h, centre[tile]), -1.0, 1.0)
         radius = np.maximum.reduceat(np.arccos(cos_in), self.starts) + 1e-6
-        reach = radius + cut
+        def cos_within(reach: np.ndarray) -> np.ndarray:  # -1 (every normal) from a quarter turn on
+            return np.where(reach < math.pi / 2, np.cos(np.minimum(reach, math.pi / 2)), -1.0)
+
         #: a normal m needs tile j when |m·centre_j| >= cos(radius_j + cut)
-        self.cos_reach = np.where(reach < math.pi / 2, np.cos(np.minimum(reach, math.pi / 2)), -1.0)
-        reach = radius + cut_device
+        self.cos_reach = cos_within(radius + cut)
         #: the same for the Dr.Jit kernel's cull (:data:`DEVICE_MAP_RTOL`)
-        self.cos_reach_device = np.where(reach < math.pi / 2, np.cos(np.minimum(reach, math.pi / 2)), -1.0)
+        self.cos_reach_device = cos_within(radius + cut_device)
 
     def _dense(self, h: np.ndarray, a: np.ndarray, m: np.ndarray) -> np.ndarray:
         return self.norm * _lobe_sums(m, np.ascontiguousarray(h.T), a, self.kappa)
@@ -365,7 +366,7 @@ class SparseLobeMap:
         out = np.zeros(len(m))
         if self.n_tiles == 0 or len(m) == 0:
             return out
-        if path == "device" or (path == "auto" and MAP_IN_DRJIT and len(m) >= DEVICE_MAP_NORMALS):
+        if path == "device" or (path == "auto" and self._kernel_takes(len(m))):
             return self._device_sums(m)
         # (tiles, k) cosines of the tiles' centres and the normals, and which pairs lie within reach
         cos_tm = _cos_matrix(self.centre, np.ascontiguousarray(m.T))
@@ -400,10 +401,15 @@ class SparseLobeMap:
         sums are launched (they run on Dr.Jit's threads while the caller goes on, e.g. an optimiser's
         single-normal steps in numpy) and the returned function waits for them; else made now."""
         m = np.atleast_2d(np.asarray(normals, dtype=np.float64))
-        if self.n_tiles and len(m) and MAP_IN_DRJIT and len(m) >= DEVICE_MAP_NORMALS:
+        if self.n_tiles and self._kernel_takes(len(m)):
             return self._device_sums_later(m)
         done = self(m)
         return lambda: done
+
+    @staticmethod
+    def _kernel_takes(count: int) -> bool:
+        """Whether path ``auto`` sends a call of ``count`` normals to the kernel straight away."""
+        return MAP_IN_DRJIT and count >= DEVICE_MAP_NORMALS
 
     def _device_sums(self, m: np.ndarray) -> np.ndarray:
         """:meth:`_device_sums_later`, waited for."""
