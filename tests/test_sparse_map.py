@@ -307,3 +307,28 @@ def test_a_map_started_and_read_later_is_the_map(scorer, monkeypatch):
     counted = scorer.evaluations
     scorer.energy_map_later(grid)
     assert scorer.evaluations == counted + len(grid)
+
+
+def test_a_bin_whose_fixed_point_sum_is_zero_is_dropped(scorer, monkeypatch):
+    """A triple far lighter than half a unit of the fixed-point sums (2^-62 of the total weight)
+    alone in its cell sums to zero there: that bin has no direction and is dropped, not a NaN
+    centroid; the others are as the numpy path's."""
+    from dataclasses import replace
+
+    from labcut.orientation import scoring as scoring_module
+
+    p = scorer.problem
+    keep = slice(0, 2000)
+    h = p.h[keep].copy()
+    c = p.c[keep].copy()
+    h[-1] = np.array([0.6, 0.0, 0.8], dtype=np.float32)  # a cell of its own, far from the bench's flash near +z
+    c[-1] = np.float32(1e-30)
+    small = replace(p, h=h, c=c, pair=p.pair[keep])
+    assert scoring_module._device_keys_apply(small, 612 * 612)
+    hb, ab = Scorer(small)._bin_triples()
+    assert np.all(np.isfinite(hb)) and np.all(ab > 0)
+    assert not np.any(np.all(np.abs(hb - [0.6, 0.0, 0.8]) < 1e-6, axis=1))  # the light one's bin is gone
+    monkeypatch.setattr(scoring_module, "BINS_IN_DRJIT", False)
+    hn, an = Scorer(small)._bin_triples()
+    assert len(an) == len(ab) + 1  # numpy keeps its float64 weight of 1e-30-ish
+    np.testing.assert_allclose(ab, an[an > 1e-20], rtol=1e-10, atol=1e-13 * float(an.sum()))
