@@ -1,4 +1,4 @@
-"""The error bars' partial problems as (point, view) pairs only: stencil sums in one Dr.Jit kernel.
+"""The error bars' discretisation problems as (point, view) pairs only: stencil sums in one Dr.Jit kernel.
 
 The error bars (:mod:`labcut.orientation.uncertainty`) fit the objective at a small stencil of
 normals around the answer on two more problems of the same question: half the directions, and
@@ -19,7 +19,7 @@ These are the terms and the order of :func:`~labcut.orientation.problem.build_pr
 summed by :meth:`FlashProblem.pair_radiance <labcut.orientation.problem.FlashProblem.pair_radiance>`
 (the reference ``tests/test_pairs.py`` compares with), without writing the triples out, reading
 them back, culling them on the host and copying them to the device again: the error bars cost
-a third of what the two partial :class:`~labcut.orientation.problem.FlashProblem` builds did.
+a third of what the two culled :class:`~labcut.orientation.problem.FlashProblem` builds it replaced did.
 
 Frames and units: the mesh frame; directions unit vectors towards the light or the viewer;
 radiance in units of ``L_ref`` (DESIGN.md §4); angles in radians.
