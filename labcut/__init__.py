@@ -8,8 +8,10 @@ Public API (DESIGN.md §5; these names are a contract)::
     mesh = labcut.load_mesh("stone.stl")
     cab = labcut.cabochon(outline="oval", length=16, width=12, dome="low")
 
-Importing labcut registers the ``labradorite`` BSDF with Mitsuba (every JIT variant);
-the other heavy modules (trimesh, manifold3d, the optimiser) load on first use.
+Importing labcut registers the ``labradorite`` BSDF with Mitsuba (every JIT variant) and
+checks that Dr.Jit has a libLLVM it can run on; it changes nothing else in the process (no
+environment variables, no import hooks, no other package's modules). The other heavy modules
+(trimesh, manifold3d, the optimiser) load on first use.
 """
 
 from __future__ import annotations
@@ -18,11 +20,8 @@ import importlib
 from typing import Any
 
 from . import backend as _backend
-from . import deferred_imports as _deferred_imports
 
-_deferred_imports.install()  # trimesh's first import leaves scipy.spatial & co. for first use
-_backend.configure_environment()
-_backend.check_llvm()
+_backend.check_llvm()  # before Mitsuba loads Dr.Jit: a libLLVM it would abort on is a clear error
 
 from .errors import (  # noqa: E402
     BackendError,

@@ -4,15 +4,16 @@
   environment variable ``LABCUT_BACKEND=llvm|cuda`` forces one.
 * The colour mode (mono / rgb / spectral, optionally polarized) is the caller's
   choice: labcut never pays for spectral or polarized transport unless asked.
-* Dr.Jit 1.5's LLVM backend aborts on libLLVM 14-16 (DESIGN.md §6). At import,
-  :func:`configure_environment` points Dr.Jit at the newest libLLVM >= 17 and
-  :func:`check_llvm` stops with :class:`~labcut.errors.LLVMVersionError` naming
-  the fix when there is none (and no CUDA device to run on instead).
-* Dr.Jit's on-disk kernel cache lives in a per-user cache directory
-  (``~/.cache/labcut/drjit`` on Linux) unless ``DRJIT_CACHE_DIR`` is set.
+* Dr.Jit 1.5's LLVM backend aborts on libLLVM 14-16 (DESIGN.md §6). Dr.Jit loads
+  ``DRJIT_LIBLLVM_PATH`` when the user sets it, else the newest libLLVM in the
+  system's library folders (:data:`DRJIT_LLVM_GLOBS`, Dr.Jit's own search). At import,
+  :func:`check_llvm` finds the library Dr.Jit will load and stops with
+  :class:`~labcut.errors.LLVMVersionError` naming the fix when it is older than 17
+  (and no CUDA device runs instead). labcut sets no environment variable: Dr.Jit's
+  kernel cache is Dr.Jit's own (``~/.drjit``, or ``DRJIT_CACHE_DIR`` when set).
 
-Both environment variables must be set before ``drjit`` is imported, so this
-module imports neither drjit nor mitsuba at import time.
+The check must run before ``drjit`` is imported, so this module imports neither
+drjit nor mitsuba at import time.
 """
 
 from __future__ import annotations
@@ -24,7 +25,6 @@ import glob
 import os
 import re
 from collections.abc import Callable, Iterator
-from pathlib import Path
 from typing import Any, TypeVar
 
 from .errors import BackendError, LLVMVersionError, ParameterError
@@ -32,9 +32,17 @@ from .errors import BackendError, LLVMVersionError, ParameterError
 MIN_LLVM = 17
 MODES = ("mono", "rgb", "spectral")
 
-_LLVM_GLOBS = (
-    "/usr/lib/x86_64-linux-gnu/libLLVM*.so*",
-    "/usr/lib/aarch64-linux-gnu/libLLVM*.so*",
+#: where Dr.Jit 1.5 itself looks for libLLVM when ``DRJIT_LIBLLVM_PATH`` is unset (the pattern
+#: compiled into libdrjit-core: ``/usr/lib/{x86_64-linux-gnu,aarch64-linux-gnu,wsl/lib}/libLLVM*.so.*``,
+#: then ``libLLVM.so`` through the loader); it loads the newest
+DRJIT_LLVM_GLOBS = (
+    "/usr/lib/x86_64-linux-gnu/libLLVM*.so.*",
+    "/usr/lib/aarch64-linux-gnu/libLLVM*.so.*",
+    "/usr/lib/wsl/lib/libLLVM*.so.*",
+)
+#: other folders where a libLLVM may be installed that Dr.Jit does not search: one found there is
+#: named in the error, to be handed over with ``DRJIT_LIBLLVM_PATH``
+OTHER_LLVM_GLOBS = (
     "/usr/lib/libLLVM*.so*",
     "/usr/lib64/libLLVM*.so*",
     "/usr/local/lib/libLLVM*.so*",
@@ -52,22 +60,27 @@ def _llvm_major(path: str) -> int | None:
     return int(m.group(1)) if m else None
 
 
-def find_libllvm() -> tuple[int, str] | None:
-    """Newest libLLVM on the system as ``(major, path)``, or None.
-
-    ``DRJIT_LIBLLVM_PATH``, when set by the user, is taken as the only candidate.
-    """
-    forced = os.environ.get("DRJIT_LIBLLVM_PATH")
-    if forced and os.environ.get("_LABCUT_SET_LIBLLVM") != forced:
-        major = _llvm_major(forced)
-        return (major if major is not None else MIN_LLVM, forced) if os.path.exists(forced) else None
+def _newest(patterns: tuple[str, ...]) -> tuple[int, str] | None:
     found: list[tuple[int, str]] = []
-    for pattern in _LLVM_GLOBS:
+    for pattern in patterns:
         for path in glob.glob(pattern):
             major = _llvm_major(path)
             if major is not None:
                 found.append((major, path))
     return max(found) if found else None
+
+
+def find_libllvm() -> tuple[int, str] | None:
+    """The libLLVM Dr.Jit will load, as ``(major, path)``, or None.
+
+    ``DRJIT_LIBLLVM_PATH``, when the user sets it, is the only candidate; else the newest in
+    :data:`DRJIT_LLVM_GLOBS`.
+    """
+    forced = os.environ.get("DRJIT_LIBLLVM_PATH")
+    if forced:
+        major = _llvm_major(forced)
+        return (major if major is not None else MIN_LLVM, forced) if os.path.exists(forced) else None
+    return _newest(DRJIT_LLVM_GLOBS)
 
 
 #: the CUDA driver's library names, tried in turn by :func:`_cuda_driver_present`
@@ -88,24 +101,6 @@ def _cuda_driver_present() -> bool:
     return False
 
 
-def configure_environment() -> None:
-    """Set Dr.Jit's kernel cache and libLLVM before drjit is imported (idempotent)."""
-    if "DRJIT_CACHE_DIR" not in os.environ:
-        from platformdirs import user_cache_dir
-
-        cache = Path(user_cache_dir("labcut")) / "drjit"
-        try:
-            cache.mkdir(parents=True, exist_ok=True)
-            os.environ["DRJIT_CACHE_DIR"] = str(cache)
-        except OSError:
-            pass  # read-only home: Dr.Jit falls back to its own default
-    if "DRJIT_LIBLLVM_PATH" not in os.environ:
-        best = find_libllvm()
-        if best is not None and best[0] >= MIN_LLVM:
-            os.environ["DRJIT_LIBLLVM_PATH"] = best[1]
-            os.environ["_LABCUT_SET_LIBLLVM"] = best[1]
-
-
 def check_llvm() -> None:
     """Raise :class:`LLVMVersionError` when Dr.Jit's LLVM backend would abort.
 
@@ -118,6 +113,10 @@ def check_llvm() -> None:
     if _cuda_driver_present():
         return
     have = f"libLLVM {best[0]}" if best else "no libLLVM"
+    elsewhere = None if os.environ.get("DRJIT_LIBLLVM_PATH") else _newest(OTHER_LLVM_GLOBS)
+    if elsewhere is not None and elsewhere[0] >= MIN_LLVM:
+        raise LLVMVersionError(f"Dr.Jit 1.5 needs libLLVM >= {MIN_LLVM} but finds {have} in its own search; "
+                               f"{elsewhere[1]} is libLLVM {elsewhere[0]}: set DRJIT_LIBLLVM_PATH={elsewhere[1]}")
     raise LLVMVersionError(f"Dr.Jit 1.5 needs libLLVM >= {MIN_LLVM} but this machine has {have}: {_LLVM_FIX}")
 
 

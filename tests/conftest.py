@@ -10,7 +10,7 @@ from pathlib import Path
 import pytest
 from hypothesis import HealthCheck, settings
 
-import labcut  # noqa: F401 - first, so trimesh loads as in the CLI: its optional libraries deferred
+import labcut  # noqa: F401 - registers the labradorite plugin with Mitsuba for every test
 
 settings.register_profile(
     "labcut",

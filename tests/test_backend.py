@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import fnmatch
+import json
 import os
 import subprocess
 import sys
@@ -48,19 +50,65 @@ def test_llvm_file_names_parse():
     assert backend._llvm_major("libfoo.so") is None
 
 
-def test_kernel_cache_is_per_user_and_llvm_is_pinned():
-    code = "import os, labcut; print(os.environ['DRJIT_CACHE_DIR']); print(os.environ.get('DRJIT_LIBLLVM_PATH', ''))"
-    env = {k: v for k, v in os.environ.items() if k not in ("DRJIT_CACHE_DIR", "DRJIT_LIBLLVM_PATH", "_LABCUT_SET_LIBLLVM")}
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, check=True).stdout.split("\n")
-    assert out[0].endswith(os.path.join("labcut", "drjit"))
-    assert backend._llvm_major(out[1]) >= backend.MIN_LLVM
+def test_llvm_search_is_drjits_own(monkeypatch, tmp_path):
+    """labcut checks the library Dr.Jit will load: the user's DRJIT_LIBLLVM_PATH, else the newest
+    in Dr.Jit's own folders (a libLLVM elsewhere is named in the error, not silently used)."""
+    monkeypatch.delenv("DRJIT_LIBLLVM_PATH", raising=False)
+    found = backend.find_libllvm()
+    if found is not None:
+        assert any(fnmatch.fnmatch(found[1], p) for p in backend.DRJIT_LLVM_GLOBS)
+    lib = tmp_path / "libLLVM-19.so.1"
+    lib.write_bytes(b"")
+    monkeypatch.setenv("DRJIT_LIBLLVM_PATH", str(lib))
+    assert backend.find_libllvm() == (19, str(lib))
+
+
+def test_check_llvm_names_a_library_drjit_does_not_search(monkeypatch):
+    monkeypatch.delenv("DRJIT_LIBLLVM_PATH", raising=False)
+    monkeypatch.setattr(backend, "find_libllvm", lambda: (15, "/usr/lib/x86_64-linux-gnu/libLLVM-15.so.1"))
+    monkeypatch.setattr(backend, "_newest", lambda patterns: (19, "/usr/local/lib/libLLVM-19.so"))
+    monkeypatch.setattr(backend, "_cuda_driver_present", lambda: False)
+    with pytest.raises(LLVMVersionError, match="DRJIT_LIBLLVM_PATH=/usr/local/lib/libLLVM-19.so"):
+        backend.check_llvm()
+
+
+IMPORT_CHANGES = r"""
+import json, os, sys, warnings
+import numpy, drjit, mitsuba, trimesh, typer, rich  # what they change on import is theirs
+env, filters, finders = dict(os.environ), list(warnings.filters), list(sys.meta_path)
+modules = {name: dict(vars(m)) for name, m in sys.modules.items()
+           if name.split(".")[0] in ("trimesh", "numpy", "scipy", "networkx") and m is not None}
+import labcut
+changed = {k for k in set(env) | set(os.environ) if env.get(k) != os.environ.get(k)}
+rebound = sorted(f"{name}.{attr}" for name, before in modules.items() for attr, value in before.items()
+                 if vars(sys.modules[name]).get(attr, None) is not value)
+print(json.dumps({"env": sorted(changed), "filters": len(warnings.filters) - len(filters),
+                  "finders": [type(f).__name__ for f in sys.meta_path if f not in finders],
+                  "rebound": rebound[:5]}))
+"""
+
+
+def test_import_labcut_changes_nothing_in_the_process():
+    """A library changes nothing on import: no environment variable, warning filter or import
+    hook, and no other package's module namespace rebound."""
+    # a bare environment: nothing a parent process (this one imported labcut) may have set
+    env = {k: os.environ[k] for k in ("PATH", "HOME", "XDG_CACHE_HOME") if k in os.environ}
+    proc = subprocess.run([sys.executable, "-c", IMPORT_CHANGES], capture_output=True, text=True, check=True, env=env)
+    out = json.loads(proc.stdout.strip().splitlines()[-1])
+    assert out == {"env": [], "filters": 0, "finders": [], "rebound": []}
+
+
+def test_trimesh_imported_after_labcut_is_plain_trimesh():
+    code = ("import inspect, sys, labcut, trimesh.proximity as p; "
+            "print(inspect.isclass(p.cKDTree), type(sys.modules['scipy.spatial']).__name__)")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.split()
+    assert out == ["True", "module"]
 
 
 def test_import_fails_clearly_without_a_usable_llvm(tmp_path):
     fake = tmp_path / "libLLVM-15.so.1"
     fake.write_bytes(b"")
     env = {**os.environ, "DRJIT_LIBLLVM_PATH": str(fake)}
-    env.pop("_LABCUT_SET_LIBLLVM", None)
     proc = subprocess.run([sys.executable, "-c", "import labcut"], capture_output=True, text=True, env=env)
     if backend._cuda_driver_present():
         pytest.skip("a CUDA driver is present: labcut runs on CUDA without LLVM")

@@ -1,6 +1,6 @@
 """The layers hold: no module imports a layer above its own (docs/architecture.md).
 
-    errors → backend, fileio, deferred_imports → physics, colour → geometry, scene
+    errors → backend, fileio → physics, colour → geometry, scene
            → rendering, orientation, plots, planner → reports → batch → the CLI (labcut_cli)
 
 A module may import its own layer and any below. Imports are read from the source
@@ -20,7 +20,7 @@ PACKAGE = ROOT / "labcut"
 
 LAYERS: list[tuple[str, ...]] = [
     ("labcut.errors", "labcut.validation"),
-    ("labcut.backend", "labcut.fileio", "labcut.deferred_imports"),
+    ("labcut.backend", "labcut.fileio"),
     ("labcut.physics", "labcut.colour"),
     ("labcut.geometry", "labcut.scene"),
     ("labcut.rendering", "labcut.orientation", "labcut.plots", "labcut.planner"),
