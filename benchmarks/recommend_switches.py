@@ -1,4 +1,4 @@
-"""What each of the standard recommendation's switchable speed-ups buys (issue 17 §4).
+"""What each of the standard recommendation's switchable speed-ups buys.
 
     .venv/bin/python benchmarks/recommend_switches.py [--out docs/performance.md] [--rounds N]
 
@@ -6,16 +6,20 @@ The bundled oval cabochon under ``bench`` at standard quality, the blue preset, 
 for each switch, ``N`` rounds (default 9) of one call with the switch as labcut has it and one
 with it set back to what came before, interleaved so that the machine's drift falls on both;
 the best and the median of each, and the answers' angle (the switch must not move the answer
-beyond its error bar). The switches:
+beyond its error bar). Each switch is a field of the call's
+:class:`~labcut.orientation.kernels.KernelOptions` (handed in through its ``FlashSetup``):
 
-* ``scoring.BINS_IN_DRJIT``: the triples binned in Dr.Jit kernels (64-bit fixed-point sums)
-  against numpy's bincounts;
-* ``problem.LIT_ON_DEVICE``: which lights reach each pair's point tested and compacted on the
-  device against the host's (points x lights) tables;
-* ``scoring.DEVICE_MAP_NORMALS``: calls of 8 normals or more (the tolerance rings) in the map
-  kernel, which finds their tiles on the device, against numpy's blocks below 2^20 terms;
-* ``scoring.DEVICE_MAP_RTOL``: the map kernel culling at its own float32 precision (1e-6) against
-  the numpy paths' 1e-8.
+* ``bins``: the triples binned in Dr.Jit kernels (64-bit fixed-point sums) against numpy's
+  bincounts;
+* ``lit_cells``: which lights reach each pair's point tested and compacted on the device against
+  the host's (points x lights) tables;
+* ``map_min_normals``: calls of 8 normals or more (the tolerance rings) in the map kernel, which
+  finds their tiles on the device, against numpy's blocks below 2^20 terms;
+* ``map_kernel_rtol``: the map kernel culling at its own float32 precision (1e-6) against the
+  numpy paths' 1e-8.
+
+These are also the machine-tuned constants' home: rerun it on a new machine before changing a
+default of ``KernelOptions``.
 
 The section between the ``recommend-switches`` markers of the report is replaced (printed too).
 """
@@ -34,49 +38,46 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 BEGIN, END = "<!-- recommend-switches: begin -->", "<!-- recommend-switches: end -->"
 
-#: (module, name, what it does, the value before it)
+#: (KernelOptions field, what it does, the value before it)
 SWITCHES = [
-    ("labcut.orientation.scoring", "BINS_IN_DRJIT", "the binning in Dr.Jit kernels", False),
-    ("labcut.orientation.problem", "LIT_ON_DEVICE", "the lights' facing tests and lit cells on the device", False),
-    ("labcut.orientation.scoring", "DEVICE_MAP_NORMALS", "calls of 8+ normals (the tolerance rings) in the map kernel", 10**9),
-    ("labcut.orientation.scoring", "DEVICE_MAP_RTOL", "the map kernel's cull at 1e-6", 1e-8),
+    ("bins", "the binning in Dr.Jit kernels", False),
+    ("lit_cells", "the lights' facing tests and lit cells on the device", False),
+    ("map_min_normals", "calls of 8+ normals (the tolerance rings) in the map kernel", 10**9),
+    ("map_kernel_rtol", "the map kernel's cull at 1e-6", 1e-8),
 ]
 
 
 def measure(rounds: int) -> list[dict]:
-    import importlib
+    from dataclasses import replace
 
     import labcut
+    from labcut.orientation.kernels import KernelOptions
+    from labcut.orientation.setup import FlashSetup
 
     mesh = labcut.load_mesh(ROOT / "meshes" / "oval-16x12-low.ply")
-    lab = labcut.Labradorite.preset("blue")
+    asked = FlashSetup.build("blue", "bench", quality="standard")
 
-    def call() -> tuple[float, np.ndarray, float]:
+    def call(kernels: KernelOptions) -> tuple[float, np.ndarray, float]:
         t = time.perf_counter()
-        rec = labcut.recommend_orientation(mesh, lab, scenario="bench", quality="standard")
+        rec = labcut.recommend_orientation(mesh, setup=replace(asked, kernels=kernels))
         return time.perf_counter() - t, rec.normal, rec.uncertainty.angle_deg
 
     rows = []
-    for module, name, what, before in SWITCHES:
-        mod = importlib.import_module(module)
-        now = getattr(mod, name)
+    for name, what, before in SWITCHES:
+        now = getattr(KernelOptions(), name)
+        options = {"now": KernelOptions(), "before": KernelOptions(**{name: before})}
         times: dict[str, list[float]] = {"now": [], "before": []}
         normals = {}
         bar = 0.0
-        try:
-            for value, key in ((now, "now"), (before, "before")):  # warm both
-                setattr(mod, name, value)
-                call()
-            for _ in range(rounds):
-                for value, key in ((now, "now"), (before, "before")):
-                    setattr(mod, name, value)
-                    seconds, normal, bar = call()
-                    times[key].append(seconds)
-                    normals[key] = normal
-        finally:
-            setattr(mod, name, now)
+        for key in ("now", "before"):  # warm both
+            call(options[key])
+        for _ in range(rounds):
+            for key in ("now", "before"):
+                seconds, normal, bar = call(options[key])
+                times[key].append(seconds)
+                normals[key] = normal
         angle = math.degrees(math.acos(min(1.0, abs(float(np.dot(normals["now"], normals["before"]))))))
-        rows.append({"switch": f"{module.rsplit('.', 1)[-1]}.{name}", "what": what, "before": before, "now": now,
+        rows.append({"switch": f"KernelOptions.{name}", "what": what, "before": before, "now": now,
                      "best_now": min(times["now"]), "best_before": min(times["before"]),
                      "median_now": statistics.median(times["now"]), "median_before": statistics.median(times["before"]),
                      "angle": angle, "bar": bar})

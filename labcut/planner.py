@@ -699,7 +699,7 @@ def estimator_seconds(scene: Any, command: str, occlusion: bool, inter_reflectio
     estimator's recommendation of the cut under the scenario (the curves and renders come on top)."""
     from .orientation.timing import calibrating, predict_sample_seconds
 
-    if calibrating() or _CALIBRATING:
+    if calibrating():
         return {}
     from .orientation.optimize import Constraint, hemisphere_grid
     from .orientation.render_estimator import RENDER_QUALITY, predict_render_seconds
@@ -723,7 +723,6 @@ def estimator_seconds(scene: Any, command: str, occlusion: bool, inter_reflectio
 
 
 # ---------------------------------------------------------------------- calibrations of the other commands
-_CALIBRATING = False
 
 
 def _evaluate_key() -> str:
@@ -745,16 +744,11 @@ def evaluate_timing(refresh: bool = False) -> dict[str, float]:
     from .fileio import calibration
 
     def measure() -> dict[str, float]:
-        global _CALIBRATING
         from .orientation.recommend import evaluate_orientation
         from .orientation.timing import time_three
 
-        _CALIBRATING = True
-        try:
-            fixed, per_term, per_ray = time_three(
-                lambda m, quality: evaluate_orientation(m, (0.05, 0.02, 1.0), quality=quality), repeats=2)
-        finally:
-            _CALIBRATING = False
+        fixed, per_term, per_ray = time_three(  # a calibration run (timing.calibration_run) itself
+            lambda m, quality: evaluate_orientation(m, (0.05, 0.02, 1.0), quality=quality), repeats=2)
         return {"fixed": fixed, "per_term": per_term, "per_ray": per_ray}
 
     value = calibration("planner-evaluate-timing.json", _evaluate_key(), measure, refresh=refresh,
@@ -794,8 +788,9 @@ def render_command_timing(mode: str, polarised: bool, integrator: str, look: str
     key = f"{mode} {'polarised' if polarised else 'plain'} {integrator} {look} | mitsuba {mi.__version__} labcut {__version__} cpus {os.cpu_count()} v2"
 
     def measure() -> dict[str, float]:
-        global _CALIBRATING
         import trimesh
+
+        from .orientation.timing import calibration_run
 
         from .physics.material import Labradorite
         from .rendering.api import render
@@ -806,15 +801,12 @@ def render_command_timing(mode: str, polarised: bool, integrator: str, look: str
                   max_depth=4 if integrator == "path" else None, look=look)
         mat = Labradorite()
         rows = []
-        _CALIBRATING = True
-        try:
+        with calibration_run():
             for res, n in _RENDER_CAL:
                 render(sphere, mat, (0.05, 0.02, 1.0), resolution=res, spp=n, **kw)  # warm: kernels
                 t = time.perf_counter()
                 render(sphere, mat, (0.05, 0.02, 1.0), resolution=res, spp=n, **kw)
                 rows.append((res * res * n, time.perf_counter() - t))
-        finally:
-            _CALIBRATING = False
         return linear_fit(rows)
 
     value = calibration("planner-render-timing.json", key, measure, refresh=refresh,
@@ -836,7 +828,7 @@ def _predicted_render_seconds(mode: str, polarised: bool, integrator: str, resol
     per sample x resolution² x spp)."""
     from .orientation.timing import calibrating
 
-    if _CALIBRATING or calibrating():
+    if calibrating():
         return {}
     return {"render": render_seconds(mode, polarised, integrator, resolution, spp, views, look)}
 

@@ -4,7 +4,7 @@ the numpy reference's sums: the same terms in the same order per pair, float64 s
 The kernel (``problem._PairSums``: a thread per (point, view) pair over its triples) serves the
 error bars' bootstrap and discretisation energies and the metrics of every
 answer; the numpy passes (``FlashProblem.pair_radiance_numpy``) stay as the reference and the
-path of problems the kernel does not take (over ``PAIRS_DRJIT_MAX`` triples, or not sorted by pair).
+path of problems the kernel does not take (over ``KernelOptions.pair_sums_max_triples`` triples, or not sorted by pair).
 """
 
 from __future__ import annotations
@@ -20,6 +20,7 @@ from hypothesis import strategies as st
 
 import labcut
 from labcut.orientation import problem as problem_module
+from labcut.orientation.kernels import KernelOptions
 from labcut.orientation.problem import build_problem, lobe_reach
 from labcut.orientation.uncertainty import _reach, stencil
 from labcut.scene import resolve_scene
@@ -78,21 +79,20 @@ def test_stencil_sums_within_reach_from_the_kernel_equal_the_numpy_path(bench, m
     normals, _ = stencil(m, 1.5)
     r = _reach(bench.kappa, normals)
     got = bench.pair_radiance(normals, r)
-    monkeypatch.setattr(problem_module, "PAIRS_IN_DRJIT", False)
-    slow = _fresh(bench)
+    slow = replace(bench, info=dict(bench.info), kernels=KernelOptions(pair_sums=False))
     assert slow._pair_sums is None
     np.testing.assert_allclose(slow.pair_radiance(normals, r), got, rtol=1e-6, atol=1e-12)
 
 
 def test_problems_the_kernel_does_not_take_use_the_numpy_path(bench, monkeypatch):
-    """Over PAIRS_DRJIT_MAX triples, or triples not sorted by pair: the numpy passes, the same sums."""
+    """Over pair_sums_max_triples triples, or triples not sorted by pair: the numpy passes, the same sums."""
     normals = np.array([[0.0, 0.0, 1.0], [0.1, 0.0, 0.995]])
     want = bench.pair_radiance(normals)
-    monkeypatch.setattr(problem_module, "PAIRS_DRJIT_MAX", bench.n_triples - 1)
-    big = _fresh(bench)
+    big = replace(bench, info=dict(bench.info), kernels=KernelOptions(pair_sums_max_triples=bench.n_triples - 1))
     assert big._pair_sums is None
     np.testing.assert_allclose(big.pair_radiance(normals), want, rtol=1e-6, atol=1e-12)
-    monkeypatch.setattr(problem_module, "PAIRS_DRJIT_MAX", bench.n_triples)
+    assert replace(bench, info=dict(bench.info),
+                   kernels=KernelOptions(pair_sums_max_triples=bench.n_triples))._pair_sums is not None
     order = np.random.default_rng(1).permutation(bench.n_triples)
     shuffled = replace(bench, h=bench.h[order], c=bench.c[order], pair=bench.pair[order], info=dict(bench.info))
     assert not shuffled.pairs_sorted and shuffled._pair_sums is None

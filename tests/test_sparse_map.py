@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
 import math
 from pathlib import Path
 
@@ -12,6 +13,7 @@ from hypothesis import strategies as st
 
 import labcut
 from labcut.orientation import scoring as scoring_module
+from labcut.orientation.kernels import KernelOptions
 from labcut.orientation.problem import build_problem
 from labcut.orientation.scoring import Scorer, SparseLobeMap, grid_inverse
 from labcut.scene import resolve_scene
@@ -130,8 +132,7 @@ def test_binned_triples_match_the_unique_reference(scorer, chunk, device_keys, d
     fixed-point sums within about 1e-13 of the total weight (their units: 2^-62 of it)."""
     from labcut.orientation import scoring as scoring_module
 
-    monkeypatch.setattr(scoring_module, "KEYS_IN_DRJIT", device_keys)
-    monkeypatch.setattr(scoring_module, "BINS_IN_DRJIT", device_bins)
+    scorer = Scorer(replace(scorer.problem, kernels=KernelOptions(grid_keys=device_keys, bins=device_bins)))
     assert scoring_module._device_keys_apply(scorer.problem, 612 * 612) is device_keys
     if chunk is not None:
         monkeypatch.setattr(scoring_module, "CHUNK", chunk)
@@ -231,7 +232,7 @@ def test_auto_path_takes_the_union_for_a_ring_and_the_tiles_for_a_map(scorer, mo
     centre = np.array([0.05, -0.05, 1.0]) / np.linalg.norm([0.05, -0.05, 1.0])
     sm(ring(centre, 2.0, 4))
     assert len(unions) == 1
-    monkeypatch.setattr(scoring_module, "MAP_IN_DRJIT", False)
+    monkeypatch.setattr(sm, "kernels", KernelOptions(energy_map=False))
     sm(ring(centre, 2.0, 16))
     assert len(unions) == 2
     sm(hemisphere_grid(3.0, Constraint()))
@@ -239,9 +240,9 @@ def test_auto_path_takes_the_union_for_a_ring_and_the_tiles_for_a_map(scorer, mo
 
 
 def test_auto_path_takes_the_kernel_for_a_map_of_many_terms(scorer, monkeypatch):
-    """A call of DEVICE_MAP_NORMALS normals or more (a tolerance's ring of 16, a map), or of fewer
-    with at least DEVICE_MAP_TERMS terms within reach, goes to the Dr.Jit kernel; a few normals to
-    the numpy union; MAP_IN_DRJIT off: never the kernel."""
+    """A call of map_min_normals normals or more (a tolerance's ring of 16, a map), or of fewer
+    with at least map_min_terms terms within reach, goes to the Dr.Jit kernel; a few normals to
+    the numpy union; energy_map off: never the kernel."""
     from labcut.orientation.optimize import Constraint, hemisphere_grid
     from labcut.reports.analysis import ring
 
@@ -250,24 +251,24 @@ def test_auto_path_takes_the_kernel_for_a_map_of_many_terms(scorer, monkeypatch)
     calls = []
     real = sm._device_sums
     monkeypatch.setattr(sm, "_device_sums", lambda *a: calls.append(len(a[0])) or real(*a))
-    monkeypatch.setattr(scoring_module, "DEVICE_MAP_TERMS", 10_000)
+    monkeypatch.setattr(sm, "kernels", KernelOptions(map_min_terms=10_000))
     want = sm(grid, path="tiles")
     got = sm(grid)
     assert calls == [len(grid)]
     np.testing.assert_allclose(got, want, rtol=0.0, atol=1e-6 * want.max())
-    monkeypatch.setattr(scoring_module, "DEVICE_MAP_TERMS", 1 << 20)
+    monkeypatch.setattr(sm, "kernels", KernelOptions(map_min_terms=1 << 20))
     centre = np.array([0.05, -0.05, 1.0]) / np.linalg.norm([0.05, -0.05, 1.0])
-    few = ring(centre, 0.5, scoring_module.DEVICE_MAP_NORMALS - 1)
+    few = ring(centre, 0.5, KernelOptions().map_min_normals - 1)
     sm(few)
     assert calls == [len(grid)]  # fewer normals and terms than the kernel takes
-    monkeypatch.setattr(scoring_module, "DEVICE_MAP_TERMS", 1000)
+    monkeypatch.setattr(sm, "kernels", KernelOptions(map_min_terms=1000))
     np.testing.assert_allclose(sm(few), sm(few, path="union"), rtol=0.0, atol=1e-6 * want.max())
     assert calls == [len(grid), len(few)]  # as many terms as the kernel takes
-    monkeypatch.setattr(scoring_module, "DEVICE_MAP_TERMS", 1 << 20)
+    monkeypatch.setattr(sm, "kernels", KernelOptions(map_min_terms=1 << 20))
     sixteen = ring(centre, 0.5, 16)
     np.testing.assert_allclose(sm(sixteen), sm(sixteen, path="union"), rtol=0.0, atol=1e-6 * want.max())
     assert calls == [len(grid), len(few), 16]  # a tolerance's ring
-    monkeypatch.setattr(scoring_module, "MAP_IN_DRJIT", False)
+    monkeypatch.setattr(sm, "kernels", KernelOptions(energy_map=False))
     sm(grid)
     assert calls == [len(grid), len(few), 16]
 
@@ -302,7 +303,7 @@ def test_a_map_started_and_read_later_is_the_map(scorer, monkeypatch):
     assert later() is later()
     few = ring(np.array([0.0, 0.0, 1.0]), 1.0, 3)
     np.testing.assert_array_equal(sm.later(few)(), sm(few))
-    monkeypatch.setattr(scoring_module, "MAP_IN_DRJIT", False)
+    monkeypatch.setattr(sm, "kernels", KernelOptions(energy_map=False))
     np.testing.assert_allclose(sm.later(grid)(), sm(grid, path="tiles"), rtol=0.0, atol=0.0)
     counted = scorer.evaluations
     scorer.energy_map_later(grid)
@@ -328,7 +329,6 @@ def test_a_bin_whose_fixed_point_sum_is_zero_is_dropped(scorer, monkeypatch):
     hb, ab = Scorer(small)._bin_triples()
     assert np.all(np.isfinite(hb)) and np.all(ab > 0)
     assert not np.any(np.all(np.abs(hb - [0.6, 0.0, 0.8]) < 1e-6, axis=1))  # the light one's bin is gone
-    monkeypatch.setattr(scoring_module, "BINS_IN_DRJIT", False)
-    hn, an = Scorer(small)._bin_triples()
+    hn, an = Scorer(replace(small, kernels=KernelOptions(bins=False)))._bin_triples()
     assert len(an) == len(ab) + 1  # numpy keeps its float64 weight of 1e-30-ish
     np.testing.assert_allclose(ab, an[an > 1e-20], rtol=1e-10, atol=1e-13 * float(an.sum()))

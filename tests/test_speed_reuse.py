@@ -74,21 +74,22 @@ def test_problems_of_one_stone_share_their_surface_samples(oval):
 def test_the_drjit_triple_kernel_equals_the_numpy_reference(name, scenario, monkeypatch):
     """The triple terms in one float32 Dr.Jit kernel (the default) against the float64 numpy passes:
     the same triples in the same order, their terms to float32 rounding, the same answer."""
-    from labcut.orientation import problem as problem_mod
+    from dataclasses import replace
+
+    from labcut.orientation.kernels import KernelOptions
 
     mesh = labcut.load_mesh(MESHES / name)
     setup = FlashSetup.build("blue", scenario, quality="draft")
     settings = setup.scenario.settings()
     fast = build_problem(mesh, setup.material, quality="draft", settings=settings)
-    monkeypatch.setattr(problem_mod, "TRIPLES_IN_DRJIT", False)
-    slow = build_problem(mesh, setup.material, quality="draft", settings=settings)
+    slow = build_problem(mesh, setup.material, quality="draft", settings=settings, kernels=KernelOptions(triples=False))
     for key in ("pair", "pair_view", "pair_weight", "view_weight"):
         np.testing.assert_array_equal(getattr(fast, key), getattr(slow, key))
     np.testing.assert_allclose(fast.h, slow.h, rtol=0, atol=1e-6)
     np.testing.assert_allclose(fast.c, slow.c, rtol=0, atol=1e-5 * float(slow.c.max()))
-    rec_slow = labcut.recommend_orientation(mesh, "blue", scenario=scenario, quality="draft", estimator="samples")
-    monkeypatch.setattr(problem_mod, "TRIPLES_IN_DRJIT", True)
-    rec_fast = labcut.recommend_orientation(mesh.copy(), "blue", scenario=scenario, quality="draft", estimator="samples")
+    asked = FlashSetup.build("blue", scenario, quality="draft", estimator="samples")
+    rec_slow = labcut.recommend_orientation(mesh, setup=replace(asked, kernels=KernelOptions(triples=False)))
+    rec_fast = labcut.recommend_orientation(mesh.copy(), setup=asked)
     angle = math.degrees(math.acos(min(1.0, abs(float(np.dot(rec_fast.normal, rec_slow.normal))))))
     assert angle < 0.1 * rec_slow.uncertainty.angle_deg
     assert rec_fast.score == pytest.approx(rec_slow.score, rel=1e-4)

@@ -5,6 +5,7 @@ and however many lights each pose has."""
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -12,6 +13,7 @@ import pytest
 
 import labcut
 from labcut.orientation import problem as problem_module
+from labcut.orientation.kernels import KernelOptions
 from labcut.orientation.problem import build_problem
 from labcut.scene import Lights, Setting, Views, resolve_scene
 
@@ -44,8 +46,7 @@ def test_poses_of_unequal_light_counts(oval, monkeypatch):
                 Setting(lights(2), Views([[0.3, 0.0, 0.954]]), 0.2, np.eye(3))]
     lab = labcut.Labradorite.preset("blue")
     fast = build_problem(oval, lab, quality="draft", settings=settings)
-    monkeypatch.setattr(problem_module, "TRIPLES_IN_DRJIT", False)
-    slow = build_problem(oval, lab, quality="draft", settings=settings)
+    slow = build_problem(oval, lab, quality="draft", settings=settings, kernels=KernelOptions(triples=False))
     assert fast.n_triples == slow.n_triples > 0
     _same(fast, slow)
 
@@ -57,14 +58,12 @@ def test_chunks_of_cells_give_the_one_call_triples(oval, monkeypatch):
     settings = resolve_scene("bench", None, None, "draft").settings()
     kw: dict = {}
     whole = build_problem(oval, lab, quality="draft", settings=settings, **kw)
-    monkeypatch.setattr(problem_module, "DENSE_CHUNK", 1000)
     width = max(len(st.lights.directions) for st in settings)  # light slots per pair
     assert whole.info["pairs"] * width > 20 * 1000  # twenty chunks and more
-    chunked = build_problem(oval, lab, quality="draft", settings=settings, **kw)
+    chunked = build_problem(oval, lab, quality="draft", settings=settings, kernels=KernelOptions(dense_chunk=1000), **kw)
     for key in ("h", "c", *KEYS):
         np.testing.assert_array_equal(getattr(chunked, key), getattr(whole, key))
-    monkeypatch.setattr(problem_module, "TRIPLES_IN_DRJIT", False)
-    _same(whole, build_problem(oval, lab, quality="draft", settings=settings, **kw))
+    _same(whole, build_problem(oval, lab, quality="draft", settings=settings, kernels=KernelOptions(triples=False), **kw))
 
 
 @pytest.mark.parametrize("chunk", [None, 20_000])
@@ -72,10 +71,9 @@ def test_the_device_copy_of_the_triples_is_the_host_arrays(oval, chunk, monkeypa
     """A problem made in one kernel call keeps that call's device arrays as its device copy (no copy
     back from the host); made in several chunks, the copy is made from the host arrays. Either way
     the device copy holds the host arrays' values bit for bit."""
-    if chunk is not None:
-        monkeypatch.setattr(problem_module, "DENSE_CHUNK", chunk)
+    kernels = KernelOptions() if chunk is None else KernelOptions(dense_chunk=chunk)
     setup_settings = labcut.Scenario.preset("bench", "draft").settings()
-    p = build_problem(oval, labcut.Labradorite.preset("blue"), quality="draft", settings=setup_settings)
+    p = build_problem(oval, labcut.Labradorite.preset("blue"), quality="draft", settings=setup_settings, kernels=kernels)
     kept = "device_triples" in p.__dict__
     assert kept is (chunk is None)  # one call: its arrays were kept
     h, c = p.device_triples
@@ -87,15 +85,13 @@ def test_the_device_copy_of_the_triples_is_the_host_arrays(oval, chunk, monkeypa
 @pytest.mark.parametrize("chunk", [None, 30_000])
 def test_lights_tested_on_the_device_give_the_host_tables_triples(oval, scenario, chunk, monkeypatch):
     """Without occlusion rays the kernel path tests which lights reach each pair's point on the
-    device (LIT_ON_DEVICE) instead of the host's (points x lights) tables: the same triples in the
-    same order, in one chunk or several."""
-    if chunk is not None:
-        monkeypatch.setattr(problem_module, "DENSE_CHUNK", chunk)
+    device (KernelOptions.lit_cells) instead of the host's (points x lights) tables: the same triples
+    in the same order, in one chunk or several."""
+    kernels = KernelOptions() if chunk is None else KernelOptions(dense_chunk=chunk)
     settings = labcut.Scenario.preset(scenario, "draft").settings()
     lab = labcut.Labradorite.preset("blue")
-    on_device = build_problem(oval, lab, quality="draft", settings=settings)
-    monkeypatch.setattr(problem_module, "LIT_ON_DEVICE", False)
-    on_host = build_problem(oval, lab, quality="draft", settings=settings)
+    on_device = build_problem(oval, lab, quality="draft", settings=settings, kernels=kernels)
+    on_host = build_problem(oval, lab, quality="draft", settings=settings, kernels=replace(kernels, lit_cells=False))
     assert on_device.n_triples == on_host.n_triples > 0
     for key in ("h", "c", "pair", "pair_view", "pair_weight", "view_weight"):
         np.testing.assert_array_equal(getattr(on_device, key), getattr(on_host, key))
@@ -112,7 +108,6 @@ def test_the_device_light_test_is_the_hosts(oval, monkeypatch):
                         Views([[0.0, 0.0, 1.0], [0.4, 0.0, 0.9]]), 1.0, np.eye(3))]
     lab = labcut.Labradorite.preset("blue")
     on_device = build_problem(oval, lab, quality="draft", settings=settings)
-    monkeypatch.setattr(problem_module, "LIT_ON_DEVICE", False)
-    on_host = build_problem(oval, lab, quality="draft", settings=settings)
+    on_host = build_problem(oval, lab, quality="draft", settings=settings, kernels=KernelOptions(lit_cells=False))
     for key in ("h", "c", "pair"):
         np.testing.assert_array_equal(getattr(on_device, key), getattr(on_host, key))

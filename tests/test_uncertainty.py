@@ -142,19 +142,18 @@ def test_stencil_energy_equals_the_pair_sums(oval, views, kernel, monkeypatch):
     kernel or the numpy path, weighted by pair_alpha) equals the view-weighted pair sums the
     bootstrap uses (objective_values of pair_radiance, every point weighted 1), with views of
     unequal weight too."""
-    from labcut.orientation import problem as problem_module
+    from labcut.orientation.kernels import KernelOptions
     from labcut.orientation.problem import build_problem
     from labcut.orientation.uncertainty import _point_count, objective_values, pair_radiance, stencil_values
     from labcut.scene import resolve_scene
 
-    monkeypatch.setattr(problem_module, "PAIRS_IN_DRJIT", kernel)
     lab = labcut.Labradorite.preset("blue")
     if views is None:
         kw = {"settings": resolve_scene("bench", None, None, "draft").settings()}
     else:
         kw = {"lights": labcut.Lights([[0.0, 0.1, 1.0], [0.2, 0.0, 0.98]]),
               "views": labcut.Views([[0.0, 0.0, 1.0], [0.3, 0.0, 0.95], [0.0, -0.4, 0.92]], weights=[0.6, 0.3, 0.1])}
-    whole = build_problem(oval, lab, quality="draft", **kw)
+    whole = build_problem(oval, lab, quality="draft", kernels=KernelOptions(pair_sums=kernel), **kw)
     m = np.array([0.02, -0.06, 1.0])
     m /= np.linalg.norm(m)
     normals, _ = stencil(m, 1.5)

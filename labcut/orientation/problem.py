@@ -41,6 +41,7 @@ from ..physics.material import Labradorite
 from ..physics.ops import NUMPY
 from ..scene import Lights, Setting, Views
 from ..scene.quality import Quality
+from .kernels import DEFAULT_KERNELS, KernelOptions
 
 
 def fresnel_dielectric(cos_i: np.ndarray, eta: float) -> np.ndarray:
@@ -87,14 +88,6 @@ def reference_radiance(material: Labradorite, total_irradiance: float) -> float:
 #: triples per chunk of :meth:`FlashProblem.pair_radiance`: its (stencil normals x chunk) float32 lobe
 #: values stay near 17 MB (a first call in a process paid 0.1 s of fresh pages at 2^21)
 PAIR_CHUNK = 1 << 18
-#: sum :meth:`FlashProblem.pair_radiance` in one Dr.Jit
-#: kernel (:class:`_PairSums`: a thread per pair runs over its triples in order, float64 sums) rather
-#: than in numpy passes per normal; the numpy path stays the reference (``tests/test_pair_sums.py``)
-PAIRS_IN_DRJIT = True
-#: problems of more triples keep to the numpy path in chunks: the kernel reads a device copy of the
-#: triples (:attr:`FlashProblem.device_triples`, 16 bytes each: 128 MiB at this size) and holds two
-#: uint32 bounds per pair
-PAIRS_DRJIT_MAX = 1 << 23
 
 
 @dataclass
@@ -116,6 +109,9 @@ class FlashProblem:
     convex: bool
     n_points: int
     info: dict[str, Any] = field(default_factory=dict)
+    #: which steps run as Dr.Jit kernels (:class:`~labcut.orientation.kernels.KernelOptions`): the
+    #: problem's own pair sums and its scorer's binning and energy map read them from here
+    kernels: KernelOptions = DEFAULT_KERNELS
 
     @property
     def n_triples(self) -> int:
@@ -170,9 +166,9 @@ class FlashProblem:
     @functools.cached_property
     def _pair_sums(self) -> _PairSums | None:
         """The Dr.Jit pair-sum kernel of these triples (:class:`_PairSums`), or None where the numpy
-        path sums them (:data:`PAIRS_IN_DRJIT` off, triples not sorted by pair, a problem over
-        :data:`PAIRS_DRJIT_MAX`); made at the first sum, kept with the problem."""
-        if not PAIRS_IN_DRJIT or not self.pairs_sorted or self.n_triples > PAIRS_DRJIT_MAX or self.n_triples == 0:
+        path sums them (:attr:`kernels` without ``pair_sums``, or over its ``pair_sums_max_triples``;
+        triples not sorted by pair); made at the first sum, kept with the problem."""
+        if not self.kernels.pair_kernel_takes(self.n_triples) or not self.pairs_sorted:
             return None
         return _PairSums(self)
 
@@ -462,6 +458,7 @@ def build_problem(
     *,
     settings: list[Setting] | None = None,
     occlusion: bool | None = None,
+    kernels: KernelOptions = DEFAULT_KERNELS,
 ) -> FlashProblem:
     """Sample the surface and build every (point, light, view) triple (see the module docstring).
 
@@ -473,7 +470,8 @@ def build_problem(
     the stone in the way (default: when the stone is not convex; the effect planner may switch it).
 
     The surface samples are :func:`surface_samples` of this mesh, point count and ``seed`` (drawn
-    once, then found in the mesh's cache: problems of the same stone share them).
+    once, then found in the mesh's cache: problems of the same stone share them). ``kernels``: which
+    steps run as Dr.Jit kernels (:class:`~labcut.orientation.kernels.KernelOptions`), kept with the problem.
     """
     if settings is None:
         if lights is None or views is None:
@@ -495,12 +493,12 @@ def build_problem(
     pose_w = np.array([float(st.weight) for st in settings])
     pose_w = pose_w / pose_w.sum()
 
-    kernel = _TripleKernel(n_sh, material.n_surface, table, l_ref) if TRIPLES_IN_DRJIT else None
+    kernel = _TripleKernel(n_sh, material.n_surface, table, l_ref) if kernels.triples else None
     occluded = not (convex if occlusion is None else not occlusion)
     # each pose's pairs and lit lights first (the facing tests and occlusion rays); each pose's
     # lights are normalised to total irradiance 1: L_ref is per unit irradiance. Without occlusion
-    # rays the kernel path tests the lights itself (LIT_ON_DEVICE): only the pairs here
-    lit_on_device = kernel is not None and LIT_ON_DEVICE and not occluded
+    # rays the kernel path tests the lights itself (KernelOptions.lit_cells): only the pairs here
+    lit_on_device = kernels.lit_cells_on_device and not occluded
     poses = [_PosePairs(*view_pairs(st.views.directions, points, n_geo, n_sh, mesh, False), None) if lit_on_device
              else _setting_pairs(st.lights.directions, st.lights.weights / total_irradiance[k], st.views.directions,
                                  points, n_geo, n_sh, mesh, not occluded)
@@ -520,7 +518,7 @@ def build_problem(
     pair_view = np.concatenate(pv_parts)
     cells = None
     if lit_on_device:  # each chunk's lit (pair, light) cells, found on the device: their count sizes the arrays
-        cells = _lit_cells(settings, poses, pair_point, n_geo, n_sh)
+        cells = _lit_cells(settings, poses, pair_point, n_geo, n_sh, kernels.dense_chunk)
         total = cells.total
     else:
         total = sum(pose.n_triples for pose in poses)
@@ -542,11 +540,11 @@ def build_problem(
 
     if kernel is not None:  # every pose's triples in one kernel call per chunk of pairs
         _all_triples(settings, [1.0 / e for e in total_irradiance], poses, np.array(offsets + [pair_offset]), pair_point,
-                     pair_view, kernel, sink, cells)
+                     pair_view, kernel, sink, cells, kernels.dense_chunk)
     else:
         for k, (st, pose) in enumerate(zip(settings, poses)):
             _setting_triples(st.lights.directions, st.lights.weights / total_irradiance[k], st.views.directions, pose,
-                             n_sh, material.n_surface, table, l_ref, count,
+                             n_sh, material.n_surface, table, l_ref, count, kernels.dense_chunk,
                              lambda h_t, c_t, pair_t, off=offsets[k]: sink(h_t, c_t, pair_t + off))
     del poses
     if at[0] != total:  # pragma: no cover - the count and the triples written must agree
@@ -579,6 +577,7 @@ def build_problem(
         views=settings[0].views,
         convex=convex,
         n_points=count,
+        kernels=kernels,
         info={"l_ref": l_ref, "pairs": int(pair_offset), "triples": int(c.size), "poses": len(settings),
               "pair_point": pair_point.astype(np.int32)},
     )
@@ -589,11 +588,6 @@ def build_problem(
     return problem
 
 
-#: evaluate the triple terms in Dr.Jit kernels, every pose at once per chunk of (pair, light)
-#: cells (float32, the problem's own precision: :func:`_all_triples`) rather than in float64 numpy
-#: passes per pose (:func:`_setting_triples`); nothing in labcut turns it off: the numpy path is
-#: the reference the tests compare with (``tests/test_speed_reuse.py``, ``tests/test_triple_batches.py``)
-TRIPLES_IN_DRJIT = True
 
 
 def lights_reach(n_geo: Any, n_sh: Any, light: Any, bright: Any) -> Any:
@@ -704,7 +698,7 @@ class _TripleKernel:
 class _PosePairs:
     """One pose's (point, view) pairs (sorted by point) with their projected-area weights (summing
     to 1 within each view), and which lights each surface point sees (``lit``: points x lights;
-    None where the triple kernel tests the lights on the device, :data:`LIT_ON_DEVICE`)."""
+    None where the triple kernel tests the lights on the device, ``KernelOptions.lit_cells``)."""
 
     pi: np.ndarray
     pv: np.ndarray
@@ -752,14 +746,6 @@ def _setting_pairs(L, E, V, points, n_geo, n_sh, mesh, convex) -> _PosePairs:
     return _PosePairs(pi, pv, pair_weight, lit)
 
 
-#: (pair, light) cells per kernel call of :func:`_all_triples` (and the bound of the numpy
-#: reference's chunks, :func:`_setting_triples`)
-DENSE_CHUNK = 4_000_000
-#: without occlusion rays, the triple kernel's path tests which lights reach each pair's point on
-#: the device (:func:`_lit_cells`: the host's facing tests, in float64) and compacts the lit cells
-#: there, instead of the host's (points x lights) tables per pose, their (pairs x lights) gather and
-#: its index (4 ms of a standard problem's 17 ms build)
-LIT_ON_DEVICE = True
 
 
 def light_rows(settings: list[Setting], scale: list[float] | None = None) -> tuple[np.ndarray, np.ndarray, int]:
@@ -809,8 +795,8 @@ class _LitCells:
 
 
 def _lit_cells(settings: list[Setting], poses: list[_PosePairs], point: np.ndarray, n_geo: np.ndarray,
-               n_sh: np.ndarray) -> _LitCells:
-    """The lit cells of every chunk of :data:`DENSE_CHUNK` (pair, light slot) cells of
+               n_sh: np.ndarray, dense_chunk: int) -> _LitCells:
+    """The lit cells of every chunk of ``dense_chunk`` (pair, light slot) cells of
     :func:`_all_triples` (:class:`_LitCells`): a cell counts, as in the host's table, where the
     pose's light faces the pair's point's geometric and shading normals (> 1e-6, float64, the
     host's tests) and carries irradiance. For a stone without occlusion rays."""
@@ -824,7 +810,7 @@ def _lit_cells(settings: list[Setting], poses: list[_PosePairs], point: np.ndarr
     ns = t.Array3f64(*(np.ascontiguousarray(n_sh[:, k], dtype=np.float64) for k in range(3)))
     pose_of = np.concatenate([np.full(len(pose.pi), k, dtype=np.int64) for k, pose in enumerate(poses)])
     w = dr.opaque(t.UInt32, width)
-    chunk = max(1, DENSE_CHUNK // width)
+    chunk = max(1, dense_chunk // width)
 
     def test(k: int) -> Any:
         g0 = k * chunk
@@ -843,7 +829,7 @@ def _lit_cells(settings: list[Setting], poses: list[_PosePairs], point: np.ndarr
 
 def _all_triples(settings: list[Setting], scale: list[float], poses: list[_PosePairs], first_pair: np.ndarray,
                  point: np.ndarray, view: np.ndarray, kernel: _TripleKernel,
-                 sink: Any, lit_cells: _LitCells | None = None) -> None:
+                 sink: Any, lit_cells: _LitCells | None, dense_chunk: int) -> None:
     """The triples of every pose at once (:func:`_setting_triples`'s triples, in its order: pose,
     pair, light), handed to ``sink(h, c, pair)`` chunk by chunk, ``pair`` an index into all poses'
     pairs (``first_pair``: each pose's first pair among all, and their count last; ``point`` and
@@ -851,14 +837,14 @@ def _all_triples(settings: list[Setting], scale: list[float], poses: list[_PoseP
     :func:`build_problem` concatenates them). Each pose's lights (irradiance times ``scale``) fill a row of ``width`` slots (the
     most lights of a pose; empty slots unlit); the (pair, light slot) cells a pair's point sees
     lit are its triples, evaluated by :meth:`_TripleKernel.dense` per chunk of
-    :data:`DENSE_CHUNK` cells: one call for a problem at standard quality rather than one per pose,
+    ``dense_chunk`` cells: one call for a problem at standard quality rather than one per pose,
     the per-triple indices made on the device. ``lit_cells``: the lit cells of each chunk found on
     the device (:func:`_lit_cells`; the poses then carry no ``lit`` tables)."""
     L, E, width = light_rows(settings, scale)
     V = np.concatenate([st.views.directions for st in settings])
     pose_of = np.concatenate([np.full(len(pose.pi), k, dtype=np.int64) for k, pose in enumerate(poses)])
     light0 = pose_of * width
-    chunk = max(1, DENSE_CHUNK // width)
+    chunk = max(1, dense_chunk // width)
     for n_chunk, g0 in enumerate(range(0, point.size, chunk)):
         g1 = min(point.size, g0 + chunk)
         if lit_cells is not None:
@@ -879,17 +865,16 @@ def _all_triples(settings: list[Setting], scale: list[float], poses: list[_PoseP
         sink(h, c, (np.asarray(index) // width).astype(np.int32) + np.int32(g0))
 
 
-def _setting_triples(L, E, V, pose, n_sh, eta, table, l_ref, count, sink) -> None:
+def _setting_triples(L, E, V, pose, n_sh, eta, table, l_ref, count, dense_chunk, sink) -> None:
     """Triples of one pose (its :class:`_PosePairs`) in float64 numpy passes: the reference of
-    :func:`_all_triples`'s kernel for the tests (``TRIPLES_IN_DRJIT`` off; labcut itself always
-    takes the kernel), handed to ``sink(h, c, pair)`` chunk
+    :func:`_all_triples`'s kernel for the tests (``KernelOptions.triples`` off), handed to ``sink(h, c, pair)`` chunk
     by chunk (pair: index into the pose's pairs)."""
     pi, pv, lit = pose.pi, pose.pv, pose.lit
 
     # triples: each pair x the lights its point sees; built in chunks of points and
     # stored in float32 (20 bytes a triple) so high quality stays within memory
     pair_first = np.searchsorted(pi, np.arange(count + 1))  # pairs are sorted by point
-    chunk = max(1, DENSE_CHUNK // max(1, len(V) * max(1, int(lit.sum(axis=1).max(initial=1)))))
+    chunk = max(1, dense_chunk // max(1, len(V) * max(1, int(lit.sum(axis=1).max(initial=1)))))
     for p0 in range(0, count, chunk):
         p1 = min(count, p0 + chunk)
         q0, q1 = pair_first[p0], pair_first[p1]

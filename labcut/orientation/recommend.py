@@ -373,7 +373,7 @@ def _setup(mesh: Any, setup: FlashSetup, command: str = "recommend", plan: Any =
     else:
         plan = setup.plan(mesh, command, predict=command == "recommend")  # a recommendation's JSON holds its predicted seconds
     problem = build_problem(mesh, setup.material, quality=setup.quality, tau=setup.tau, seed=setup.seed,
-                            settings=setup.scenario.settings(), occlusion=plan.on("occlusion"))
+                            settings=setup.scenario.settings(), occlusion=plan.on("occlusion"), kernels=setup.kernels)
     return Scorer(problem, setup.objective), plan
 
 

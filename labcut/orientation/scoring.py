@@ -32,6 +32,7 @@ from ..errors import ParameterError
 from ..physics.ops import drjit_ops
 from ..physics.schiller import lobe_density
 from .problem import FlashProblem
+from .kernels import DEFAULT_KERNELS, KernelOptions
 
 OBJECTIVES = ("energy", "area", "intensity", "balanced")
 COVERAGE_AREA = 0.05
@@ -94,20 +95,9 @@ def _padded_rows(owner: np.ndarray, n_rows: int, t: Any) -> tuple[Any, Any, int]
 
 def _device_keys_apply(problem: Any, n_keys: int) -> bool:
     """Whether :meth:`Scorer._bin_triples` takes the grid keys from the problem's device copy of
-    the triples (:func:`_device_grid_keys`): where the pair-sum kernel makes that copy anyway
-    (:data:`labcut.orientation.problem.PAIRS_IN_DRJIT`, at most
-    :data:`~labcut.orientation.problem.PAIRS_DRJIT_MAX` triples: a bigger problem keeps its
-    triples on the host only) and the keys fit an int32."""
-    from . import problem as _problem
-
-    return (KEYS_IN_DRJIT and _problem.PAIRS_IN_DRJIT and 0 < problem.n_triples <= _problem.PAIRS_DRJIT_MAX
-            and n_keys < 2**31)
-
-
-#: compute the binning's stereographic grid keys in a Dr.Jit kernel over the device copy of the
-#: triples (:func:`_device_grid_keys`, 0.1 ms for a standard problem's 0.7 M triples) rather than in
-#: numpy (6 ms); the numpy path stays the reference (``tests/test_binning.py``)
-KEYS_IN_DRJIT = True
+    the triples (:func:`_device_grid_keys`): :meth:`KernelOptions.device_keys_apply` of the
+    problem's kernel options."""
+    return problem.kernels.device_keys_apply(problem.n_triples, n_keys)
 
 
 def _device_grid_keys(h: Any, bins: int) -> np.ndarray:
@@ -138,11 +128,6 @@ def _device_grid_key_array(h: Any, bins: int) -> Any:
 #: largest grid (cells) binned with a dense bincount; finer grids sort the occupied keys instead
 DENSE_KEY_LIMIT = 1 << 24
 
-#: bin the triples in Dr.Jit kernels over the problem's device copy (:func:`_device_bins`: exact
-#: 64-bit fixed-point sums, the same whatever order threads add in) where the grid keys come from
-#: the device (:func:`_device_keys_apply`) and the grid is dense; numpy's bincounts stay the
-#: reference (``tests/test_sparse_map.py``)
-BINS_IN_DRJIT = True
 #: headroom of the fixed-point bin sums: every sum's magnitude stays below 2^(63 - FIXED_HEADROOM)
 FIXED_HEADROOM = 1
 
@@ -233,30 +218,12 @@ def _lobe_sums(m: np.ndarray, ht: np.ndarray, a: np.ndarray, kappa: float) -> np
     return np.einsum("kb,b->k", d, a)
 
 
-#: the cost of one (normals x bins) block's numpy calls, in lobe terms (:meth:`SparseLobeMap.__call__`)
-TILE_CALL_TERMS = 7000
 #: largest (normals x bins) block of the union path, in terms (8 bytes each)
 UNION_BLOCK = 1 << 21
 
 #: relative accuracy of the sparse energy map: every dropped lobe term lies below this share
 #: of a lower bound of the hemisphere's best energy
 SPARSE_RTOL = 1e-8
-#: sum a map of many normals (a hemisphere map, the optimiser's seed map) in one Dr.Jit kernel
-#: (:meth:`SparseLobeMap._device_sums`: both cores, float32 terms about the tiles' centres) rather
-#: than numpy's float64 tiles on one core; the numpy tiles stay the reference (``tests/test_sparse_map.py``)
-MAP_IN_DRJIT = True
-#: the kernel takes a call of at least this many (normal, bin) terms within reach (below it a
-#: kernel's set-up costs more than the numpy blocks: an optimiser's step, a tolerance's ring)
-DEVICE_MAP_TERMS = 1 << 20
-#: the kernel's cull: the terms it drops stay below this share of the best energy's lower bound
-#: (its float32 terms are good to ~1e-6 anyway; :data:`SPARSE_RTOL`'s 1e-8 asked 24 % more terms
-#: of the bundled oval's hemisphere map, which moved by 2e-9 of its best value)
-DEVICE_MAP_RTOL = 1e-6
-#: a call of at least this many normals goes to the kernel straight away, which also finds the
-#: (normal, tile) pairs within reach (the host's (tiles x normals) cosines and their selection cost
-#: more than the kernel's sums for the hemisphere map; a tolerance's ring of 16 took 0.38 ms there
-#: and 0.64 ms as numpy's union block, 8 normals 0.35 and 0.40 ms, one 0.18 and 0.08 ms)
-DEVICE_MAP_NORMALS = 8
 #: (tile, normal) pairs tested for reach per kernel call (bounded temporaries for huge maps)
 DEVICE_PAIR_BLOCK = 1 << 24
 
@@ -274,10 +241,13 @@ class SparseLobeMap:
     deterministic (fixed summation order).
     """
 
-    def __init__(self, h: np.ndarray, a: np.ndarray, kappa: float, norm: float, rtol: float = SPARSE_RTOL) -> None:
+    def __init__(self, h: np.ndarray, a: np.ndarray, kappa: float, norm: float, rtol: float = SPARSE_RTOL,
+                 *, kernels: KernelOptions = DEFAULT_KERNELS) -> None:
         h = np.asarray(h, dtype=np.float64)
         a = np.asarray(a, dtype=np.float64)
         self.kappa, self.norm = float(kappa), float(norm)
+        #: which of its paths may run as a Dr.Jit kernel, and the cost constants that choose them
+        self.kernels = kernels
         self._unions: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}
         self._device: Any = None  # the packed bins on the Dr.Jit device (:meth:`_device_sums`), made at its first call
         total = float(a.sum())
@@ -299,7 +269,7 @@ class SparseLobeMap:
         t_cut = t_of(rtol)
         self.cos_cut = 1.0 - t_cut / self.kappa
         cut = math.acos(max(-1.0, self.cos_cut))
-        cut_device = math.acos(max(-1.0, 1.0 - min(t_cut, t_of(max(rtol, DEVICE_MAP_RTOL))) / self.kappa))
+        cut_device = math.acos(max(-1.0, 1.0 - min(t_cut, t_of(max(rtol, kernels.map_kernel_rtol))) / self.kappa))
         # tiles about a quarter of the cut-off angle across (a stereographic cell of side s spans <= 2s rad)
         g = int(min(128, max(4, math.ceil(16.0 / max(cut, 1e-6)))))
         zp = 1.0 + np.maximum(h[:, 2], 0.0)
@@ -325,7 +295,7 @@ class SparseLobeMap:
 
         #: a normal m needs tile j when |m·centre_j| >= cos(radius_j + cut)
         self.cos_reach = cos_within(radius + cut)
-        #: the same for the Dr.Jit kernel's cull (:data:`DEVICE_MAP_RTOL`)
+        #: the same for the Dr.Jit kernel's cull (``kernels.map_kernel_rtol``)
         self.cos_reach_device = cos_within(radius + cut_device)
 
     def _dense(self, h: np.ndarray, a: np.ndarray, m: np.ndarray) -> np.ndarray:
@@ -357,9 +327,9 @@ class SparseLobeMap:
         per tile needed), both float64 numpy, or ``device`` (every (normal, tile) pair within reach
         in one Dr.Jit kernel, :meth:`_device_sums`: float32 terms, float64 sums, within 2e-8 of the
         best energy of the numpy paths' sums on the bundled oval's map, 1e-6 in the tests); ``auto``
-        takes the kernel (:data:`MAP_IN_DRJIT`) for a call of at least :data:`DEVICE_MAP_NORMALS`
+        takes the kernel (:attr:`kernels`' ``energy_map``) for a call of at least its ``map_min_normals``
         normals (a tolerance's ring, a map: the kernel also finds their tiles) or of at least
-        :data:`DEVICE_MAP_TERMS` terms, numpy's cheaper block form for fewer (an optimiser's step)."""
+        ``map_min_terms`` terms, numpy's cheaper block form for fewer (an optimiser's step)."""
         if path not in ("auto", "union", "tiles", "device"):
             raise ParameterError(f"path must be 'auto', 'union', 'tiles' or 'device', got {path!r}")
         m = np.atleast_2d(np.asarray(normals, dtype=np.float64))
@@ -377,13 +347,13 @@ class SparseLobeMap:
             return out
         # one block over the union of the tiles any normal needs (a ring, a probe, a cluster of
         # normals), or one block per tile over the normals that need it (spread-out normals: a
-        # map), whichever costs less: a term ~3 ns, a block's call ~20 µs (TILE_CALL_TERMS); a
+        # map), whichever costs less: a term ~3 ns, a block's call ~20 µs (``kernels.tile_call_terms``); a
         # map of many normals in one kernel
         union_terms = len(m) * int(self.counts[tiles].sum())
         need_terms = int(per_tile @ self.counts)
-        if path == "auto" and MAP_IN_DRJIT and need_terms >= DEVICE_MAP_TERMS:
+        if path == "auto" and self.kernels.energy_map and need_terms >= self.kernels.map_min_terms:
             return self._device_sums(m)
-        tile_terms = need_terms + TILE_CALL_TERMS * len(tiles)
+        tile_terms = need_terms + self.kernels.tile_call_terms * len(tiles)
         if path == "union" or (path == "auto" and union_terms <= tile_terms):
             ht, a = self._union(tiles)
             step = max(1, UNION_BLOCK // max(ht.shape[1], 1))  # bounded (normals x bins) blocks
@@ -406,10 +376,9 @@ class SparseLobeMap:
         done = self(m)
         return lambda: done
 
-    @staticmethod
-    def _kernel_takes(count: int) -> bool:
+    def _kernel_takes(self, count: int) -> bool:
         """Whether path ``auto`` sends a call of ``count`` normals to the kernel straight away."""
-        return MAP_IN_DRJIT and count >= DEVICE_MAP_NORMALS
+        return self.kernels.energy_map and count >= self.kernels.map_min_normals
 
     def _device_sums(self, m: np.ndarray) -> np.ndarray:
         """:meth:`_device_sums_later`, waited for."""
@@ -417,7 +386,7 @@ class SparseLobeMap:
 
     def _device_sums_later(self, m: np.ndarray) -> Callable[[], np.ndarray]:
         """The map at the normals ``m`` (K, 3) in Dr.Jit kernels: the (tile, normal) pairs within
-        the kernel's reach (:data:`DEVICE_MAP_RTOL`: ``|m·c_tile| >= cos(radius + cut)``, float64)
+        the kernel's reach (``kernels.map_kernel_rtol``: ``|m·c_tile| >= cos(radius + cut)``, float64)
         found and compacted on the device, in tile order; then a thread per pair runs over the
         tile's bins and adds ``a_b exp(κ(|m·h_b| - 1))`` to a float64 sum; numpy adds each
         normal's pairs. The exponent is taken about the tile's centre c, where float32 keeps it
@@ -606,7 +575,8 @@ class Scorer:
         """The tile-culled energy map of the binned triples (:class:`SparseLobeMap`), built once."""
         if self._sparse is None:
             hb, ab = self._bins_numpy()
-            self._sparse = SparseLobeMap(hb, ab, float(self.problem.kappa), float(self.problem.q_norm))
+            self._sparse = SparseLobeMap(hb, ab, float(self.problem.kappa), float(self.problem.q_norm),
+                                         kernels=self.problem.kernels)
         return self._sparse
 
     @property
@@ -662,7 +632,7 @@ class Scorer:
             return iu * bins + iv
 
         starts = range(0, p.n_triples, CHUNK)
-        if BINS_IN_DRJIT and n_keys <= DENSE_KEY_LIMIT and _device_keys_apply(p, n_keys):
+        if p.kernels.bins and n_keys <= DENSE_KEY_LIMIT and _device_keys_apply(p, n_keys):
             return _device_bins(p, bins)
         if _device_keys_apply(p, n_keys):  # one kernel over the device copy the pair sums read anyway
             every = _device_grid_keys(p.device_triples[0], bins)

@@ -22,6 +22,7 @@ from ..physics.material import Labradorite
 from ..scene import Scenario, resolve_scene
 from ..scene.quality import Quality
 from ..validation import check_number
+from .kernels import DEFAULT_KERNELS, KernelOptions
 from .optimize import Constraint
 from .scoring import OBJECTIVES
 
@@ -47,6 +48,9 @@ class FlashSetup:
     #: the ``(scenario, lighting, viewing)`` as asked (names, files or objects), so that the same
     #: scene can be sampled at another quality (:meth:`at_quality`: the error bars' coarse problem)
     scene_spec: tuple[Any, Any, Any] = field(default=(None, None, None), compare=False, repr=False)
+    #: which steps of the sample estimator run as Dr.Jit kernels (how an answer is computed, not what
+    #: is asked: not part of :meth:`to_dict`; every choice gives the same answer to float32 rounding)
+    kernels: KernelOptions = field(default=DEFAULT_KERNELS, compare=False, repr=False)
 
     @classmethod
     def build(

@@ -17,14 +17,19 @@ cache folder; they are measured again when the CPU count, labcut's or numpy's ve
 from __future__ import annotations
 
 import os
+import contextlib
+import contextvars
 import time
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from dataclasses import asdict, dataclass
 from typing import Any
 
 #: the user-cache file of the calibration (:func:`sample_timing`)
 TIMING_FILE = "sample-estimator-timing.json"
-_CALIBRATING = False
+#: whether this thread of work is timing calls for a calibration: the planner predicts nothing for
+#: the calls it times (a prediction would ask for the calibration being made). A context variable,
+#: not a module flag: each thread and task sees its own, and :func:`calibration_run` restores it
+_CALIBRATING: contextvars.ContextVar[bool] = contextvars.ContextVar("labcut_calibrating", default=False)
 
 
 @dataclass(frozen=True)
@@ -41,8 +46,18 @@ class SampleTiming:
 
 
 def calibrating() -> bool:
-    """True while :func:`measure_sample_timing` runs (the planner then predicts nothing)."""
-    return _CALIBRATING
+    """True inside :func:`calibration_run` (the planner then predicts nothing)."""
+    return _CALIBRATING.get()
+
+
+@contextlib.contextmanager
+def calibration_run() -> Iterator[None]:
+    """The calls made inside are timed for a calibration (:func:`calibrating` is True there)."""
+    token = _CALIBRATING.set(True)
+    try:
+        yield
+    finally:
+        _CALIBRATING.reset(token)
 
 
 def work(settings: Sequence[Any], surface_points: int) -> tuple[float, float]:
@@ -72,13 +87,11 @@ def time_three(call: Any, repeats: int = 1) -> tuple[float, float, float]:
     from ..geometry.cabochon import cabochon
     from ..scene import resolve_scene
 
-    global _CALIBRATING
     mesh = cabochon(outline="oval", length=16.0, width=12.0, dome="medium")
     hidden = copy.deepcopy(mesh)
     hidden.metadata.setdefault("labcut", {})["convex"] = False
     rows = []
-    _CALIBRATING = True
-    try:
+    with calibration_run():
         call(mesh, "draft")  # warm: imports and kernels
         call(hidden, "draft")  # and the occluded path's: a Mitsuba variant, the ray scene, their kernels
         for m, quality, occl in ((mesh, "draft", False), (mesh, "standard", False), (hidden, "draft", True)):
@@ -90,8 +103,6 @@ def time_three(call: Any, repeats: int = 1) -> tuple[float, float, float]:
                 call(m, quality)
                 best = min(best, time.perf_counter() - t)
             rows.append((terms, rays if occl else 0.0, best))
-    finally:
-        _CALIBRATING = False
     (t0, _, s0), (t1, _, s1), (t2, r2, s2) = rows
     per_term = max((s1 - s0) / (t1 - t0), 0.0) if t1 != t0 else 0.0
     fixed = max(s0 - per_term * t0, 0.0)

@@ -1,0 +1,90 @@
+"""The speed layer is contained: one frozen KernelOptions, held by the problem and its scorer,
+handed in by whoever wants another path; no module-level on/off switches (issue 31 §5)."""
+
+from __future__ import annotations
+
+import ast
+import math
+from dataclasses import FrozenInstanceError, replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import labcut
+from labcut.errors import ParameterError
+from labcut.orientation.kernels import DEFAULT_KERNELS, KernelOptions
+from labcut.orientation.problem import build_problem
+from labcut.orientation.scoring import Scorer
+from labcut.orientation.setup import FlashSetup
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def module_level_booleans(path: Path) -> list[str]:
+    """Names bound to True or False at a module's top level (switches by another name)."""
+    tree = ast.parse(path.read_text(), str(path))
+    out = []
+    for node in tree.body:
+        targets = node.targets if isinstance(node, ast.Assign) else [node.target] if isinstance(node, ast.AnnAssign) else []
+        value = getattr(node, "value", None)
+        if isinstance(value, ast.Constant) and isinstance(value.value, bool):
+            out += [f"{path.relative_to(ROOT)}:{node.lineno} {t.id}" for t in targets if isinstance(t, ast.Name)]
+    return out
+
+
+def test_no_module_level_boolean_switches():
+    found = [hit for path in sorted((ROOT / "labcut").rglob("*.py")) for hit in module_level_booleans(path)]
+    assert found == []
+
+
+def test_the_rule_sees_a_switch(tmp_path):
+    bad = ROOT / "labcut" / "_probe_for_test.py"  # inside the tree, as the rule reads it
+    try:
+        bad.write_text("FAST_PATH = True\nlimit: bool = False\n")
+        assert [h.split()[-1] for h in module_level_booleans(bad)] == ["FAST_PATH", "limit"]
+    finally:
+        bad.unlink()
+
+
+def test_options_are_frozen_and_checked():
+    with pytest.raises(FrozenInstanceError):
+        DEFAULT_KERNELS.triples = False  # type: ignore[misc]
+    for bad in ({"triples": 1}, {"dense_chunk": 0}, {"dense_chunk": 2.5}, {"map_min_normals": True},
+                {"map_kernel_rtol": 0.0}, {"map_kernel_rtol": 1.5}):
+        with pytest.raises(ParameterError, match="KernelOptions"):
+            KernelOptions(**bad)
+    ref = KernelOptions.reference()
+    assert not any((ref.triples, ref.lit_cells, ref.pair_sums, ref.grid_keys, ref.bins, ref.energy_map))
+    assert not KernelOptions(triples=False).lit_cells_on_device  # the lit cells need the triple kernel
+    assert not KernelOptions(pair_sums=False).device_keys_apply(1000, 10)  # the keys need the device copy
+    assert KernelOptions(pair_sums_max_triples=10).pair_kernel_takes(10)
+    assert not KernelOptions(pair_sums_max_triples=10).pair_kernel_takes(11)
+
+
+@pytest.fixture(scope="module")
+def oval():
+    return labcut.load_mesh(ROOT / "meshes" / "oval-16x12-low.ply")
+
+
+def test_the_problem_and_its_scorer_hold_the_options_they_were_given(oval):
+    settings = labcut.Scenario.preset("bench", "draft").settings()
+    mine = KernelOptions(energy_map=False, dense_chunk=50_000)
+    problem = build_problem(oval, labcut.Labradorite(), quality="draft", settings=settings, kernels=mine)
+    assert problem.kernels is mine
+    assert Scorer(problem).sparse_map.kernels is mine
+    assert build_problem(oval, labcut.Labradorite(), quality="draft", settings=settings).kernels is DEFAULT_KERNELS
+
+
+def test_a_setups_options_reach_the_whole_recommendation(oval):
+    """The numpy reference paths through FlashSetup: a different computation (float64 terms, not
+    the kernels' float32: the bits differ) of the same answer (well within its error bar)."""
+    asked = FlashSetup.build(labcut.Labradorite(), "bench", quality="draft", estimator="samples")
+    fast = labcut.recommend_orientation(oval, setup=asked)
+    ref = labcut.recommend_orientation(oval, setup=replace(asked, kernels=KernelOptions.reference()))
+    angle = math.degrees(float(np.linalg.norm(np.cross(fast.normal, ref.normal))))  # exact for tiny angles
+    assert 0.0 < angle < 0.1 * fast.uncertainty.angle_deg
+    assert fast.uncertainty.angle_deg != ref.uncertainty.angle_deg  # the bars' pair sums took the numpy path
+    assert ref.score == pytest.approx(fast.score, rel=1e-4)
+    assert "kernels" not in ref.settings  # how, not what: the question's record is the same
+    assert ref.settings == fast.settings
