@@ -54,6 +54,7 @@ from typing import Any
 import numpy as np
 
 from .errors import ParameterError
+from .geometry.stone import Stone, mesh_of
 
 COMMANDS = ("render", "recommend", "evaluate", "compare")
 EFFECTS = ("occlusion", "inter_reflection", "environment", "polarisation", "colour", "zoning")
@@ -153,16 +154,6 @@ class EffectPlan:
 
 
 # ---------------------------------------------------------------------- facts of a scene
-def is_convex(mesh: Any) -> bool:
-    """Whether the stone is convex (the loader's verdict in ``mesh.metadata['labcut']``, else computed)."""
-    info = getattr(mesh, "metadata", {}).get("labcut", {})
-    if "convex" in info:
-        return bool(info["convex"])
-    from .geometry.meshio import is_convex_mesh
-
-    return bool(is_convex_mesh(mesh))
-
-
 def occlusion_on(convex: bool, forced: Mapping[str, bool]) -> bool:
     """The planner's occlusion rule: on for a stone that is not convex, unless ``forced``
     (checked overrides, :func:`check_effects`) says otherwise."""
@@ -362,7 +353,9 @@ def pilot_mesh(mesh: Any) -> Any:
         return mesh
     from .geometry.meshio import mark_valid
     from .geometry.proxy import clustered_proxy
-    from .rendering.scene import mesh_cached
+
+    stone = Stone.of(mesh)
+    mesh = stone.mesh
 
     def stand_in() -> Any:
         diagonal = float(np.linalg.norm(np.ptp(np.asarray(mesh.bounds, dtype=np.float64), axis=0)))
@@ -370,7 +363,7 @@ def pilot_mesh(mesh: Any) -> Any:
         mark_valid(copy)
         return copy
 
-    return mesh_cached(mesh, f"labcut_pilot_proxy_{PILOT_CELLS}", stand_in)
+    return stone.cached(f"pilot_proxy_{PILOT_CELLS}", stand_in)
 
 
 def _pilot_cache_path() -> Any:
@@ -472,6 +465,7 @@ def plan_effects(
     ...
     labcut.errors.ParameterError: a polariser view needs colour (the polarised schiller changes hue): use --mode spectral or leave --mode out, not mono
     """
+    mesh = mesh_of(mesh)  # a Stone or a trimesh
     from .physics.material import Labradorite
     from .scene import resolve_scene
 
@@ -508,7 +502,7 @@ def plan_effects(
     if polarizer_deg is not None and mode == "mono":
         raise ParameterError("a polariser view needs colour (the polarised schiller changes hue): "
                              "use --mode spectral or leave --mode out, not mono")
-    convex = is_convex(mesh)
+    convex = Stone.of(mesh).convex
     facts: dict[str, Any] = {"convex": convex, "scenario": scene.name, "lighting": scene.lights.name,
                              "viewing": scene.views.name, "poses": len(scene.poses())}
     decisions: list[Decision] = []
@@ -795,8 +789,7 @@ def render_command_timing(mode: str, polarised: bool, integrator: str, look: str
         from .physics.material import Labradorite
         from .rendering.api import render
 
-        sphere = trimesh.creation.icosphere(subdivisions=3, radius=5.0)
-        sphere.metadata["labcut"] = {"convex": True}
+        sphere = Stone(trimesh.creation.icosphere(subdivisions=3, radius=5.0), convex=True).mesh
         kw = dict(scenario="bench", mode=mode, polarizer_deg=30.0 if polarised else None,
                   max_depth=4 if integrator == "path" else None, look=look)
         mat = Labradorite()

@@ -1,4 +1,4 @@
-"""``meshio.is_convex_mesh`` takes the smaller of two hull volumes (manifold3d's, Qhull's): where
+"""``solid.is_convex_mesh`` takes the smaller of two hull volumes (manifold3d's, Qhull's): where
 manifold3d's hull already proves a stone convex, Qhull's is not computed (the answer cannot
 change: a smaller hull only makes a stone more convex); where manifold3d's hull is too large
 (QuickHull mishandling many coplanar points) Qhull's still decides."""

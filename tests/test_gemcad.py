@@ -17,19 +17,19 @@ import pytest
 
 from labcut.errors import LabcutWarning, MeshError, ParameterError
 from labcut.geometry import gemcad
+from labcut.geometry.stone import by_facet, facet_names
 from labcut.geometry.gemcad import (
     DEFAULT_SIZE_MM,
-    by_facet,
     design_polyhedron,
     design_solid,
-    facet_names,
     facet_pole,
     load_design,
     parse_asc,
     parse_gem,
     read_design,
 )
-from labcut.geometry.meshio import load_mesh, provenance
+from labcut.geometry.meshio import load_mesh
+from labcut.geometry.stone import Stone
 
 ROOT = Path(__file__).resolve().parents[1]
 DESIGNS = ROOT / "meshes" / "designs"
@@ -398,7 +398,7 @@ def test_load_mesh_reads_designs_and_refuses_mixed_options():
         load_mesh(DESIGNS / "SRB.asc", units="in")
     with pytest.raises(ParameterError, match="girdle width of a GemCad design"):
         load_mesh(ROOT / "meshes" / "cube-10.ply", size=10)
-    prov = provenance(mesh)
+    prov = Stone.of(mesh).provenance_dict()
     assert prov["kind"] == "design" and prov["units"] == "mm"
     assert prov["design"]["name"] == "Standard Round Brilliant" and prov["design"]["size_mm"] == 8
     assert "face_names" not in prov["design"]  # per-face lists stay in the metadata

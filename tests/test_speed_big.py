@@ -1,6 +1,6 @@
 """The big-mesh fast paths of issue 17 §5 give what the slow ones gave.
 
-* smooth shading at the sampled faces (``rendering.scene.smooth_corner_normals``) equals the
+* smooth shading at the sampled faces (``geometry.surface.smooth_corner_normals``) equals the
   normals of trimesh's split copy (``smooth_split``) at every corner of the bundled stones, and
   on the carving everywhere but the rims of its large flat facets;
 * the planner's surface sample and the face areas are trimesh's, bit for bit;
@@ -20,10 +20,11 @@ import pytest
 import trimesh
 
 import labcut
-from labcut.geometry import meshio
+from labcut.geometry import meshio, solid
 from labcut.orientation import problem as problem_mod
-from labcut.rendering import scene as scene_mod
-from labcut.rendering.scene import face_areas, sample_surface, shading_angle_deg, smooth_corner_normals, smooth_split
+from labcut.geometry import stone as stone_mod
+from labcut.geometry.stone import Stone
+from labcut.geometry.surface import face_areas, sample_surface, smooth_corner_normals, smooth_split
 
 MESHES = Path(__file__).resolve().parents[1] / "meshes"
 STONES = ["oval-16x12-low.ply", "round-12-high.ply", "double-cabochon-oval-16x12.ply", "buff-top-oval-16x12.ply",
@@ -32,7 +33,7 @@ STONES = ["oval-16x12-low.ply", "round-12-high.ply", "double-cabochon-oval-16x12
 
 def _split_reference(mesh):
     """Per original face, the corner normals of trimesh's split copy."""
-    split = smooth_split(mesh, shading_angle_deg(mesh))
+    split = smooth_split(mesh, Stone.of(mesh).shading_angle_deg)
     orig = np.concatenate(split.metadata["original_components"]).astype(np.int64)  # split face -> mesh face
     assert np.array_equal(split.vertices[split.faces], np.asarray(mesh.vertices)[np.asarray(mesh.faces)[orig]])
     return orig, split.vertex_normals[split.faces]
@@ -58,7 +59,7 @@ def _parted_vertices(mesh, angle_deg):
 @pytest.mark.parametrize("name", STONES + ["carving-biplane.ply"])
 def test_corner_normals_equal_the_split_copy_where_the_definitions_agree(name):
     mesh = labcut.load_mesh(MESHES / name)
-    angle = shading_angle_deg(mesh)
+    angle = Stone.of(mesh).shading_angle_deg
     orig, want = _split_reference(mesh)
     got = smooth_corner_normals(mesh, angle, orig)
     off = np.abs(got - want).max(axis=2) > 1e-12  # (faces, corners)
@@ -82,7 +83,7 @@ def test_surface_sample_and_areas_are_trimeshs(name):
 def test_the_fast_sampling_path_answers_within_the_error_bar(monkeypatch):
     mesh = labcut.load_mesh(MESHES / "carving-biplane.ply")
     slow = labcut.recommend_orientation(mesh, "blue", scenario="bench", quality="draft")
-    monkeypatch.setattr(scene_mod, "FAST_SMOOTH_FACES", 0)
+    monkeypatch.setattr(stone_mod, "FAST_SMOOTH_FACES", 0)
     fast_mesh = mesh.copy()  # a fresh cache: the samples are drawn again, on the fast path
     samples = problem_mod.surface_samples(fast_mesh, 3000, 0)
     assert samples.count == 3000
@@ -124,9 +125,9 @@ def test_edge_table_fast_check_agrees(edit):
 @pytest.mark.parametrize("name", ["carving-biplane.ply", "oval-16x12-low.ply", "sphere-10.ply", "step-cut-12x10.ply"])
 def test_subset_hull_gives_the_same_convexity(name, monkeypatch):
     mesh = labcut.load_mesh(MESHES / name)
-    want = meshio.is_convex_mesh(mesh)
-    monkeypatch.setattr(meshio, "CONVEX_PROBE_VERTICES", 8)
-    assert meshio.is_convex_mesh(mesh) == want
+    want = solid.is_convex_mesh(mesh)
+    monkeypatch.setattr(solid, "CONVEX_PROBE_VERTICES", 8)
+    assert solid.is_convex_mesh(mesh) == want
 
 
 def _triangle_set(mesh):

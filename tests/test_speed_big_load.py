@@ -19,7 +19,7 @@ import pytest
 import trimesh
 
 import labcut
-from labcut.geometry import meshio, orient
+from labcut.geometry import meshio, orient, solid
 
 MESHES = Path(__file__).resolve().parents[1] / "meshes"
 pytestmark = pytest.mark.filterwarnings("ignore::labcut.errors.LabcutWarning")  # the turned stones say so
@@ -101,7 +101,7 @@ def test_the_edge_graph_labels_the_same_components():
 
 def _old_cross(v, f):
     a = v[f[:, 0]]
-    return meshio.cross_rows(v[f[:, 1]] - a, v[f[:, 2]] - a)
+    return solid.cross_rows(v[f[:, 1]] - a, v[f[:, 2]] - a)
 
 
 @pytest.mark.parametrize("chunk", [meshio.CHUNK, 1000])
@@ -111,8 +111,8 @@ def test_one_pass_over_the_corners_gives_the_separate_values(chunk, monkeypatch)
     f = rng.integers(0, len(v), size=(20_000, 3))
     monkeypatch.setattr(meshio, "CHUNK", chunk)
     area2, dets, cross = meshio._face_measures(v, f, keep=True)
-    np.testing.assert_array_equal(area2, meshio._double_areas(v, f))
-    np.testing.assert_array_equal(dets, meshio._face_dets(v, f))
+    np.testing.assert_array_equal(area2, solid.double_areas(v, f))
+    np.testing.assert_array_equal(dets, solid.face_dets(v, f))
     np.testing.assert_array_equal(cross, _old_cross(v, f))
     assert cross.flags.c_contiguous and cross.shape == (len(f), 3)
     area2_only, none1, none2 = meshio._face_measures(v, f)
@@ -146,11 +146,11 @@ def test_the_up_axis_from_the_kept_cross_products_is_the_faces(name, turn):
 def test_column_bounds_are_numpys():
     rng = np.random.default_rng(5)
     for v in (rng.normal(size=(1000, 3)), np.array([[0.0, -0.0, 1.0]]), rng.integers(-5, 5, size=(50, 3)).astype(float)):
-        lo, hi = meshio.column_bounds(v)
+        lo, hi = solid.column_bounds(v)
         np.testing.assert_array_equal(lo, v.min(axis=0))
         np.testing.assert_array_equal(hi, v.max(axis=0))
-        np.testing.assert_array_equal(meshio.extent(v), np.ptp(v, axis=0))
-        v2, shift = meshio.centre_on_base(v)
+        np.testing.assert_array_equal(solid.extent(v), np.ptp(v, axis=0))
+        v2, shift = solid.centre_on_base(v)
         lo0, hi0 = v.min(axis=0), v.max(axis=0)
         np.testing.assert_array_equal(shift, [-(lo0[0] + hi0[0]) / 2, -(lo0[1] + hi0[1]) / 2, -lo0[2]])
 

@@ -17,7 +17,7 @@ import trimesh
 
 import labcut
 from labcut.rendering import rays
-from labcut.rendering.scene import sample_surface, unit_normals
+from labcut.geometry.surface import sample_surface, unit_normals
 
 MESHES = Path(__file__).resolve().parents[1] / "meshes"
 

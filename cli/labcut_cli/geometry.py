@@ -144,7 +144,9 @@ def cabochon(
     summary = summarize(mesh, name)
     if output is not None:
         save_mesh(mesh, output)
-    meta = mesh.metadata["labcut"]
+    import labcut
+
+    meta = labcut.Stone.of(mesh).metadata()
     if not to_stdout:
         console.print(_summary_table(summary, f"{meta['outline']} cabochon, {meta['profile']} dome {meta['dome_mm']:.3f} mm"))
         if output is not None:
@@ -174,10 +176,12 @@ def inspect_mesh(
         check_output_path(json_path, (".json",))
     mesh = mesh_options.load(mesh_path, recentre=recentre, repair=repair)
     summary = summarize(mesh, mesh_path.name)
+    import labcut
+
+    info = labcut.Stone.of(mesh).metadata()
     if not to_stdout:
-        info = mesh.metadata["labcut"]
         console.print(_summary_table(summary, f"{mesh_path.name} (in mm)", info))
     if json_path is not None:
         data = summary.to_dict()
-        data["load_report"] = mesh.metadata["labcut"]
+        data["load_report"] = info
         write_json(str(json_path), data)

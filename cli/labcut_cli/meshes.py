@@ -133,7 +133,9 @@ def print_warning(message: str) -> None:
 def print_provenance(mesh: Any, name: str) -> None:
     """What loading changed, for people: units and up axis when they were not the plain defaults,
     and every repair."""
-    info = mesh.metadata.get("labcut", {})
+    import labcut
+
+    info = labcut.Stone.of(mesh).metadata()
     design = info.get("design")
     if design:
         sized = "as given" if design.get("size_source") == "given" else "the default; --size sets it"

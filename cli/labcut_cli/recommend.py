@@ -313,7 +313,8 @@ def evaluate_orientation(
     estimator, effect, plan, plan_only = plan_options.estimator, plan_options.effect, plan_options.plan, plan_options.plan_only
     import labcut
     from labcut.fileio import check_output_path
-    from labcut.orientation.recommend import METRIC_DEFINITIONS, FRAME, mesh_provenance, metrics_dict
+    import labcut
+    from labcut.orientation.recommend import METRIC_DEFINITIONS, FRAME, metrics_dict
     from labcut.rendering.api import normalize_normal
 
     if json_path not in (None, "-"):
@@ -329,7 +330,7 @@ def evaluate_orientation(
             po.finish_plan_only(the_plan, json_path)
             return
     metrics = labcut.evaluate_orientation(mesh, m_vec, setup=setup, plan=the_plan)  # planned once, above
-    provenance = {**mesh_provenance(mesh), "path": str(mesh_path)}
+    provenance = {**labcut.Stone.of(mesh).provenance_dict(), "path": str(mesh_path)}
     data = {"normal": m_vec.tolist(), "frame": FRAME, "scenario": scene.to_dict(), "material": material.to_dict(),
             "mesh": provenance, **metrics_dict(metrics), "metric_definitions": METRIC_DEFINITIONS,
             "estimator": the_plan.estimator, "plan": the_plan.to_dict()}

@@ -233,7 +233,7 @@ def _option_error(build: Any) -> Any:
 
 def _animate(mesh_path: Path, mesh, lamella, setup, move, output: Path, json_path: Optional[str]) -> None:
     """``labcut render --animate``: every frame under one exposure, the file written once all are done."""
-    from labcut.geometry.meshio import provenance
+    import labcut
     from labcut.rendering.animate import animate
 
     from .progress import progress_bar
@@ -243,7 +243,7 @@ def _animate(mesh_path: Path, mesh, lamella, setup, move, output: Path, json_pat
     motion = move.motion
     summary = {
         "output": str(output),
-        "mesh": {**provenance(mesh), "path": str(mesh_path)},
+        "mesh": {**labcut.Stone.of(mesh).provenance_dict(), "path": str(mesh_path)},
         "normal": [float(x) for x in lamella],
         "material": setup.material.to_dict(),
         "scenario": setup.scenario.to_dict(),

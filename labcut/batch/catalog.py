@@ -49,6 +49,7 @@ from pathlib import Path
 from typing import Any
 
 from ..errors import LabcutError, ParameterError
+from ..geometry.stone import Stone
 
 COLUMNS = ("name", "cut", "material", "scenario", "quality", "objective", "seed", "units", "up_axis", "size", "max_tilt")
 QUALITIES = ("draft", "standard", "high")
@@ -113,9 +114,7 @@ class Row:
         if self.kind == "cabochon":
             from ..geometry.cabochon import cabochon
 
-            mesh = cabochon(**dict(self.cab or {}))
-            mesh.metadata.setdefault("labcut", {})["source"] = self.cut
-            return mesh
+            return Stone(cabochon(**dict(self.cab or {})), source=self.cut).mesh
         from ..geometry.meshio import load_mesh
 
         return load_mesh(self.path, units=self.units, up_axis=self.up_axis, size=self.size if self.kind == "design" else None)

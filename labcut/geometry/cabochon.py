@@ -28,6 +28,7 @@ from ..errors import ParameterError
 from ..validation import check_number
 from . import outlines as _ol
 from .profiles import MAX_TABLE, PROFILES, Profile, dome_limit
+from .solid import is_convex_mesh
 
 #: Dome height as a fraction of the stone's width (its smaller horizontal size).
 #:
@@ -258,7 +259,6 @@ def cabochon(
     import manifold3d as m3
     import trimesh
 
-    from .meshio import is_convex_mesh
 
     n = _resolution(resolution)
     if not isinstance(profile, str) or profile.lower() not in PROFILES:

@@ -15,6 +15,7 @@ import numpy as np
 
 from ..errors import ParameterError
 from .outlines import check_size
+from .solid import is_convex_mesh
 
 
 def to_trimesh(man: Any, kind: str, **meta: Any):
@@ -22,7 +23,6 @@ def to_trimesh(man: Any, kind: str, **meta: Any):
     import manifold3d as m3
     import trimesh
 
-    from .meshio import is_convex_mesh
 
     if man.status() != m3.Error.NoError or man.is_empty():
         raise ParameterError(f"the {kind} solid is empty or invalid ({man.status().name})")

@@ -41,13 +41,16 @@ import re
 import struct
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
-from collections.abc import Callable, Sequence
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
 
-from ..errors import MeshError, ParameterError
+from ..errors import LabcutWarning, MeshError, ParameterError
 from ..validation import check_number
+from .orient import check_up_axis, up_rotation
+from .report import MeshReport
+from .solid import STONE_SIZE_MM, centre_on_base
 
 #: file suffixes read as GemCad designs
 DESIGN_SUFFIXES = (".asc", ".gem")
@@ -617,7 +620,6 @@ def design_size(size: Any) -> tuple[float, bool]:
     """``(girdle width in mm, given?)`` of a design's ``size`` (None: :data:`DEFAULT_SIZE_MM`), validated."""
     if size is None:
         return DEFAULT_SIZE_MM, False
-    from .meshio import STONE_SIZE_MM
 
     return check_number(size, "the girdle width (--size, size=)", *STONE_SIZE_MM, unit="mm"), True
 
@@ -661,9 +663,6 @@ def design_solid(
     import manifold3d as m3
     import trimesh
 
-    from ..errors import LabcutWarning
-    from .meshio import STONE_SIZE_MM, MeshReport, centre_on_base
-    from .orient import check_up_axis, up_rotation
 
     stage = progress or (lambda s, x: None)
     size_mm, given = design_size(size)
@@ -772,28 +771,3 @@ PROVENANCE_KEYS = ("name", "format", "gear", "gear_location", "symmetry", "mirro
 def design_provenance(design: dict[str, Any]) -> dict[str, Any]:
     """The compact part of ``metadata["labcut"]["design"]`` (:data:`PROVENANCE_KEYS`; no per-face lists)."""
     return {k: design[k] for k in PROVENANCE_KEYS if k in design}
-
-
-def facet_names(mesh: Any) -> list[str]:
-    """The facet name of each triangle of a design's mesh (``""`` for meshes that are not designs)."""
-    design = ((getattr(mesh, "metadata", None) or {}).get("labcut") or {}).get("design") or {}
-    names = design.get("face_names")
-    if names is None or len(names) != len(mesh.faces):
-        return [""] * len(mesh.faces)
-    return list(names)
-
-
-def by_facet(mesh: Any, values: Sequence[float] | np.ndarray) -> dict[str, float]:
-    """Sum per-triangle ``values`` (e.g. flash area in mm²) by facet name, largest first.
-
-    For a design's mesh this says which facets carry a quantity, e.g. ``{"1": 12.3, "A": 4.5}``:
-    the facets named 1 (the pavilion mains of the bundled brilliant) flash most.
-    """
-    vals = np.asarray(values, dtype=np.float64).ravel()
-    names = facet_names(mesh)
-    if len(vals) != len(names):
-        raise ParameterError(f"by_facet needs one value per triangle ({len(names)}), got {len(vals)}")
-    out: dict[str, float] = {}
-    for n, x in zip(names, vals):
-        out[n] = out.get(n, 0.0) + float(x)
-    return dict(sorted(out.items(), key=lambda kv: -kv[1]))

@@ -13,6 +13,8 @@ from typing import Any
 
 import numpy as np
 
+from .stone import Stone
+
 #: labradorite density range, g/cm^3
 DENSITY_RANGE = (2.69, 2.72)
 DENSITY_NOMINAL = 0.5 * (DENSITY_RANGE[0] + DENSITY_RANGE[1])
@@ -56,16 +58,15 @@ class MeshSummary:
 
 
 def summarize(mesh: Any, name: str = "mesh") -> MeshSummary:
-    """Summarise a ``trimesh.Trimesh`` in mm (reads ``mesh.metadata["labcut"]`` when present)."""
-    from .meshio import is_convex_mesh
-
-    meta = dict(getattr(mesh, "metadata", {}) or {}).get("labcut", {}) or {}
+    """Summarise a stone (a :class:`~labcut.Stone` or ``trimesh.Trimesh``) in mm, with its
+    loader's repairs and notes."""
+    stone = Stone.of(mesh, name)
+    mesh = stone.mesh
+    meta = stone.record
     lo, hi = (np.asarray(b, dtype=float) for b in mesh.bounds)
     ext = hi - lo
     vol = float(abs(mesh.volume)) if mesh.is_watertight else float("nan")
-    convex = meta.get("convex")
-    if convex is None:
-        convex = bool(mesh.is_watertight and is_convex_mesh(mesh))
+    convex = stone.convex if (mesh.is_watertight or "convex" in meta) else False  # an open mesh has no inside
     w = carats(vol) if np.isfinite(vol) else float("nan")
     return MeshSummary(
         name=name,

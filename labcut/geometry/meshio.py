@@ -29,14 +29,29 @@ from __future__ import annotations
 
 import math
 import os
-from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from collections.abc import Callable
 from typing import Any
 
 import numpy as np
 
-from ..errors import MeshError, ParameterError
+from ..errors import LabcutWarning, MeshError, ParameterError
+from ..fileio import atomic_output
+from .gemcad import load_design
+from .orient import check_up_axis, describe_up, detect_up_axis, up_rotation
+from .report import MeshReport
+from .solid import (
+    CHUNK,
+    CONVEX_RTOL,
+    STONE_SIZE_MM,
+    centre_on_base,
+    cross_rows,
+    double_areas,
+    extent,
+    face_dets,
+    is_convex_mesh,
+    signed_volume,
+)
 
 #: suffix -> trimesh file type, for reading
 READ_FORMATS = {
@@ -54,69 +69,14 @@ WRITE_FORMATS = (".ply", ".stl", ".obj", ".off", ".glb", ".3mf")
 #: length of one file unit in mm
 UNITS = {"mm": 1.0, "cm": 10.0, "m": 1000.0, "um": 1e-3, "in": 25.4, "ft": 304.8}
 
-#: a stone's largest size must lie in this range (mm) once converted: outside it, the units are wrong
-STONE_SIZE_MM = (0.5, 500.0)
 
 #: largest share of the surface that hole patches may make up
 MAX_PATCH_FRACTION = 0.2
 
-#: relative volume gap between a mesh and its convex hull below which it is convex
-CONVEX_RTOL = 1e-6
 
 #: a mesh of more triangles that needs no repair is certified by labcut's own edge check alone,
 #: not rebuilt by manifold3d (:func:`validate_arrays`)
 MANIFOLD_CHECK_FACES = 1_000_000
-
-
-@dataclass
-class MeshReport:
-    """What :func:`load_mesh` found and did. Lengths in mm, in the output frame.
-
-    Attributes:
-        source: the file read.
-        format: the file type (``"stl"``, ``"ply"``, ...).
-        units: the file's unit (``"mm"``, ``"in"``, ... or ``"x<factor>"``).
-        units_source: where the unit came from: ``"given"``, ``"file"`` (glTF is metres by
-            specification, 3MF declares its unit) or ``"default"`` (the file does not say: mm).
-        scale_to_mm: factor applied to the file's coordinates.
-        up_axis: the file's axis that became labcut's +Z (face-up): ``"+Z"`` ... ``"-X"``.
-        up_axis_source: ``"given"``, ``"shape: <what the shape showed>"`` or
-            ``"convention: <why>"`` (the shape does not say; the format's convention holds).
-        rotation: 3 x 3 rotation applied to the file's coordinates (p' = R p), before re-centring.
-        translation_mm: offset added after scaling and rotating (re-centring), or zeros.
-        dimensions_mm: bounding-box extents along X, Y, Z of the returned mesh.
-        repairs: one sentence per repair made to the geometry or topology.
-        notes: other things worth knowing (coincident vertices merged, ...).
-        warnings: things that may make the answer wrong (the file looked upside down or
-            Y-up and was turned; a given up axis disagrees with the shape).
-        convex: the solid equals its convex hull (to :data:`CONVEX_RTOL`).
-        watertight: always True for a returned mesh.
-        triangles, vertices: counts of the returned mesh.
-        bodies: number of separate closed shells.
-    """
-
-    source: str
-    format: str
-    units: str
-    scale_to_mm: float
-    translation_mm: list[float] = field(default_factory=lambda: [0.0, 0.0, 0.0])
-    repairs: list[str] = field(default_factory=list)
-    notes: list[str] = field(default_factory=list)
-    warnings: list[str] = field(default_factory=list)
-    units_source: str = "given"
-    up_axis: str = "+Z"
-    up_axis_source: str = "given"
-    rotation: list[list[float]] = field(default_factory=lambda: np.eye(3).tolist())
-    dimensions_mm: list[float] = field(default_factory=lambda: [0.0, 0.0, 0.0])
-    convex: bool = False
-    watertight: bool = True
-    triangles: int = 0
-    vertices: int = 0
-    bodies: int = 1
-
-    def to_dict(self) -> dict[str, Any]:
-        """Plain-JSON dictionary of the report."""
-        return asdict(self)
 
 
 def _one_line(text: object, limit: int = 200) -> str:
@@ -125,127 +85,9 @@ def _one_line(text: object, limit: int = 200) -> str:
 
 
 # ----------------------------------------------------------------------------- helpers
-def is_convex_mesh(mesh: Any, rtol: float = CONVEX_RTOL, *, volume: float | None = None) -> bool:
-    """True when a closed mesh is convex: its volume equals that of its convex hull.
-
-    The hull volume is the smaller of manifold3d's and Qhull's (scipy): a hull can only be
-    overestimated by a hull program that mishandles many coplanar or collinear points (the
-    densified edges of a polygonal outline made manifold3d's QuickHull 0.03 % too large),
-    so the flag no longer depends on float32 rounding in a saved file. A mesh of several
-    bodies is never convex. ``volume``: the mesh's signed volume, when the caller has it.
-    """
-    import manifold3d as m3
-
-    v = np.ascontiguousarray(np.asarray(mesh.vertices, dtype=np.float64))
-    if len(v) < 4 or not np.all(np.isfinite(v)):
-        return False
-    vol = abs(_signed_volume(v, np.asarray(mesh.faces)) if volume is None else float(volume))
-    if len(v) > CONVEX_PROBE_VERTICES:
-        # the hull of a subset of the vertices lies inside the whole hull, so a volume gap to it
-        # already proves the stone concave (the answer the whole hull gives, without its seconds)
-        sub = _hull_volume(v[:: max(1, len(v) // CONVEX_PROBE_VERTICES)])
-        if sub > 0 and (sub - vol) > rtol * sub:
-            return False
-    # the smaller hull volume is the truer one, and a smaller hull can only make a stone more
-    # convex (|V| >= (1 - rtol) hull): where manifold3d's hull already proves it convex, Qhull's
-    # cannot change the answer and is not computed (45 ms of an 11 k-vertex cabochon's load)
-    manifold_hull = float(m3.Manifold.hull_points(v).volume())
-    if manifold_hull > 0 and (manifold_hull - vol) <= rtol * manifold_hull:
-        return True
-    volumes = [manifold_hull]
-    try:
-        from scipy.spatial import ConvexHull
-
-        volumes.append(float(ConvexHull(v).volume))
-    except Exception:  # noqa: BLE001 - Qhull refuses flat input: manifold3d's value stands
-        pass
-    hv = min(x for x in volumes if x > 0) if any(x > 0 for x in volumes) else 0.0
-    if hv <= 0:
-        return False
-    return (hv - vol) <= rtol * hv
-
-
-def _hull_volume(v: np.ndarray) -> float:
-    """Volume of the convex hull of points (Qhull; manifold3d's where Qhull refuses them)."""
-    try:
-        from scipy.spatial import ConvexHull
-
-        return float(ConvexHull(v).volume)
-    except Exception:  # noqa: BLE001 - flat or too few points
-        import manifold3d as m3
-
-        return float(m3.Manifold.hull_points(np.ascontiguousarray(v)).volume())
-
-
-#: vertices above which :func:`is_convex_mesh` first tries the hull of a subset
-CONVEX_PROBE_VERTICES = 50_000
-#: faces per chunk of the per-face sums (bounded temporaries on meshes of millions of triangles)
-CHUNK = 1 << 20
-
-
-def _face_dets(v: np.ndarray, f: np.ndarray) -> np.ndarray:
-    """a·(b x c) of every face's corners, in chunks (three gathers, no (F, 3, 3) copy)."""
-    out = np.empty(len(f))
-    for s in range(0, len(f), CHUNK):
-        ff = f[s : s + CHUNK]
-        a, b, c = v[ff[:, 0]], v[ff[:, 1]], v[ff[:, 2]]
-        out[s : s + len(ff)] = (a[:, 0] * (b[:, 1] * c[:, 2] - b[:, 2] * c[:, 1])
-                                + a[:, 1] * (b[:, 2] * c[:, 0] - b[:, 0] * c[:, 2])
-                                + a[:, 2] * (b[:, 0] * c[:, 1] - b[:, 1] * c[:, 0]))
-    return out
-
-
-def _signed_volume(v: np.ndarray, f: np.ndarray, labels: np.ndarray | None = None, count: int = 1,
-                   dets: np.ndarray | None = None) -> Any:
-    """Signed volume of the faces (per component when ``labels`` is given); ``dets``: the faces'
-    :func:`_face_dets`, when the caller has them."""
-    det = (_face_dets(v, f) if dets is None else dets) / 6.0
-    if labels is None:
-        return float(det.sum())
-    return np.bincount(labels, weights=det, minlength=count)
-
-
-def cross_rows(x: np.ndarray, y: np.ndarray) -> np.ndarray:
-    """``np.cross`` of (N, 3) rows, as its own products and differences (the same values), without
-    its generic machinery (several times faster on millions of rows)."""
-    out = np.empty_like(x)
-    np.multiply(x[:, 1], y[:, 2], out=out[:, 0])
-    out[:, 0] -= x[:, 2] * y[:, 1]
-    np.multiply(x[:, 2], y[:, 0], out=out[:, 1])
-    out[:, 1] -= x[:, 0] * y[:, 2]
-    np.multiply(x[:, 0], y[:, 1], out=out[:, 2])
-    out[:, 2] -= x[:, 1] * y[:, 0]
-    return out
-
-
-def _double_areas(v: np.ndarray, f: np.ndarray) -> np.ndarray:
-    """|(b - a) x (c - a)| of every face (twice its area), in chunks."""
-    out = np.empty(len(f))
-    for s in range(0, len(f), CHUNK):
-        ff = f[s : s + CHUNK]
-        a = v[ff[:, 0]]
-        out[s : s + len(ff)] = np.linalg.norm(cross_rows(v[ff[:, 1]] - a, v[ff[:, 2]] - a), axis=1)
-    return out
-
-
-def extent(v: np.ndarray) -> np.ndarray:
-    """``np.ptp(v, axis=0)`` of (N, 3) points (the same values): a column at a time, not numpy's
-    axis-0 reduction over rows of three (twenty times slower on millions of vertices)."""
-    lo, hi = column_bounds(v)
-    return hi - lo
-
-
-def column_bounds(v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """``(v.min(axis=0), v.max(axis=0))`` of (N, 3) points (the same values), a column at a time."""
-    v = np.asarray(v)
-    lo = np.array([v[:, k].min() for k in range(v.shape[1])])
-    hi = np.array([v[:, k].max() for k in range(v.shape[1])])
-    return lo, hi
-
-
 def _face_measures(v: np.ndarray, f: np.ndarray, keep: bool = False) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None]:
     """One pass over the faces' corners: ``(area2, dets, cross)``. ``area2`` is
-    :func:`_double_areas`; with ``keep``, also :func:`_face_dets` and the (F, 3) cross products
+    :func:`double_areas`; with ``keep``, also :func:`face_dets` and the (F, 3) cross products
     (b - a) x (c - a) whose norms ``area2`` holds (:func:`labcut.geometry.orient.detect_up_axis`
     reads the normals from them), else None for both. The same expressions as those functions, on
     one gather of each face's three corners."""
@@ -714,7 +556,7 @@ def _validate_arrays(vertices: np.ndarray, faces: np.ndarray, name: str, repair:
         v = np.vstack(new_v)
         patch = np.vstack(new_f[1:])
         f = np.vstack(new_f)
-        patch_area = 0.5 * float(_double_areas(v, patch).sum())
+        patch_area = 0.5 * float(double_areas(v, patch).sum())
         own_area = 0.5 * float(area2.sum())  # the file's faces (``original``), summed above
         if patch_area > MAX_PATCH_FRACTION * (patch_area + own_area):
             raise MeshError(
@@ -728,7 +570,7 @@ def _validate_arrays(vertices: np.ndarray, faces: np.ndarray, name: str, repair:
 
     # outward orientation, per closed shell
     labels, count = _face_components(f, len(v), edges if f is measured else None)
-    vols = _signed_volume(v, f, labels, count, dets if f is measured else None)
+    vols = signed_volume(v, f, labels, count, dets if f is measured else None)
     if clean and not np.all(vols > 0):  # a flat pocket (or worse) slipped past the skipped check: in full
         return _validate_arrays(vertices, faces, name, repair, fast=False)
     inward = vols < 0
@@ -769,14 +611,6 @@ def _validate_arrays(vertices: np.ndarray, faces: np.ndarray, name: str, repair:
         notes.append(f"kept {int(flat.sum())} near-zero-area triangles")
     bodies = int(len(man.decompose())) if count > 1 else 1
     return v2, f2, repairs, notes, bodies, None, None
-
-
-def centre_on_base(vertices: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """labcut's placement (DESIGN.md §3): the bounding box centred in XY, the lowest point on
-    z = 0. Returns the moved vertices (mm) and the shift that was added."""
-    lo, hi = column_bounds(vertices)
-    shift = np.array([-(lo[0] + hi[0]) / 2, -(lo[1] + hi[1]) / 2, -lo[2]])
-    return vertices + shift, shift
 
 
 def load_mesh(
@@ -829,8 +663,6 @@ def load_mesh(
 
     import trimesh
 
-    from ..errors import LabcutWarning
-    from .orient import check_up_axis, describe_up, detect_up_axis, up_rotation
 
     report_stage = progress or (lambda stage, fraction: None)
     units_given = not (isinstance(units, str) and units.strip().lower() == "auto")
@@ -843,7 +675,6 @@ def load_mesh(
     if p.is_dir():
         raise MeshError(f"{str(path)!r} is a folder, not a mesh file")
     if p.suffix.lower() in (".asc", ".gem"):  # a GemCad design: dimensionless, sized by its girdle width
-        from .gemcad import load_design
 
         if units_given and factor != 1.0:
             raise ParameterError(f"{p.name} is a GemCad design, which has no length unit: give its girdle width "
@@ -883,7 +714,7 @@ def load_mesh(
     report_stage("checking convexity", 0.6)
     mesh = trimesh.Trimesh(vertices=v, faces=f, process=False)
     if volume is None:
-        volume = _signed_volume(v, f)
+        volume = signed_volume(v, f)
     convex = is_convex_mesh(mesh, volume=volume)
 
     report_stage("finding the face-up side", 0.8)
@@ -961,26 +792,6 @@ def _check_size(v: np.ndarray, factor: float, unit_name: str, units_source: str,
     )
 
 
-def provenance(mesh: Any) -> dict[str, Any]:
-    """Where a mesh came from and what was done to it (path, units, up axis, repairs, bodies), from
-    ``mesh.metadata["labcut"]`` (:func:`labcut.load_mesh`, :func:`labcut.cabochon`); plain JSON."""
-    info = dict((getattr(mesh, "metadata", None) or {}).get("labcut", {}) or {})
-    keys = ("kind", "source", "format", "units", "units_source", "scale_to_mm", "up_axis", "up_axis_source", "rotation",
-            "repairs", "notes", "warnings", "bodies", "convex", "triangles")
-    out: dict[str, Any] = {k: info[k] for k in keys if k in info}
-    out.setdefault("kind", "given")  # built or loaded by the caller, not by labcut
-    out.setdefault("units", "mm")
-    out.setdefault("repairs", [])
-    out.setdefault("bodies", int(info.get("bodies", 1)))
-    out["dimensions_mm"] = [float(x) for x in extent(np.asarray(mesh.vertices, dtype=np.float64))]
-    out["triangles"] = int(len(mesh.faces))
-    if isinstance(info.get("design"), dict):  # a GemCad design: what it is and how it was sized
-        from .gemcad import design_provenance
-
-        out["design"] = design_provenance(info["design"])
-    return out
-
-
 def _mm(x: float) -> str:
     """A length in mm for a message: 16000, 16.5, 0.016."""
     return f"{x:.0f}" if x >= 100 else f"{x:.3g}"
@@ -1046,7 +857,6 @@ def save_mesh(mesh: Any, path: str | os.PathLike[str]) -> Path:
     right side up: metres, +Y up, the front of the stone facing +Z (labcut's -Y), i.e.
     ``(x, y, z) mm -> (x, z, -y) / 1000 m``; :func:`load_mesh` turns it back.
     """
-    from ..fileio import atomic_output
 
     out = Path(path)
     suffix = out.suffix.lower()
@@ -1056,7 +866,6 @@ def save_mesh(mesh: Any, path: str | os.PathLike[str]) -> Path:
         plain = mesh.copy()
         plain.metadata = {}
         if suffix == ".glb":
-            from .orient import up_rotation
 
             to_gltf = np.eye(4)
             to_gltf[:3, :3] = up_rotation("+Y").T * 1e-3  # inverse of the +Y-up intake, mm -> m

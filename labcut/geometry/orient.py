@@ -32,6 +32,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import ParameterError
+from .solid import column_bounds, cross_rows, extent
 
 #: up-axis names accepted by ``load_mesh(..., up_axis=)`` and ``--up-axis``
 UP_AXES = ("auto", "+Z", "-Z", "+Y", "-Y", "+X", "-X")
@@ -111,7 +112,6 @@ def _side_fractions(v: np.ndarray, f: np.ndarray, normals: np.ndarray, areas: np
     """Per axis direction d: (flat area on the far side along +d, flat area on the near side) as
     shares of the outline area seen along d. Only the faces whose normal lies within ``cos_min``
     of the axis are looked at vertex by vertex (a few of a big mesh's millions)."""
-    from .meshio import column_bounds
 
     out = {}
     lows, highs = column_bounds(v)  # np.ptp's and each column's min and max, the same values
@@ -143,7 +143,6 @@ def detect_up_axis(vertices: np.ndarray, faces: np.ndarray, convex: bool, *, cro
     keeps them: :func:`labcut.geometry.meshio._face_measures`); they are overwritten with the unit
     normals.
     """
-    from .meshio import cross_rows
 
     v = np.asarray(vertices, dtype=np.float64)
     f = np.asarray(faces, dtype=np.int64)
@@ -178,7 +177,6 @@ def detect_up_axis(vertices: np.ndarray, faces: np.ndarray, convex: bool, *, cro
     if len(tables) > 1:
         return UpGuess(None, "flat faces on several sides")
     # 3. a dome: the thinnest axis, the side away from the bulk
-    from .meshio import extent
 
     ext = extent(v)
     order = np.argsort(ext)

@@ -19,6 +19,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import MeshError, ParameterError
+from .stone import RECORD_KEY, Stone
 
 
 def clustered_proxy(mesh: Any, cell_mm: float) -> Any:
@@ -34,7 +35,6 @@ def clustered_proxy(mesh: Any, cell_mm: float) -> Any:
     metadata (units, labcut's convexity and faceting flags), marked ``labcut["proxy_cell_mm"]``.
     Raises :class:`ParameterError` for a cell that is not a positive number or that splits the mesh
     into more than 2^62 cells, :class:`MeshError` for an empty mesh or non-finite vertices."""
-    import copy
 
     import trimesh
 
@@ -78,6 +78,8 @@ def clustered_proxy(mesh: Any, cell_mm: float) -> Any:
     used[faces.ravel()] = True
     remap = np.cumsum(used) - 1
     proxy = trimesh.Trimesh(vertices=centre[used], faces=remap[faces], process=False)
-    proxy.metadata.update(copy.deepcopy(getattr(mesh, "metadata", {}) or {}))
-    proxy.metadata.setdefault("labcut", {})["proxy_cell_mm"] = cell
+    stone = Stone.of(mesh)
+    if stone.name is not None:
+        proxy.metadata["name"] = stone.name
+    proxy.metadata[RECORD_KEY] = {**stone.metadata(), "proxy_cell_mm": cell}
     return proxy

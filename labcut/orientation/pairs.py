@@ -93,7 +93,7 @@ def build_pairs(mesh: Any, material: Labradorite, quality: Quality | str, tau: f
     if not settings:
         raise ParameterError("build_pairs needs at least one setting")
     quality = Quality.coerce(quality)
-    check_problem_inputs(mesh, seed, tau)
+    mesh = check_problem_inputs(mesh, seed, tau)
     count = int(quality.surface_points)
     samples = surface_samples(mesh, count, int(seed))
     points, n_geo, n_sh, convex = samples.points, samples.n_geo, samples.n_sh, samples.convex

@@ -36,6 +36,8 @@ import numpy as np
 
 from ..colour import luminance_table
 from ..errors import MeshError, ParameterError
+from ..geometry.stone import Stone
+from ..geometry.surface import SurfaceSamples
 from ..physics import schiller as lobe
 from ..physics.material import Labradorite
 from ..physics.ops import NUMPY
@@ -349,80 +351,10 @@ class _PairSums:
         return lambda: (pair_major(sums[:k_count]), np.asarray(sums[k_count], dtype=np.float64) if full_first else None)
 
 
-def _smooth_normals(split: Any, face_idx: np.ndarray, bary: np.ndarray) -> np.ndarray:
-    """Smooth shading normals at sample points of the smooth-shaded mesh (as the renderer shades)."""
-    vn = split.vertex_normals[split.faces[face_idx]]
-    n = np.einsum("ij,ijk->ik", bary, vn)
-    return n / np.linalg.norm(n, axis=1, keepdims=True)
-
-
-@dataclass(frozen=True)
-class SurfaceSamples:
-    """Area-uniform samples of a stone's smooth-shaded surface (:func:`surface_samples`)."""
-
-    points: np.ndarray  # (N, 3) positions, mesh frame
-    n_geo: np.ndarray  # (N, 3) geometric (face) normals
-    n_sh: np.ndarray  # (N, 3) smooth shading normals, as the renderer shades
-    seed: int
-    convex: bool
-
-    @property
-    def count(self) -> int:
-        return len(self.points)
-
-
 def surface_samples(mesh: Any, count: int, seed: int) -> SurfaceSamples:
-    """``count`` area-uniform samples of the smooth-shaded copy of ``mesh`` the renderer uses
-    (split along edges sharper than the shading angle; same surface, its own face order), drawn
-    from ``numpy.random.default_rng(seed)``. Kept per mesh, count and seed (:func:`labcut.rendering.
-    scene.mesh_cached`): a recommendation's error bars and a repeated question reuse them."""
-    from ..rendering.scene import mesh_cached, shading_angle_deg
-
-    angle = shading_angle_deg(mesh)
-    return mesh_cached(mesh, f"labcut_surface_samples_{float(angle):.6g}_{int(count)}_{int(seed)}",
-                       lambda: _draw_samples(mesh, int(count), int(seed), angle))
-
-
-def _draw_samples(mesh: Any, count: int, seed: int, angle: float) -> SurfaceSamples:
-    from ..rendering.scene import FAST_SMOOTH_FACES, face_areas, smooth_corner_normals, unit_normals, smooth_split
-
-    big = len(mesh.faces) > FAST_SMOOTH_FACES
-    # a big mesh is sampled in its own face order and shaded at the sampled faces only
-    # (smooth_corner_normals); a smaller one on the renderer's split copy (its own face order)
-    split = None if big else smooth_split(mesh, angle)
-    area_faces = face_areas(mesh) if big else split.area_faces
-    ok = np.isfinite(area_faces) & (area_faces > 0)
-    if not np.any(ok):
-        raise MeshError("the mesh has no face with positive area")
-    rng = np.random.default_rng(seed)
-    prob = np.where(ok, area_faces, 0.0)
-    del area_faces, ok
-    face_idx = rng.choice(len(prob), size=count, p=prob / prob.sum())
-    del prob
-    r1, r2 = rng.random(count), rng.random(count)
-    sq = np.sqrt(r1)
-    bary = np.stack([1 - sq, sq * (1 - r2), sq * r2], axis=1)
-    if big:
-        tri = np.asarray(mesh.vertices, dtype=np.float64)[np.asarray(mesh.faces)[face_idx]]
-        n_geo = unit_normals(tri)
-        n_sh = np.einsum("ij,ijk->ik", bary, smooth_corner_normals(mesh, angle, face_idx))
-        n_sh /= np.linalg.norm(n_sh, axis=1, keepdims=True)
-    else:
-        tri = split.vertices[split.faces[face_idx]]  # = split.triangles[face_idx], without every face's corners
-        n_geo = split.face_normals[face_idx]
-        n_sh = _smooth_normals(split, face_idx, bary)
-    points = np.einsum("ij,ijk->ik", bary, tri)
-
-    info = mesh.metadata.get("labcut", {}) if hasattr(mesh, "metadata") else {}
-    if "convex" in info:
-        convex = bool(info["convex"])
-    else:
-        from ..geometry.meshio import is_convex_mesh
-
-        convex = bool(is_convex_mesh(mesh))
-    for a in (points, n_geo, n_sh):
-        a.setflags(write=False)
-    return SurfaceSamples(points, n_geo, n_sh, seed, convex)
+    """The stone's :meth:`~labcut.geometry.stone.Stone.surface_samples` (drawn once per stone,
+    point count and seed: a recommendation's error bars and a repeated question reuse them)."""
+    return Stone.of(mesh).surface_samples(count, seed)
 
 
 def lobe_reach(kappa: float, spread_rad: float = 0.0) -> float:
@@ -432,11 +364,15 @@ def lobe_reach(kappa: float, spread_rad: float = 0.0) -> float:
     return float(spread_rad) + 5.0 / math.sqrt(max(float(kappa), 1e-6))
 
 
-def check_problem_inputs(mesh: Any, seed: Any, tau: Any) -> None:
+def check_problem_inputs(mesh: Any, seed: Any, tau: Any) -> Any:
     """Refuse, with a :class:`~labcut.errors.ParameterError` or :class:`~labcut.errors.MeshError`,
     a seed that is not a whole number in [0, 2^63), a flash threshold outside (0, 10) and a mesh
-    that is not a non-empty ``trimesh.Trimesh`` (what a flash problem, whole or as pairs, is built from)."""
+    that is not a non-empty ``trimesh.Trimesh`` or :class:`~labcut.Stone` (what a flash problem,
+    whole or as pairs, is built from). Returns the stone's trimesh."""
     import trimesh
+
+    if isinstance(mesh, Stone):
+        mesh = mesh.mesh
 
     if not (isinstance(seed, int | np.integer) and 0 <= int(seed) < 2**63):
         raise ParameterError(f"seed must be a whole number >= 0, got {seed!r}")
@@ -444,6 +380,7 @@ def check_problem_inputs(mesh: Any, seed: Any, tau: Any) -> None:
         raise ParameterError(f"flash threshold tau must lie in (0, 10), got {tau!r}")
     if not isinstance(mesh, trimesh.Trimesh) or len(mesh.faces) == 0:
         raise MeshError("the mesh is empty or not a trimesh.Trimesh (load it with labcut.load_mesh)")
+    return mesh
 
 
 def build_problem(
@@ -480,7 +417,7 @@ def build_problem(
     if not settings:
         raise ParameterError("build_problem needs at least one setting")
     quality = Quality.coerce(quality)
-    check_problem_inputs(mesh, seed, tau)
+    mesh = check_problem_inputs(mesh, seed, tau)
     count = int(n_points or quality.surface_points)
     samples = surface_samples(mesh, count, int(seed))
     points, n_geo, n_sh, convex = samples.points, samples.n_geo, samples.n_sh, samples.convex

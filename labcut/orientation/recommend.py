@@ -19,7 +19,7 @@ from ..scene import Lights, Scenario, Views, resolve_scene
 from ..scene.quality import Quality
 from .optimize import (OPTIMIZERS, SEED_SPACING_DEG, Constraint, hemisphere_grid, polish_grid, run_optimizer, score_map,
                        tolerance_deg)
-from ..geometry.meshio import provenance as mesh_provenance
+from ..geometry.stone import Stone, mesh_of
 from .problem import build_problem
 from .scoring import OBJECTIVES, FlashMetrics, Scorer
 from .setup import FlashSetup
@@ -176,7 +176,7 @@ class Recommendation:
     parallel_within_deg: float | None = None
     #: the cutter's set-up: which edge to raise above the flash plane, degrees and mm (:func:`workshop`)
     workshop: dict[str, Any] = field(default_factory=dict)
-    #: the mesh's provenance (:func:`mesh_provenance`): path, units, up axis, repairs, bodies
+    #: the stone's provenance (:meth:`labcut.Stone.provenance_dict`): path, units, up axis, repairs, bodies
     mesh: dict[str, Any] = field(default_factory=dict)
     #: the effect plan it ran under (:meth:`labcut.planner.EffectPlan.to_dict`): effects on and
     #: off and why, the estimator and the predicted seconds
@@ -450,6 +450,7 @@ def recommend_orientation(
     render estimator the normal, score and metrics are the renders'; the map, tolerance and
     runners-up come from the sample estimator around that normal.
     """
+    mesh = mesh_of(mesh)  # a Stone or a trimesh
     if optimizer not in OPTIMIZERS:
         raise ParameterError(f"optimizer must be one of {', '.join(OPTIMIZERS)}, got {optimizer!r}")
     start = time.perf_counter()
@@ -540,7 +541,7 @@ def recommend_orientation(
         tolerance_deg=float(tol), tolerance_by_axis=by_axis, runners_up=runners, map_normals=map_normals, map_scores=map_scores,
         optimizer=optimizer, evaluations=scorer.evaluations, seconds=time.perf_counter() - start,
         parallel_within_deg=parallel, workshop=workshop(normal, mesh, scene, parallel=parallel is not None),
-        mesh=mesh_provenance(mesh), plan=plan.to_dict(), estimator=plan.estimator or "samples", render=render_stats,
+        mesh=Stone.of(mesh).provenance_dict(), plan=plan.to_dict(), estimator=plan.estimator or "samples", render=render_stats,
         uncertainty=bars,
         settings={
             **ask.to_dict(),
@@ -560,7 +561,7 @@ def _within_budget(mesh: Any, ask: FlashSetup, time_budget: Any, *, quality_give
     import warnings
 
     from ..errors import LabcutWarning
-    from ..planner import is_convex, occlusion_on
+    from ..planner import occlusion_on
     from .budget import choose
 
     if quality_given:
@@ -570,7 +571,7 @@ def _within_budget(mesh: Any, ask: FlashSetup, time_budget: Any, *, quality_give
     # plan finds them cached): their seconds are the budget's (the calibration's recommendations,
     # which the rungs are predicted from, include a plan but not its pilots)
     plan = ask.plan(mesh, "recommend", predict=False)
-    choice = choose(time_budget, ask.scene_spec, occlusion_on(is_convex(mesh), ask.effect_overrides), plan=plan)
+    choice = choose(time_budget, ask.scene_spec, occlusion_on(Stone.of(mesh).convex, ask.effect_overrides), plan=plan)
     if choice.note:
         warnings.warn(choice.note, LabcutWarning, stacklevel=3)
     return ask.at_quality(choice.quality), choice
@@ -645,6 +646,7 @@ def evaluate_orientation(
     :func:`recommend_orientation` (its objective and constraint do not matter here). ``plan``: the
     effect plan already made (``plan_effects(..., command="evaluate")``), as in
     :func:`recommend_orientation`."""
+    mesh = mesh_of(mesh)  # a Stone or a trimesh
     from ..rendering.api import normalize_normal
 
     m = normalize_normal(normal)

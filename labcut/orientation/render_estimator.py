@@ -34,6 +34,8 @@ from typing import Any
 
 import numpy as np
 
+from ..geometry.stone import Stone
+
 from ..errors import ParameterError
 from ..physics.material import Labradorite
 from ..rendering.api import normalize_normal
@@ -399,8 +401,7 @@ def measure_render_timing() -> RenderTiming:
 
     from ..scene import resolve_scene
 
-    sphere = trimesh.creation.icosphere(subdivisions=3, radius=5.0)
-    sphere.metadata["labcut"] = {"convex": True}
+    sphere = Stone(trimesh.creation.icosphere(subdivisions=3, radius=5.0), convex=True).mesh
     st = resolve_scene(lighting="overhead", viewing="face-up", quality="draft").settings()[0]
     one = Setting(st.lights, type(st.views)(st.views.directions[:1]), 1.0, st.pose)
     material = Labradorite()

@@ -22,6 +22,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import ParameterError
+from ..geometry.stone import Stone
 from ..physics.material import Labradorite
 from ..rendering.api import normalize_normal
 from ..scene import Setting
@@ -41,15 +42,6 @@ CARVING_DEPTH = 4
 PASS_SAMPLES = 1 << 20
 #: a pixel counts when its alpha (box-filter coverage) exceeds this, as in :func:`render_metrics`
 COVER_ALPHA = 1e-3
-
-
-def _mesh_is_convex(mesh: Any) -> bool:
-    info = (getattr(mesh, "metadata", None) or {}).get("labcut", {})
-    if "convex" in info:
-        return bool(info["convex"])
-    from ..geometry.meshio import is_convex_mesh
-
-    return bool(is_convex_mesh(mesh))
 
 
 def _sigmoid(x: np.ndarray) -> np.ndarray:
@@ -198,7 +190,7 @@ class RenderObjective:
         validate_mesh(mesh)
         self.material = Labradorite.coerce(material)
         self.objective = objective
-        self.convex = _mesh_is_convex(mesh)
+        self.convex = Stone.of(mesh).convex
         self.max_depth = (DIRECT_DEPTH if self.convex else CARVING_DEPTH) if max_depth is None else check_number(max_depth, "max_depth", 2, 16, integer=True)
         self.integrator = "direct" if self.max_depth == DIRECT_DEPTH else "prb"
         self.l_ref = reference_radiance(self.material, 1.0)

@@ -24,6 +24,8 @@ from collections.abc import Iterator, Sequence
 from dataclasses import asdict, dataclass
 from typing import Any
 
+from ..geometry.stone import Stone
+
 #: the user-cache file of the calibration (:func:`sample_timing`)
 TIMING_FILE = "sample-estimator-timing.json"
 #: whether this thread of work is timing calls for a calibration: the planner predicts nothing for
@@ -82,14 +84,12 @@ def time_three(call: Any, repeats: int = 1) -> tuple[float, float, float]:
     best of ``repeats``, after a warm-up of each stone (the occluded one's first call loads a
     Mitsuba variant and builds its ray scene, once per process: timed, it made the per-ray cost
     ten times too large, 1.2e-5 s). Returns ``(fixed, per_term, per_ray)``."""
-    import copy
 
     from ..geometry.cabochon import cabochon
     from ..scene import resolve_scene
 
     mesh = cabochon(outline="oval", length=16.0, width=12.0, dome="medium")
-    hidden = copy.deepcopy(mesh)
-    hidden.metadata.setdefault("labcut", {})["convex"] = False
+    hidden = Stone.of(mesh).replace(convex=False).mesh  # the same stone, with the occluded path's rays
     rows = []
     with calibration_run():
         call(mesh, "draft")  # warm: imports and kernels

@@ -24,6 +24,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import ParameterError
+from ..geometry.stone import mesh_of
 from ..scene import Scenario
 from ..scene.directions import rotation
 
@@ -115,6 +116,7 @@ def animate(
     ``amplitude_deg`` and ``fps`` are its own), and ``setup`` a validated
     :class:`~labcut.rendering.setup.RenderSetup` of the rest pose (then ``material`` and the render
     arguments stay at their defaults): what the CLI passes, checked once."""
+    mesh = mesh_of(mesh)  # a Stone or a trimesh
     from ..validation import given_besides
     from .api import render_setup
 

@@ -39,6 +39,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import ParameterError
+from ..geometry.stone import Stone, mesh_of
 from ..physics.material import Labradorite
 from .images import save_image
 from ..scene import Scenario, Setting, resolve_scene
@@ -80,7 +81,7 @@ class RenderResult:
     area the estimator finds there (share of the visible stone at or above the flash threshold;
     None where the view sees the stone edge-on) and whether there is any. ``notes``: what a
     viewer of the image should know (e.g. "no flash from this view"). ``mesh``: the mesh's
-    provenance (:func:`labcut.geometry.meshio.provenance`). ``look``: ``diagram`` or ``studio``;
+    provenance (:meth:`labcut.Stone.provenance_dict`). ``look``: ``diagram`` or ``studio``;
     ``tonemap``: the PNG's tone curve (``hue`` or ``agx``); ``exposure_metering``: how an automatic
     exposure was found (``image``: from the image's bright pixels; ``incident``: from the lights,
     as an incident-light meter would, so a dull stone stays dull); ``studio``: the studio
@@ -154,17 +155,8 @@ def normalize_normal(normal: Any) -> np.ndarray:
     return -m if m[2] < 0 else m  # axial: report the upper-hemisphere representative
 
 
-def _is_convex(mesh: Any) -> bool:
-    info = getattr(mesh, "metadata", {}).get("labcut", {})
-    if "convex" in info:
-        return bool(info["convex"])
-    from ..geometry.meshio import is_convex_mesh
-
-    return bool(is_convex_mesh(mesh))
-
-
 def plan_render(
-    mesh: Any,
+    stone: Any,
     lighting: Any = None,
     mode: str = "rgb",
     polarizer_deg: float | None = None,
@@ -177,6 +169,8 @@ def plan_render(
 ) -> RenderPlan:
     """Choose variant, integrator and depth for a request (see the module docstring).
 
+    ``stone``: a :class:`~labcut.Stone` or trimesh (whether it is convex decides the bounces), or
+    True / False: a convex or non-convex stone (the checks that do not depend on the shape).
     ``lighting``: the :class:`~labcut.Lights` (mesh frame) the render uses, for the record.
     ``look``: ``"diagram"`` | ``"studio"`` | a :class:`~labcut.rendering.studio.Studio`.
     ``denoise``: None (default: on for the studio look where the colour transport allows it),
@@ -192,7 +186,7 @@ def plan_render(
     if polarized and mode == "rgb":
         mode = "spectral"
     variant = variant_name(mode, polarized)
-    convex = _is_convex(mesh)
+    convex = stone if isinstance(stone, bool) else Stone.of(stone).convex
     reasons = [f"{mode} colour{' with polarization (polarizer given)' if polarized else ''}"]
     studio = resolve_look(look)
     if max_depth is not None:
@@ -469,6 +463,7 @@ def render(
     (:func:`labcut.geometry.meshio.validate_mesh`) and :class:`~labcut.errors.ParameterError`
     for bad parameters.
     """
+    mesh = mesh_of(mesh)  # a Stone or a trimesh
     from ..geometry.meshio import validate_mesh
 
     validate_mesh(mesh)
@@ -517,7 +512,6 @@ def render_setup(mesh: Any, ask: Any, normal: np.ndarray, *, progress: Callable[
     unit lamella ``normal`` (checks nothing again); the result is not saved."""
     import drjit as dr
 
-    from ..geometry.meshio import provenance
     from .images import auto_exposure
 
     studio = ask.studio
@@ -603,7 +597,7 @@ def render_setup(mesh: Any, ask: Any, normal: np.ndarray, *, progress: Callable[
         image, plan, int(spp), seconds, [v.name for v in views], scenario_used.to_dict(),
         exposure=float(exposure) if exposure is not None else auto,
         exposure_mode="given" if exposure is not None else "auto",
-        mesh=provenance(mesh),
+        mesh=Stone.of(mesh).provenance_dict(),
         look=plan.look,
         tonemap="hue" if studio is None else "agx",
         exposure_metering="image" if studio is None else "incident",

@@ -12,6 +12,10 @@ from typing import Any
 
 import numpy as np
 
+from ..geometry.solid import column_bounds
+from ..geometry.stone import Stone
+from ..geometry.surface import sample_surface, unit_normals
+
 
 def escapes(mesh: Any, origins: np.ndarray, normals: np.ndarray, dirs: np.ndarray) -> np.ndarray:
     """(N, D) bool: the ray from each point (offset along its normal by 1e-4 of the mesh's
@@ -30,8 +34,8 @@ def surface_offset(mesh: Any) -> float:
     the vertices the faces use), the distance ray origins are lifted off the surface. Once per mesh,
     from the coordinate columns (trimesh's bounds reduce rows of three: half a second on a
     five-million-triangle mesh)."""
-    from ..geometry.meshio import column_bounds
-    from .scene import mesh_cached
+    stone = Stone.of(mesh)
+    mesh = stone.mesh
 
     def build() -> float:
         v = np.asarray(mesh.vertices, dtype=np.float64)
@@ -40,7 +44,7 @@ def surface_offset(mesh: Any) -> float:
         lo, hi = column_bounds(v if used.all() else v[used])
         return 1e-4 * float(np.linalg.norm(hi - lo))
 
-    return mesh_cached(mesh, "labcut_ray_surface_offset", build)
+    return stone.cached("ray_surface_offset", build)
 
 
 #: the colour mode of the variant the ray queries run in: a shadow ray's answer is the triangles'
@@ -56,7 +60,7 @@ INSTANCED = ("llvm_", "scalar_")
 
 def occlusion_scene(mesh: Any) -> Any:
     """A Mitsuba scene of the mesh's bare triangles for ``ray_test`` (shadow rays), once per mesh and
-    variant (:func:`labcut.rendering.scene.mesh_cached`).
+    variant (kept by the stone: :meth:`labcut.geometry.stone.Stone.cached`).
 
     On the CPU (Embree) the triangles sit in a shape group seen through one instance of identity
     transform: Mitsuba builds its top-level scene at Embree's highest build quality (spatial
@@ -66,9 +70,8 @@ def occlusion_scene(mesh: Any) -> Any:
     uint32 indices, flat, one copy each. On the GPU (OptiX) the mesh is the scene's own shape."""
     import mitsuba as mi
 
-    from .scene import mesh_cached
-
-    return mesh_cached(mesh, f"labcut_occlusion_scene_{mi.variant()}", lambda: _build_occlusion_scene(mesh))
+    stone = Stone.of(mesh)
+    return stone.cached(f"occlusion_scene_{mi.variant()}", lambda: _build_occlusion_scene(stone.mesh))
 
 
 def _build_occlusion_scene(mesh: Any, instanced: bool | None = None) -> Any:
@@ -116,11 +119,11 @@ def self_view_fraction(mesh: Any, points: int = 1024, directions: int = 64, seed
     directions (about each face's outward normal) whose ray meets the stone again. 0 for a
     convex stone; for a carving it bounds how much of the light reaching the surface arrives
     by way of another part of it (times that part's reflectance)."""
-    from .scene import sample_surface, unit_normals
-
+    stone = Stone.of(mesh)
+    mesh = stone.mesh
     rng = np.random.default_rng(seed)
     # trimesh.sample.sample_surface's points, without its copies of every face's corners
-    pts, face = sample_surface(mesh, int(points), seed=int(rng.integers(2**31)))
+    pts, face = sample_surface(mesh, int(points), seed=int(rng.integers(2**31)), areas=stone.face_areas)
     pts = np.asarray(pts, dtype=np.float64)
     n = unit_normals(np.asarray(mesh.vertices, dtype=np.float64)[np.asarray(mesh.faces)[face]])  # the picked faces' only
     # a cosine-weighted direction set about +Z, rotated onto each point's normal

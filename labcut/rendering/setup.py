@@ -33,13 +33,6 @@ MODES = ("rgb", "spectral", "mono")
 DEFAULT_SPP = 64
 
 
-class _ConvexProbe:
-    """A stand-in mesh for the mesh-independent checks of a render plan (mode, polarizer, lobes,
-    look, denoise do not depend on the shape)."""
-
-    metadata = {"labcut": {"convex": True}}
-
-
 @dataclass(frozen=True)
 class RenderSetup:
     """A validated render request (module docstring); build it with :meth:`build`."""
@@ -134,7 +127,7 @@ class RenderSetup:
         if denoise is not None and not isinstance(denoise, bool):
             raise ParameterError(f"denoise must be True, False or None, got {denoise!r}")
         lobes_t = tuple(lobes) if not isinstance(lobes, str) else (lobes,)
-        plan_render(_ConvexProbe(), None, mode, polarizer_deg, lobes_t, max_depth, look=studio or "diagram",
+        plan_render(True, None, mode, polarizer_deg, lobes_t, max_depth, look=studio or "diagram",
                     denoise=denoise)  # mode, polarizer, lobes, look and denoise together
         scene = resolve_scene(scenario, lighting, viewing)
         cameras = tuple(camera_views(view, scene.main_setting()))

@@ -30,6 +30,7 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from typing import Any
 
+from ..geometry.stone import Stone
 from ..orientation.budget import BudgetChoice, check_budget, correction, ladder, pick
 from ..scene.quality import Quality
 
@@ -82,8 +83,7 @@ def compare_render_timing(integrator: str, refresh: bool = False) -> tuple[float
         from .flashcolour import flash_colour_map
         from .renders import render_cut
 
-        stone = cabochon("oval", 16.0, 12.0)
-        stone.metadata.setdefault("labcut", {})["convex"] = integrator == "direct"
+        stone = Stone(cabochon("oval", 16.0, 12.0), convex=integrator == "direct").mesh
         scene = resolve_scene("bench")
         mat = Labradorite()
         axis = tilt_axes(scene)["front_back"]
@@ -115,7 +115,7 @@ def predict_comparison(cuts: Sequence[Any], scenarios: Sequence[Any], quality: Q
     under ``scenarios`` (as asked: names, files or Scenario objects) at ``quality``, before the
     adaptive correction."""
     from ..orientation.timing import predict_sample_seconds
-    from ..planner import is_convex, occlusion_on, predict_evaluate_seconds
+    from ..planner import occlusion_on, predict_evaluate_seconds
     from .analysis import tilt_settings
     from .compare import resolve_scenarios
 
@@ -126,7 +126,7 @@ def predict_comparison(cuts: Sequence[Any], scenarios: Sequence[Any], quality: Q
     total = 0.0
     cold = set()
     for cut in cuts:
-        convex = is_convex(cut.mesh)
+        convex = Stone.of(cut.mesh).convex
         occlusion = occlusion_on(convex, effects)
         integrator = "direct" if convex else "path"
         fixed, per_sample, first = compare_render_timing(integrator)

@@ -28,6 +28,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import ParameterError
+from ..geometry.stone import Stone
 from ..validation import check_number
 from .cuts import Cut, resolve_cuts
 
@@ -383,9 +384,7 @@ def _metrics(metrics: Any) -> dict[str, Any] | None:
 
 
 def _mesh_block(cut: Cut) -> dict[str, Any]:
-    from ..geometry.meshio import provenance
-
-    out = provenance(cut.mesh)
+    out = Stone.of(cut.mesh).provenance_dict()
     if cut.kind == "file":
         out["path"] = cut.source
     return out

@@ -42,6 +42,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import LabcutError, LabcutWarning, ParameterError
+from ..geometry.stone import Stone
 from ..validation import check_number, name_or_mm
 
 CAB_PREFIX = "cab:"
@@ -159,6 +160,8 @@ def _label(item: Any, position: int) -> str:
         return str(item)
     if isinstance(item, Cut):
         return item.name
+    if isinstance(item, Stone):
+        return item.name or f"mesh {position}"
     if hasattr(item, "faces") and hasattr(item, "vertices"):
         return str((getattr(item, "metadata", None) or {}).get("name") or f"mesh {position}")
     return type(item).__name__
@@ -177,20 +180,18 @@ def _resolve_one(item: Any, position: int, units: Any, up_axis: str, size: float
     if isinstance(item, Cut):
         validate_mesh(item.mesh, item.name)
         return replace(item, design=dict(item.design), warnings=list(item.warnings))
-    if isinstance(item, trimesh.Trimesh):
-        name = str((item.metadata or {}).get("name") or f"mesh {position}")
-        validate_mesh(item, name)
-        return Cut(name, item, "mesh", None, _design(item))
+    if isinstance(item, Stone | trimesh.Trimesh):
+        stone = Stone.of(item)
+        name = stone.name or f"mesh {position}"
+        validate_mesh(stone.mesh, name)
+        return Cut(name, stone.mesh, "mesh", None, _design(stone.mesh))
     if isinstance(item, str) and item.lower().startswith(CAB_PREFIX):
         from ..geometry.cabochon import cabochon
 
         kwargs = parse_cab_spec(item)
-        mesh = cabochon(**kwargs)
-        meta = mesh.metadata.get("labcut", {})
-        extra = {"outline": meta.get("outline"), "dome_mm": meta.get("dome_mm"), "profile": meta.get("profile"),
-                 "girdle_mm": meta.get("girdle_mm")}
-        mesh.metadata["labcut"] = {**meta, "source": item}
-        return Cut(item, mesh, "cabochon", item, _design(mesh, extra))
+        stone = Stone(cabochon(**kwargs), source=item)
+        extra = {k: stone.shape.get(k) for k in ("outline", "dome_mm", "profile", "girdle_mm")}
+        return Cut(item, stone.mesh, "cabochon", item, _design(stone.mesh, extra))
     if isinstance(item, str | os.PathLike):
         path = Path(item)
         with warnings.catch_warnings(record=True) as caught:

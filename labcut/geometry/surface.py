@@ -1,0 +1,204 @@
+"""Geometry queries of a stone's surface: face areas, surface samples, unit and smooth shading
+normals, the smooth-shaded split copy.
+
+Frames and units: the mesh frame, mm, +Z face-up (DESIGN.md §3). The renderer and the flash
+estimator shade a stone alike: smooth across edges gentler than its shading angle
+(:data:`SMOOTH_ANGLE_DEG`, or :data:`FACETED_ANGLE_DEG` for a faceted design), flat across sharper
+ones. These functions compute; a :class:`~labcut.geometry.stone.Stone` keeps what they give for
+its mesh (each once per stone).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from ..errors import MeshError
+from .solid import cross_rows
+
+SMOOTH_ANGLE_DEG = 30.0  # edges sharper than this keep flat shading
+FACETED_ANGLE_DEG = 0.5  # a faceted design (GemCad) is flat-shaded at every facet junction
+
+
+def smooth_split(mesh: Any, angle_deg: float) -> Any:
+    """``trimesh.graph.smooth_shade`` of ``mesh`` at ``angle_deg``: a copy split along edges sharper
+    than it, whose vertex normals are the smooth shading normals the renderer and the flash
+    estimator use. Built once per stone by :meth:`labcut.geometry.stone.Stone.smooth_split`."""
+    import trimesh
+
+    return trimesh.graph.smooth_shade(mesh, angle=math.radians(angle_deg))
+
+
+#: meshes with more triangles than this are shaded for the flash estimator by
+#: :func:`smooth_corner_normals` at the sampled faces (a few million triangles' split copy costs
+#: seconds to build and gigabytes to hold); smaller ones by the split copy the renderer uses
+FAST_SMOOTH_FACES = 200_000
+
+
+def face_areas(mesh: Any, chunk: int = 1 << 20) -> np.ndarray:
+    """Area of every face, as trimesh's ``area_faces`` has it (the same formula, the same values),
+    computed in chunks (no (F, 3, 3) copy of the corners kept). Read-only; kept per stone by
+    :attr:`labcut.geometry.stone.Stone.face_areas`."""
+    v = np.asarray(mesh.vertices, dtype=np.float64)
+    f = np.asarray(mesh.faces)
+    out = np.empty(len(f))
+    for s in range(0, len(f), chunk):
+        ff = f[s : s + chunk]
+        b = v[ff[:, 1]]
+        crosses = cross_rows(b - v[ff[:, 0]], v[ff[:, 2]] - b)  # trimesh.triangles.cross's edges and values
+        crosses **= 2
+        out[s : s + len(ff)] = np.sqrt(crosses[:, 0] + crosses[:, 1] + crosses[:, 2]) / 2.0
+    out.setflags(write=False)
+    return out
+
+
+def sample_surface(mesh: Any, count: int, seed: int, areas: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """``trimesh.sample.sample_surface(mesh, count, seed=seed)`` (the same points and faces, from
+    the same random stream) without its copies of every face's corners: the areas come from
+    :func:`face_areas` (or ``areas``, the mesh's face areas already made) and only the picked
+    faces' corners are gathered. ``(points, face_index)``."""
+    weight_cum = np.cumsum(face_areas(mesh) if areas is None else areas)
+    random = np.random.default_rng(seed).random
+    face_index = np.searchsorted(weight_cum, random(count) * weight_cum[-1])
+    v = np.asarray(mesh.vertices)
+    f = np.asarray(mesh.faces)[face_index]
+    origins = v[f[:, 0]]
+    vectors = v[f[:, 1:]].copy()
+    vectors -= np.tile(origins, (1, 2)).reshape((-1, 2, 3))
+    lengths = random((len(vectors), 2, 1))
+    lengths[lengths.sum(axis=1).reshape(-1) > 1.0] -= 1.0
+    lengths = np.abs(lengths)
+    return (vectors * lengths).sum(axis=1) + origins, face_index
+
+
+def unit_normals(tri: np.ndarray) -> np.ndarray:
+    """(N, 3) unit geometric normals of the triangles ``tri`` ((N, 3, 3) corners, outward by their
+    winding; e.g. ``mesh.face_normals[idx]`` from only those faces' corners); a zero-area face
+    gets a zero vector."""
+    import trimesh
+
+    unit, valid = trimesh.triangles.normals(tri)
+    out = np.zeros((len(tri), 3))
+    out[valid] = unit
+    return out
+
+
+def smooth_corner_normals(mesh: Any, angle_deg: float, face_idx: Any) -> np.ndarray:
+    """(k, 3, 3) smooth shading normals at the three corners of the faces ``face_idx`` of ``mesh``
+    (in its own face order), split along edges sharper than ``angle_deg``, without building a split
+    copy of the whole mesh (:func:`smooth_split`), for a mesh of millions of triangles.
+
+    At a corner (face f, vertex v) the normal is the corner-angle weighted mean of the normals of
+    the faces around v that f reaches across edges at v whose faces' normals differ by less than
+    ``angle_deg`` (trimesh's vertex normals of the split copy: the same weights and tests).
+    trimesh's split goes by connected patches of the whole mesh instead, and keeps flat facets
+    larger than a tenth of the surface apart: the two differ only at vertices where two or more
+    sharp edges meet and the sectors they part around the vertex are one patch further away
+    (trimesh then smooths across those edges there), and at the rims of such large facets. On
+    the bundled cabochons they agree at every corner, on the carving at all but 0.03 % of its
+    area (``tests/test_speed_big.py`` compares them)."""
+    import trimesh
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    faces = np.asarray(mesh.faces, dtype=np.int64)
+    verts = np.asarray(mesh.vertices, dtype=np.float64)
+    face_idx = np.asarray(face_idx, dtype=np.int64).ravel()
+    nv = len(verts)
+    need = np.zeros(nv, dtype=bool)
+    need[faces[face_idx].ravel()] = True
+    # every corner at a needed vertex: (face g, corner c), sorted by face then corner
+    g, c = np.nonzero(need[faces])
+    v = faces[g, c]
+    w1, w2 = faces[g, (c + 1) % 3], faces[g, (c + 2) % 3]
+    inc = np.unique(g)  # incident faces: their normals and corner angles
+    tri = verts[faces[inc]]
+    normals = unit_normals(tri)
+    angles = trimesh.triangles.angles(tri)
+    loc = np.searchsorted(inc, g)
+    n_c = normals[loc]
+    ang_c = angles[loc, c]
+    ang_c = np.where(np.einsum("ij,ij->i", n_c, n_c) > 0.5, ang_c, 0.0)  # faces without a normal count for nothing
+    # the fan around each vertex: corners whose faces share an edge (v, w) at it
+    key = np.concatenate([v * nv + w1, v * nv + w2])
+    corner = np.concatenate([np.arange(len(g)), np.arange(len(g))])
+    order = np.argsort(key, kind="stable")
+    ks, cs = key[order], corner[order]
+    same = np.flatnonzero(ks[1:] == ks[:-1])
+    a, b = cs[same], cs[same + 1]
+    keep = a != b
+    a, b = a[keep], b[keep]
+    dots = np.clip(np.einsum("ij,ij->i", n_c[a], n_c[b]), -1.0, 1.0)
+    smooth = np.abs(np.arccos(dots)) < math.radians(angle_deg)
+    a, b = a[smooth], b[smooth]
+    graph = coo_matrix((np.ones(len(a), dtype=np.int8), (a, b)), shape=(len(g), len(g)))
+    _, comp = connected_components(graph, directed=False)
+    summed = np.stack([np.bincount(comp, weights=ang_c * n_c[:, k]) for k in range(3)], axis=1)
+    length = np.sqrt(np.einsum("ij,ij->i", summed, summed))
+    unit = summed / np.where(length > 0, length, 1.0)[:, None]
+    # the corners of the faces asked: their rows among the sorted (face, corner) pairs
+    rows = np.searchsorted(g * 3 + c, (face_idx[:, None] * 3 + np.arange(3)[None, :]).ravel())
+    return unit[comp[rows]].reshape(len(face_idx), 3, 3)
+
+
+def _smooth_normals(split: Any, face_idx: np.ndarray, bary: np.ndarray) -> np.ndarray:
+    """Smooth shading normals at sample points of the smooth-shaded mesh (as the renderer shades)."""
+    vn = split.vertex_normals[split.faces[face_idx]]
+    n = np.einsum("ij,ijk->ik", bary, vn)
+    return n / np.linalg.norm(n, axis=1, keepdims=True)
+
+
+@dataclass(frozen=True)
+class SurfaceSamples:
+    """Area-uniform samples of a stone's smooth-shaded surface (:func:`draw_samples`)."""
+
+    points: np.ndarray  # (N, 3) positions, mesh frame
+    n_geo: np.ndarray  # (N, 3) geometric (face) normals
+    n_sh: np.ndarray  # (N, 3) smooth shading normals, as the renderer shades
+    seed: int
+    convex: bool
+
+    @property
+    def count(self) -> int:
+        return len(self.points)
+
+
+def draw_samples(mesh: Any, count: int, seed: int, angle: float, convex: bool, split: Any = None,
+                 areas: np.ndarray | None = None) -> SurfaceSamples:
+    """``count`` area-uniform samples of the smooth-shaded surface of ``mesh`` (as the renderer
+    shades it: split along edges sharper than ``angle`` degrees), drawn from
+    ``numpy.random.default_rng(seed)``, mesh frame. A mesh of more than :data:`FAST_SMOOTH_FACES`
+    triangles is sampled in its own face order (``areas``: its face areas) and shaded at the sampled
+    faces only (:func:`smooth_corner_normals`); a smaller one on its split copy ``split``
+    (:func:`smooth_split`, its own face order). ``convex`` travels with the samples."""
+    big = len(mesh.faces) > FAST_SMOOTH_FACES
+    if not big and split is None:
+        split = smooth_split(mesh, angle)
+    area_faces = (face_areas(mesh) if areas is None else areas) if big else split.area_faces
+    ok = np.isfinite(area_faces) & (area_faces > 0)
+    if not np.any(ok):
+        raise MeshError("the mesh has no face with positive area")
+    rng = np.random.default_rng(seed)
+    prob = np.where(ok, area_faces, 0.0)
+    del area_faces, ok
+    face_idx = rng.choice(len(prob), size=count, p=prob / prob.sum())
+    del prob
+    r1, r2 = rng.random(count), rng.random(count)
+    sq = np.sqrt(r1)
+    bary = np.stack([1 - sq, sq * (1 - r2), sq * r2], axis=1)
+    if big:
+        tri = np.asarray(mesh.vertices, dtype=np.float64)[np.asarray(mesh.faces)[face_idx]]
+        n_geo = unit_normals(tri)
+        n_sh = np.einsum("ij,ijk->ik", bary, smooth_corner_normals(mesh, angle, face_idx))
+        n_sh /= np.linalg.norm(n_sh, axis=1, keepdims=True)
+    else:
+        tri = split.vertices[split.faces[face_idx]]  # = split.triangles[face_idx], without every face's corners
+        n_geo = split.face_normals[face_idx]
+        n_sh = _smooth_normals(split, face_idx, bary)
+    points = np.einsum("ij,ijk->ik", bary, tri)
+    for a in (points, n_geo, n_sh):
+        a.setflags(write=False)
+    return SurfaceSamples(points, n_geo, n_sh, seed, convex)

@@ -1,0 +1,230 @@
+"""One flash question of one stone, asked and re-asked: :class:`Study`.
+
+A Study is a stone (:class:`~labcut.Stone`) with a material, a scenario (how it is lit, worn and
+seen), a quality and the rest of a flash question (:class:`~labcut.orientation.setup.FlashSetup`),
+and everything answering it makes: the effect plan, the sample estimator's flash problem and its
+scorer (with the binned energy map), the recommendation. Each is made at the first question that
+needs it and kept; :meth:`Study.with_lights`, :meth:`~Study.with_material`,
+:meth:`~Study.with_scenario` and :meth:`~Study.with_quality` return a new Study that shares
+what the change leaves valid: always the stone and its derived geometry (surface samples per count
+and seed, the smooth-shaded split, ray scenes), and the plan and flash problem where the change
+does not touch them. A designer in a notebook moves the lamp or swaps the material and asks again
+without rebuilding the rest.
+
+:func:`labcut.recommend_orientation`, :func:`labcut.evaluate_orientation` and :func:`labcut.render`
+answer the same questions in one call (the Study answers bit for bit as they do; tests hold it).
+
+Frames and units: the mesh frame (mm, +Z face-up, the front at -Y), lamella normals axial (z >= 0),
+tilt from +Z and azimuth from +X toward +Y in degrees (DESIGN.md §3).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from dataclasses import replace
+from typing import Any
+
+import numpy as np
+
+from .errors import ParameterError
+from .geometry.stone import Stone
+from .orientation.kernels import DEFAULT_KERNELS, KernelOptions
+from .orientation.optimize import hemisphere_grid, score_map
+from .orientation.recommend import Recommendation, answer_recommendation, build_scorer, evaluation_metrics
+from .orientation.scoring import FlashMetrics, Scorer
+from .orientation.setup import FlashSetup
+from .scene.directions import direction
+from .scene.quality import Quality
+
+
+class Study:
+    """A stone and a flash question about it, with what answering it has made (module docstring).
+
+    ``stone``: a :class:`~labcut.Stone` or a trimesh (wrapped). The question's arguments are
+    :func:`labcut.recommend_orientation`'s (``material``, ``scenario``, ``lighting``,
+    ``viewing``, ``quality``, ``objective``, ``tau``, ``seed``, ``max_tilt``, ``tilt_axis``,
+    ``estimator``, ``effects``, ``zoning``), checked once here; or ``setup``, the question
+    already built. ``kernels``: which steps of the sample estimator run as Dr.Jit kernels
+    (:class:`~labcut.orientation.kernels.KernelOptions`; how, not what: the answers agree to
+    float32 rounding).
+
+    ``builds`` counts what this Study and the Studies it was derived from made (``plan``,
+    ``problem``, ``recommendation``): a re-ask that reuses something does not count it again.
+    """
+
+    def __init__(self, stone: Any, material: Any = None, scenario: Any = None, quality: Quality | str = "standard", *,
+                 lighting: Any = None, viewing: Any = None, objective: str = "energy", tau: float = 0.1, seed: int = 0,
+                 max_tilt: float = 90.0, tilt_axis: Any = None, estimator: str = "auto",
+                 effects: Mapping[str, Any] | None = None, zoning: Any = None, setup: FlashSetup | None = None,
+                 kernels: KernelOptions = DEFAULT_KERNELS) -> None:
+        self.stone = Stone.of(stone, "stone").validate("stone")
+        if setup is None:
+            setup = FlashSetup.build(material, scenario, lighting, viewing, objective=objective, quality=quality, tau=tau,
+                                     seed=seed, max_tilt=max_tilt, tilt_axis=tilt_axis, estimator=estimator,
+                                     effects=effects, zoning=zoning)
+        elif not isinstance(setup, FlashSetup):
+            raise ParameterError(f"setup must be a labcut FlashSetup (FlashSetup.build(...)), got {type(setup).__name__}")
+        if not isinstance(kernels, KernelOptions):
+            raise ParameterError(f"kernels must be a KernelOptions, got {type(kernels).__name__}")
+        self.setup = replace(setup, kernels=kernels)
+        self.builds: dict[str, int] = {"plan": 0, "problem": 0, "recommendation": 0}
+        self._plan: Any = None
+        self._scorer: Scorer | None = None
+        self._recommendations: dict[str, Recommendation] = {}
+
+    # ------------------------------------------------------------------ the question
+    @property
+    def material(self) -> Any:
+        return self.setup.material
+
+    @property
+    def scenario(self) -> Any:
+        return self.setup.scenario
+
+    @property
+    def quality(self) -> Quality:
+        return self.setup.quality
+
+    @property
+    def kernels(self) -> KernelOptions:
+        return self.setup.kernels
+
+    def __repr__(self) -> str:
+        return (f"Study({self.stone!r}, material={self.material.name or 'custom'!r}, scenario={self.scenario.name!r}, "
+                f"quality={self.quality.name!r})")
+
+    # ------------------------------------------------------------------ what answering makes, once
+    def plan(self) -> Any:
+        """The effect plan (:class:`labcut.planner.EffectPlan`): which effects are simulated and
+        which estimator answers; made once."""
+        if self._plan is None:
+            self._plan = self.setup.plan(self.stone.mesh, "recommend")
+            self.builds["plan"] += 1
+        return self._plan
+
+    @property
+    def scorer(self) -> Scorer:
+        """The sample estimator's scorer of this question's flash problem, built as planned; made once."""
+        if self._scorer is None:
+            self._scorer = build_scorer(self.stone.mesh, self.setup, self.plan())
+            self.builds["problem"] += 1
+        return self._scorer
+
+    # ------------------------------------------------------------------ questions
+    def recommend(self, optimizer: str = "nlopt", progress: Callable[[str, float], None] | None = None) -> Recommendation:
+        """The recommended lamella orientation (:func:`labcut.recommend_orientation`'s answer), found
+        once per optimizer and kept."""
+        hit = self._recommendations.get(optimizer)
+        if hit is None:
+            hit = answer_recommendation(self.stone.mesh, self.setup, self.scorer, self.plan(), optimizer=optimizer,
+                                        progress=progress)
+            self._recommendations[optimizer] = hit
+            self.builds["recommendation"] += 1
+        return hit
+
+    def evaluate(self, normal: Any = None, *, tilt: float | None = None, azimuth: float | None = None) -> FlashMetrics:
+        """Flash metrics (DESIGN.md §4) of one lamella orientation: a ``normal`` (mesh frame, axial),
+        or ``tilt`` (degrees from +Z) and ``azimuth`` (degrees from +X toward +Y). The answer of
+        :func:`labcut.evaluate_orientation` for the same question."""
+        m = orientation(normal, tilt, azimuth)
+        return evaluation_metrics(self.stone.mesh, self.setup, self.scorer, self.plan(), m)
+
+    def score_map(self, spacing_deg: float | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """``(normals, scores)``: the objective over the allowed hemisphere, normals ``spacing_deg``
+        apart (default: the quality's map spacing), from the sample estimator."""
+        spacing = self.quality.map_spacing_deg if spacing_deg is None else float(spacing_deg)
+        if not (spacing > 0 and np.isfinite(spacing)):
+            raise ParameterError(f"spacing_deg must be a positive number of degrees, got {spacing_deg!r}")
+        normals = hemisphere_grid(spacing, self.setup.constraint)
+        return normals, score_map(self.scorer, normals)
+
+    def render(self, normal: Any = None, *, tilt: float | None = None, azimuth: float | None = None, **kwargs: Any) -> Any:
+        """A render (:func:`labcut.render`) of the stone under this Study's material and scenario at
+        a lamella orientation: a ``normal`` or ``tilt``/``azimuth``, else the recommended one.
+        ``kwargs``: the rest of :func:`labcut.render`'s request (``resolution``, ``spp``, ``view``,
+        ``look``, ``output`` ...)."""
+        from .rendering.api import render
+
+        if normal is None and tilt is None and azimuth is None:
+            m = self.recommend().normal
+        else:
+            m = orientation(normal, tilt, azimuth)
+        for taken in ("material", "scenario", "lighting", "viewing", "setup", "lamella_normal"):
+            if taken in kwargs:
+                raise ParameterError(f"Study.render takes its {taken} from the Study (with_... makes another)")
+        return render(self.stone, self.material, m, scenario=self.scenario, zoning=self.setup.zoning, **kwargs)
+
+    # ------------------------------------------------------------------ re-asking
+    def _derived(self, setup: FlashSetup, *, keep_plan: bool = False, keep_problem: bool = False) -> Study:
+        other = Study.__new__(Study)
+        other.stone = self.stone
+        other.setup = setup
+        other.builds = self.builds  # one count for a Study and all derived from it
+        other._plan = self._plan if keep_plan else None
+        other._scorer = self._scorer if keep_problem else None
+        other._recommendations = {}
+        return other
+
+    def with_material(self, material: Any) -> Study:
+        """The same question of another material (a :class:`~labcut.Labradorite` or a preset name)."""
+        from .physics.material import Labradorite
+
+        return self._derived(replace(self.setup, material=Labradorite.coerce(material)))
+
+    def with_scenario(self, scenario: Any) -> Study:
+        """The same question under another scenario (a name, a JSON file or a :class:`~labcut.Scenario`)."""
+        return self._derived(self._rebuilt(scenario=scenario))
+
+    def with_lights(self, lighting: Any) -> Study:
+        """The same question with other lights (a lighting preset, a JSON or .exr/.hdr file or a
+        :class:`~labcut.Lights`), the scenario's viewers and poses kept."""
+        return self._derived(self._rebuilt(scenario=self.setup.scene_spec[0], lighting=lighting,
+                                           viewing=self.setup.scene_spec[2]))
+
+    def with_quality(self, quality: Quality | str) -> Study:
+        """The same question at another :class:`~labcut.Quality`."""
+        return self._derived(self.setup.at_quality(quality))
+
+    def with_objective(self, objective: str) -> Study:
+        """The same question ranked by another objective (``energy``, ``area``, ``intensity``,
+        ``balanced``): the plan and the flash problem are shared."""
+        setup = self._rebuilt(objective=objective)
+        return self._derived(setup, keep_plan=True, keep_problem=False)
+
+    def with_kernels(self, kernels: KernelOptions) -> Study:
+        """The same question computed with other :class:`~labcut.orientation.kernels.KernelOptions`
+        (the plan is shared)."""
+        if not isinstance(kernels, KernelOptions):
+            raise ParameterError(f"kernels must be a KernelOptions, got {type(kernels).__name__}")
+        return self._derived(replace(self.setup, kernels=kernels), keep_plan=True)
+
+    def _rebuilt(self, **changes: Any) -> FlashSetup:
+        """This Study's setup built again with ``changes`` (checked as any question is)."""
+        s = self.setup
+        spec = dict(zip(("scenario", "lighting", "viewing"), s.scene_spec))
+        if "scenario" in changes and "lighting" not in changes:
+            spec = {"scenario": changes.pop("scenario"), "lighting": None, "viewing": None}
+        spec.update({k: changes.pop(k) for k in ("scenario", "lighting", "viewing") if k in changes})
+        asked = dict(objective=s.objective, quality=s.quality, tau=s.tau, seed=s.seed, estimator=s.estimator,
+                     effects=s.effect_overrides, zoning=s.zoning, max_tilt=s.constraint.max_tilt_deg,
+                     tilt_axis=s.constraint.tilt_axis)
+        asked.update(changes)
+        return replace(FlashSetup.build(s.material, spec["scenario"], spec["lighting"], spec["viewing"], **asked),
+                       kernels=s.kernels)
+
+
+def orientation(normal: Any = None, tilt: float | None = None, azimuth: float | None = None) -> np.ndarray:
+    """A lamella normal (unit, mesh frame, z >= 0) from a ``normal`` vector or from ``tilt`` and
+    ``azimuth`` in degrees; exactly one of the two ways."""
+    from .rendering.api import normalize_normal
+    from .validation import check_number
+
+    if normal is not None:
+        if tilt is not None or azimuth is not None:
+            raise ParameterError("give a normal or tilt and azimuth, not both")
+        return normalize_normal(normal)
+    if tilt is None or azimuth is None:
+        raise ParameterError("give a lamella normal, or both tilt and azimuth (degrees)")
+    t = check_number(tilt, "tilt", 0.0, 90.0)
+    a = check_number(azimuth, "azimuth", -360.0, 360.0)
+    return normalize_normal(direction(t, a))
