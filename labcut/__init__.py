@@ -48,6 +48,7 @@ _LAZY = {
     "cabochon": "labcut.geometry.cabochon:cabochon",
     "load_mesh": "labcut.geometry.meshio:load_mesh",
     "Stone": "labcut.geometry.stone:Stone",
+    "Study": "labcut.study:Study",
     "render": "labcut.rendering.api:render",
     "recommend_orientation": "labcut.orientation.recommend:recommend_orientation",
     "evaluate_orientation": "labcut.orientation.recommend:evaluate_orientation",

@@ -26,6 +26,7 @@ from typing import Any
 
 import numpy as np
 
+from .backend import serial_blas
 from .errors import ParameterError
 from .geometry.stone import Stone
 from .orientation.kernels import DEFAULT_KERNELS, KernelOptions
@@ -90,7 +91,7 @@ class Study:
         return self.setup.kernels
 
     def __repr__(self) -> str:
-        return (f"Study({self.stone!r}, material={self.material.name or 'custom'!r}, scenario={self.scenario.name!r}, "
+        return (f"Study({self.stone!r}, scenario={self.scenario.name!r}, "
                 f"quality={self.quality.name!r})")
 
     # ------------------------------------------------------------------ what answering makes, once
@@ -98,7 +99,8 @@ class Study:
         """The effect plan (:class:`labcut.planner.EffectPlan`): which effects are simulated and
         which estimator answers; made once."""
         if self._plan is None:
-            self._plan = self.setup.plan(self.stone.mesh, "recommend")
+            with serial_blas():  # as recommend_orientation plans: the same numbers to the last bit
+                self._plan = self.setup.plan(self.stone.mesh, "recommend")
             self.builds["plan"] += 1
         return self._plan
 
@@ -106,7 +108,9 @@ class Study:
     def scorer(self) -> Scorer:
         """The sample estimator's scorer of this question's flash problem, built as planned; made once."""
         if self._scorer is None:
-            self._scorer = build_scorer(self.stone.mesh, self.setup, self.plan())
+            plan = self.plan()
+            with serial_blas():
+                self._scorer = build_scorer(self.stone.mesh, self.setup, plan)
             self.builds["problem"] += 1
         return self._scorer
 
@@ -116,8 +120,10 @@ class Study:
         once per optimizer and kept."""
         hit = self._recommendations.get(optimizer)
         if hit is None:
-            hit = answer_recommendation(self.stone.mesh, self.setup, self.scorer, self.plan(), optimizer=optimizer,
-                                        progress=progress)
+            scorer, plan = self.scorer, self.plan()
+            with serial_blas():
+                hit = answer_recommendation(self.stone.mesh, self.setup, scorer, plan, optimizer=optimizer,
+                                            progress=progress)
             self._recommendations[optimizer] = hit
             self.builds["recommendation"] += 1
         return hit
@@ -127,7 +133,9 @@ class Study:
         or ``tilt`` (degrees from +Z) and ``azimuth`` (degrees from +X toward +Y). The answer of
         :func:`labcut.evaluate_orientation` for the same question."""
         m = orientation(normal, tilt, azimuth)
-        return evaluation_metrics(self.stone.mesh, self.setup, self.scorer, self.plan(), m)
+        scorer, plan = self.scorer, self.plan()
+        with serial_blas():
+            return evaluation_metrics(self.stone.mesh, self.setup, scorer, plan, m)
 
     def score_map(self, spacing_deg: float | None = None) -> tuple[np.ndarray, np.ndarray]:
         """``(normals, scores)``: the objective over the allowed hemisphere, normals ``spacing_deg``
@@ -136,7 +144,9 @@ class Study:
         if not (spacing > 0 and np.isfinite(spacing)):
             raise ParameterError(f"spacing_deg must be a positive number of degrees, got {spacing_deg!r}")
         normals = hemisphere_grid(spacing, self.setup.constraint)
-        return normals, score_map(self.scorer, normals)
+        scorer = self.scorer
+        with serial_blas():
+            return normals, score_map(scorer, normals)
 
     def render(self, normal: Any = None, *, tilt: float | None = None, azimuth: float | None = None, **kwargs: Any) -> Any:
         """A render (:func:`labcut.render`) of the stone under this Study's material and scenario at
@@ -188,8 +198,10 @@ class Study:
     def with_objective(self, objective: str) -> Study:
         """The same question ranked by another objective (``energy``, ``area``, ``intensity``,
         ``balanced``): the plan and the flash problem are shared."""
-        setup = self._rebuilt(objective=objective)
-        return self._derived(setup, keep_plan=True, keep_problem=False)
+        other = self._derived(self._rebuilt(objective=objective), keep_plan=True)
+        if self._scorer is not None:  # the same triples, ranked by the other objective
+            other._scorer = Scorer(self._scorer.problem, other.setup.objective)
+        return other
 
     def with_kernels(self, kernels: KernelOptions) -> Study:
         """The same question computed with other :class:`~labcut.orientation.kernels.KernelOptions`

@@ -1,7 +1,7 @@
 """The layers hold: no module imports a layer above its own (docs/architecture.md).
 
     errors → backend, fileio → physics, colour → geometry, scene
-           → rendering, orientation, plots, planner → reports → batch → the CLI (labcut_cli)
+           → rendering, orientation, plots, planner → study → reports → batch → the CLI (labcut_cli)
 
 A module may import its own layer and any below. Imports are read from the source
 (every ``import`` and ``from ... import``, including those inside functions), so a lazy
@@ -24,6 +24,7 @@ LAYERS: list[tuple[str, ...]] = [
     ("labcut.physics", "labcut.colour"),
     ("labcut.geometry", "labcut.scene"),
     ("labcut.rendering", "labcut.orientation", "labcut.plots", "labcut.planner"),
+    ("labcut.study",),
     ("labcut.reports",),
     ("labcut.batch",),
 ]

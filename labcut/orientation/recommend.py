@@ -360,8 +360,8 @@ def question(setup: FlashSetup | None = None, **asked: Any) -> FlashSetup:
 
 def _setup(mesh: Any, setup: FlashSetup, command: str = "recommend", plan: Any = None) -> tuple[Scorer, Any]:
     """Plan the effects of ``setup`` on ``mesh`` (:func:`labcut.planner.plan_effects`; ``plan``: one
-    already made for them, used as it is) and build the sample estimator's problem as planned:
-    ``(scorer, plan)``."""
+    already made for them, used as it is) and build the sample estimator's problem as planned
+    (:func:`build_scorer`): ``(scorer, plan)``."""
     from ..geometry.meshio import validate_mesh
     from ..planner import EffectPlan
 
@@ -372,9 +372,16 @@ def _setup(mesh: Any, setup: FlashSetup, command: str = "recommend", plan: Any =
                                  f"and question, got {plan!r:.80}")
     else:
         plan = setup.plan(mesh, command, predict=command == "recommend")  # a recommendation's JSON holds its predicted seconds
+    return build_scorer(mesh, setup, plan), plan
+
+
+def build_scorer(mesh: Any, setup: FlashSetup, plan: Any) -> Scorer:
+    """The sample estimator's scorer of the question ``setup`` about ``mesh`` (a checked trimesh),
+    its flash problem built as ``plan`` (an :class:`~labcut.planner.EffectPlan`) says: occlusion
+    rays or not, the setup's kernel options."""
     problem = build_problem(mesh, setup.material, quality=setup.quality, tau=setup.tau, seed=setup.seed,
                             settings=setup.scenario.settings(), occlusion=plan.on("occlusion"), kernels=setup.kernels)
-    return Scorer(problem, setup.objective), plan
+    return Scorer(problem, setup.objective)
 
 
 @with_serial_blas
@@ -464,9 +471,26 @@ def recommend_orientation(
         if plan is not None:
             raise ParameterError("give plan or time_budget, not both (the budget plans at the quality it chooses)")
         ask, budget = _within_budget(mesh, ask, time_budget, quality_given=not is_default(quality, "standard"))
+    scorer, plan = _setup(mesh, ask, "recommend", plan)
+    return answer_recommendation(mesh, ask, scorer, plan, optimizer=optimizer, progress=report, budget=budget, start=start)
+
+
+def answer_recommendation(mesh: Any, ask: FlashSetup, scorer: Scorer, plan: Any, *, optimizer: str = "nlopt",
+                          progress: Callable[[str, float], None] | None = None, budget: Any = None,
+                          start: float | None = None) -> Recommendation:
+    """The recommendation of question ``ask`` about ``mesh`` (a checked trimesh) from its sample
+    estimator's ``scorer`` and effect ``plan`` (:func:`build_scorer`; a
+    :class:`~labcut.study.Study` keeps both between questions): the map, the optimiser, the
+    render estimator where planned, tolerances, runners-up, error bars. ``budget``: the time-budget
+    choice the question was made at (its calibration learns from this run); ``start``: when the
+    call began (``time.perf_counter()``), for the answer's seconds."""
+    if optimizer not in OPTIMIZERS:
+        raise ParameterError(f"optimizer must be one of {', '.join(OPTIMIZERS)}, got {optimizer!r}")
+    start = time.perf_counter() if start is None else start
+    report = progress or (lambda stage, fraction: None)
+    evaluations = scorer.evaluations
     material, scene, constraint, quality = ask.material, ask.scenario, ask.constraint, ask.quality
     objective, tau, seed, zoning = ask.objective, ask.tau, ask.seed, ask.zoning
-    scorer, plan = _setup(mesh, ask, "recommend", plan)
     renders = plan.estimator == "render"
     stage = (lambda fraction: 0.3 * fraction) if renders else (lambda fraction: fraction)
     report("mapping the hemisphere", stage(0.3))
@@ -539,7 +563,7 @@ def recommend_orientation(
     return Recommendation(
         normal=normal, tilt_deg=tilt, azimuth_deg=az, score=float(score), objective=objective, metrics=metrics,
         tolerance_deg=float(tol), tolerance_by_axis=by_axis, runners_up=runners, map_normals=map_normals, map_scores=map_scores,
-        optimizer=optimizer, evaluations=scorer.evaluations, seconds=time.perf_counter() - start,
+        optimizer=optimizer, evaluations=scorer.evaluations - evaluations, seconds=time.perf_counter() - start,
         parallel_within_deg=parallel, workshop=workshop(normal, mesh, scene, parallel=parallel is not None),
         mesh=Stone.of(mesh).provenance_dict(), plan=plan.to_dict(), estimator=plan.estimator or "samples", render=render_stats,
         uncertainty=bars,
@@ -652,8 +676,14 @@ def evaluate_orientation(
     m = normalize_normal(normal)
     ask = question(setup, material=material, scenario=scenario, lighting=lighting, viewing=viewing, quality=quality, tau=tau,
                    seed=seed, estimator=estimator, effects=effects, zoning=zoning)
-    material, scene, quality, tau, seed, zoning = ask.material, ask.scenario, ask.quality, ask.tau, ask.seed, ask.zoning
     scorer, plan = _setup(mesh, ask, "evaluate", plan)
+    return evaluation_metrics(mesh, ask, scorer, plan, m)
+
+
+def evaluation_metrics(mesh: Any, ask: FlashSetup, scorer: Scorer, plan: Any, m: np.ndarray) -> FlashMetrics:
+    """Flash metrics of the unit lamella normal ``m`` for question ``ask`` about ``mesh``: the
+    sample estimator's ``scorer``, or renders where ``plan`` chose the render estimator."""
+    material, scene, quality, tau, seed, zoning = ask.material, ask.scenario, ask.quality, ask.tau, ask.seed, ask.zoning
     if plan.estimator == "render":
         from .render_estimator import RENDER_QUALITY
         from .render_objective import RenderObjective
