@@ -89,9 +89,9 @@ _CUDA_DRIVER_NAMES = ("libcuda.so.1", "libcuda.so", "nvcuda.dll", "libcuda.dylib
 
 @functools.lru_cache(maxsize=1)
 def _cuda_driver_present() -> bool:
-    """Whether the CUDA driver library loads: the loader's own search, as Dr.Jit's, which takes
-    microseconds where ``ctypes.util.find_library`` runs ``ldconfig -p`` and ``gcc`` (10-20 ms
-    and two subprocesses at every start of a machine without CUDA)."""
+    """Whether the CUDA driver library loads: the loader's own search, as Dr.Jit's, rather than
+    ``ctypes.util.find_library``, which runs ``ldconfig -p`` and ``gcc`` as subprocesses at every
+    start of a machine without CUDA."""
     for name in _CUDA_DRIVER_NAMES:
         try:
             ctypes.CDLL(name)
@@ -176,7 +176,7 @@ def ad_types() -> tuple[Any, Any]:
 @functools.lru_cache(maxsize=1)
 def _blas_controller() -> Any:
     """threadpoolctl's view of the BLAS libraries loaded (made once: it walks the loaded
-    libraries, about 3 ms), or None where threadpoolctl cannot load."""
+    libraries), or None where threadpoolctl cannot load."""
     try:
         from threadpoolctl import ThreadpoolController
     except ImportError:  # pragma: no cover - a dependency of labcut
@@ -190,8 +190,9 @@ def serial_blas() -> Iterator[None]:
 
     Dr.Jit's LLVM backend keeps a pool of worker threads on every core; OpenBLAS's own threads,
     woken for each of the small products a recommendation makes (the error bars' replicates, the
-    facing tests), contend with them, and a standard recommendation on 2 cores took 10-20 ms
-    longer with them than without (``benchmarks/recommend_stages.py``, docs/performance.md). The
+    facing tests), contend with them on few cores (the cost is measured by ``benchmarks/recommend_stages.py``,
+    docs/performance.md). It also fixes the order of the products' sums, so a question's answer
+    is the same bits whoever calls it (``tests/test_golden_answers.py``, ``tests/test_study.py``). The
     previous thread counts come back on leaving the block; nested blocks are fine."""
     controller = _blas_controller()
     if controller is None or not controller.select(user_api="blas").lib_controllers:

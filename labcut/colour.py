@@ -255,8 +255,8 @@ def rgb_table(material: Any, polarization: str | None = None) -> np.ndarray:
 def luminance_table(material: Any) -> tuple[np.ndarray, np.ndarray]:
     """(cos θ grid over [0, 1], luminance reflectance R_Y) of a material, computed once and
     shared by the mono BSDF, its sampling weight and the flash estimators; kept on disk for
-    later processes like :func:`rgb_table` (a CLI call's first recommendation would spend
-    ~0.1 s on the 1024 x 471 spectra)."""
+    later processes like :func:`rgb_table` (a CLI call's first recommendation would otherwise
+    compute the 1024 x 471 spectra)."""
     from .fileio import cached_array
 
     c = np.linspace(0.0, 1.0, LUMINANCE_TABLE_SIZE)

@@ -228,7 +228,7 @@ class Study:
 def orientation(normal: Any = None, tilt: float | None = None, azimuth: float | None = None) -> np.ndarray:
     """A lamella normal (unit, mesh frame, z >= 0) from a ``normal`` vector or from ``tilt`` and
     ``azimuth`` in degrees; exactly one of the two ways."""
-    from .rendering.api import normalize_normal
+    from .scene.directions import normalize_normal
     from .validation import check_number
 
     if normal is not None:

@@ -64,7 +64,8 @@ def _check_outputs(html: Path | None, json_path: str | None, csv_path: Path | No
 
 def short_orientation(normal: Any, scenario: Any, parallel_within_deg: float | None) -> str:
     """``9° top``, ``4° front-left``, ``parallel (±2.3°)``: an orientation for a narrow table."""
-    from labcut.orientation.recommend import side_name, tilt_azimuth
+    from labcut.orientation.recommend import side_name
+    from labcut.scene.directions import tilt_azimuth
 
     if parallel_within_deg is not None:
         return f"parallel (±{parallel_within_deg:.1f}°)"
@@ -165,6 +166,7 @@ def compare(
     import warnings
 
     from labcut.errors import LabcutWarning
+    from labcut.orientation.budget import quality_or_budget
     from labcut.reports.compare import plan_comparison, run_comparison
 
     from .progress import progress_bar
@@ -177,10 +179,7 @@ def compare(
 
         raise ParameterError("compare runs the sample estimator (many cuts and curves); "
                              "use --estimator samples, or recommend-orientation --estimator render per cut")
-    if time_budget is not None and quality is not None:
-        from labcut.errors import ParameterError
-
-        raise ParameterError("give --quality or --time-budget, not both (the budget chooses the quality)")
+    quality_or_budget(quality is not None, time_budget is not None, flags=True)
     unit_arg, up, size = mesh_options.units_arg, mesh_options.up, mesh_options.size
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", LabcutWarning)

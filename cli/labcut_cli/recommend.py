@@ -170,6 +170,7 @@ def recommend_orientation(
     import labcut
     from labcut.errors import ParameterError
     from labcut.fileio import check_output_path
+    from labcut.orientation.budget import quality_or_budget
     from labcut.orientation.optimize import OPTIMIZERS
 
     from .progress import progress_bar
@@ -184,8 +185,7 @@ def recommend_orientation(
     if optimizer not in OPTIMIZERS:
         raise ParameterError(f"--optimizer must be one of {', '.join(OPTIMIZERS)}, got {optimizer!r}")
     exposure_value = parse_exposure(exposure)
-    if time_budget is not None and quality is not None:
-        raise ParameterError("give --quality or --time-budget, not both (the budget chooses the quality)")
+    quality_or_budget(quality is not None, time_budget is not None, flags=True)
     quality = quality or "standard"
     # the whole question, checked once (FlashSetup.build); the library takes it as it is
     setup = _question(material, scenario, lighting, viewing, quality, estimator, effect, zoning, objective=objective,
@@ -272,7 +272,8 @@ def recommend_orientation(
         return
     try:
         with progress_bar("rendering", "samples/pixel") as update:
-            from labcut.rendering.api import normalize_normal, render_setup
+            from labcut.rendering.api import render_setup
+            from labcut.scene.directions import normalize_normal
 
             assert render_ask is not None
             result = render_setup(mesh, render_ask.replace(scenario=rec.scenario), normalize_normal(rec.normal), progress=update)
@@ -315,7 +316,7 @@ def evaluate_orientation(
     from labcut.fileio import check_output_path
     import labcut
     from labcut.orientation.recommend import METRIC_DEFINITIONS, FRAME, metrics_dict
-    from labcut.rendering.api import normalize_normal
+    from labcut.scene.directions import normalize_normal
 
     if json_path not in (None, "-"):
         check_output_path(json_path, (".json",))

@@ -101,7 +101,8 @@ def render(
     only with --polarizer, direct lighting for convex stones, a path tracer for carvings.
     """
     from labcut.fileio import check_output_path
-    from labcut.rendering.api import normalize_normal, render_setup
+    from labcut.rendering.api import render_setup
+    from labcut.scene.directions import normalize_normal
     from labcut.rendering.setup import LOBES, Motion, RenderSetup
     from labcut.rendering.images import IMAGE_SUFFIXES
 

@@ -50,9 +50,9 @@ from typing import Any
 
 from ..errors import LabcutError, ParameterError
 from ..geometry.stone import Stone
+from ..scene.quality import QUALITIES
 
 COLUMNS = ("name", "cut", "material", "scenario", "quality", "objective", "seed", "units", "up_axis", "size", "max_tilt")
-QUALITIES = ("draft", "standard", "high")
 DESIGN_SUFFIXES = (".asc", ".gem")
 CATALOG_SUFFIXES = (".csv", ".yaml", ".yml")
 #: how many characters of the SHA-256 a row key keeps (80 bits: no collision in any catalogue)

@@ -374,7 +374,7 @@ def run(
     start = time.perf_counter()
     defaults = Defaults(material, scenario, quality, objective, seed)
     from ..orientation.scoring import OBJECTIVES
-    from .catalog import QUALITIES
+    from ..scene.quality import QUALITIES
 
     for name, value, choices in (("quality", quality, QUALITIES), ("objective", objective, OBJECTIVES)):
         if value not in choices:

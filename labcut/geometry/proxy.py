@@ -1,10 +1,9 @@
-"""Coarse stand-ins of big meshes for low-resolution renders (issue 17 §5: a 3D scan of millions
-of triangles).
+"""Coarse stand-ins of big meshes (a 3D scan of millions of triangles) for low-resolution renders.
 
 The effect planner's pilot renders (:func:`labcut.planner.measured_interreflection`) are
 64 x 64 px: a 5 M-triangle scan puts hundreds of triangles in every pixel, and shading and
-tracing them all (trimesh's smooth shading of the whole mesh, three Mitsuba scenes) cost 40-50 s
-of a first plan on 2 cores, where the pilots need only the shape at a fraction of a pixel.
+tracing them all (trimesh's smooth shading of the whole mesh, three Mitsuba scenes) would
+dominate a first plan, where the pilots need only the shape at a fraction of a pixel.
 :func:`clustered_proxy` gives that shape: vertex clustering on a regular grid (every vertex of a
 cell merged into their mean), in one pass of sorts over the vertices and faces.
 

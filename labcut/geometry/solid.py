@@ -43,7 +43,7 @@ def is_convex_mesh(mesh: Any, rtol: float = CONVEX_RTOL, *, volume: float | None
             return False
     # the smaller hull volume is the truer one, and a smaller hull can only make a stone more
     # convex (|V| >= (1 - rtol) hull): where manifold3d's hull already proves it convex, Qhull's
-    # cannot change the answer and is not computed (45 ms of an 11 k-vertex cabochon's load)
+    # cannot change the answer and is not computed
     manifold_hull = float(m3.Manifold.hull_points(v).volume())
     if manifold_hull > 0 and (manifold_hull - vol) <= rtol * manifold_hull:
         return True

@@ -1,4 +1,4 @@
-"""``time_budget=``: the most accurate quality predicted to fit a time budget (issue 17 §3).
+"""``time_budget=``: the most accurate quality predicted to fit a time budget.
 
 A ladder of :class:`~labcut.Quality` settings, cheapest first (:func:`ladder`: below ``draft``,
 ``draft``, between the presets, ``standard``, ``high`` and beyond it), each more accurate than the
@@ -34,13 +34,13 @@ import math
 from dataclasses import asdict, dataclass
 from typing import Any
 
-from ..scene.quality import Quality
+from ..scene.quality import QUALITIES, Quality
 from ..validation import check_number
 
 
 def ladder() -> list[Quality]:
     """The budget's rungs, cheapest first; each is named (``budget-0`` ... or a preset's name)."""
-    d, s, h = (Quality.PRESETS[k] for k in ("draft", "standard", "high"))
+    d, s, h = (Quality.PRESETS[k] for k in QUALITIES)
 
     def mid(a: Quality, b: Quality, name: str) -> Quality:
         geo = lambda x, y: int(round(math.sqrt(x * y)))  # noqa: E731
@@ -102,6 +102,14 @@ class BudgetChoice:
 def check_budget(value: Any) -> float:
     """A time budget in seconds: a finite number > 0 (one-line error otherwise)."""
     return float(check_number(value, "time budget", 0.0, 86_400.0, low_open=True, unit="s"))
+
+
+def quality_or_budget(quality_given: bool, budget_given: bool, *, flags: bool = False) -> None:
+    """Refuse a question that gives both a quality and a time budget (the budget chooses the
+    quality). ``flags``: name them as the command line does (``--quality``, ``--time-budget``)."""
+    if quality_given and budget_given:
+        q, b = ("--quality", "--time-budget") if flags else ("quality", "time_budget")
+        raise ParameterError(f"give {q} or {b}, not both (the budget chooses the quality)")
 
 
 #: weight of the newest run in the correction's geometric running mean; the correction's range
@@ -236,7 +244,7 @@ def choose(budget: Any, scene_spec: tuple[Any, Any, Any], occlusion: bool, *, pl
     from ..planner import estimator_seconds
 
     for q in ladder():
-        if renders and q.name not in ("draft", "standard", "high"):
+        if renders and q.name not in QUALITIES:
             continue
         scene = resolve_scene(*scene_spec, q)
         if renders:

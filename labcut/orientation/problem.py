@@ -88,7 +88,7 @@ def reference_radiance(material: Labradorite, total_irradiance: float) -> float:
 
 
 #: triples per chunk of :meth:`FlashProblem.pair_radiance`: its (stencil normals x chunk) float32 lobe
-#: values stay near 17 MB (a first call in a process paid 0.1 s of fresh pages at 2^21)
+#: values stay near 17 MB (bigger chunks pay for fresh pages at a process's first call)
 PAIR_CHUNK = 1 << 18
 
 
@@ -254,8 +254,7 @@ class FlashProblem:
 def pair_major(sums: Any) -> np.ndarray:
     """(P, K) float64 array of K evaluated Dr.Jit ``Float64`` arrays of P pair sums each: their
     host views stacked as rows (K contiguous copies) and returned transposed, a view with the
-    pairs first; stacking them as columns (a strided copy) took twice as long (~2 ms more for a
-    standard problem's 17 stencil columns)."""
+    pairs first (stacking them as columns would be a strided copy, slower)."""
     if not len(sums):
         return np.zeros((0, 0))
     return np.stack([np.asarray(s, dtype=np.float64) for s in sums], axis=0).T

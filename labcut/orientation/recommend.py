@@ -16,7 +16,8 @@ from ..errors import ParameterError
 from ..validation import given_besides, is_default
 from ..physics.material import Labradorite
 from ..scene import Lights, Scenario, Views, resolve_scene
-from ..scene.quality import Quality
+from ..scene.directions import axial_upper, normalize_normal, tilt_azimuth
+from ..scene.quality import QUALITIES, Quality
 from .optimize import (OPTIMIZERS, SEED_SPACING_DEG, Constraint, hemisphere_grid, polish_grid, run_optimizer, score_map,
                        tolerance_deg)
 from ..geometry.stone import Stone, mesh_of
@@ -73,25 +74,13 @@ def metrics_dict(metrics: FlashMetrics) -> dict[str, Any]:
     return {**metrics.to_dict(), "energy_in_flash": in_flash, "energy_below_threshold": below}
 
 
-def tilt_azimuth(normal: np.ndarray) -> tuple[float, float]:
-    """Tilt from +Z and azimuth from +X toward +Y (degrees, azimuth in [0, 360))."""
-    n = np.asarray(normal, dtype=np.float64)
-    tilt = math.degrees(math.acos(max(-1.0, min(1.0, float(n[2])))))
-    az = math.degrees(math.atan2(float(n[1]), float(n[0]))) % 360.0 if tilt > 1e-9 else 0.0
-    return tilt, az
-
-
 FACE_UP_SIDES = ["right (+X)", "back-right", "back (+Y)", "back-left", "left (-X)", "front-left", "front (-Y)", "front-right"]
 UPRIGHT_SIDES = ["right (+X)", "top-right", "top (+Y, the bail end)", "top-left", "left (-X)", "bottom-left", "bottom (-Y)", "bottom-right"]
 
 
-def _upright(scenario: Scenario | None) -> bool:
-    return scenario is not None and float((scenario.pose @ np.array([0.0, 1.0, 0.0]))[2]) > 0.7
-
-
 def side_name(azimuth_deg: float, scenario: Scenario | None = None) -> str:
     """The side of the stone at an azimuth (degrees from +X towards +Y), named as the stone is worn."""
-    sides = UPRIGHT_SIDES if _upright(scenario) else FACE_UP_SIDES
+    sides = UPRIGHT_SIDES if scenario is not None and scenario.worn_upright else FACE_UP_SIDES
     return sides[int(((azimuth_deg + 22.5) % 360.0) // 45.0)]
 
 
@@ -143,12 +132,6 @@ def workshop(normal: np.ndarray, mesh: Any, scenario: Scenario | None = None, pa
 
 def _axial_angle(a: np.ndarray, b: np.ndarray) -> float:
     return math.degrees(math.acos(min(1.0, abs(float(a @ b)))))
-
-
-def _upper(n: np.ndarray) -> np.ndarray:
-    n = np.asarray(n, dtype=np.float64)
-    n = n / np.linalg.norm(n)
-    return -n if n[2] < 0 else n
 
 
 @dataclass
@@ -506,11 +489,11 @@ def answer_recommendation(mesh: Any, ask: FlashSetup, scorer: Scorer, plan: Any,
              and constraint.tilt_axis is None else None)
     best = run_optimizer(optimizer, scorer, constraint, quality, seed_map=seeds)
     map_scores = map_later() if map_later is not None else score_map(scorer, map_normals)
-    normal = _upper(best.normal)
+    normal = axial_upper(best.normal)
     score = scorer.score(normal)
     if map_scores.max() > score * (1.0 + 1e-4):  # the map found better: trust the better point, polished
         normal, score = polish_grid(scorer, map_normals[int(np.argmax(map_scores))], constraint, quality.map_spacing_deg, 0.1)
-        normal = _upper(normal)
+        normal = axial_upper(normal)
     if not score > 0.0:
         _no_flash(objective, scene, tau)
     render_stats: dict[str, Any] = {}
@@ -523,11 +506,11 @@ def answer_recommendation(mesh: Any, ask: FlashSetup, scorer: Scorer, plan: Any,
             # a zoned stone's optimum may lie far from the uniform material's: start from a coarse map of renders
             mesh, material, scene.settings(), start_normal=None if zoning is not None else normal, objective=objective,
             tau=tau, constraint=constraint,
-            quality=quality.name if quality.name in ("draft", "standard", "high") else "standard", seed=seed,
+            quality=quality.name if quality.name in QUALITIES else "standard", seed=seed,
             progress=lambda st, f: report(f"renders: {st}", 0.3 + 0.6 * f), max_depth=depth, zoning=zoning)
         render_stats = dict(found.stats, samples_normal=[float(x) for x in normal], samples_score=float(score),
                             angle_to_samples_deg=_axial_angle(found.normal, normal))
-        normal, score, metrics = _upper(found.normal), float(found.score), found.metrics
+        normal, score, metrics = axial_upper(found.normal), float(found.score), found.metrics
         if not score > 0.0:
             _no_flash(objective, scene, tau)
     report("tolerance and runners-up", 0.9 if renders else 0.8)
@@ -586,10 +569,9 @@ def _within_budget(mesh: Any, ask: FlashSetup, time_budget: Any, *, quality_give
 
     from ..errors import LabcutWarning
     from ..planner import occlusion_on
-    from .budget import choose
+    from .budget import choose, quality_or_budget
 
-    if quality_given:
-        raise ParameterError("give quality or time_budget, not both (the budget chooses the quality)")
+    quality_or_budget(quality_given, True)
     # which estimator answers (the planner's choice does not depend on the quality): the budget predicts that one
     # a stone's first plan makes its pilot renders (at the pilot quality, whatever the rung: the rung's
     # plan finds them cached): their seconds are the budget's (the calibration's recommendations,
@@ -671,7 +653,6 @@ def evaluate_orientation(
     effect plan already made (``plan_effects(..., command="evaluate")``), as in
     :func:`recommend_orientation`."""
     mesh = mesh_of(mesh)  # a Stone or a trimesh
-    from ..rendering.api import normalize_normal
 
     m = normalize_normal(normal)
     ask = question(setup, material=material, scenario=scenario, lighting=lighting, viewing=viewing, quality=quality, tau=tau,

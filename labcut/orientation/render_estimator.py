@@ -38,7 +38,7 @@ from ..geometry.stone import Stone
 
 from ..errors import ParameterError
 from ..physics.material import Labradorite
-from ..rendering.api import normalize_normal
+from ..scene.directions import normalize_normal
 from ..scene import Lights, Setting, Views
 from .problem import reference_radiance
 from ..validation import check_number
@@ -73,7 +73,7 @@ def render_metrics(
 
     from ..backend import set_variant
     from ..rendering import bsdf as _bsdf  # noqa: F401
-    from ..rendering.api import bsdf_dict, normalize_normal
+    from ..rendering.api import bsdf_dict
     from ..rendering.scene import CameraView, camera, emitters, to_mitsuba_mesh
 
     if settings is None:

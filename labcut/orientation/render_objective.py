@@ -24,7 +24,7 @@ import numpy as np
 from ..errors import ParameterError
 from ..geometry.stone import Stone
 from ..physics.material import Labradorite
-from ..rendering.api import normalize_normal
+from ..scene.directions import normalize_normal
 from ..scene import Setting
 from .problem import reference_radiance
 from .scoring import FlashMetrics

@@ -200,10 +200,10 @@ def _cos_matrix(m: np.ndarray, ht: np.ndarray) -> np.ndarray:
     """(k, n) dot products of the rows of ``m`` (k, 3) and the columns of ``ht`` (3, n), float64,
     without BLAS (``m @ ht``): one ``einsum`` pass, which writes each (k, n) entry once from its
     three products. Not BLAS: OpenBLAS threads the product and, next to Dr.Jit's own thread pool
-    on few cores, a 12 k-term product then waits milliseconds for its threads (measured 8 ms
-    instead of 5 µs on 2 cores); ``einsum``'s order of the three products is also fixed, whatever
-    BLAS and thread count the machine has. (Three broadcast multiply-adds, as before, made two
-    (k, n) temporaries and five passes over them: slower per term: ``benchmarks/lobe_sums.py``.)"""
+    on few cores, a small product then waits far longer for its threads than it computes;
+    ``einsum``'s order of the three products is also fixed, whatever
+    BLAS and thread count the machine has. (Three broadcast multiply-adds would make two (k, n)
+    temporaries and five passes over them: ``benchmarks/lobe_sums.py`` compares them.)"""
     return np.einsum("kj,jn->kn", m, ht)
 
 
@@ -347,7 +347,7 @@ class SparseLobeMap:
             return out
         # one block over the union of the tiles any normal needs (a ring, a probe, a cluster of
         # normals), or one block per tile over the normals that need it (spread-out normals: a
-        # map), whichever costs less: a term ~3 ns, a block's call ~20 µs (``kernels.tile_call_terms``); a
+        # map), whichever costs less (a block's call costs ``kernels.tile_call_terms`` terms); a
         # map of many normals in one kernel
         union_terms = len(m) * int(self.counts[tiles].sum())
         need_terms = int(per_tile @ self.counts)

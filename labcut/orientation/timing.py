@@ -82,8 +82,8 @@ def time_three(call: Any, repeats: int = 1) -> tuple[float, float, float]:
     ``call(mesh, quality)`` on a 16 x 12 mm oval cabochon under the bench scenario: draft and
     standard (the per-term cost), and draft with occlusion forced on (the per-ray cost); each the
     best of ``repeats``, after a warm-up of each stone (the occluded one's first call loads a
-    Mitsuba variant and builds its ray scene, once per process: timed, it made the per-ray cost
-    ten times too large, 1.2e-5 s). Returns ``(fixed, per_term, per_ray)``."""
+    Mitsuba variant and builds its ray scene, once per process: timing it would inflate the
+    per-ray cost). Returns ``(fixed, per_term, per_ray)``."""
 
     from ..geometry.cabochon import cabochon
     from ..scene import resolve_scene

@@ -279,8 +279,8 @@ _BUFFERS = threading.local()
 
 def _zeroed_buffer(shape: tuple[int, int, int]) -> np.ndarray:
     """A zeroed float32 array of ``shape``, this thread's own, kept for the next call of the same
-    shape (at most :data:`VALUES_BLOCK_BYTES`: a standard problem's 7 MB of fresh pages cost every
-    recommendation ~1 ms of page faults; zeroing the kept one costs a memset)."""
+    shape (at most :data:`VALUES_BLOCK_BYTES`): zeroing a kept array costs a memset, a fresh one page
+    faults at every recommendation."""
     held = getattr(_BUFFERS, "array", None)
     if held is None or held.shape != shape:
         held = np.zeros(shape, dtype=np.float32)
@@ -325,8 +325,7 @@ def bootstrap_weights(seed: int, points: int, replicates: int) -> np.ndarray:
     """(replicates + 1, points) float64 surface-point weights of the bootstrap: a row of ones (the
     problem's own estimator), then ``replicates`` rows of Poisson(1) counts from the stream of
     ``seed``. Read-only and kept for the last few (seed, points, replicates): the same for every
-    recommendation of a question, and drawing them took 6-8 ms of each (256 k Poisson draws at
-    standard quality)."""
+    recommendation of a question, so they are drawn once."""
     rng = np.random.default_rng(int(seed) + 7919)
     weights = np.vstack([np.ones(points), rng.poisson(1.0, (replicates, points))]).astype(np.float64)
     weights.setflags(write=False)

@@ -23,7 +23,7 @@ def plot_score_map(rec: Any, path: str | os.PathLike[str], title: str | None = N
     import matplotlib.pyplot as plt
     from matplotlib.tri import Triangulation
 
-    from ..orientation.recommend import tilt_azimuth
+    from ..scene.directions import tilt_azimuth
 
     n = rec.map_normals
     s = rec.map_scores / max(float(rec.score), 1e-30)

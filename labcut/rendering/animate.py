@@ -140,7 +140,7 @@ def animate(
 
         check_output_path(output, ANIMATION_SUFFIXES)
     from ..geometry.meshio import validate_mesh
-    from .api import normalize_normal
+    from ..scene.directions import normalize_normal
 
     validate_mesh(mesh)
     normal = normalize_normal(lamella_normal)

@@ -43,6 +43,7 @@ from ..geometry.stone import Stone, mesh_of
 from ..physics.material import Labradorite
 from .images import save_image
 from ..scene import Scenario, Setting, resolve_scene
+from ..scene.directions import normalize_normal
 from .scene import RENDER_IRRADIANCE, CameraView, camera, camera_views, emitters, to_mitsuba_mesh
 
 log = logging.getLogger("labcut.render")
@@ -145,14 +146,6 @@ class RenderResult:
         meta = {"views": self.views, "flash": self.flash, "plan": "; ".join(self.plan.reasons), "look": self.look,
                 "exposure_metering": self.exposure_metering}
         return save_image(self.image, path, self.exposure, metadata=meta, exposure_mode=self.exposure_mode, curve=self.tonemap)
-
-
-def normalize_normal(normal: Any) -> np.ndarray:
-    """Validate a lamella normal (3 finite numbers, not zero) and return it as a unit vector, z >= 0."""
-    from ..validation import unit_vector
-
-    m = unit_vector(normal, "lamella normal")
-    return -m if m[2] < 0 else m  # axial: report the upper-hemisphere representative
 
 
 def plan_render(

@@ -1,4 +1,4 @@
-"""``render(..., time_budget=SECONDS)``: the most samples per pixel predicted to fit (issue 17 §3).
+"""``render(..., time_budget=SECONDS)``: the most samples per pixel predicted to fit.
 
 The render's resolution, colour mode, polariser, integrator, look and views are the caller's;
 the budget picks the samples per pixel, a power of two from 1 to :data:`MAX_SPP`, from this

@@ -64,8 +64,8 @@ def occlusion_scene(mesh: Any) -> Any:
 
     On the CPU (Embree) the triangles sit in a shape group seen through one instance of identity
     transform: Mitsuba builds its top-level scene at Embree's highest build quality (spatial
-    splits, 2-3 s for five million triangles on two cores) but a shape group's at the default
-    (binned SAH: half the time, less memory), and a ray's hit test is the triangles' own, whatever
+    splits, slow on millions of triangles) but a shape group's at the default (binned SAH: faster
+    to build, less memory), and a ray's hit test is the triangles' own, whatever
     tree finds them: the same answers (tests). The arrays go to Mitsuba as float32 positions and
     uint32 indices, flat, one copy each. On the GPU (OptiX) the mesh is the scene's own shape."""
     import mitsuba as mi

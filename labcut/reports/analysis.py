@@ -22,7 +22,7 @@ from ..orientation.recommend import KEEP
 from ..orientation.scoring import Scorer
 from ..scene import Scenario, Setting, Views
 from ..scene.quality import Quality
-from ..scene.directions import rotation
+from ..scene.directions import axial_upper, rotation
 
 #: the tilt-performance curve spans ±30° in steps of the quality's ``tilt_step_deg``, on a problem of
 #: ``tilt_points`` surface samples (one view per pose, many poses: a curve, not a score)
@@ -39,11 +39,6 @@ PARALLEL_MIN_DEG = 1.0
 def _unit(v: Any) -> np.ndarray:
     v = np.asarray(v, dtype=np.float64)
     return v / np.linalg.norm(v)
-
-
-def _upper(n: np.ndarray) -> np.ndarray:
-    n = _unit(n)
-    return -n if n[2] < 0 else n
 
 
 def ring(centre: np.ndarray, angle_deg: float, count: int = MISS_DIRECTIONS) -> np.ndarray:
@@ -249,7 +244,7 @@ def compromise(scorers: Sequence[Scorer], names: Sequence[str], bests: Sequence[
     scenario's optimum."""
     if not scorers or not (len(scorers) == len(names) == len(bests)):
         raise ParameterError("compromise needs one scorer, name and optimum per scenario")
-    best_scores = [float(sc.energy_map(_upper(b)[None, :])[0]) for sc, b in zip(scorers, bests)]
+    best_scores = [float(sc.energy_map(axial_upper(b)[None, :])[0]) for sc, b in zip(scorers, bests)]
     if not all(s > 0 for s in best_scores):
         raise ParameterError("compromise needs a positive energy at every scenario's optimum")
     constraint = Constraint()
@@ -259,7 +254,7 @@ def compromise(scorers: Sequence[Scorer], names: Sequence[str], bests: Sequence[
         return np.mean([sc.energy_map(normals) / b for sc, b in zip(scorers, best_scores)], axis=0)
 
     if len(scorers) == 1:
-        normal = _upper(bests[0])
+        normal = axial_upper(bests[0])
     else:
         spacing = Quality.coerce(quality).map_spacing_deg
         if maps is not None and len(maps) == len(scorers) and all(np.array_equal(maps[0][0], m[0]) for m in maps):
@@ -268,14 +263,14 @@ def compromise(scorers: Sequence[Scorer], names: Sequence[str], bests: Sequence[
         else:
             grid = hemisphere_grid(spacing, constraint)
             values = combined(grid)
-        own = np.array([_upper(b) for b in bests])
+        own = np.array([axial_upper(b) for b in bests])
         candidates = np.concatenate([grid, own])
         values = np.concatenate([values, combined(own)])
         normal = candidates[int(np.argmax(values))]
         for radius, step in ((spacing, 0.5), (1.0, 0.1)):
             cand = _cap_grid(normal, radius, step)
             values = combined(cand)
-            normal = _upper(cand[int(np.argmax(values))])
+            normal = axial_upper(cand[int(np.argmax(values))])
     score = float(combined(normal[None, :])[0])
     rel = {n: float(sc.energy_map(normal[None, :])[0] / b) for n, sc, b in zip(names, scorers, best_scores)}
     tol = float(tolerance_deg(combined, normal, score, constraint, keep=KEEP))
@@ -294,7 +289,7 @@ def compromise(scorers: Sequence[Scorer], names: Sequence[str], bests: Sequence[
 
 def _cap_grid(centre: np.ndarray, radius_deg: float, step_deg: float) -> np.ndarray:
     """Normals on concentric rings (every ``step_deg``) out to ``radius_deg`` around ``centre``, the centre first."""
-    out = [_upper(centre)[None, :]]
+    out = [axial_upper(centre)[None, :]]
     for a in np.arange(step_deg, radius_deg + 0.5 * step_deg, step_deg):
         count = max(6, math.ceil(2.0 * math.pi * a / step_deg))
         out.append(ring(centre, float(a), count))

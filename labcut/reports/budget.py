@@ -1,4 +1,4 @@
-"""``compare_cuts(..., time_budget=SECONDS)``: the most accurate quality predicted to fit (issue 17 §3).
+"""``compare_cuts(..., time_budget=SECONDS)``: the most accurate quality predicted to fit.
 
 A comparison runs, for every cut under every scenario, a recommendation, the energy scorer of
 its curves, a tilt-performance curve and the renders (the main render, the rocking strip and the

@@ -140,15 +140,10 @@ def _ratio(a: float, b: float) -> float | None:
     return float(a / b) if b > 0 else None
 
 
-def _upright(scenario: Any) -> bool:
-    """Is the stone worn upright (its +Y end up, pendant, brooch)? Then sides are top/bottom."""
-    return float((np.asarray(scenario.pose) @ np.array([0.0, 1.0, 0.0]))[2]) > 0.7
-
-
 def naming_scenario(scenarios: Sequence[Any]) -> Any:
     """The scenario whose side names (front/back or top/bottom) a compromise uses: the first, when
     every scenario wears the stone the same way up; else None (face-up names)."""
-    kinds = {_upright(s) for s in scenarios}
+    kinds = {s.worn_upright for s in scenarios}
     return scenarios[0] if len(kinds) == 1 else None
 
 
@@ -195,7 +190,7 @@ class Comparison:
     def sides_note(self) -> str:
         """How the compromise orientation names the stone's sides (front/back lying face-up, top/bottom
         worn upright; both when the scenarios mix the two)."""
-        upright = [_upright(s) for s in self.scenarios]
+        upright = [s.worn_upright for s in self.scenarios]
         if all(upright):
             return "sides are named as the stone is worn upright: +Y is its top (the bail end), -Y its bottom"
         if not any(upright):
@@ -370,7 +365,7 @@ class Comparison:
 
 
 def _tilt(normal: np.ndarray) -> tuple[float, float]:
-    from ..orientation.recommend import tilt_azimuth
+    from ..scene.directions import tilt_azimuth
 
     return tilt_azimuth(np.asarray(normal, dtype=np.float64))
 
@@ -552,10 +547,10 @@ def plan_comparison(
     starting the long work; a bad one is a one-line :class:`~labcut.errors.ParameterError` or
     :class:`~labcut.errors.MeshError` naming it. Arguments as :func:`compare_cuts`."""
     from ..scene.quality import Quality
+    from ..orientation.budget import quality_or_budget
     from ..validation import is_default
 
-    if time_budget is not None and not is_default(quality, "standard"):
-        raise ParameterError("give quality or time_budget, not both (the budget chooses the quality)")
+    quality_or_budget(not is_default(quality, "standard"), time_budget is not None)
     quality = Quality.coerce(quality)
     seed = check_number(seed, "seed", 0, 2**63 - 1, integer=True)
     res = quality.render_resolution if resolution is None else check_number(resolution, "render resolution (pixels)", 16, 2048, integer=True)

@@ -90,7 +90,7 @@ def score_maps(cmp: Any, scenario: str) -> bytes:
     plt = _plt()
     from matplotlib.tri import Triangulation
 
-    from ..orientation.recommend import tilt_azimuth
+    from ..scene.directions import tilt_azimuth
 
     cuts = cmp.cuts
     cols = min(len(cuts), 3)

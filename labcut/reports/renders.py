@@ -22,7 +22,8 @@ from typing import Any
 
 import numpy as np
 
-from ..rendering.api import build_scene, normalize_normal
+from ..rendering.api import build_scene
+from ..scene.directions import normalize_normal
 from ..scene import Scenario
 from ..scene.directions import rotation
 

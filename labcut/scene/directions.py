@@ -87,6 +87,20 @@ def check_rotation(value: Any, what: str = "pose") -> np.ndarray:
     return r
 
 
+def axial_upper(n: Any) -> np.ndarray:
+    """The unit vector of the axis ``n`` on the upper hemisphere (z >= 0): lamella normals are
+    axial (``m`` and ``-m`` are one orientation) and reported with z >= 0."""
+    v = np.asarray(n, dtype=np.float64)
+    v = v / np.linalg.norm(v)
+    return -v if v[2] < 0 else v
+
+
+def normalize_normal(normal: Any) -> np.ndarray:
+    """Validate a lamella normal (3 finite numbers, not zero) and return it as a unit vector, z >= 0."""
+    m = _unit_vector(normal, "lamella normal")
+    return -m if m[2] < 0 else m  # axial: report the upper-hemisphere representative
+
+
 def unit_vector(value: Any, what: str) -> np.ndarray:
     """A validated unit vector from three finite numbers (not all zero)."""
     return _unit_vector(value, what)

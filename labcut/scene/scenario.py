@@ -131,6 +131,12 @@ class Scenario:
         return Scenario(self.name, self.pose, self.lights, views, self.rock_deg, self.sway_deg, self.description, self.quality)
 
     # ------------------------------------------------------------------ use
+    @property
+    def worn_upright(self) -> bool:
+        """Whether the stone is worn upright (its +Y end up: pendant, brooch); then its sides are
+        named top and bottom rather than back and front."""
+        return float((np.asarray(self.pose) @ np.array([0.0, 1.0, 0.0]))[2]) > 0.7
+
     def poses(self) -> list[tuple[np.ndarray, float]]:
         """(mesh-to-world rotation, weight) of each pose of the rocking motion; the rest pose first."""
         out = [self.pose]
