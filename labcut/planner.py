@@ -55,19 +55,15 @@ import numpy as np
 
 from .errors import ParameterError
 from .geometry.stone import Stone, mesh_of
+from .scene.effects import EFFECTS, ESTIMATORS, SWITCHABLE, check_effects, parse_effects  # noqa: F401 - the planner's vocabulary
 
 COMMANDS = ("render", "recommend", "evaluate", "compare")
-EFFECTS = ("occlusion", "inter_reflection", "environment", "polarisation", "colour", "zoning")
-ESTIMATORS = ("auto", "samples", "render")
 #: the stated tolerance of the planner's "off" decisions: an effect whose measured or bounded
 #: change of the flash energy stays below this share of it is left off. A fixed number, not yet
 #: the answer's own error bar; tests/test_planner_off.py checks every "off" of the bundled stones
 #: and scenarios against it, and docs/planner.md ("The tolerance") gives the seed-to-seed
 #: spread of a recommendation's score it is set against (benchmarks/planner.py measures it)
 INTERREFLECTION_TOLERANCE = 0.02
-#: the effects a user may switch with ``effects=`` / ``--effect NAME=on|off`` (the others follow
-#: from the scene and from their own options: lighting, --mode, --polarizer, --zoning)
-SWITCHABLE = ("occlusion", "inter_reflection")
 
 
 @dataclass(frozen=True)
@@ -372,41 +368,23 @@ def _pilot_cache_path() -> Any:
     return cache_path("planner-pilot.json")
 
 
-def check_effects(effects: Mapping[str, Any] | None) -> dict[str, bool]:
-    """``effects`` as ``{name: bool}`` of switchable effects (one-line errors for the rest)."""
-    if effects is None:
-        return {}
-    if not isinstance(effects, Mapping):
-        raise ParameterError(f"effects must map effect names to on/off, got {effects!r}")
-    out = {}
-    for name, value in effects.items():
-        key = str(name).replace("-", "_")
-        if key not in EFFECTS:
-            raise ParameterError(f"unknown effect {name!r}; effects: {', '.join(EFFECTS)}")
-        if key not in SWITCHABLE:
-            how = {"environment": "the lighting (an .exr/.hdr map or a map preset: ceiling, sky)",
-                   "polarisation": "--polarizer (renders only)", "colour": "--mode (renders only)",
-                   "zoning": "--zoning (render, recommend-orientation, evaluate-orientation)"}[key]
-            raise ParameterError(f"effect {key.replace('_', '-')!r} follows from {how}; it cannot be switched on its own")
-        if isinstance(value, str):
-            if value.lower() not in ("on", "off", "true", "false", "yes", "no"):
-                raise ParameterError(f"effect {name!r} must be on or off, got {value!r}")
-            value = value.lower() in ("on", "true", "yes")
-        if not isinstance(value, bool | np.bool_):
-            raise ParameterError(f"effect {name!r} must be on or off, got {value!r}")
-        out[key] = bool(value)
-    return out
+def plan_question(mesh: Any, setup: Any, command: str = "recommend", *, predict: bool = True) -> EffectPlan:
+    """The effect plan of a flash question (a :class:`~labcut.orientation.setup.FlashSetup`) about
+    ``mesh``: :func:`plan_effects` given every part of it (material, scene, quality, estimator,
+    effect overrides, zoning) and the pilots' scene (:func:`pilot_scene`). ``predict``: also
+    predict each estimator's seconds (on by default, as ``plan_effects``)."""
+    return plan_effects(mesh, setup.material, command=command, scenario=setup.scenario, quality=setup.quality,
+                        estimator=setup.estimator, effects=setup.effect_overrides, zoning=setup.zoning,
+                        predict=predict, pilot_scene=pilot_scene(setup))
 
 
-def parse_effects(specs: Sequence[str] | None) -> dict[str, bool]:
-    """``["inter-reflection=off", ...]`` (the CLI's ``--effect``) as a mapping for ``effects=``."""
-    out: dict[str, Any] = {}
-    for spec in specs or ():
-        name, sep, value = str(spec).partition("=")
-        if not sep or not name.strip():
-            raise ParameterError(f"--effect takes NAME=on|off, got {spec!r}")
-        out[name.strip()] = value.strip()
-    return check_effects(out)
+def pilot_scene(setup: Any) -> Any:
+    """The scene of a flash question drawn at :data:`PILOT_QUALITY`: what its pilot renders
+    measure under, whatever the question's quality (``plan_effects(..., pilot_scene=)``)."""
+    from .scene.quality import Quality
+
+    pilot = Quality.coerce(PILOT_QUALITY)
+    return setup.scenario if setup.quality == pilot else setup.at_quality(pilot).scenario
 
 
 def plan_effects(
@@ -445,7 +423,7 @@ def plan_effects(
     ``facts["predicted_for"]`` says. ``pilot_scene``: the scene the pilot renders of inter-reflection
     measure under (:func:`measured_interreflection`); default: ``scenario``, ``lighting`` and
     ``viewing`` drawn at :data:`PILOT_QUALITY` (a scene given as a :class:`~labcut.Scenario` object
-    keeps its own directions: pass ``FlashSetup.pilot_scene()`` to pilot the question's scene at
+    keeps its own directions: pass :func:`pilot_scene` of the question to pilot the question's scene at
     that quality).
 
     Raises :class:`~labcut.errors.ParameterError` for combinations the scene cannot have (a
@@ -478,7 +456,7 @@ def plan_effects(
     from .scene import Scenario
 
     if pilot_scene is not None and not isinstance(pilot_scene, Scenario):
-        raise ParameterError(f"pilot_scene must be a labcut.Scenario (FlashSetup.pilot_scene()), got {type(pilot_scene).__name__}")
+        raise ParameterError(f"pilot_scene must be a labcut.Scenario (planner.pilot_scene(setup)), got {type(pilot_scene).__name__}")
     from .validation import check_number
 
     resolution = None if resolution is None else check_number(resolution, "resolution", 8, 8192, integer=True)

@@ -34,6 +34,7 @@ from .orientation.optimize import hemisphere_grid, score_map
 from .orientation.recommend import Recommendation, answer_recommendation, build_scorer, evaluation_metrics
 from .orientation.scoring import FlashMetrics, Scorer
 from .orientation.setup import FlashSetup
+from .planner import plan_question
 from .scene.directions import direction
 from .scene.quality import Quality
 
@@ -100,7 +101,7 @@ class Study:
         which estimator answers; made once."""
         if self._plan is None:
             with serial_blas():  # as recommend_orientation plans: the same numbers to the last bit
-                self._plan = self.setup.plan(self.stone.mesh, "recommend")
+                self._plan = plan_question(self.stone.mesh, self.setup, "recommend")
             self.builds["plan"] += 1
         return self._plan
 

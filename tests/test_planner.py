@@ -12,7 +12,8 @@ import pytest
 
 import labcut
 from labcut.errors import ParameterError
-from labcut.planner import (INTERREFLECTION_TOLERANCE, hemispherical_fresnel, parse_effects, plan_effects,
+from labcut.scene.effects import parse_effects
+from labcut.planner import (INTERREFLECTION_TOLERANCE, hemispherical_fresnel, pilot_scene, plan_effects, plan_question,
                             polarisation_bias)
 from labcut.scene import Lights, Views
 
@@ -317,10 +318,10 @@ def test_a_question_plans_itself_as_plan_effects_would():
 
     mesh = labcut.load_mesh("meshes/carving-biplane.ply")
     setup = FlashSetup.build("blue", "pendant", None, None, quality="draft", estimator="samples", effects={"occlusion": True})
-    mine = setup.plan(mesh, "evaluate", predict=False)
+    mine = plan_question(mesh, setup, "evaluate", predict=False)
     theirs = labcut.plan_effects(mesh, setup.material, command="evaluate", scenario=setup.scenario, quality=setup.quality,
                                  estimator="samples", effects={"occlusion": True}, predict=False,
-                                 pilot_scene=setup.pilot_scene())
+                                 pilot_scene=pilot_scene(setup))
     assert mine.to_dict() == theirs.to_dict()
     assert mine.on("occlusion") and mine.estimator == "samples" and mine.command == "evaluate"
-    assert setup.plan(mesh, "recommend").predicted_seconds  # predicting by default, as plan_effects
+    assert plan_question(mesh, setup, "recommend").predicted_seconds  # predicting by default, as plan_effects

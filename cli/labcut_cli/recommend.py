@@ -201,10 +201,12 @@ def recommend_orientation(
         from labcut.orientation.budget import check_budget
 
         check_budget(time_budget)
+    from labcut.planner import plan_question
+
     mesh = mesh_options.load(mesh_path)
     the_plan = None
     if plan or plan_only or setup.effects or estimator != "auto" or zone is not None:  # a bad combination fails before the work
-        the_plan = setup.plan(mesh, "recommend")
+        the_plan = plan_question(mesh, setup, "recommend")
     if plan or plan_only:
         po.show(the_plan, mesh_path.name, to_stderr=json_path == "-")
         if plan_only:
@@ -323,8 +325,10 @@ def evaluate_orientation(
     m_vec = normalize_normal(parse_vector(normal, "--normal"))
     setup = _question(material, scenario, lighting, viewing, quality, estimator, effect, zoning)
     scene = setup.scenario
+    from labcut.planner import plan_question
+
     mesh = mesh_options.load(mesh_path)
-    the_plan = setup.plan(mesh, "evaluate")
+    the_plan = plan_question(mesh, setup, "evaluate")
     if plan or plan_only:
         po.show(the_plan, mesh_path.name, to_stderr=json_path == "-")
         if plan_only:

@@ -346,7 +346,7 @@ def _setup(mesh: Any, setup: FlashSetup, command: str = "recommend", plan: Any =
     already made for them, used as it is) and build the sample estimator's problem as planned
     (:func:`build_scorer`): ``(scorer, plan)``."""
     from ..geometry.meshio import validate_mesh
-    from ..planner import EffectPlan
+    from ..planner import EffectPlan, plan_question
 
     validate_mesh(mesh)
     if plan is not None:
@@ -354,7 +354,7 @@ def _setup(mesh: Any, setup: FlashSetup, command: str = "recommend", plan: Any =
             raise ParameterError(f"plan must be the labcut.planner.plan_effects(..., command={command!r}) of this mesh "
                                  f"and question, got {plan!r:.80}")
     else:
-        plan = setup.plan(mesh, command, predict=command == "recommend")  # a recommendation's JSON holds its predicted seconds
+        plan = plan_question(mesh, setup, command, predict=command == "recommend")  # a recommendation's JSON holds its predicted seconds
     return build_scorer(mesh, setup, plan), plan
 
 
@@ -418,7 +418,7 @@ def recommend_orientation(
         ``render`` (Mitsuba renders of the schiller, optimised through Dr.Jit's automatic
         differentiation from the sample estimator's answer; carries inter-reflection).
     effects: overrides of the planner's switchable effects, ``{"occlusion": bool,
-        "inter_reflection": bool}`` (:data:`labcut.planner.SWITCHABLE`).
+        "inter_reflection": bool}`` (:data:`labcut.scene.effects.SWITCHABLE`).
     zoning: colour zones (``"smooth"``, ``"sharp"``, a :class:`~labcut.rendering.zoning.Zoning`,
         docs/zoning.md): the render estimator answers, weighing each zone's flash as the viewers
         see it (starting from a coarse map of rendered zoned flash).
@@ -568,7 +568,7 @@ def _within_budget(mesh: Any, ask: FlashSetup, time_budget: Any, *, quality_give
     import warnings
 
     from ..errors import LabcutWarning
-    from ..planner import occlusion_on
+    from ..planner import occlusion_on, plan_question
     from .budget import choose, quality_or_budget
 
     quality_or_budget(quality_given, True)
@@ -576,7 +576,7 @@ def _within_budget(mesh: Any, ask: FlashSetup, time_budget: Any, *, quality_give
     # a stone's first plan makes its pilot renders (at the pilot quality, whatever the rung: the rung's
     # plan finds them cached): their seconds are the budget's (the calibration's recommendations,
     # which the rungs are predicted from, include a plan but not its pilots)
-    plan = ask.plan(mesh, "recommend", predict=False)
+    plan = plan_question(mesh, ask, "recommend", predict=False)
     choice = choose(time_budget, ask.scene_spec, occlusion_on(Stone.of(mesh).convex, ask.effect_overrides), plan=plan)
     if choice.note:
         warnings.warn(choice.note, LabcutWarning, stacklevel=3)

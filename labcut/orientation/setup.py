@@ -20,13 +20,13 @@ from typing import Any
 from ..errors import ParameterError
 from ..physics.material import Labradorite
 from ..scene import Scenario, resolve_scene
+from ..scene.effects import ESTIMATORS, check_effects
 from ..scene.quality import Quality
 from ..validation import check_number
 from .kernels import DEFAULT_KERNELS, KernelOptions
 from .optimize import Constraint
 from .scoring import OBJECTIVES
 
-ESTIMATORS = ("auto", "samples", "render")
 
 
 @dataclass(frozen=True)
@@ -41,7 +41,7 @@ class FlashSetup:
     seed: int = 0
     constraint: Constraint = field(default_factory=Constraint)
     estimator: str = "auto"
-    #: the effect planner's overrides, ``((name, on), ...)`` (:data:`labcut.planner.SWITCHABLE`)
+    #: the effect planner's overrides, ``((name, on), ...)`` (:data:`labcut.scene.effects.SWITCHABLE`)
     effects: tuple[tuple[str, bool], ...] = ()
     #: colour zones (a :class:`~labcut.rendering.zoning.Zoning`), or None for a uniform material
     zoning: Any = None
@@ -85,7 +85,6 @@ class FlashSetup:
         ...
         labcut.errors.ParameterError: objective must be one of energy, area, intensity, balanced, got 'sparkle'
         """
-        from ..planner import check_effects
 
         if objective not in OBJECTIVES:
             raise ParameterError(f"objective must be one of {', '.join(OBJECTIVES)}, got {objective!r}")
@@ -117,25 +116,6 @@ class FlashSetup:
 
         q = Quality.coerce(quality)
         return replace(self, quality=q, scenario=resolve_scene(*self.scene_spec, q), scene_spec=self.scene_spec)
-
-    def plan(self, mesh: Any, command: str = "recommend", *, predict: bool = True) -> Any:
-        """The effect plan of this question for ``mesh`` (:func:`labcut.planner.plan_effects` given
-        every part of the question: material, scene, quality, estimator, effect overrides, zoning,
-        and the pilots' scene :meth:`pilot_scene`). ``predict``: also predict each estimator's seconds (as
-        ``plan_effects``, on by default)."""
-        from ..planner import plan_effects
-
-        return plan_effects(mesh, self.material, command=command, scenario=self.scenario, quality=self.quality,
-                            estimator=self.estimator, effects=self.effect_overrides, zoning=self.zoning,
-                            predict=predict, pilot_scene=self.pilot_scene())
-
-    def pilot_scene(self) -> Scenario:
-        """The scene of this question drawn at the effect planner's pilot quality
-        (:data:`labcut.planner.PILOT_QUALITY`): what its pilot renders measure under, whatever the
-        question's quality (``plan_effects(..., pilot_scene=)``)."""
-        from ..planner import PILOT_QUALITY
-
-        return self.scenario if self.quality == Quality.coerce(PILOT_QUALITY) else self.at_quality(PILOT_QUALITY).scenario
 
     @property
     def effect_overrides(self) -> dict[str, bool]:

@@ -559,7 +559,8 @@ def plan_comparison(
 
     lab = Labradorite.coerce(material)
     scens = resolve_scenarios(scenarios, quality)
-    from ..planner import check_effects, plan_effects
+    from ..planner import plan_effects
+    from ..scene.effects import check_effects
 
     switches = check_effects(effects)
     if time_budget is not None:
