@@ -15,6 +15,7 @@ driver's cache folder in its workers' environment instead (no restart).
 
 from __future__ import annotations
 
+import importlib
 import os
 import socket
 from typing import Any
@@ -48,14 +49,18 @@ class LabcutWorkerPlugin(WorkerPlugin):
 
     ``threads``: Dr.Jit threads per worker; None: this machine's cores divided by
     ``workers_per_host[host]`` (the number of the batch's workers on that host, counted by the
-    driver; 1 for a host it did not see). ``mode``: the Mitsuba colour mode renders use."""
+    driver; 1 for a host it did not see). ``mode``: the Mitsuba colour mode renders use.
+    ``warm``: modules to import at set-up (the driver names the one holding its row function), so
+    a worker's first row does not pay for them."""
 
     name = PLUGIN_NAME
 
-    def __init__(self, threads: int | None = None, workers_per_host: dict[str, int] | None = None, mode: str = "rgb") -> None:
+    def __init__(self, threads: int | None = None, workers_per_host: dict[str, int] | None = None, mode: str = "rgb",
+                 warm: tuple[str, ...] = ()) -> None:
         self.threads = threads
         self.workers_per_host = dict(workers_per_host or {})
         self.mode = mode
+        self.warm = tuple(warm)
 
     def thread_count(self, host: str) -> int:
         if self.threads is not None:
@@ -73,7 +78,8 @@ class LabcutWorkerPlugin(WorkerPlugin):
         import labcut.orientation.recommend  # noqa: F401
         from labcut.backend import set_variant
 
-        from .runner import run_row  # noqa: F401  (the row function)
+        for name in self.warm:  # the driver's row function and what it imports
+            importlib.import_module(name)
 
         host = worker.address.split("://")[-1].rsplit(":", 1)[0]
         threads = self.thread_count(host)

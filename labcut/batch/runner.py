@@ -467,7 +467,7 @@ def _set_up_workers(client: Any, threads: int | None) -> tuple[list[dict[str, An
     for address in client.scheduler_info(n_workers=-1)["workers"] if _takes_n_workers(client) else client.scheduler_info()["workers"]:
         host = address.split("://")[-1].rsplit(":", 1)[0]
         hosts[host] = hosts.get(host, 0) + 1
-    client.register_plugin(LabcutWorkerPlugin(threads, hosts))
+    client.register_plugin(LabcutWorkerPlugin(threads, hosts, warm=(__name__,)))
     info = client.run(worker_info)
     return [{"address": a, **v} for a, v in sorted(info.items())], time.perf_counter() - t0
 

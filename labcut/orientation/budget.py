@@ -34,6 +34,7 @@ import math
 from dataclasses import asdict, dataclass
 from typing import Any
 
+from ..errors import ParameterError
 from ..scene.quality import QUALITIES, Quality
 from ..validation import check_number
 

@@ -33,6 +33,7 @@ from typing import Any
 from ..geometry.stone import Stone
 from ..orientation.budget import BudgetChoice, check_budget, correction, ladder, pick
 from ..scene.quality import Quality
+from ..scene.scenario import scenarios_from
 
 #: the correction's name in the user cache (:func:`labcut.orientation.budget.record`)
 KIND = "compare"
@@ -117,9 +118,8 @@ def predict_comparison(cuts: Sequence[Any], scenarios: Sequence[Any], quality: Q
     from ..orientation.timing import predict_sample_seconds
     from ..planner import occlusion_on, predict_evaluate_seconds
     from .analysis import tilt_settings
-    from .compare import resolve_scenarios
 
-    scens = resolve_scenarios(scenarios, quality)
+    scens = scenarios_from(scenarios, quality)
     res = quality.render_resolution if resolution is None else int(resolution)
     n_spp = quality.render_spp if spp is None else int(spp)
     samples = render_samples(res, n_spp, quality.strip_angles_deg)

@@ -28,6 +28,8 @@ from typing import Any
 import numpy as np
 
 from ..errors import ParameterError
+from ..scene.scenario import scenarios_from
+from .html import COMPARE_DEFINITIONS
 from ..geometry.stone import Stone
 from ..validation import check_number
 from .cuts import Cut, resolve_cuts
@@ -37,46 +39,6 @@ NORMALISED = ("flash_energy", "flash_area", "flash_intensity", "coverage", "tole
 #: columns of :meth:`Comparison.save_csv` (one number per row)
 CSV_COLUMNS = ("cut", "scenario", "orientation", "quantity", "value", "unit", "x", "x_unit", "y", "y_unit")
 
-#: what the report's numbers mean (its JSON's ``metric_definitions``, the page's last section)
-COMPARE_DEFINITIONS = {
-    "flash_energy": "mean schiller radiance over the whole visible stone, in units of L_ref (a flat face, lamellae "
-                    "parallel, lit and seen along its normal by one light of the same total irradiance); mean over the "
-                    "scenario's viewers and poses. The ranking metric.",
-    "flash_area": "share of the visible stone (projected area) whose schiller reaches tau x L_ref (tau = 0.1); mean over viewers",
-    "flash_intensity": "mean schiller radiance / L_ref over the part that flashes (0 where none does); mean over viewers",
-    "coverage": "share (weight) of the viewers that see a flash on more than 5 % of the stone",
-    "energy_in_flash": "the part of the flash energy in the flashing regions: sum over views of weight x area x intensity",
-    "energy_below_threshold": "the part of the flash energy in schiller fainter than tau x L_ref",
-    "tolerance_deg": "how far (degrees) the lamella normal may miss the optimum in any direction and keep 90 % of the "
-                     "flash energy; front_back_deg / left_right_deg: the same, missing only towards the front/back "
-                     "(±Y) or the sides (±X) of the stone",
-    "normalised": "a cut's value divided by the reference cut's under the same scenario, each at its own best "
-                  "orientation (1 = as good as the reference; empty where the reference's value is 0)",
-    "rank": "per scenario: order by flash energy at each cut's own best orientation (1 = most; equal values share a "
-            "rank). Overall: order by overall_score",
-    "overall_score": "mean over the scenarios of a cut's flash energy at its compromise orientation divided by the "
-                     "reference cut's at its own compromise orientation",
-    "compromise": "one lamella orientation per cut for all chosen scenarios: the normal maximising the mean over "
-                  "scenarios of flash energy / that scenario's best; relative_to_best: energy at the compromise / "
-                  "energy at the scenario's own optimum",
-    "weight_ct": "carat weight at labradorite's density 2.705 g/cm³ (1 ct = 0.2 g); weight_ct_range: at 2.69-2.72 g/cm³",
-    "tilt_curve": "flash energy (and area) seen by the scenario's main viewer when the stone, cut at its best "
-                  "orientation, is tilted from its rest pose by the angle on the x axis, lights and viewer fixed: "
-                  "front_back about the horizontal axis across the line of sight (+: the far or top edge comes towards "
-                  "the viewer), side_to_side about the picture's vertical (+: the right edge turns away)",
-    "misorientation": "flash energy, relative to the optimum's, when the lamella normal misses the optimum by the "
-                      "angle on the x axis: mean and worst over 16 directions around it",
-    "score_map": "flash energy at lamella normals over the hemisphere (tilt from +Z, azimuth from +X towards +Y), "
-                 "divided by the best",
-    "dominant_wavelength_nm": "dominant wavelength (CIE 15) of the flash as the main viewer sees it, from a render of the "
-                              "schiller alone: the luminance-weighted median over the pixels that flash (or, where none "
-                              "does, over the faint schiller); p10_nm / p90_nm the 10th / 90th percentiles; negative "
-                              "values are purples' complementary wavelengths",
-    "flash_fraction": "share of the stone's pixels in the schiller-only render at or above tau x L_ref: the main view's "
-                      "flash area as the render sees it (noisier than the estimator's under environment light)",
-    "exposure": "the multiplier every render and rocking-strip frame of a scenario is tonemapped with: one for all cuts, "
-                "so brightness differences between their pictures are real",
-}
 
 
 @dataclass
@@ -466,25 +428,6 @@ def _orientation_rows(add: Callable[..., None], cut: str, scen: str, orient: str
 
 
 # ---------------------------------------------------------------------- the comparison
-def resolve_scenarios(scenarios: Any, quality: Any) -> list[Any]:
-    """The :class:`~labcut.Scenario` of each name, JSON file or instance (default ``["bench"]``); a name
-    given twice is an error."""
-    from ..scene import scenario_from
-
-    if scenarios is None:
-        scenarios = ["bench"]
-    elif isinstance(scenarios, str | os.PathLike) or not isinstance(scenarios, Sequence):
-        scenarios = [scenarios]
-    if not scenarios:
-        raise ParameterError("give at least one scenario (default: bench)")
-    out = [scenario_from(s, quality) for s in scenarios]
-    names = [s.name for s in out]
-    twice = sorted({n for n in names if names.count(n) > 1})
-    if twice:
-        raise ParameterError(f"scenario {twice[0]!r} is given twice; each scenario is compared once")
-    return out
-
-
 def _reference(reference: Any, cuts: list[Cut]) -> int:
     if isinstance(reference, str):
         names = [c.name for c in cuts]
@@ -558,7 +501,7 @@ def plan_comparison(
     from ..physics.material import Labradorite
 
     lab = Labradorite.coerce(material)
-    scens = resolve_scenarios(scenarios, quality)
+    scens = scenarios_from(scenarios, quality)
     from ..planner import plan_effects
     from ..scene.effects import check_effects
 
@@ -583,7 +526,7 @@ def plan_comparison(
         quality = choice.quality
         res = quality.render_resolution if resolution is None else res
         n_spp = quality.render_spp if spp is None else n_spp
-        scens = resolve_scenarios(scenarios, quality)
+        scens = scenarios_from(scenarios, quality)
     plans = {(cut.name, sc.name): plan_effects(cut.mesh, lab, command="compare", scenario=sc, quality=quality,
                                                effects=switches, predict=True)
              for cut in resolved for sc in scens}

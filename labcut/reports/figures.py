@@ -21,6 +21,14 @@ GAP_PX = 4
 ZOOM_KEEP = 0.3
 
 
+def nm_range(lo: float | None, hi: float | None) -> str:
+    """``481–486 nm``; one decimal when the range is narrower than 2 nm."""
+    if lo is None or hi is None:
+        return ""
+    fmt = ".1f" if hi - lo < 2.0 else ".0f"
+    return f"{lo:{fmt}}–{hi:{fmt}} nm"
+
+
 def _plt() -> Any:
     import matplotlib
 
@@ -259,7 +267,6 @@ def colour_maps(cmp: Any, scenario: str) -> bytes:
         ax.imshow(colour_map_rgba(fm, lo, hi), interpolation="nearest")
         st = fm.stats
         nm = st.get("dominant_wavelength_nm")
-        from .html import nm_range
 
         text = "no hue" if nm is None else f"{nm:.0f} nm ({nm_range(st['p10_nm'], st['p90_nm'])})"
         what = f"flash {st['flash_fraction']:.0%}" if st["basis"] == "flash" else "no flash: faint schiller"

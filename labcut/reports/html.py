@@ -15,6 +15,47 @@ from typing import Any
 
 from . import figures as fg
 
+#: what the report's numbers mean (its JSON's ``metric_definitions``, the page's last section)
+COMPARE_DEFINITIONS = {
+    "flash_energy": "mean schiller radiance over the whole visible stone, in units of L_ref (a flat face, lamellae "
+                    "parallel, lit and seen along its normal by one light of the same total irradiance); mean over the "
+                    "scenario's viewers and poses. The ranking metric.",
+    "flash_area": "share of the visible stone (projected area) whose schiller reaches tau x L_ref (tau = 0.1); mean over viewers",
+    "flash_intensity": "mean schiller radiance / L_ref over the part that flashes (0 where none does); mean over viewers",
+    "coverage": "share (weight) of the viewers that see a flash on more than 5 % of the stone",
+    "energy_in_flash": "the part of the flash energy in the flashing regions: sum over views of weight x area x intensity",
+    "energy_below_threshold": "the part of the flash energy in schiller fainter than tau x L_ref",
+    "tolerance_deg": "how far (degrees) the lamella normal may miss the optimum in any direction and keep 90 % of the "
+                     "flash energy; front_back_deg / left_right_deg: the same, missing only towards the front/back "
+                     "(±Y) or the sides (±X) of the stone",
+    "normalised": "a cut's value divided by the reference cut's under the same scenario, each at its own best "
+                  "orientation (1 = as good as the reference; empty where the reference's value is 0)",
+    "rank": "per scenario: order by flash energy at each cut's own best orientation (1 = most; equal values share a "
+            "rank). Overall: order by overall_score",
+    "overall_score": "mean over the scenarios of a cut's flash energy at its compromise orientation divided by the "
+                     "reference cut's at its own compromise orientation",
+    "compromise": "one lamella orientation per cut for all chosen scenarios: the normal maximising the mean over "
+                  "scenarios of flash energy / that scenario's best; relative_to_best: energy at the compromise / "
+                  "energy at the scenario's own optimum",
+    "weight_ct": "carat weight at labradorite's density 2.705 g/cm³ (1 ct = 0.2 g); weight_ct_range: at 2.69-2.72 g/cm³",
+    "tilt_curve": "flash energy (and area) seen by the scenario's main viewer when the stone, cut at its best "
+                  "orientation, is tilted from its rest pose by the angle on the x axis, lights and viewer fixed: "
+                  "front_back about the horizontal axis across the line of sight (+: the far or top edge comes towards "
+                  "the viewer), side_to_side about the picture's vertical (+: the right edge turns away)",
+    "misorientation": "flash energy, relative to the optimum's, when the lamella normal misses the optimum by the "
+                      "angle on the x axis: mean and worst over 16 directions around it",
+    "score_map": "flash energy at lamella normals over the hemisphere (tilt from +Z, azimuth from +X towards +Y), "
+                 "divided by the best",
+    "dominant_wavelength_nm": "dominant wavelength (CIE 15) of the flash as the main viewer sees it, from a render of the "
+                              "schiller alone: the luminance-weighted median over the pixels that flash (or, where none "
+                              "does, over the faint schiller); p10_nm / p90_nm the 10th / 90th percentiles; negative "
+                              "values are purples' complementary wavelengths",
+    "flash_fraction": "share of the stone's pixels in the schiller-only render at or above tau x L_ref: the main view's "
+                      "flash area as the render sees it (noisier than the estimator's under environment light)",
+    "exposure": "the multiplier every render and rocking-strip frame of a scenario is tonemapped with: one for all cuts, "
+                "so brightness differences between their pictures are real",
+}
+
 TEMPLATE = "compare.html.j2"
 
 
@@ -33,14 +74,6 @@ def _num(v: float | None, fmt: str = ".3f") -> str:
 
 def _times(v: float | None) -> str:
     return "–" if v is None else f"×{v:.2f}"
-
-
-def nm_range(lo: float | None, hi: float | None) -> str:
-    """``481–486 nm``; one decimal when the range is narrower than 2 nm."""
-    if lo is None or hi is None:
-        return ""
-    fmt = ".1f" if hi - lo < 2.0 else ".0f"
-    return f"{lo:{fmt}}–{hi:{fmt}} nm"
 
 
 def _scenario_rows(cmp: Any, name: str) -> list[dict[str, Any]]:
@@ -62,7 +95,7 @@ def _scenario_rows(cmp: Any, name: str) -> list[dict[str, Any]]:
             "coverage": _pct(m.coverage), "coverage_x": _times(nz.get("coverage")),
             "weight": f"{c.summary.weight_ct:.2f} ct",
             "colour_nm": "–" if st.get("dominant_wavelength_nm") is None else f"{st['dominant_wavelength_nm']:.0f} nm",
-            "colour_range": nm_range(st.get("p10_nm"), st.get("p90_nm")),
+            "colour_range": fg.nm_range(st.get("p10_nm"), st.get("p90_nm")),
             "colour_hex": st.get("mean_hex"), "colour_basis": st.get("basis"),
             "no_flash": m.flash_area == 0.0, "rest_area": _pct(r.tilt.at_rest("flash_area")),
         })
@@ -73,7 +106,6 @@ def context(cmp: Any) -> dict[str, Any]:
     """Everything the template shows: formatted tables and figures as data URIs."""
     from .. import __version__
     from ..orientation.recommend import FRAME, METRIC_DEFINITIONS
-    from .compare import COMPARE_DEFINITIONS
 
     names = cmp.scenario_names
     summary = []

@@ -315,3 +315,19 @@ def resolve_scene(scenario: Any = None, lighting: Any = None, viewing: Any = Non
         base = base.with_views(views_from(viewing, quality))
     return base
 
+
+def scenarios_from(scenarios: Any, quality: Quality | str = "standard") -> list[Scenario]:
+    """The :class:`~labcut.Scenario` of each name, JSON file or instance (default ``["bench"]``); a name
+    given twice is an error."""
+    if scenarios is None:
+        scenarios = ["bench"]
+    elif isinstance(scenarios, str | os.PathLike) or not isinstance(scenarios, list | tuple):
+        scenarios = [scenarios]
+    if not scenarios:
+        raise ParameterError("give at least one scenario (default: bench)")
+    out = [scenario_from(s, quality) for s in scenarios]
+    names = [s.name for s in out]
+    twice = sorted({n for n in names if names.count(n) > 1})
+    if twice:
+        raise ParameterError(f"scenario {twice[0]!r} is given twice; each scenario is compared once")
+    return out
