@@ -1,7 +1,9 @@
 """The layers hold: no module imports a layer above its own (docs/architecture.md).
 
     errors → backend, fileio → physics, colour → geometry, scene
-           → rendering, orientation, plots, planner → study → reports → batch → the CLI (labcut_cli)
+           → the flash problem, kernels and renderer's pieces, plots
+           → the planner and the commands (one circle, to be split) → study → reports → batch
+           → the CLI (labcut_cli)
 
 A module may import its own layer and any below. Imports are read from the source
 (every ``import`` and ``from ... import``, including those inside functions), so a lazy
@@ -23,18 +25,42 @@ LAYERS: list[tuple[str, ...]] = [
     ("labcut.backend", "labcut.fileio"),
     ("labcut.physics", "labcut.colour"),
     ("labcut.geometry", "labcut.scene"),
-    ("labcut.rendering", "labcut.orientation", "labcut.plots", "labcut.planner"),
+    # the flash problem and its kernels, the renderer's pieces, plots: they compute, decide nothing
+    ("labcut.orientation.kernels", "labcut.orientation.problem", "labcut.orientation.scoring",
+     "labcut.orientation.optimize", "labcut.orientation.pairs", "labcut.orientation.uncertainty",
+     "labcut.orientation.setup", "labcut.rendering.bsdf", "labcut.rendering.images", "labcut.rendering.noise",
+     "labcut.rendering.rays", "labcut.rendering.scene", "labcut.rendering.studio", "labcut.rendering.tonemap",
+     "labcut.rendering.zoning", "labcut.rendering.zoning_kernel", "labcut.plots"),
+    # planning and the commands, still one import circle (docs/architecture.md, "What is left"):
+    # the planner, the time budgets and calibrations, recommend/evaluate, render/animate, the
+    # render estimator; the rendering and orientation packages' facades re-export from here
+    ("labcut.planner", "labcut.orientation", "labcut.rendering"),
     ("labcut.study",),
     ("labcut.reports",),
     ("labcut.batch",),
 ]
 
 
+#: a short name for each layer (docs/architecture.md and its figure)
+LAYER_NAMES = ["errors · validation", "backend · fileio", "physics · colour", "geometry · scene",
+               "flash problem · kernels · renderer pieces · plots", "planner · commands (one circle)", "study",
+               "reports", "batch"]
+
+
 def layer_of(module: str) -> int | None:
+    """The layer of a module: of the longest entry of :data:`LAYERS` that names it or a package above it."""
+    best: tuple[int, int] | None = None  # (length of the entry, layer)
     for k, names in enumerate(LAYERS):
-        if any(module == n or module.startswith(n + ".") for n in names):
-            return k
-    return None
+        for n in names:
+            if (module == n or module.startswith(n + ".")) and (best is None or len(n) > best[0]):
+                best = (len(n), k)
+    return None if best is None else best[1]
+
+
+def is_module(name: str) -> bool:
+    """Whether ``name`` is a module or package of labcut's source tree."""
+    rel = Path(*name.split("."))
+    return (ROOT / rel.with_suffix(".py")).exists() or (ROOT / rel / "__init__.py").exists()
 
 
 def module_name(path: Path) -> str:
@@ -61,9 +87,12 @@ def imports(path: Path) -> list[tuple[str, int]]:
                 target = ".".join(base + ([node.module] if node.module else []))
             else:
                 target = node.module or ""
-            out.append((target, node.lineno))
-            for alias in node.names:  # "from . import bsdf" names a submodule
-                out.append((f"{target}.{alias.name}", node.lineno))
+            subs = [f"{target}.{alias.name}" for alias in node.names if is_module(f"{target}.{alias.name}")]
+            # "from . import bsdf" imports the submodule (its package's facade is not what it uses);
+            # "from .x import name" imports x
+            out += [(sub, node.lineno) for sub in subs]
+            if len(subs) < len(node.names):
+                out.append((target, node.lineno))
     return out
 
 

@@ -23,18 +23,21 @@ def main() -> None:
     import matplotlib.pyplot as plt
     from matplotlib.patches import FancyArrowPatch, FancyBboxPatch
 
-    from test_layers import LAYERS
+    from test_layers import LAYER_NAMES, LAYERS
 
-    layers = [("labcut_cli", "CLI: typer + rich; parses options, builds a Scenario once, prints tables, writes JSON/PNG")] + [
-        (" · ".join(n.replace("labcut.", "") for n in names), "") for names in reversed(LAYERS)
+    assert len(LAYER_NAMES) == len(LAYERS)
+    layers = [("labcut_cli", "CLI: typer + rich; parses options, builds a question once, prints tables, writes JSON/PNG")] + [
+        (name, "") for name in reversed(LAYER_NAMES)
     ]
     notes = {
         "batch": "Dask batch runs over catalogues",
         "reports": "compare_cuts: reports over cuts x scenarios",
-        "rendering · orientation · plots": "render(): Mitsuba scene, labradorite BSDF  |  recommend_orientation(): FlashProblem → Scorer",
-        "geometry · scene": "meshes in mm, +Z face-up  |  Lights, Views, Scenario (world +Z up) → Settings (mesh frame)",
+        "study": "Study: a Stone + one question; keeps plan, problem, answers; with_...() re-asks",
+        "planner · commands (one circle)": "plan_effects  |  recommend_orientation, evaluate_orientation, render, animate; budgets",
+        "flash problem · kernels · renderer pieces · plots": "FlashProblem → Scorer (KernelOptions)  |  BSDF, Mitsuba scene pieces, rays",
+        "geometry · scene": "Stone: mesh (mm, +Z up), facts, derived geometry  |  Lights, Views, Scenario",
         "physics · colour": "Stack → R_s, R_p (numpy f64 / Dr.Jit f32)  |  schiller lobe f_s  |  CIE tables",
-        "backend · fileio": "CUDA or LLVM variant, kernel cache  |  atomic outputs",
+        "backend · fileio": "CUDA or LLVM variant, libLLVM check  |  atomic outputs, the user cache",
         "errors · validation": "typed errors, one-line messages  |  number and vector checks",
     }
     fig, ax = plt.subplots(figsize=(11, 7.2))
@@ -54,8 +57,10 @@ def main() -> None:
     centre = {name: len(layers) - 1 - k + 0.56 for k, (name, _) in enumerate(layers)}
     flow = [
         ("--scenario pendant --normal ...\n→ one Scenario, validated once", centre["labcut_cli"]),
-        ("recommend / render take it: FlashProblem\n→ Scorer sums q(h·m) for every normal m;\nrender: main pose, camera, emitters",
-         centre["rendering · orientation · plots"]),
+        ("Study / recommend_orientation: plan, then\nFlashProblem → Scorer sums q(h·m) for every\nnormal m; render: main pose, camera, emitters",
+         centre["planner · commands (one circle)"]),
+        ("the problem's triples and the Scorer's\nsums run as Dr.Jit kernels (KernelOptions)",
+         centre["flash problem · kernels · renderer pieces · plots"]),
         ("Scenario.settings(): per pose, Lights\nand Views rotated into the mesh frame", centre["geometry · scene"]),
         ("one schiller lobe f_s and R_s, R_p: the\nestimator (numpy) and the BSDF (Dr.Jit)", centre["physics · colour"]),
     ]
