@@ -62,7 +62,7 @@ def main() -> None:
     args = parser.parse_args()
     q = args.quality
     from labcut.orientation.render_estimator import render_timing
-    from labcut.orientation.timing import sample_timing
+    from labcut.planner import sample_timing
 
     import tempfile
 

@@ -215,7 +215,7 @@ def studio(s: Settings, out: Path) -> None:
     """Presentation renders in the studio look (docs/gallery.md "Studio presentation renders"):
     each stone at the lamella orientation ``recommend_orientation`` picks (draft quality) under
     the ``bench`` scenario, rendered from its main view; and a rocking animation of the oval."""
-    from labcut.rendering.animate import animate
+    from labcut.commands.animate import animate
 
     blue = Labradorite.preset("blue")
     res, spp = (48, 8) if s.quick else (360, 64)

@@ -660,7 +660,7 @@ def plan_effects(
 def estimator_seconds(scene: Any, command: str, occlusion: bool, inter_reflection: bool, convex: bool,
                       zoned: bool = False) -> dict[str, float]:
     """Predicted seconds of each estimator on this machine (calibrated:
-    :func:`labcut.orientation.timing.predict_sample_seconds`, :func:`evaluate_timing`,
+    :func:`predict_sample_seconds`, :func:`evaluate_timing`,
     :func:`labcut.orientation.render_estimator.predict_render_seconds`).
 
     ``recommend``: the render estimator starts from the sample estimator's answer, so its time
@@ -669,7 +669,7 @@ def estimator_seconds(scene: Any, command: str, occlusion: bool, inter_reflectio
     counted here. ``evaluate``: building the sample problem and scoring one normal; the render
     estimator builds the same problem, then renders every view once. ``compare``: the sample
     estimator's recommendation of the cut under the scenario (the curves and renders come on top)."""
-    from .orientation.timing import calibrating, predict_sample_seconds
+    from .orientation.timing import calibrating
 
     if calibrating():
         return {}
@@ -705,6 +705,47 @@ def _evaluate_key() -> str:
     return f"labcut {__version__} numpy {np.__version__} cpus {os.cpu_count()} evaluate v1"
 
 
+def recommend_run(mesh: Any, quality: str) -> Any:
+    """A sample-estimator recommendation of ``mesh`` at ``quality`` (default question, bench), made
+    by :func:`labcut.recommend_orientation`'s own steps (plan, flash problem, answer) without its
+    checks and budget: what the calibration of :func:`predict_sample_seconds` times."""
+    from .backend import serial_blas
+    from .orientation.recommend import answer_recommendation, build_scorer, question
+
+    ask = question(None, quality=quality)
+    plan = plan_question(mesh, ask, "recommend")
+    with serial_blas():
+        return answer_recommendation(mesh, ask, build_scorer(mesh, ask, plan), plan)
+
+
+def evaluate_run(mesh: Any, quality: str) -> Any:
+    """A sample-estimator evaluation of one lamella normal, by :func:`labcut.evaluate_orientation`'s
+    own steps: what :func:`evaluate_timing` times."""
+    from .backend import serial_blas
+    from .orientation.recommend import build_scorer, evaluation_metrics, question
+    from .scene.directions import normalize_normal
+
+    ask = question(None, quality=quality)
+    plan = plan_question(mesh, ask, "evaluate", predict=False)
+    with serial_blas():
+        return evaluation_metrics(mesh, ask, build_scorer(mesh, ask, plan), plan, normalize_normal((0.05, 0.02, 1.0)))
+
+
+def sample_timing(refresh: bool = False) -> Any:
+    """The sample estimator's calibration on this machine (:func:`labcut.orientation.timing.sample_timing`,
+    handed :func:`recommend_run` to time)."""
+    from .orientation.timing import sample_timing as calibrated
+
+    return calibrated(recommend_run, refresh=refresh)
+
+
+def predict_sample_seconds(settings: Sequence[Any], surface_points: int, occlusion: bool) -> float:
+    """Predicted wall seconds of a sample-estimator recommendation on this machine (warm process)."""
+    from .orientation.timing import seconds_of
+
+    return seconds_of(sample_timing(), settings, surface_points, occlusion)
+
+
 def evaluate_timing(refresh: bool = False) -> dict[str, float]:
     """The sample estimator's evaluation (build the problem, score one normal) on this machine:
     ``{"fixed", "per_term", "per_ray"}`` seconds, fitted as
@@ -716,11 +757,9 @@ def evaluate_timing(refresh: bool = False) -> dict[str, float]:
     from .fileio import calibration
 
     def measure() -> dict[str, float]:
-        from .orientation.recommend import evaluate_orientation
         from .orientation.timing import time_three
 
-        fixed, per_term, per_ray = time_three(  # a calibration run (timing.calibration_run) itself
-            lambda m, quality: evaluate_orientation(m, (0.05, 0.02, 1.0), quality=quality), repeats=2)
+        fixed, per_term, per_ray = time_three(evaluate_run, repeats=2)  # a calibration run (timing.calibration_run) itself
         return {"fixed": fixed, "per_term": per_term, "per_ray": per_ray}
 
     value = calibration("planner-evaluate-timing.json", _evaluate_key(), measure, refresh=refresh,
@@ -765,18 +804,22 @@ def render_command_timing(mode: str, polarised: bool, integrator: str, look: str
         from .orientation.timing import calibration_run
 
         from .physics.material import Labradorite
-        from .rendering.api import render
+        from .rendering.api import render_image, render_question
+        from .scene.directions import normalize_normal
 
         sphere = Stone(trimesh.creation.icosphere(subdivisions=3, radius=5.0), convex=True).mesh
         kw = dict(scenario="bench", mode=mode, polarizer_deg=30.0 if polarised else None,
                   max_depth=4 if integrator == "path" else None, look=look)
         mat = Labradorite()
+        normal = normalize_normal((0.05, 0.02, 1.0))
         rows = []
         with calibration_run():
             for res, n in _RENDER_CAL:
-                render(sphere, mat, (0.05, 0.02, 1.0), resolution=res, spp=n, **kw)  # warm: kernels
+                # labcut.render's own steps for a given spp: the request, then the render
+                ask = render_question(material=mat, resolution=res, spp=n, **kw)
+                render_image(sphere, ask, normal, n)  # warm: kernels
                 t = time.perf_counter()
-                render(sphere, mat, (0.05, 0.02, 1.0), resolution=res, spp=n, **kw)
+                render_image(sphere, render_question(material=mat, resolution=res, spp=n, **kw), normal, n)
                 rows.append((res * res * n, time.perf_counter() - t))
         return linear_fit(rows)
 

@@ -97,3 +97,8 @@ def name_or_mm(text: str, names: tuple[str, ...], what: str, where: str = "") ->
         place = f" in {where!r}" if where else ""
         raise ParameterError(f"{what} must be {', '.join(names)} or a number of mm{place}, got {text!r}")
     return value
+
+
+def check_budget(value: Any) -> float:
+    """A time budget in seconds: a finite number > 0 (one-line error otherwise)."""
+    return float(check_number(value, "time budget", 0.0, 86_400.0, low_open=True, unit="s"))

@@ -115,7 +115,7 @@ def _run_in_process(argv, capsys):
 
 
 def test_a_failing_render_leaves_the_answer(tmp_path, capsys, monkeypatch):
-    import labcut.rendering.api as api
+    import labcut.commands.render as api
 
     def broken(*args, **kwargs):
         raise labcut.BackendError("the renderer ran out of memory")

@@ -31,7 +31,7 @@ def _own_corrections(monkeypatch, tmp_path):
 
 def _fake_timing(monkeypatch, per_point: float):
     """Predicted seconds proportional to the surface points (a machine of known speed)."""
-    monkeypatch.setattr("labcut.orientation.timing.predict_sample_seconds",
+    monkeypatch.setattr("labcut.planner.predict_sample_seconds",
                         lambda settings, points, occlusion: per_point * points * (2.0 if occlusion else 1.0))
 
 
@@ -169,7 +169,7 @@ def test_recommend_hands_its_plan_to_the_budget(monkeypatch):
         seen["estimator"] = plan.estimator
         raise Stop
 
-    monkeypatch.setattr("labcut.orientation.budget.choose", spy)
+    monkeypatch.setattr("labcut.commands.recommend.choose", spy)
     oval = labcut.cabochon("oval", 16, 12, resolution=48)
     for estimator in ("render", "samples"):
         with pytest.raises(Stop):
@@ -230,7 +230,7 @@ def test_a_first_plans_pilots_are_counted_and_kept_out_of_the_correction(monkeyp
     import time
 
     from labcut import planner
-    from labcut.orientation import budget as budget_module
+    from labcut.commands import recommend as recommend_command
 
     monkeypatch.setattr(planner, "_PILOT_CACHE", {})
     slow = {"n": 0}
@@ -244,7 +244,7 @@ def test_a_first_plans_pilots_are_counted_and_kept_out_of_the_correction(monkeyp
 
     monkeypatch.setattr(planner, "measured_interreflection", pilots)
     seen = []
-    monkeypatch.setattr(budget_module, "record", lambda kind, predicted, actual, **kw: seen.append((predicted, actual)))
+    monkeypatch.setattr(recommend_command, "record", lambda kind, predicted, actual, **kw: seen.append((predicted, actual)))
     mesh = labcut.load_mesh("meshes/carving-biplane.ply")
     t = time.perf_counter()
     rec = labcut.recommend_orientation(mesh, "blue", time_budget=30.0)
@@ -317,13 +317,14 @@ def test_a_first_call_in_a_process_learns_its_own_seconds(monkeypatch):
 
 
 def test_recommend_tells_the_budget_whether_it_is_the_first_of_its_kind(monkeypatch):
+    from labcut.commands import recommend as recommend_command
     from labcut.orientation import budget as budget_module
 
     _fake_timing(monkeypatch, 1e-4)
     monkeypatch.setattr(budget_module, "_WARM", set())
     seen = []
     real = budget_module.record
-    monkeypatch.setattr(budget_module, "record", lambda *a, **kw: (seen.append(kw.get("first_call")), real(*a, **kw))[1])
+    monkeypatch.setattr(recommend_command, "record", lambda *a, **kw: (seen.append(kw.get("first_call")), real(*a, **kw))[1])
     mesh = labcut.load_mesh("meshes/oval-16x12-low.ply")
     labcut.recommend_orientation(mesh, "blue", scenario="bench", time_budget=0.5)
     labcut.recommend_orientation(mesh, "blue", scenario="bench", time_budget=0.5)

@@ -130,7 +130,7 @@ def test_file_warnings_name_the_cut(tmp_path):
 
 def test_everything_is_checked_before_the_long_work(monkeypatch):
     """A bad cut, scenario, reference, quality or material fails at once: nothing is recommended."""
-    import labcut.orientation.recommend as rec
+    import labcut.commands.recommend as rec
 
     def boom(*a, **k):
         raise AssertionError("long work started before the inputs were checked")

@@ -24,7 +24,7 @@ def _own_corrections(monkeypatch, tmp_path):
 
 def _fake_machine(monkeypatch, per_point: float = 1e-4, per_sample: float = 1e-7, per_evaluated_point: float = 0.0):
     """A machine of known speed: each prediction proportional to the points or samples it counts."""
-    monkeypatch.setattr("labcut.orientation.timing.predict_sample_seconds",
+    monkeypatch.setattr("labcut.planner.predict_sample_seconds",
                         lambda settings, points, occlusion: per_point * points)
     monkeypatch.setattr("labcut.planner.predict_evaluate_seconds",
                         lambda settings, points, occlusion: per_evaluated_point * points)

@@ -1,8 +1,8 @@
 """The layers hold: no module imports a layer above its own (docs/architecture.md).
 
     errors → backend, fileio → physics, colour → geometry, scene
-           → the flash problem, kernels and renderer's pieces, plots
-           → the planner and the commands (one circle, to be split) → study → reports → batch
+           → orientation, rendering, plots (compute) → planner, timing, budgets (decide)
+           → commands (recommend, evaluate, render, animate) → study → reports → batch
            → the CLI (labcut_cli)
 
 A module may import its own layer and any below. Imports are read from the source
@@ -25,16 +25,13 @@ LAYERS: list[tuple[str, ...]] = [
     ("labcut.backend", "labcut.fileio"),
     ("labcut.physics", "labcut.colour"),
     ("labcut.geometry", "labcut.scene"),
-    # the flash problem and its kernels, the renderer's pieces, plots: they compute, decide nothing
-    ("labcut.orientation.kernels", "labcut.orientation.problem", "labcut.orientation.scoring",
-     "labcut.orientation.optimize", "labcut.orientation.pairs", "labcut.orientation.uncertainty",
-     "labcut.orientation.setup", "labcut.rendering.bsdf", "labcut.rendering.images", "labcut.rendering.noise",
-     "labcut.rendering.rays", "labcut.rendering.scene", "labcut.rendering.studio", "labcut.rendering.tonemap",
-     "labcut.rendering.zoning", "labcut.rendering.zoning_kernel", "labcut.plots"),
-    # planning and the commands, still one import circle (docs/architecture.md, "What is left"):
-    # the planner, the time budgets and calibrations, recommend/evaluate, render/animate, the
-    # render estimator; the rendering and orientation packages' facades re-export from here
-    ("labcut.planner", "labcut.orientation", "labcut.rendering"),
+    # what computes and decides nothing: the flash problem, its kernels and scorer, the answer's
+    # steps, the render estimator; the renderer (plans, scenes, passes), rays, plots
+    ("labcut.orientation", "labcut.rendering", "labcut.plots"),
+    # what decides: the effect planner, its predictions and calibrations, the time budgets
+    ("labcut.planner", "labcut.orientation.timing", "labcut.orientation.budget", "labcut.rendering.budget"),
+    # the commands: recommend, evaluate, render, animate
+    ("labcut.commands",),
     ("labcut.study",),
     ("labcut.reports",),
     ("labcut.batch",),
@@ -43,8 +40,7 @@ LAYERS: list[tuple[str, ...]] = [
 
 #: a short name for each layer (docs/architecture.md and its figure)
 LAYER_NAMES = ["errors · validation", "backend · fileio", "physics · colour", "geometry · scene",
-               "flash problem · kernels · renderer pieces · plots", "planner · commands (one circle)", "study",
-               "reports", "batch"]
+               "orientation · rendering · plots", "planner · timing · budgets", "commands", "study", "reports", "batch"]
 
 
 def layer_of(module: str) -> int | None:

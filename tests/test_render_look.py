@@ -189,19 +189,19 @@ def test_denoised_32spp_within_2x_of_raw_1024spp(oval):
 def test_rock_animation_one_exposure_webp_and_gif(oval, tmp_path, monkeypatch):
     from PIL import Image
 
-    from labcut.rendering import animate as anim_mod
-    from labcut.rendering import api
+    from labcut.commands import animate as anim_mod
+    from labcut.commands import render as render_cmd
 
     mesh, material, rec = oval
     seen = []
-    real = api.render_setup
+    real = render_cmd.render_setup
 
     def spy(mesh, setup, *args, **kwargs):
         result = real(mesh, setup, *args, **kwargs)
         seen.append((setup.exposure, result.exposure))
         return result
 
-    monkeypatch.setattr(api, "render_setup", spy)
+    monkeypatch.setattr(render_cmd, "render_setup", spy)
     anim = anim_mod.animate(mesh, material, rec.normal, motion="rock", frames=4, scenario=rec.scenario, spp=2,
                             resolution=32, output=tmp_path / "rock.webp")
     assert len(anim.frames) == 4 and anim.angles_deg == pytest.approx([0.0, 30.0, 0.0, -30.0], abs=1e-9)
@@ -216,7 +216,7 @@ def test_rock_animation_one_exposure_webp_and_gif(oval, tmp_path, monkeypatch):
         assert im.format == "GIF" and im.n_frames == 4
 
     # one exposure in the file too: a frame twice as bright stays brighter (no per-frame normalising)
-    from labcut.rendering.animate import write_animation
+    from labcut.commands.animate import write_animation
 
     dim = np.full((8, 8, 3), 0.05, dtype=np.float32)
     bright = 4.0 * dim

@@ -73,7 +73,7 @@ def test_motion_angles_and_checks():
 
 
 def test_animate_refuses_what_the_motion_or_setup_holds(cab):
-    from labcut.rendering.animate import animate
+    from labcut.commands.animate import animate
 
     with pytest.raises(ParameterError, match="holds its frames"):
         animate(cab, motion=Motion.build("rock", frames=4), frames=8)

@@ -124,7 +124,7 @@ def test_a_bar_too_narrow_would_miss():
 
 def test_bad_inputs_are_one_line_errors(oval):
     setup = FlashSetup.build("blue", "bench", quality="draft")
-    from labcut.orientation.recommend import _setup
+    from labcut.commands.recommend import planned_scorer as _setup
 
     scorer, _ = _setup(oval, setup)
     with pytest.raises(ParameterError, match="normal must be"):

@@ -198,7 +198,7 @@ def recommend_orientation(
         render_ask = RenderSetup.build(setup.material, scene, spp=spp, resolution=resolution, zoning=zone,
                                        exposure=exposure_value, look=lo.spec(look), denoise=denoise)
     if time_budget is not None:
-        from labcut.orientation.budget import check_budget
+        from labcut.validation import check_budget
 
         check_budget(time_budget)
     from labcut.planner import plan_question
@@ -274,7 +274,7 @@ def recommend_orientation(
         return
     try:
         with progress_bar("rendering", "samples/pixel") as update:
-            from labcut.rendering.api import render_setup
+            from labcut.commands.render import render_setup
             from labcut.scene.directions import normalize_normal
 
             assert render_ask is not None

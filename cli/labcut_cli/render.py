@@ -101,7 +101,7 @@ def render(
     only with --polarizer, direct lighting for convex stones, a path tracer for carvings.
     """
     from labcut.fileio import check_output_path
-    from labcut.rendering.api import render_setup
+    from labcut.commands.render import render_setup
     from labcut.scene.directions import normalize_normal
     from labcut.rendering.setup import LOBES, Motion, RenderSetup
     from labcut.rendering.images import IMAGE_SUFFIXES
@@ -235,7 +235,7 @@ def _option_error(build: Any) -> Any:
 def _animate(mesh_path: Path, mesh, lamella, setup, move, output: Path, json_path: Optional[str]) -> None:
     """``labcut render --animate``: every frame under one exposure, the file written once all are done."""
     import labcut
-    from labcut.rendering.animate import animate
+    from labcut.commands.animate import animate
 
     from .progress import progress_bar
 

@@ -111,7 +111,7 @@ def run_row(row: Row) -> dict[str, Any]:
 
 def _recommend(mesh: Any, row: Row) -> Any:
     """:func:`labcut.recommend_orientation` of a row: what a direct call with the row's settings returns."""
-    from ..orientation.recommend import recommend_orientation
+    from ..commands.recommend import recommend_orientation
 
     return recommend_orientation(mesh, **row.recommend_kwargs())
 

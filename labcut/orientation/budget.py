@@ -5,7 +5,7 @@ A ladder of :class:`~labcut.Quality` settings, cheapest first (:func:`ladder`: b
 one before in every knob the accuracy study (``docs/accuracy.md``) found to matter: surface
 samples, directions per lamp and viewing cone, rocking poses, map spacing and optimiser budget.
 The time of a recommendation at each rung is predicted from this machine's calibration of the
-sample estimator (:func:`labcut.orientation.timing.predict_sample_seconds`: measured once per
+sample estimator (:func:`labcut.planner.predict_sample_seconds`: measured once per
 machine, labcut and numpy version, and kept in the user cache) for the scene's own poses, lights
 and viewers, with occlusion where the plan has it; :func:`choose` takes the last rung predicted
 to fit.
@@ -36,7 +36,7 @@ from typing import Any
 
 from ..errors import ParameterError
 from ..scene.quality import QUALITIES, Quality
-from ..validation import check_number
+from ..validation import check_budget
 
 
 def ladder() -> list[Quality]:
@@ -100,11 +100,6 @@ class BudgetChoice:
         return out
 
 
-def check_budget(value: Any) -> float:
-    """A time budget in seconds: a finite number > 0 (one-line error otherwise)."""
-    return float(check_number(value, "time budget", 0.0, 86_400.0, low_open=True, unit="s"))
-
-
 def quality_or_budget(quality_given: bool, budget_given: bool, *, flags: bool = False) -> None:
     """Refuse a question that gives both a quality and a time budget (the budget chooses the
     quality). ``flags``: name them as the command line does (``--quality``, ``--time-budget``)."""
@@ -127,7 +122,7 @@ def corrections_path() -> Any:
 
 def _corrections() -> tuple[Any, dict[str, Any]]:
     from ..fileio import read_cache
-    from .timing import sample_timing
+    from ..planner import sample_timing
 
     path = corrections_path()
     data = read_cache(path) or {}
@@ -231,7 +226,7 @@ def choose(budget: Any, scene_spec: tuple[Any, Any, Any], occlusion: bool, *, pl
     They sample the scene at :data:`labcut.planner.PILOT_QUALITY` whatever the plan's quality, so
     the chosen rung's plan finds them cached."""
     from ..scene import resolve_scene
-    from .timing import predict_sample_seconds
+    from ..planner import predict_sample_seconds
 
     seconds = check_budget(budget)
     pilots = float(getattr(plan, "pilot_seconds", 0.0) or 0.0)

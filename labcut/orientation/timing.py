@@ -20,10 +20,11 @@ import os
 import contextlib
 import contextvars
 import time
-from collections.abc import Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import asdict, dataclass
 from typing import Any
 
+from ..errors import ParameterError
 from ..geometry.stone import Stone
 
 #: the user-cache file of the calibration (:func:`sample_timing`)
@@ -110,31 +111,36 @@ def time_three(call: Any, repeats: int = 1) -> tuple[float, float, float]:
     return fixed, per_term, per_ray
 
 
-def measure_sample_timing() -> SampleTiming:
-    """Time three recommendations of a 16 x 12 mm oval cabochon under the bench scenario (:func:`time_three`)."""
-    from .recommend import recommend_orientation
+def measure_sample_timing(run: Callable[[Any, str], Any]) -> SampleTiming:
+    """Time three recommendations of a 16 x 12 mm oval cabochon under the bench scenario
+    (:func:`time_three`), each made by ``run(mesh, quality)``: the calibration is handed what it
+    times (the planner hands it a recommendation's own steps, :func:`labcut.planner.recommend_run`)."""
+    return SampleTiming(*time_three(run), _key())
 
-    return SampleTiming(*time_three(lambda mesh, quality: recommend_orientation(mesh, quality=quality)), _key())
 
-
-def sample_timing(refresh: bool = False) -> SampleTiming:
-    """The calibration of :func:`predict_sample_seconds`: measured once on this machine and kept
-    in the user cache (:func:`labcut.fileio.calibration`, :data:`TIMING_FILE`)."""
+def sample_timing(run: Callable[[Any, str], Any] | None = None, refresh: bool = False) -> SampleTiming:
+    """The calibration of the sample estimator's predicted seconds
+    (:func:`labcut.planner.predict_sample_seconds`): measured once on this machine by
+    :func:`measure_sample_timing` with ``run`` and kept in the user cache
+    (:func:`labcut.fileio.calibration`, :data:`TIMING_FILE`); without ``run`` only a kept one is read
+    (a :class:`~labcut.errors.ParameterError` when there is none)."""
     from ..fileio import calibration
 
     key = _key()
     names = ("fixed", "per_term", "per_ray")
 
     def measure() -> dict[str, float]:
-        t = measure_sample_timing()
+        if run is None:
+            raise ParameterError("the sample estimator is not calibrated on this machine yet: "
+                                 "labcut.planner.sample_timing() measures it")
+        t = measure_sample_timing(run)
         return {k: getattr(t, k) for k in names}
 
     value = calibration(TIMING_FILE, key, measure, refresh=refresh, check=lambda v: [float(v[k]) for k in names])
     return SampleTiming(*(float(value[k]) for k in names), key)
 
 
-def predict_sample_seconds(settings: Sequence[Any], surface_points: int, occlusion: bool) -> float:
-    """Predicted wall seconds of a sample-estimator recommendation on this machine (warm process)."""
-    t = sample_timing()
+def seconds_of(t: SampleTiming, settings: Sequence[Any], surface_points: int, occlusion: bool) -> float:
+    """Wall seconds a calibration ``t`` predicts for a problem of these settings and points."""
     terms, rays = work(settings, surface_points)
     return float(t.fixed + t.per_term * terms + (t.per_ray * rays if occlusion else 0.0))

@@ -1,4 +1,7 @@
-"""``labcut.render``: render a stone with the labradorite BSDF, simulating only what the call needs.
+"""Render a stone with the labradorite BSDF, simulating only what the request needs.
+
+:func:`labcut.render` (:mod:`labcut.commands.render`) chooses the samples per pixel and records
+the effect plan, then runs :func:`render_image` here.
 
 The render plan (variant, integrator, depth, lobes) is chosen from the request
 and the mesh, logged, and returned on the result:
@@ -44,33 +47,11 @@ from ..physics.material import Labradorite
 from .images import save_image
 from ..scene import Scenario, Setting, resolve_scene
 from ..scene.directions import normalize_normal
+from .passes import render_pass
+from .plan import LOBES, RenderPlan, plan_render
 from .scene import RENDER_IRRADIANCE, CameraView, camera, camera_views, emitters, to_mitsuba_mesh
 
 log = logging.getLogger("labcut.render")
-
-LOBES = ("surface", "schiller", "body")
-
-
-@dataclass(frozen=True)
-class RenderPlan:
-    """What a render simulates, and why."""
-
-    variant: str
-    integrator: str
-    max_depth: int
-    lobes: tuple[str, ...]
-    convex: bool
-    polarizer_deg: float | None
-    reasons: tuple[str, ...] = ()
-    look: str = "diagram"
-    denoise: bool = False
-    zoning: str | None = None
-    #: the effect planner's plan of the render (:meth:`labcut.planner.EffectPlan.to_dict`)
-    effects: dict[str, Any] = field(default_factory=dict)
-
-    def to_dict(self) -> dict[str, Any]:
-        return asdict(self)
-
 
 @dataclass
 class RenderResult:
@@ -148,94 +129,11 @@ class RenderResult:
         return save_image(self.image, path, self.exposure, metadata=meta, exposure_mode=self.exposure_mode, curve=self.tonemap)
 
 
-def plan_render(
-    stone: Any,
-    lighting: Any = None,
-    mode: str = "rgb",
-    polarizer_deg: float | None = None,
-    lobes: Sequence[str] = LOBES,
-    max_depth: int | None = None,
-    *,
-    look: Any = "diagram",
-    denoise: bool | None = None,
-    zoning: Any = None,
-) -> RenderPlan:
-    """Choose variant, integrator and depth for a request (see the module docstring).
-
-    ``stone``: a :class:`~labcut.Stone` or trimesh (whether it is convex decides the bounces), or
-    True / False: a convex or non-convex stone (the checks that do not depend on the shape).
-    ``lighting``: the :class:`~labcut.Lights` (mesh frame) the render uses, for the record.
-    ``look``: ``"diagram"`` | ``"studio"`` | a :class:`~labcut.rendering.studio.Studio`.
-    ``denoise``: None (default: on for the studio look where the colour transport allows it),
-    True or False. ``zoning``: the :class:`~labcut.rendering.zoning.Zoning` used, for the record."""
-    from .studio import resolve_look
-    from ..backend import variant_name
-
-    lobes = tuple(lobes)
-    bad = [x for x in lobes if x not in LOBES]
-    if bad or not lobes:
-        raise ParameterError(f"lobes must be a non-empty subset of {', '.join(LOBES)}, got {list(lobes)}")
-    polarized = polarizer_deg is not None
-    if polarized and mode == "rgb":
-        mode = "spectral"
-    variant = variant_name(mode, polarized)
-    convex = stone if isinstance(stone, bool) else Stone.of(stone).convex
-    reasons = [f"{mode} colour{' with polarization (polarizer given)' if polarized else ''}"]
-    studio = resolve_look(look)
-    if max_depth is not None:
-        integrator, depth = ("path", int(max_depth))
-        reasons.append(f"path tracing to depth {depth} as requested")
-    elif studio is not None and convex and studio.max_depth > 2:
-        integrator, depth = ("path", studio.max_depth)
-        reasons.append(f"studio look: path tracing to depth {depth}, so the polish mirrors the lamps, the tent and the table")
-    elif convex:
-        integrator, depth = ("direct", 2)
-        reasons.append("convex stone: direct lighting is exact (no light path leaves and re-enters)")
-    else:
-        integrator, depth = ("path", 4)
-        reasons.append("non-convex stone: path tracing, 3 bounces, for light reflected between parts")
-    if lobes != LOBES:
-        reasons.append(f"lobes: {', '.join(lobes)} only")
-    if lighting is not None and studio is None:
-        parts = [f"{lighting.n_lamps} lamp direction(s) as distant lights"] if lighting.n_lamps else []
-        if lighting.environment is not None:
-            parts.append(f"environment map {lighting.environment.name!r} (the map the optimiser samples)")
-        reasons.append(f"lights ({lighting.name}): {' and '.join(parts)}")
-    if studio is not None:
-        if lighting is not None:
-            from .studio import lamps_of
-
-            lamps = lamps_of(lighting, studio.point_lamp_deg)
-            sizes = ", ".join(f"{lamp.radius_deg:.1f}°{' (a point lamp, drawn this size)' if lamp.point else ''}" for lamp in lamps)
-            parts = [f"{len(lamps)} lamp(s) as area lights {studio.lamp_distance:g} stone radii away, radius {sizes}"] if lamps else []
-            if lighting.environment is not None:
-                parts.append(f"environment map {lighting.environment.name!r}")
-            parts.append(f"a light tent ({studio.tent_share:.0%} of the lamps' irradiance on a face-up card)")
-            reasons.append(f"lights ({lighting.name}): {', '.join(parts)}")
-        reasons.append(f"studio look: grey table (albedo {studio.backdrop_albedo:g}) with a contact shadow; dark grey-green body"
-                       f"{f' with dark inclusions ({studio.inclusions:.0%}, seed {studio.seed})' if studio.inclusions > 0 else ''}; "
-                       "perspective camera; AgX tone curve; exposure metered from the lights")
-    can_denoise = not polarized and mode != "mono"
-    if denoise is None:
-        use_denoise = studio is not None and can_denoise
-    else:
-        use_denoise = bool(denoise)
-        if use_denoise and not can_denoise:
-            raise ParameterError("denoising needs rgb or spectral colour without a polarizer")
-    if use_denoise:
-        from .denoise import available
-
-        if not available():  # before any work, not after the colour is traced
-            from ..errors import BackendError
-
-            raise BackendError("denoising needs the pyoidn package (pip install pyoidn), or render with denoise off")
-        reasons.append("denoised with Intel Open Image Denoise, demodulated by a noise-free shading guide, with the normal")
-    zone_name = None
-    if zoning is not None:
-        zone_name = getattr(zoning, "name", None) or "custom"
-        reasons.append(f"colour zoning ({zone_name}): {len(zoning.materials)} parameter sets, {zoning.mode} transitions")
-    return RenderPlan(variant, integrator, depth, lobes, convex, polarizer_deg, tuple(reasons),
-                      "diagram" if studio is None else "studio", use_denoise, zone_name)
+def plan_for(mesh: Any, ask: Any) -> RenderPlan:
+    """The render plan (variant, integrator, depth, lobes, look) of the request ``ask`` for ``mesh``:
+    what :func:`render_image` will run (a time budget prices it)."""
+    return plan_render(mesh, ask.scenario.main_setting().lights, ask.mode, ask.polarizer_deg, ask.lobes, ask.max_depth,
+                       look=ask.look_spec, denoise=ask.denoise, zoning=ask.zoning)
 
 
 def bsdf_dict(material: Labradorite, normal: np.ndarray, lobes: Sequence[str] = LOBES, *, zoning: Any = None) -> dict[str, Any]:
@@ -381,100 +279,6 @@ def _polarizer_intensity(image: np.ndarray, angle_deg: float) -> np.ndarray:
     return 0.5 * (s0 + s1 * math.cos(a) + s2 * math.sin(a))
 
 
-def render(
-    mesh: Any,
-    material: Labradorite | str | None = None,
-    lamella_normal: Any = (0.0, 0.0, 1.0),
-    *,
-    setup: Any = None,
-    scenario: str | Scenario | None = None,
-    lighting: Any = None,
-    viewing: Any = None,
-    view: str | CameraView | tuple[float, float] = "main",
-    spp: int | None = None,
-    resolution: int = 512,
-    mode: str = "rgb",
-    polarizer_deg: float | None = None,
-    lobes: Sequence[str] = LOBES,
-    max_depth: int | None = None,
-    perspective: bool = False,
-    seed: int = 0,
-    output: str | Path | None = None,
-    progress: Callable[[int, int], None] | None = None,
-    zoning: Any = None,
-    exposure: float | None = None,
-    check_flash: bool = True,
-    look: Any = "diagram",
-    denoise: bool | None = None,
-    time_budget: float | None = None,
-) -> RenderResult:
-    """Render ``mesh`` (mm, +Z face-up) cut from ``material`` with lamellae normal to ``lamella_normal``.
-
-    Parameters
-    ----------
-    setup: the whole request at once, validated (:meth:`RenderSetup.build
-        <labcut.rendering.setup.RenderSetup.build>`, what the CLI passes); then ``material`` and
-        the request's arguments below stay at their defaults (``lamella_normal``, ``output``,
-        ``progress`` and ``check_flash`` are not part of it).
-    scenario: how the stone is lit, worn and seen (default ``bench``): a name, a JSON file or a
-        :class:`~labcut.Scenario`. The render shows its rest pose under its own lights.
-    lighting, viewing: replace the scenario's lights / viewers, as in
-        :func:`labcut.recommend_orientation` (presets of :data:`labcut.scene.LIGHTING` and
-        :data:`labcut.scene.VIEWING`, files, an .exr/.hdr map, ``Lights``/``Views``).
-    view: the camera: ``main`` (the scenario's main viewer) | ``face-up`` | ``orbit`` (8 views tiled
-        4 x 2) | (tilt°, azimuth°) in the mesh frame.
-    spp: samples per pixel (>= 1; default 64); rendered in passes so ``progress(done, total)`` can report.
-    time_budget: seconds the render may take: the most samples per pixel (a power of two) predicted
-        to fit on this machine replace ``spp`` (:mod:`labcut.rendering.budget`; below 1 spp's
-        prediction 1 spp runs with a one-line :class:`~labcut.errors.LabcutWarning`); the choice
-        is in ``RenderResult.budget``.
-    mode: ``rgb`` | ``mono`` | ``spectral``; ``polarizer_deg`` renders polarized and returns the
-        intensity through an ideal linear polarizer at that angle (0° = transmission axis along
-        the image's horizontal).
-    output: optional .png / .exr path written atomically.
-    zoning: ``None`` | ``"smooth"`` | ``"sharp"`` | a :class:`~labcut.rendering.zoning.Zoning`:
-        colour zones, lamella parameters blended through the stone by a noise field
-        (paper §3.2.2; docs/zoning.md). Presets are built on ``material``.
-    exposure: the PNG exposure multiplier (> 0); None (default) picks one automatically: in the
-        diagram look from the whole image (so the tiles of an orbit share one exposure), in the
-        studio look from the lights, as an incident-light meter would (a card of 18 % grey facing
-        the camera renders at middle grey: a dull stone stays dull). Recorded on the result and
-        in the PNG (as a multiplier and in stops); pass the same value to every render of a series.
-    look: ``"diagram"`` (default) or ``"studio"`` / a :class:`~labcut.rendering.studio.Studio`: a
-        photograph of the stone on a table under the scenario's lamps (module docstring).
-    denoise: None (default: on in the studio look for rgb/spectral colour), True or False: OIDN
-        demodulated by a noise-free shading guide, with the normal (:mod:`labcut.rendering.denoise`).
-    check_flash: estimate, per camera, whether any part of the stone flashes from there (the
-        surface-sample estimator at draft quality, the material without zoning); a view with
-        none gets a note (:attr:`RenderResult.notes`): an auto-exposed image of glare and body
-        colour looks like a stone, not like a stone that does not flash.
-
-    Returns a :class:`RenderResult` whose ``image`` is linear RGB float32 and ``plan`` says
-    what was simulated.
-
-    Raises :class:`~labcut.errors.MeshError` for a mesh that is not a closed, finite solid
-    (:func:`labcut.geometry.meshio.validate_mesh`) and :class:`~labcut.errors.ParameterError`
-    for bad parameters.
-    """
-    mesh = mesh_of(mesh)  # a Stone or a trimesh
-    from ..geometry.meshio import validate_mesh
-
-    validate_mesh(mesh)
-    ask = render_question(setup, material=material, scenario=scenario, lighting=lighting, viewing=viewing, view=view,
-                          spp=spp, resolution=resolution, mode=mode, polarizer_deg=polarizer_deg, lobes=lobes,
-                          max_depth=max_depth, perspective=perspective, seed=seed, zoning=zoning, exposure=exposure,
-                          look=look, denoise=denoise, time_budget=time_budget)
-    normal = normalize_normal(lamella_normal)
-    if output is not None:
-        from ..fileio import check_output_path
-
-        check_output_path(output, (".png", ".exr"))
-    result = render_setup(mesh, ask, normal, progress=progress, check_flash=check_flash)
-    if output is not None:
-        result.save(output)
-    return result
-
-
 #: the request's arguments of :func:`render` and their defaults: with ``setup=`` they stay at these
 _REQUEST_DEFAULTS: dict[str, Any] = {
     "material": None, "scenario": None, "lighting": None, "viewing": None, "view": "main", "spp": None,
@@ -499,10 +303,13 @@ def render_question(setup: Any = None, **asked: Any) -> Any:
     return setup
 
 
-def render_setup(mesh: Any, ask: Any, normal: np.ndarray, *, progress: Callable[[int, int], None] | None = None,
-                 check_flash: bool = True) -> RenderResult:
-    """:func:`render` of a validated mesh, :class:`~labcut.rendering.setup.RenderSetup` ``ask`` and
-    unit lamella ``normal`` (checks nothing again); the result is not saved."""
+def render_image(mesh: Any, ask: Any, normal: np.ndarray, spp: int, *,
+                 progress: Callable[[int, int], None] | None = None, check_flash: bool = True,
+                 effects: dict[str, Any] | None = None, budget: Any = None) -> RenderResult:
+    """Render a checked mesh under the :class:`~labcut.rendering.setup.RenderSetup` ``ask`` at the
+    unit lamella ``normal`` with ``spp`` samples per pixel (checks nothing again; not saved):
+    the render itself, as :func:`labcut.render` runs it once it has chosen ``spp`` (a time budget's
+    choice, ``budget``) and recorded the effect plan (``effects``, its ``to_dict()``)."""
     import drjit as dr
 
     from .images import auto_exposure
@@ -512,27 +319,7 @@ def render_setup(mesh: Any, ask: Any, normal: np.ndarray, *, progress: Callable[
     setting = scenario_used.main_setting()
     views = list(ask.cameras)
     parts = _scene_parts(mesh, ask, normal, setting)  # once for every camera
-    rplan = parts.plan
-    spp = ask.spp
-    budget = None
-    if ask.time_budget is not None:
-        import warnings
-
-        from ..errors import LabcutWarning
-        from .budget import choose_spp
-
-        budget = choose_spp(ask.time_budget, mode=ask.mode, polarised=ask.polarizer_deg is not None,
-                            integrator=rplan.integrator, resolution=ask.resolution, views=len(views), look=rplan.look)
-        if budget.note:
-            warnings.warn(budget.note, LabcutWarning, stacklevel=3)
-        spp = budget.spp
-    from ..planner import plan_effects
-
-    effect_plan = plan_effects(mesh, ask.material, command="render", scenario=scenario_used,
-                               mode=None if ask.mode == "rgb" else ask.mode, polarizer_deg=ask.polarizer_deg,
-                               zoning=ask.zoning, max_depth=ask.max_depth, resolution=ask.resolution, spp=int(spp),
-                               views=len(views), look=rplan.look,
-                               predict=False).to_dict()  # what the render did; --plan predicts beforehand
+    effect_plan = dict(effects or {})
     total = int(spp) * len(views)
     per_pass = max(1, min(int(spp), 16))
     done = 0
@@ -646,28 +433,6 @@ def _interruptible() -> Any:
             signal.signal(signal.SIGINT, previous)
     if event.is_set():
         raise KeyboardInterrupt
-
-
-def render_pass(scene: Any, spp: int, seed: int) -> Any:
-    """One ``mi.render`` call that lets Ctrl-C through as ``KeyboardInterrupt``.
-
-    Mitsuba handles SIGINT itself in two ways: arriving while the Python BSDF is traced,
-    the ``KeyboardInterrupt`` comes back wrapped in a ``RuntimeError`` by ``dr.custom``;
-    arriving while the kernel runs, Mitsuba's handler "winds down" the pass and sets the
-    integrator's stop flag, and the next pass would start as if nothing happened.
-    """
-    import mitsuba as mi
-
-    try:
-        img = mi.render(scene, spp=spp, seed=seed)
-    except RuntimeError as exc:
-        if isinstance(exc.__cause__, KeyboardInterrupt) or isinstance(exc.__context__, KeyboardInterrupt):
-            raise KeyboardInterrupt from None
-        raise
-    integrator = scene.integrator()
-    if integrator is not None and integrator.should_stop():
-        raise KeyboardInterrupt
-    return img
 
 
 def flash_by_view(mesh: Any, material: Labradorite, lamella_normal: Any, setting: Setting,

@@ -14,7 +14,7 @@ from __future__ import annotations
 from dataclasses import asdict, dataclass
 from typing import Any
 
-from ..orientation.budget import check_budget
+from ..validation import check_budget
 
 MAX_SPP = 4096
 

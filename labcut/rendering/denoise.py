@@ -181,7 +181,7 @@ def aux_scene(scene: Any, integrator: dict[str, Any] | None = None, sensor: Any 
 
 
 def _passes(scene: Any, spp: int, per: int, seed: int) -> np.ndarray:
-    from .api import render_pass
+    from .passes import render_pass
 
     passes = max(1, -(-int(spp) // per))
     acc = None

@@ -6,13 +6,13 @@ samples per pixel or a time budget, resolution (px), colour mode, polarizer angl
 lobes, path depth, look (:class:`~labcut.rendering.studio.Studio` or the diagram look),
 denoising, colour zoning, exposure (a multiplier, or None for automatic) and the sampler seed.
 :meth:`RenderSetup.build` is the one place these are checked: the CLI builds a setup once, before
-the mesh is read, and hands it to :func:`labcut.render` / :func:`labcut.rendering.animate.animate`,
+the mesh is read, and hands it to :func:`labcut.render` / :func:`labcut.commands.animate.animate`,
 which do not check again. :class:`Motion` does the same for an animation's motion.
 
 The lamella normal stays out of the setup: ``recommend-orientation --render`` builds its render
 setup before the answer (the normal) exists. The parts of the render plan that depend on the
 mesh (convex: direct lighting; a carving: a path tracer) are decided per mesh by
-:func:`labcut.rendering.api.plan_render`; every check that does not depend on it runs here.
+:func:`labcut.rendering.plan.plan_render`; every check that does not depend on it runs here.
 """
 
 from __future__ import annotations
@@ -25,9 +25,9 @@ from ..errors import ParameterError
 from ..physics.material import Labradorite
 from ..scene import Scenario, resolve_scene
 from ..validation import check_number
+from .plan import LOBES
 from .scene import CameraView, camera_views
 
-LOBES = ("surface", "schiller", "body")
 MODES = ("rgb", "spectral", "mono")
 #: the samples per pixel when neither ``spp`` nor a time budget is given
 DEFAULT_SPP = 64
@@ -98,7 +98,7 @@ class RenderSetup:
         ...
         labcut.errors.ParameterError: denoising needs rgb or spectral colour without a polarizer
         """
-        from .api import plan_render
+        from .plan import plan_render
         from .studio import resolve_look
 
         material = Labradorite.coerce(material)
@@ -107,7 +107,7 @@ class RenderSetup:
         if polarizer_deg is not None:
             polarizer_deg = check_number(polarizer_deg, "polarizer angle", unit="degrees")
         if time_budget is not None:
-            from .budget import check_budget
+            from ..validation import check_budget
 
             time_budget = check_budget(time_budget)
             if spp is not None:
@@ -146,7 +146,7 @@ class RenderSetup:
 
     @property
     def look_spec(self) -> Any:
-        """What :func:`~labcut.rendering.api.plan_render` takes as ``look=``."""
+        """What :func:`~labcut.rendering.plan.plan_render` takes as ``look=``."""
         return self.studio if self.studio is not None else "diagram"
 
     @property

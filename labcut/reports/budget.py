@@ -5,7 +5,7 @@ its curves, a tilt-performance curve and the renders (the main render, the rocki
 schiller-only render). Each part is predicted from this machine's calibrations, all measured
 once and kept in the user cache:
 
-* the recommendation: :func:`labcut.orientation.timing.predict_sample_seconds` for the scenario's
+* the recommendation: :func:`labcut.planner.predict_sample_seconds` for the scenario's
   own poses, lights and viewers at the rung, with occlusion where the planner turns it on;
 * the scorer and the tilt curve: :func:`labcut.planner.predict_evaluate_seconds` (a problem
   build and an evaluation) for the same settings and for the tilt curve's poses
@@ -31,7 +31,8 @@ from collections.abc import Mapping, Sequence
 from typing import Any
 
 from ..geometry.stone import Stone
-from ..orientation.budget import BudgetChoice, check_budget, correction, ladder, pick
+from ..orientation.budget import BudgetChoice, correction, ladder, pick
+from ..validation import check_budget
 from ..scene.quality import Quality
 from ..scene.scenario import scenarios_from
 
@@ -115,8 +116,7 @@ def predict_comparison(cuts: Sequence[Any], scenarios: Sequence[Any], quality: Q
     """Predicted wall seconds of a comparison of ``cuts`` (resolved :class:`~labcut.reports.cuts.Cut`)
     under ``scenarios`` (as asked: names, files or Scenario objects) at ``quality``, before the
     adaptive correction."""
-    from ..orientation.timing import predict_sample_seconds
-    from ..planner import occlusion_on, predict_evaluate_seconds
+    from ..planner import occlusion_on, predict_evaluate_seconds, predict_sample_seconds
     from .analysis import tilt_settings
 
     scens = scenarios_from(scenarios, quality)

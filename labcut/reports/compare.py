@@ -507,7 +507,7 @@ def plan_comparison(
 
     switches = check_effects(effects)
     if time_budget is not None:
-        from .budget import check_budget
+        from ..validation import check_budget
 
         check_budget(time_budget)  # a bad budget fails before the cuts are read
     resolved = resolve_cuts(cuts, units=units, up_axis=up_axis, size=size)
@@ -634,7 +634,8 @@ def run_comparison(plan: ComparisonPlan, progress: Callable[[int, int], None] | 
     """The long work of :func:`compare_cuts` for a checked :class:`ComparisonPlan`."""
     from ..geometry.inspect import summarize
     from ..orientation.problem import reference_radiance
-    from ..orientation.recommend import describe, recommend_orientation, workshop
+    from ..commands.recommend import recommend_orientation
+    from ..orientation.recommend import describe, workshop
     from ..rendering.scene import RENDER_IRRADIANCE
     from .analysis import (
         compromise,

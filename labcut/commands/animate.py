@@ -6,7 +6,7 @@
   in the hand. The table tilts with the stone (a stone on a tray).
 * ``turntable``: a full turn about the world vertical, for carvings.
 
-Every frame is a :func:`~labcut.rendering.api.render` of the scenario with its pose turned
+Every frame is a :func:`~labcut.commands.render.render` of the scenario with its pose turned
 (``Scenario.pose``), in the studio look by default, tonemapped with **one** exposure: the one
 given, or the rest pose's automatic one, so brightness changes between frames are real. The file
 is written atomically once every frame is done: Ctrl-C leaves no partial file.
@@ -28,7 +28,7 @@ from ..geometry.stone import mesh_of
 from ..scene import Scenario
 from ..scene.directions import rotation
 
-from .setup import FRAME_LIMITS, MOTIONS, Motion, RenderSetup  # noqa: F401  (re-exported)
+from ..rendering.setup import FRAME_LIMITS, MOTIONS, Motion, RenderSetup  # noqa: F401  (re-exported)
 
 ANIMATION_SUFFIXES = (".webp", ".gif")
 
@@ -118,7 +118,7 @@ def animate(
     arguments stay at their defaults): what the CLI passes, checked once."""
     mesh = mesh_of(mesh)  # a Stone or a trimesh
     from ..validation import given_besides
-    from .api import render_setup
+    from .render import render_setup
 
     asked = {"material": material, "scenario": scenario, "lighting": lighting, "viewing": viewing, "spp": spp,
              "resolution": resolution, "exposure": exposure, "look": look, "denoise": denoise, "zoning": zoning, "seed": seed}
@@ -175,7 +175,7 @@ def write_animation(frames: list[np.ndarray], path: str | Path, exposure: float,
     from PIL import Image
 
     from ..fileio import atomic_output
-    from .images import to_uint8
+    from ..rendering.images import to_uint8
 
     if not frames:
         raise ParameterError("an animation needs at least one frame")

@@ -1,0 +1,143 @@
+"""``labcut.render``: a render of a stone, as a command: check the request, choose the samples
+per pixel (a time budget's choice), record the effect plan, render (:func:`labcut.rendering.api.render_image`).
+
+The rendering itself (the plan of variant, integrator, depth and lobes; the Mitsuba scene; the
+passes, the denoiser, the exposure) is :mod:`labcut.rendering.api`'s; this layer adds what asks
+the planner: the budget (:func:`labcut.rendering.budget.choose_spp`) and the effect plan's record
+(:func:`labcut.planner.plan_effects`).
+"""
+
+from __future__ import annotations
+
+import warnings
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..errors import LabcutWarning
+from ..geometry.meshio import validate_mesh
+from ..geometry.stone import mesh_of
+from ..physics.material import Labradorite
+from ..planner import plan_effects
+from ..rendering.api import LOBES, RenderResult, plan_for, render_image, render_question
+from ..rendering.budget import choose_spp
+from ..rendering.scene import CameraView
+from ..scene import Scenario
+from ..scene.directions import normalize_normal
+
+
+def render(
+    mesh: Any,
+    material: Labradorite | str | None = None,
+    lamella_normal: Any = (0.0, 0.0, 1.0),
+    *,
+    setup: Any = None,
+    scenario: str | Scenario | None = None,
+    lighting: Any = None,
+    viewing: Any = None,
+    view: str | CameraView | tuple[float, float] = "main",
+    spp: int | None = None,
+    resolution: int = 512,
+    mode: str = "rgb",
+    polarizer_deg: float | None = None,
+    lobes: Sequence[str] = LOBES,
+    max_depth: int | None = None,
+    perspective: bool = False,
+    seed: int = 0,
+    output: str | Path | None = None,
+    progress: Callable[[int, int], None] | None = None,
+    zoning: Any = None,
+    exposure: float | None = None,
+    check_flash: bool = True,
+    look: Any = "diagram",
+    denoise: bool | None = None,
+    time_budget: float | None = None,
+) -> RenderResult:
+    """Render ``mesh`` (mm, +Z face-up) cut from ``material`` with lamellae normal to ``lamella_normal``.
+
+    Parameters
+    ----------
+    setup: the whole request at once, validated (:meth:`RenderSetup.build
+        <labcut.rendering.setup.RenderSetup.build>`, what the CLI passes); then ``material`` and
+        the request's arguments below stay at their defaults (``lamella_normal``, ``output``,
+        ``progress`` and ``check_flash`` are not part of it).
+    scenario: how the stone is lit, worn and seen (default ``bench``): a name, a JSON file or a
+        :class:`~labcut.Scenario`. The render shows its rest pose under its own lights.
+    lighting, viewing: replace the scenario's lights / viewers, as in
+        :func:`labcut.recommend_orientation` (presets of :data:`labcut.scene.LIGHTING` and
+        :data:`labcut.scene.VIEWING`, files, an .exr/.hdr map, ``Lights``/``Views``).
+    view: the camera: ``main`` (the scenario's main viewer) | ``face-up`` | ``orbit`` (8 views tiled
+        4 x 2) | (tilt°, azimuth°) in the mesh frame.
+    spp: samples per pixel (>= 1; default 64); rendered in passes so ``progress(done, total)`` can report.
+    time_budget: seconds the render may take: the most samples per pixel (a power of two) predicted
+        to fit on this machine replace ``spp`` (:mod:`labcut.rendering.budget`; below 1 spp's
+        prediction 1 spp runs with a one-line :class:`~labcut.errors.LabcutWarning`); the choice
+        is in ``RenderResult.budget``.
+    mode: ``rgb`` | ``mono`` | ``spectral``; ``polarizer_deg`` renders polarized and returns the
+        intensity through an ideal linear polarizer at that angle (0° = transmission axis along
+        the image's horizontal).
+    output: optional .png / .exr path written atomically.
+    zoning: ``None`` | ``"smooth"`` | ``"sharp"`` | a :class:`~labcut.rendering.zoning.Zoning`:
+        colour zones, lamella parameters blended through the stone by a noise field
+        (paper §3.2.2; docs/zoning.md). Presets are built on ``material``.
+    exposure: the PNG exposure multiplier (> 0); None (default) picks one automatically: in the
+        diagram look from the whole image (so the tiles of an orbit share one exposure), in the
+        studio look from the lights, as an incident-light meter would (a card of 18 % grey facing
+        the camera renders at middle grey: a dull stone stays dull). Recorded on the result and
+        in the PNG (as a multiplier and in stops); pass the same value to every render of a series.
+    look: ``"diagram"`` (default) or ``"studio"`` / a :class:`~labcut.rendering.studio.Studio`: a
+        photograph of the stone on a table under the scenario's lamps (module docstring).
+    denoise: None (default: on in the studio look for rgb/spectral colour), True or False: OIDN
+        demodulated by a noise-free shading guide, with the normal (:mod:`labcut.rendering.denoise`).
+    check_flash: estimate, per camera, whether any part of the stone flashes from there (the
+        surface-sample estimator at draft quality, the material without zoning); a view with
+        none gets a note (:attr:`RenderResult.notes`): an auto-exposed image of glare and body
+        colour looks like a stone, not like a stone that does not flash.
+
+    Returns a :class:`RenderResult` whose ``image`` is linear RGB float32 and ``plan`` says
+    what was simulated.
+
+    Raises :class:`~labcut.errors.MeshError` for a mesh that is not a closed, finite solid
+    (:func:`labcut.geometry.meshio.validate_mesh`) and :class:`~labcut.errors.ParameterError`
+    for bad parameters.
+    """
+    mesh = mesh_of(mesh)  # a Stone or a trimesh
+    validate_mesh(mesh)
+    ask = render_question(setup, material=material, scenario=scenario, lighting=lighting, viewing=viewing, view=view,
+                          spp=spp, resolution=resolution, mode=mode, polarizer_deg=polarizer_deg, lobes=lobes,
+                          max_depth=max_depth, perspective=perspective, seed=seed, zoning=zoning, exposure=exposure,
+                          look=look, denoise=denoise, time_budget=time_budget)
+    normal = normalize_normal(lamella_normal)
+    if output is not None:
+        from ..fileio import check_output_path
+
+        check_output_path(output, (".png", ".exr"))
+    result = render_setup(mesh, ask, normal, progress=progress, check_flash=check_flash)
+    if output is not None:
+        result.save(output)
+    return result
+
+
+def render_setup(mesh: Any, ask: Any, normal: np.ndarray, *, progress: Callable[[int, int], None] | None = None,
+                 check_flash: bool = True) -> RenderResult:
+    """:func:`render` of a checked mesh, :class:`~labcut.rendering.setup.RenderSetup` ``ask`` and
+    unit lamella ``normal`` (checks nothing again); the result is not saved."""
+    rplan = plan_for(mesh, ask)
+    spp = ask.spp
+    budget = None
+    views = len(ask.cameras)
+    if ask.time_budget is not None:
+        budget = choose_spp(ask.time_budget, mode=ask.mode, polarised=ask.polarizer_deg is not None,
+                            integrator=rplan.integrator, resolution=ask.resolution, views=views, look=rplan.look)
+        if budget.note:
+            warnings.warn(budget.note, LabcutWarning, stacklevel=3)
+        spp = budget.spp
+    effects = plan_effects(mesh, ask.material, command="render", scenario=ask.scenario,
+                           mode=None if ask.mode == "rgb" else ask.mode, polarizer_deg=ask.polarizer_deg,
+                           zoning=ask.zoning, max_depth=ask.max_depth, resolution=ask.resolution, spp=int(spp),
+                           views=views, look=rplan.look,
+                           predict=False).to_dict()  # what the render did; --plan predicts beforehand
+    return render_image(mesh, ask, normal, int(spp), progress=progress, check_flash=check_flash, effects=effects,
+                        budget=budget)
