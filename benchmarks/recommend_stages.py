@@ -28,7 +28,7 @@ STAGES = [
     ("labcut.orientation.recommend", "_setup", "plan the effects and build the answer's flash problem"),
     ("labcut.planner", "plan_effects", "the effect planner (inside the set-up)"),
     ("labcut.orientation.recommend", "build_problem", "the answer's flash problem (inside the set-up)"),
-    ("labcut.orientation.scoring", "Scorer.energy_map_later", "bin the triples, set up the tile-culled map, launch the hemisphere map's kernel"),
+    ("labcut.orientation.scoring", "Scorer.launch_energy_map", "bin the triples, set up the tile-culled map, launch the hemisphere map's kernel"),
     ("labcut.orientation.scoring", "Scorer._bin_triples", "bin the triples by mirror orientation (inside the line above)"),
     ("labcut.orientation.scoring", "SparseLobeMap.__init__", "the map's tiles (inside the line above the binning)"),
     ("labcut.orientation.recommend", "run_optimizer", "NLopt: DIRECT-L while the map's kernel runs, then the L-BFGS polishes from the map's best cells (waiting for the map)"),

@@ -25,7 +25,7 @@ import glob
 import os
 import re
 from collections.abc import Callable, Iterator
-from typing import Any, TypeVar
+from typing import Any, Generic, TypeVar
 
 from .errors import BackendError, LLVMVersionError, ParameterError
 
@@ -214,3 +214,40 @@ def with_serial_blas(func: F) -> F:
             return func(*args, **kwargs)
 
     return wrapper  # type: ignore[return-value]
+
+
+T = TypeVar("T")
+
+
+class Launched(Generic[T]):
+    """A result of Dr.Jit kernels already launched: Dr.Jit's LLVM launches return at once and the
+    kernels run on its threads while the caller goes on (an optimiser's steps in numpy, the host's
+    bootstrap); :attr:`value` waits for them the first time it is read, and keeps what they gave.
+
+    >>> Launched.ready(3).value
+    3
+    """
+
+    __slots__ = ("_read", "_value", "_done")
+
+    def __init__(self, read: Callable[[], T]) -> None:
+        self._read = read
+        self._done = False
+        self._value: Any = None
+
+    @classmethod
+    def ready(cls, value: T) -> Launched[T]:
+        """A result already made (a call the kernels did not take)."""
+        out: Launched[T] = cls(lambda: value)
+        out._value, out._done, out._read = value, True, None
+        return out
+
+    @property
+    def value(self) -> T:
+        """The result, waited for once."""
+        if not self._done:
+            self._value, self._done, self._read = self._read(), True, None
+        return self._value
+
+    def __repr__(self) -> str:
+        return f"Launched({'ready' if self._done else 'running'})"

@@ -88,3 +88,26 @@ def test_a_setups_options_reach_the_whole_recommendation(oval):
     assert ref.score == pytest.approx(fast.score, rel=1e-4)
     assert "kernels" not in ref.settings  # how, not what: the question's record is the same
     assert ref.settings == fast.settings
+
+
+def test_a_launched_result_is_read_once():
+    """Kernels launched ahead (the hemisphere map while DIRECT-L steps, the error bars' stencils)
+    hide behind a result object: its value waits for them the first time and is kept."""
+    from labcut.backend import Launched
+
+    reads = []
+    launched = Launched(lambda: reads.append(1) or np.arange(3.0))
+    assert reads == [] and "running" in repr(launched)
+    first = launched.value
+    assert launched.value is first and reads == [1] and "ready" in repr(launched)
+    assert Launched.ready(5).value == 5
+
+
+def test_the_recommendations_map_is_launched_and_read_as_the_map(oval):
+    from labcut.orientation.optimize import Constraint, hemisphere_grid
+
+    settings = labcut.Scenario.preset("bench", "draft").settings()
+    scorer = Scorer(build_problem(oval, labcut.Labradorite(), quality="draft", settings=settings))
+    grid = hemisphere_grid(4.0, Constraint())
+    launched = scorer.launch_energy_map(grid)
+    np.testing.assert_array_equal(launched.value, scorer.energy_map(grid))

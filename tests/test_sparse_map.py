@@ -291,22 +291,22 @@ def test_the_kernel_keeps_the_axial_lobes_far_side(kappa):
 
 
 def test_a_map_started_and_read_later_is_the_map(scorer, monkeypatch):
-    """SparseLobeMap.later launches the kernel and returns at once; what it gives later is the map
+    """SparseLobeMap.launch launches the kernel and returns at once; its value, read later, is the map
     (made once); a call the kernel does not take is summed at once, the same as calling the map."""
     from labcut.orientation.optimize import Constraint, hemisphere_grid
     from labcut.reports.analysis import ring
 
     sm = scorer.sparse_map
     grid = hemisphere_grid(3.0, Constraint())
-    later = sm.later(grid)
-    np.testing.assert_array_equal(later(), sm(grid))
-    assert later() is later()
+    launched = sm.launch(grid)
+    np.testing.assert_array_equal(launched.value, sm(grid))
+    assert launched.value is launched.value
     few = ring(np.array([0.0, 0.0, 1.0]), 1.0, 3)
-    np.testing.assert_array_equal(sm.later(few)(), sm(few))
+    np.testing.assert_array_equal(sm.launch(few).value, sm(few))
     monkeypatch.setattr(sm, "kernels", KernelOptions(energy_map=False))
-    np.testing.assert_allclose(sm.later(grid)(), sm(grid, path="tiles"), rtol=0.0, atol=0.0)
+    np.testing.assert_allclose(sm.launch(grid).value, sm(grid, path="tiles"), rtol=0.0, atol=0.0)
     counted = scorer.evaluations
-    scorer.energy_map_later(grid)
+    scorer.launch_energy_map(grid)
     assert scorer.evaluations == counted + len(grid)
 
 

@@ -16,6 +16,7 @@ from typing import Any
 
 import numpy as np
 
+from ..backend import Launched
 from ..errors import ParameterError
 from ..scene.quality import Quality
 from .scoring import Scorer, normal_to_stereo, stereo_to_normal
@@ -170,8 +171,8 @@ def optimize_nlopt(scorer: Scorer, constraint: Constraint, global_evals: int | N
     ``global_evals``: DIRECT-L's evaluations (default: the standard quality's ``nlopt_evals``).
     ``seed_map``: ``(normals, energies)`` of an energy map already made over the allowed region
     (the recommendation's hemisphere map, :data:`SEED_SPACING_DEG` or finer), whose best distinct
-    cells seed the polishes instead of a map of their own; ``energies`` may be a function that
-    gives them (a map still being summed on Dr.Jit's threads while DIRECT-L steps in numpy: asked
+    cells seed the polishes instead of a map of their own; ``energies`` may be a
+    :class:`~labcut.backend.Launched` map (still being summed on Dr.Jit's threads while DIRECT-L steps in numpy: read
     for after DIRECT-L)."""
     import nlopt
 
@@ -221,7 +222,7 @@ def optimize_nlopt(scorer: Scorer, constraint: Constraint, global_evals: int | N
     # degrees): L-BFGS also starts from the best distinct cells of a coarse energy map (one
     # batched kernel), and the best polished point wins
     seeds = (_map_seeds(scorer, constraint, SEED_SPACING_DEG, 3) if seed_map is None else
-             _best_cells(seed_map[0], seed_map[1]() if callable(seed_map[1]) else seed_map[1], 3))
+             _best_cells(seed_map[0], seed_map[1].value if isinstance(seed_map[1], Launched) else seed_map[1], 3))
     starts = [best[0]] + [normal_to_stereo(n) for n in seeds]
     result = (best[0], best[1])
     for u0, v0 in starts:

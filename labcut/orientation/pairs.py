@@ -34,6 +34,7 @@ from typing import Any
 
 import numpy as np
 
+from ..backend import Launched
 from ..colour import luminance_table
 from ..errors import ParameterError
 from ..physics.material import Labradorite
@@ -70,18 +71,17 @@ class PairProblem:
         """``L_s/L_ref`` of every pair at each unit normal (rows, mesh frame): (P, K) float64 sums of
         the float32 lobe terms, each pair's in light order; ``reach`` (radians): only the terms whose
         mirror orientation lies within it of ``normals[0]`` (None: every term)."""
-        return self.pair_radiance_later(normals, reach)()
+        return self.launch_pair_radiance(normals, reach).value
 
-    def pair_radiance_later(self, normals: np.ndarray, reach: float | None = None) -> Callable[[], np.ndarray]:
-        """:meth:`pair_radiance`, started: the kernel is launched (it runs on Dr.Jit's threads while
-        the caller goes on) and the returned function waits for it and gives the sums."""
+    def launch_pair_radiance(self, normals: np.ndarray, reach: float | None = None) -> Launched[np.ndarray]:
+        """:meth:`pair_radiance`, launched: the kernel runs on Dr.Jit's threads while the caller goes
+        on, and the result's ``value`` waits for it."""
         normals = np.atleast_2d(np.asarray(normals, dtype=np.float64))
         if normals.ndim != 2 or normals.shape[1] != 3 or not np.all(np.isfinite(normals)):
             raise ParameterError("normals must be rows of three finite numbers")
         if self._sums is None or self.pair_view.size == 0:
-            zeros = np.zeros((int(self.pair_view.size), len(normals)))
-            return lambda: zeros
-        return self._sums.launch(normals, reach)
+            return Launched.ready(np.zeros((int(self.pair_view.size), len(normals))))
+        return Launched(self._sums.launch(normals, reach))
 
 
 def build_pairs(mesh: Any, material: Labradorite, quality: Quality | str, tau: float, seed: int, settings: list[Setting],

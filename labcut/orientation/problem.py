@@ -34,6 +34,7 @@ from typing import Any
 
 import numpy as np
 
+from ..backend import Launched
 from ..colour import luminance_table
 from ..errors import MeshError, ParameterError
 from ..geometry.stone import Stone
@@ -181,24 +182,21 @@ class FlashProblem:
         mirror orientation lies within it of ``normals[0]`` (the error bars' stencil sums,
         :func:`labcut.orientation.uncertainty.pair_radiance`); None: every triple. Summed by the
         Dr.Jit kernel (:class:`_PairSums`) where there is one, else :meth:`pair_radiance_numpy`."""
-        return self.pair_radiance_later(normals, reach)()
+        return self.launch_pair_radiance(normals, reach).value
 
-    def pair_radiance_later(self, normals: np.ndarray, reach: float | None = None) -> Callable[[], np.ndarray]:
-        """:meth:`pair_radiance`, started: the Dr.Jit kernel is launched (it runs on Dr.Jit's threads
-        while the caller goes on) and the returned function waits for it and gives the sums. Where
-        no kernel sums them, the sums are made now."""
+    def launch_pair_radiance(self, normals: np.ndarray, reach: float | None = None) -> Launched[np.ndarray]:
+        """:meth:`pair_radiance`, launched: the Dr.Jit kernel runs on Dr.Jit's threads while the caller
+        goes on, and the result's ``value`` waits for it. Where no kernel sums them, the sums are made now."""
         normals = np.atleast_2d(np.asarray(normals, dtype=np.float64))
         kernel = self._pair_sums
         if kernel is None:
-            done = self.pair_radiance_numpy(normals, reach)
-            return lambda: done
+            return Launched.ready(self.pair_radiance_numpy(normals, reach))
         kept = self.__dict__.get("_full_first")
         if reach is None and len(normals) == 1 and kept is not None and kept[0] == normals[0].tobytes():
-            every = kept[1][:, None]  # every triple's sum at this normal, made by the last stencil call
-            return lambda: every
+            return Launched.ready(kept[1][:, None])  # every triple's sum at this normal, made by the last stencil call
         if reach is None:
             pending = kernel.launch(normals, None)
-            return lambda: pending()[0]
+            return Launched(lambda: pending()[0])
         pending = kernel.launch(normals, reach, full_first=True)
 
         def finish() -> np.ndarray:
@@ -208,7 +206,7 @@ class FlashProblem:
             self.__dict__["_full_first"] = (normals[0].tobytes(), full)
             return sums
 
-        return finish
+        return Launched(finish)
 
     def pair_radiance_numpy(self, normals: np.ndarray, reach: float | None = None) -> np.ndarray:
         """:meth:`pair_radiance` in numpy passes, one normal at a time over chunks of

@@ -372,15 +372,15 @@ def answer_recommendation(mesh: Any, ask: FlashSetup, scorer: Scorer, plan: Any,
     map_normals = hemisphere_grid(quality.map_spacing_deg, constraint)
     # the energy map is launched (Dr.Jit's threads sum it while the optimiser's DIRECT-L steps in
     # numpy) and read when its cells seed the polishes, or after the optimiser
-    map_later = scorer.energy_map_later(map_normals) if objective == "energy" else None
+    map_launched = scorer.launch_energy_map(map_normals) if objective == "energy" else None
     report("optimising", stage(0.6))
     # the map's best cells seed the optimiser's polishes where the map is at least twice as fine as
     # the seed map it would make (standard's 3° and high's 1.5°, not draft's 4°: a peak narrower
     # than its cells can hide between them, and the seeds are the energy's)
-    seeds = ((map_normals, map_later) if map_later is not None and quality.map_spacing_deg <= 0.5 * SEED_SPACING_DEG
+    seeds = ((map_normals, map_launched) if map_launched is not None and quality.map_spacing_deg <= 0.5 * SEED_SPACING_DEG
              and constraint.tilt_axis is None else None)
     best = run_optimizer(optimizer, scorer, constraint, quality, seed_map=seeds)
-    map_scores = map_later() if map_later is not None else score_map(scorer, map_normals)
+    map_scores = map_launched.value if map_launched is not None else score_map(scorer, map_normals)
     normal = axial_upper(best.normal)
     score = scorer.score(normal)
     if map_scores.max() > score * (1.0 + 1e-4):  # the map found better: trust the better point, polished

@@ -32,6 +32,7 @@ from ..errors import ParameterError
 from ..physics.ops import drjit_ops
 from ..physics.schiller import lobe_density
 from .problem import FlashProblem
+from ..backend import Launched
 from .kernels import DEFAULT_KERNELS, KernelOptions
 
 OBJECTIVES = ("energy", "area", "intensity", "balanced")
@@ -366,25 +367,24 @@ class SparseLobeMap:
             out[sel] += _lobe_sums(m[sel], self.ht[:, s : s + c], self.a[s : s + c], self.kappa)
         return self.norm * out
 
-    def later(self, normals: np.ndarray) -> Callable[[], np.ndarray]:
-        """:meth:`__call__` (path ``auto``), started: where the Dr.Jit kernel sums the call its
-        sums are launched (they run on Dr.Jit's threads while the caller goes on, e.g. an optimiser's
-        single-normal steps in numpy) and the returned function waits for them; else made now."""
+    def launch(self, normals: np.ndarray) -> Launched[np.ndarray]:
+        """:meth:`__call__` (path ``auto``), launched: where the Dr.Jit kernel sums the call, its sums
+        run on Dr.Jit's threads while the caller goes on (e.g. an optimiser's single-normal steps in
+        numpy) and the result's ``value`` waits for them; else they are made now."""
         m = np.atleast_2d(np.asarray(normals, dtype=np.float64))
         if self.n_tiles and self._kernel_takes(len(m)):
-            return self._device_sums_later(m)
-        done = self(m)
-        return lambda: done
+            return self._launch_device_sums(m)
+        return Launched.ready(self(m))
 
     def _kernel_takes(self, count: int) -> bool:
         """Whether path ``auto`` sends a call of ``count`` normals to the kernel straight away."""
         return self.kernels.energy_map and count >= self.kernels.map_min_normals
 
     def _device_sums(self, m: np.ndarray) -> np.ndarray:
-        """:meth:`_device_sums_later`, waited for."""
-        return self._device_sums_later(m)()
+        """:meth:`_launch_device_sums`, waited for."""
+        return self._launch_device_sums(m).value
 
-    def _device_sums_later(self, m: np.ndarray) -> Callable[[], np.ndarray]:
+    def _launch_device_sums(self, m: np.ndarray) -> Launched[np.ndarray]:
         """The map at the normals ``m`` (K, 3) in Dr.Jit kernels: the (tile, normal) pairs within
         the kernel's reach (``kernels.map_kernel_rtol``: ``|m·c_tile| >= cos(radius + cut)``, float64)
         found and compacted on the device, in tile order; then a thread per pair runs over the
@@ -442,18 +442,14 @@ class SparseLobeMap:
                                    lambda j, acc: j < end, body)
             dr.eval(acc)  # launched: read below, when asked
             pending.append((s0, k_count, sel, acc))
-        done: list[np.ndarray] = []
-
         def finish() -> np.ndarray:
-            if not done:
-                out = np.zeros(len(m))
-                for s0, k_count, sel, acc in pending:
-                    normal = np.asarray(sel).astype(np.int64) % k_count
-                    out[s0:s0 + k_count] = np.bincount(normal, weights=np.asarray(acc, dtype=np.float64), minlength=k_count)
-                done.append(self.norm * out)
-            return done[0]
+            out = np.zeros(len(m))
+            for s0, k_count, sel, acc in pending:
+                normal = np.asarray(sel).astype(np.int64) % k_count
+                out[s0:s0 + k_count] = np.bincount(normal, weights=np.asarray(acc, dtype=np.float64), minlength=k_count)
+            return self.norm * out
 
-        return finish
+        return Launched(finish)
 
     def value_and_grad(self, m: np.ndarray) -> tuple[float, np.ndarray]:
         """Energy at one unit normal ``m`` and its gradient with respect to ``m`` (a 3-vector,
@@ -811,12 +807,12 @@ class Scorer:
         self.evaluations += len(normals)
         return out
 
-    def energy_map_later(self, normals: np.ndarray) -> Callable[[], np.ndarray]:
-        """:meth:`energy_map`, started (:meth:`SparseLobeMap.later`): the returned function gives the
-        energies (made once, kept)."""
+    def launch_energy_map(self, normals: np.ndarray) -> Launched[np.ndarray]:
+        """:meth:`energy_map`, launched (:meth:`SparseLobeMap.launch`): the result's ``value`` is
+        the energies (waited for once, kept)."""
         normals = np.atleast_2d(np.asarray(normals, dtype=np.float64))
         self.evaluations += len(normals)
-        return self.sparse_map.later(normals)
+        return self.sparse_map.launch(normals)
 
     def energy_map_dense(self, normals: np.ndarray) -> np.ndarray:
         """Energy at many unit normals from every binned term, on the Dr.Jit device, in blocks."""

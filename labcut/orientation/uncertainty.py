@@ -47,6 +47,7 @@ from typing import Any
 
 import numpy as np
 
+from ..backend import Launched
 from ..errors import ParameterError
 from ..scene.quality import Quality
 from .problem import FlashProblem
@@ -302,12 +303,12 @@ def stencil_values(problem: Any, normals: np.ndarray, objective: str, radiance: 
     return objective_values(problem, radiance, np.ones((1, _point_count(problem))), objective)
 
 
-def _stencil_sums_later(problem: Any, normals: np.ndarray) -> Callable[[], np.ndarray] | None:
+def _launch_stencil_sums(problem: Any, normals: np.ndarray) -> Launched[np.ndarray] | None:
     """:func:`pair_radiance` of ``problem`` (None: none) at the stencil ``normals``, launched
-    (``pair_radiance_later``); the returned function gives the sums."""
+    (``launch_pair_radiance``): the result's ``value`` is the sums."""
     if problem is None:
         return None
-    return problem.pair_radiance_later(np.asarray(normals, dtype=np.float64), _reach(problem.kappa, normals))
+    return problem.launch_pair_radiance(np.asarray(normals, dtype=np.float64), _reach(problem.kappa, normals))
 
 
 def _point_count(problem: FlashProblem) -> int:
@@ -352,8 +353,8 @@ def estimate_uncertainty(problem: FlashProblem, normal: Any, objective: str = "e
     normals, xy = stencil(m, radius)
     # every problem's stencil sums launched at once: the discretisation problems' kernels run on
     # Dr.Jit's threads while the host makes the answer's bootstrap
-    later = [_stencil_sums_later(p, normals) for p in (problem, coarse, fine)]
-    rad = later[0]()
+    launched = [_launch_stencil_sums(p, normals) for p in (problem, coarse, fine)]
+    rad = launched[0].value
     weights = bootstrap_weights(seed, _point_count(problem), replicates)
     values = objective_values(problem, rad, weights, objective)
     peaks, heights = fit_peaks(xy, values, radius)
@@ -364,10 +365,10 @@ def estimate_uncertainty(problem: FlashProblem, normal: Any, objective: str = "e
     score_sd = float(np.std(heights[1:], ddof=1) / scale)
     fit = float(np.hypot(*base_peak))
     d_angle = d_score = 0.0
-    for other, factor, sums in ((coarse, DIRECTION_FACTOR, later[1]), (fine, POSE_FACTOR, later[2])):
+    for other, factor, sums in ((coarse, DIRECTION_FACTOR, launched[1]), (fine, POSE_FACTOR, launched[2])):
         if other is None:
             continue
-        o_vals = stencil_values(other, normals, objective, radiance=sums())
+        o_vals = stencil_values(other, normals, objective, radiance=sums.value)
         o_peak, o_height = fit_peaks(xy, o_vals, radius)
         d_angle = math.hypot(d_angle, factor * float(np.hypot(*(o_peak[0] - base_peak))))
         d_score = math.hypot(d_score, factor * float(abs(o_height[0] - base_height) / scale))
