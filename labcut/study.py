@@ -29,7 +29,7 @@ import numpy as np
 from .backend import serial_blas
 from .errors import ParameterError
 from .geometry.stone import Stone
-from .orientation.budget import mark_warm
+from .orientation.budget import kind_of, mark_warm
 from .orientation.kernels import DEFAULT_KERNELS, KernelOptions
 from .orientation.optimize import hemisphere_grid, score_map
 from .orientation.recommend import Recommendation, answer_recommendation, build_scorer, evaluation_metrics
@@ -126,7 +126,7 @@ class Study:
             with serial_blas():
                 hit = answer_recommendation(self.stone.mesh, self.setup, scorer, plan, optimizer=optimizer,
                                             progress=progress)
-            mark_warm("render" if hit.estimator == "render" else plan.on("occlusion"))  # as recommend_orientation
+            mark_warm(kind_of(hit.estimator, plan.on("occlusion")))  # as recommend_orientation
             self._recommendations[optimizer] = hit
             self.builds["recommendation"] += 1
         return hit

@@ -111,3 +111,32 @@ def test_the_recommendations_map_is_launched_and_read_as_the_map(oval):
     grid = hemisphere_grid(4.0, Constraint())
     launched = scorer.launch_energy_map(grid)
     np.testing.assert_array_equal(launched.value, scorer.energy_map(grid))
+
+
+def test_the_estimators_answer_through_one_interface(oval):
+    """Both estimators implement FlashEstimator and are made by name; the recommendation and the
+    evaluation have no branch per estimator."""
+    from labcut.orientation.estimators import ESTIMATORS, RenderEstimator, SampleEstimator, estimator_for
+    from labcut.planner import plan_question
+
+    assert set(ESTIMATORS) == {"samples", "render"}
+    asked = FlashSetup.build(labcut.Labradorite(), "bench", quality="draft", estimator="samples")
+    plan = plan_question(oval, asked, "evaluate", predict=False)
+    settings = asked.scenario.settings()
+    scorer = Scorer(build_problem(oval, asked.material, quality="draft", settings=settings))
+    samples = estimator_for("samples", oval, asked, scorer, plan)
+    render = estimator_for("render", oval, asked, scorer, plan)
+    assert isinstance(samples, SampleEstimator) and isinstance(render, RenderEstimator)
+    m = np.array([0.0, 0.0, 1.0])
+    for est in (samples, render):
+        assert est.name in ESTIMATORS and 0 < est.progress_before_refine <= 1
+        assert est.metrics(m).flash_energy > 0
+        value, grad = est.value_and_grad(m)
+        assert value > 0 and grad.shape == (3,)
+    assert samples.refine(m, 1.0, lambda *a: None).normal is m  # the sample optimum is its own answer
+    np.testing.assert_allclose(samples.objective(m[None, :]), [scorer.score(m)])
+    with pytest.raises(ParameterError, match="no flash estimator"):
+        estimator_for("magic", oval, asked, scorer, plan)
+    for path in ("labcut/orientation/recommend.py", "labcut/commands/recommend.py", "labcut/study.py"):
+        text = (ROOT / path).read_text()
+        assert '== "render"' not in text and '"render" if' not in text, path

@@ -19,7 +19,7 @@ from ..backend import with_serial_blas
 from ..errors import LabcutWarning, ParameterError
 from ..geometry.meshio import validate_mesh
 from ..geometry.stone import Stone, mesh_of
-from ..orientation.budget import choose, mark_warm, quality_or_budget, record
+from ..orientation.budget import choose, kind_of, mark_warm, quality_or_budget, record
 from ..orientation.optimize import OPTIMIZERS
 from ..orientation.recommend import Recommendation, answer_recommendation, build_scorer, evaluation_metrics, question
 from ..orientation.scoring import FlashMetrics, Scorer
@@ -140,7 +140,7 @@ def recommend_orientation(
         # first of its kind in this process feeds the first-call seconds instead of the factor
         record(budget.kind, budget.uncorrected(budget.predicted_seconds),
                rec.seconds - budget.pilot_seconds - plan.pilot_seconds, first_call=budget.cold)
-    mark_warm("render" if rec.estimator == "render" else plan.on("occlusion"))  # the next one of its kind here is predicted warm
+    mark_warm(kind_of(rec.estimator, plan.on("occlusion")))  # the next one of its kind here is predicted warm
     return rec
 
 

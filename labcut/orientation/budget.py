@@ -158,6 +158,12 @@ def _first_key(kind: bool | str) -> str:
     return f"first call {_kind(kind)}"
 
 
+def kind_of(estimator: str, occlusion: bool) -> bool | str:
+    """The kind a recommendation is timed and calibrated as: ``"render"`` for the render estimator,
+    else whether its flash problem casts occlusion rays."""
+    return "render" if estimator == "render" else bool(occlusion)
+
+
 def mark_warm(kind: bool | str) -> None:
     """Note that a recommendation of ``kind`` ran in this process: the next is predicted warm."""
     _WARM.add(_kind(kind))

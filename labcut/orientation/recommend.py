@@ -17,12 +17,13 @@ from ..validation import given_besides, is_default
 from ..physics.material import Labradorite
 from ..scene import Lights, Scenario, Views, resolve_scene
 from ..scene.directions import axial_upper, normalize_normal, tilt_azimuth
-from ..scene.quality import QUALITIES, Quality
+from ..scene.quality import Quality
 from .optimize import (OPTIMIZERS, SEED_SPACING_DEG, Constraint, hemisphere_grid, polish_grid, run_optimizer, score_map,
                        tolerance_deg)
 from ..geometry.stone import Stone, mesh_of
 from .problem import build_problem
 from .scoring import OBJECTIVES, FlashMetrics, Scorer
+from .estimators import estimator_for
 from .setup import FlashSetup
 from .uncertainty import Uncertainty, uncertainty_for
 
@@ -128,10 +129,6 @@ def workshop(normal: np.ndarray, mesh: Any, scenario: Scenario | None = None, pa
         "text": (f"level the flash plane found under the lamp, then saw or dop with the {short} edge{detail} of the stone "
                  f"raised {tilt:.1f}° above it: {rise:.2f} mm over the {span:.1f} mm from its {opposite} edge to its {short} edge"),
     }
-
-
-def _axial_angle(a: np.ndarray, b: np.ndarray) -> float:
-    return math.degrees(math.acos(min(1.0, abs(float(a @ b)))))
 
 
 @dataclass
@@ -364,10 +361,10 @@ def answer_recommendation(mesh: Any, ask: FlashSetup, scorer: Scorer, plan: Any,
     start = time.perf_counter() if start is None else start
     report = progress or (lambda stage, fraction: None)
     evaluations = scorer.evaluations
-    material, scene, constraint, quality = ask.material, ask.scenario, ask.constraint, ask.quality
-    objective, tau, seed, zoning = ask.objective, ask.tau, ask.seed, ask.zoning
-    renders = plan.estimator == "render"
-    stage = (lambda fraction: 0.3 * fraction) if renders else (lambda fraction: fraction)
+    scene, constraint, quality, objective, tau = ask.scenario, ask.constraint, ask.quality, ask.objective, ask.tau
+    estimator = estimator_for(plan.estimator, mesh, ask, scorer, plan)
+    share = estimator.progress_before_refine
+    stage = lambda fraction: share * fraction  # noqa: E731 - the sample estimator's share of the progress
     report("mapping the hemisphere", stage(0.3))
     map_normals = hemisphere_grid(quality.map_spacing_deg, constraint)
     # the energy map is launched (Dr.Jit's threads sum it while the optimiser's DIRECT-L steps in
@@ -388,25 +385,14 @@ def answer_recommendation(mesh: Any, ask: FlashSetup, scorer: Scorer, plan: Any,
         normal = axial_upper(normal)
     if not score > 0.0:
         _no_flash(objective, scene, tau)
-    render_stats: dict[str, Any] = {}
-    metrics = None
-    if renders:
-        from .render_estimator import recommend_by_render
-
-        depth = 4 if plan.on("inter_reflection") else 2
-        found = recommend_by_render(
-            # a zoned stone's optimum may lie far from the uniform material's: start from a coarse map of renders
-            mesh, material, scene.settings(), start_normal=None if zoning is not None else normal, objective=objective,
-            tau=tau, constraint=constraint,
-            quality=quality.name if quality.name in QUALITIES else "standard", seed=seed,
-            progress=lambda st, f: report(f"renders: {st}", 0.3 + 0.6 * f), max_depth=depth, zoning=zoning)
-        render_stats = dict(found.stats, samples_normal=[float(x) for x in normal], samples_score=float(score),
-                            angle_to_samples_deg=_axial_angle(found.normal, normal))
-        normal, score, metrics = axial_upper(found.normal), float(found.score), found.metrics
-        if not score > 0.0:
-            _no_flash(objective, scene, tau)
-    report("tolerance and runners-up", 0.9 if renders else 0.8)
-    sample_score = scorer.score(normal) if renders else score  # the tolerances are the sample estimator's
+    refined = estimator.refine(normal, score, lambda st, f: report(f"renders: {st}", share + (0.9 - share) * f))
+    render_stats = refined.stats
+    normal, score, metrics = refined.normal, refined.score, refined.metrics
+    if not score > 0.0:
+        _no_flash(objective, scene, tau)
+    own = estimator.scores_are_samples
+    report("tolerance and runners-up", 0.8 if own else 0.9)
+    sample_score = score if own else scorer.score(normal)  # the tolerances are the sample estimator's
     tol = tolerance_deg(scorer.scores, normal, sample_score, constraint, keep=KEEP)
     runners = _runners_up(scorer, constraint, map_normals, map_scores, normal, sample_score, scenario=scene)
     by_axis = axis_tolerances(scorer, normal, sample_score, constraint)
@@ -486,16 +472,7 @@ def _runners_up(scorer: Scorer, constraint: Constraint, normals: np.ndarray, sco
 
 
 def evaluation_metrics(mesh: Any, ask: FlashSetup, scorer: Scorer, plan: Any, m: np.ndarray) -> FlashMetrics:
-    """Flash metrics of the unit lamella normal ``m`` for question ``ask`` about ``mesh``: the
-    sample estimator's ``scorer``, or renders where ``plan`` chose the render estimator."""
-    material, scene, quality, tau, seed, zoning = ask.material, ask.scenario, ask.quality, ask.tau, ask.seed, ask.zoning
-    if plan.estimator == "render":
-        from .render_estimator import RENDER_QUALITY
-        from .render_objective import RenderObjective
-
-        name = scorer.problem.info.get("quality") or quality.name
-        q = RENDER_QUALITY.get(name, RENDER_QUALITY["standard"])
-        obj = RenderObjective(mesh, material, scene.settings(), tau=tau, resolution=q.resolution, spp=q.spp, seed=seed,
-                              max_depth=4 if plan.on("inter_reflection") else 2, zoning=zoning)
-        return obj.metrics(m)
-    return scorer.metrics(m)
+    """Flash metrics of the unit lamella normal ``m`` for question ``ask`` about ``mesh``, by the
+    estimator ``plan`` names (:func:`~labcut.orientation.estimators.estimator_for`: the sample
+    estimator's ``scorer``, or renders)."""
+    return estimator_for(plan.estimator, mesh, ask, scorer, plan).metrics(m)
