@@ -55,7 +55,7 @@ import numpy as np
 
 from .errors import ParameterError
 from .geometry.stone import Stone, mesh_of
-from .scene.effects import EFFECTS, ESTIMATORS, SWITCHABLE, check_effects, parse_effects  # noqa: F401 - the planner's vocabulary
+from .scene.effects import ESTIMATORS, check_effects
 
 COMMANDS = ("render", "recommend", "evaluate", "compare")
 #: the stated tolerance of the planner's "off" decisions: an effect whose measured or bounded

@@ -316,7 +316,6 @@ def evaluate_orientation(
     estimator, effect, plan, plan_only = plan_options.estimator, plan_options.effect, plan_options.plan, plan_options.plan_only
     import labcut
     from labcut.fileio import check_output_path
-    import labcut
     from labcut.orientation.recommend import METRIC_DEFINITIONS, FRAME, metrics_dict
     from labcut.scene.directions import normalize_normal
 

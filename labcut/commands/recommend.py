@@ -13,8 +13,6 @@ import warnings
 from collections.abc import Callable, Mapping
 from typing import Any
 
-import numpy as np
-
 from ..backend import with_serial_blas
 from ..errors import LabcutWarning, ParameterError
 from ..geometry.meshio import validate_mesh

@@ -42,13 +42,11 @@ from .orient import check_up_axis, describe_up, detect_up_axis, up_rotation
 from .report import MeshReport
 from .solid import (
     CHUNK,
-    CONVEX_RTOL,
     STONE_SIZE_MM,
     centre_on_base,
     cross_rows,
     double_areas,
     extent,
-    face_dets,
     is_convex_mesh,
     signed_volume,
 )

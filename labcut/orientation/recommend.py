@@ -4,25 +4,23 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Callable, Mapping
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from ..backend import with_serial_blas
 from ..errors import ParameterError
-from ..validation import given_besides, is_default
-from ..physics.material import Labradorite
-from ..scene import Lights, Scenario, Views, resolve_scene
-from ..scene.directions import axial_upper, normalize_normal, tilt_azimuth
+from ..validation import given_besides
+from ..scene import Scenario, resolve_scene
+from ..scene.directions import axial_upper, tilt_azimuth
 from ..scene.quality import Quality
 from .optimize import (OPTIMIZERS, SEED_SPACING_DEG, Constraint, hemisphere_grid, polish_grid, run_optimizer, score_map,
                        tolerance_deg)
-from ..geometry.stone import Stone, mesh_of
+from ..geometry.stone import Stone
 from .problem import build_problem
-from .scoring import OBJECTIVES, FlashMetrics, Scorer
+from .scoring import FlashMetrics, Scorer
 from .estimators import estimator_for
 from .setup import FlashSetup
 from .uncertainty import Uncertainty, uncertainty_for

@@ -23,7 +23,6 @@ from __future__ import annotations
 
 import math
 from dataclasses import asdict, dataclass
-from collections.abc import Callable
 from typing import Any, NamedTuple
 
 import numpy as np

@@ -35,17 +35,17 @@ import signal
 import threading
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import asdict, dataclass, field
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from ..errors import ParameterError
-from ..geometry.stone import Stone, mesh_of
+from ..geometry.stone import Stone
 from ..physics.material import Labradorite
 from .images import save_image
-from ..scene import Scenario, Setting, resolve_scene
+from ..scene import Setting, resolve_scene
 from ..scene.directions import normalize_normal
 from .passes import render_pass
 from .plan import LOBES, RenderPlan, plan_render
