@@ -331,3 +331,23 @@ def test_a_scenarios_settings_are_made_once():
     assert len(finer.settings()) > len(first)  # more rocking poses, its own settings
     moved = dataclasses.replace(sc, rock_deg=0.0, sway_deg=0.0)
     assert len(moved.settings()) == 1 and len(sc.settings()) == len(first)
+
+
+def test_tilt_azimuth_takes_a_unit_vector_as_it_is():
+    """One home for tilt and azimuth: a unit normal's angles come from its own components (the
+    recommendation's map in JSON is the same to the last digit as before the home moved); any other
+    length is normalised first."""
+    import math
+
+    from labcut.scene.directions import tilt_azimuth
+
+    rng = np.random.default_rng(7)
+    for _ in range(50):
+        n = rng.normal(size=3)
+        n /= np.linalg.norm(n)
+        n[2] = abs(n[2])
+        tilt = math.degrees(math.acos(max(-1.0, min(1.0, float(n[2])))))
+        az = math.degrees(math.atan2(float(n[1]), float(n[0]))) % 360.0
+        assert tilt_azimuth(n) == (tilt, az)
+        assert tilt_azimuth(3.0 * n) == pytest.approx((tilt, az), abs=1e-12)
+    assert tilt_azimuth([0.0, 0.0, 2.0]) == (0.0, 0.0)

@@ -29,9 +29,12 @@ def direction(tilt_deg: float, azimuth_deg: float) -> np.ndarray:
 
 
 def tilt_azimuth(d: Any) -> tuple[float, float]:
-    """(tilt from +Z, azimuth from +X toward +Y in [0, 360)) of a direction, degrees."""
+    """(tilt from +Z, azimuth from +X toward +Y in [0, 360)) of a direction, degrees. A unit vector
+    (a lamella normal, a view) is taken as it is; any other length is normalised first."""
     v = np.asarray(d, dtype=np.float64)
-    v = v / np.linalg.norm(v)
+    length2 = float(v @ v)
+    if abs(length2 - 1.0) > 1e-12:
+        v = v / math.sqrt(length2)
     tilt = math.degrees(math.acos(max(-1.0, min(1.0, float(v[2])))))
     az = math.degrees(math.atan2(float(v[1]), float(v[0]))) % 360.0 if 1e-9 < tilt < 180.0 - 1e-9 else 0.0
     return tilt, az
