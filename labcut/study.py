@@ -37,6 +37,7 @@ from .orientation.scoring import FlashMetrics, Scorer
 from .orientation.setup import FlashSetup
 from .planner import plan_question
 from .scene.directions import direction
+from .scene.scenario import SCENARIOS
 from .scene.quality import Quality
 
 
@@ -191,8 +192,10 @@ class Study:
     def with_lights(self, lighting: Any) -> Study:
         """The same question with other lights (a lighting preset, a JSON or .exr/.hdr file or a
         :class:`~labcut.Lights`), the scenario's viewers and poses kept."""
-        return self._derived(self._rebuilt(scenario=self.setup.scene_spec[0], lighting=lighting,
-                                           viewing=self.setup.scene_spec[2]))
+        scenario, _, viewing = self.setup.scene_spec
+        if scenario is None and viewing is None:  # the default scenario (or one of lights alone): its poses and viewers
+            scenario = self.scenario.name if self.scenario.name in SCENARIOS else self.scenario
+        return self._derived(self._rebuilt(scenario=scenario, lighting=lighting, viewing=viewing))
 
     def with_quality(self, quality: Quality | str) -> Study:
         """The same question at another :class:`~labcut.Quality`."""

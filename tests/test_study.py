@@ -80,6 +80,14 @@ def test_reasking_reuses_what_did_not_change(monkeypatch):
     assert study.with_scenario("ring").scenario.name == "ring"
 
 
+def test_other_lights_keep_the_default_scenarios_viewers_and_poses():
+    study = labcut.Study(labcut.Stone.load(OVAL), quality="draft")  # no scenario: bench
+    lamp = study.with_lights("spot")
+    assert lamp.scenario.lights.name == "spot"
+    assert lamp.scenario.views.name == study.scenario.views.name == "cutter"
+    assert len(lamp.scenario.poses()) == len(study.scenario.poses())
+
+
 def test_a_rebuilt_question_is_checked_as_any():
     study = labcut.Study(labcut.Stone.load(OVAL), scenario="bench", quality="draft")
     with pytest.raises(ParameterError):
