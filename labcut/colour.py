@@ -190,10 +190,8 @@ def stack_table(stack: Any, cos_theta: Any, kind: str = "rgb", illuminant: str =
     BSDF tables, the flash estimators' luminance table and colour zoning's per-row tables
     are all built here, once per material, never per ray.
     """
-    from .physics.lamella import stack_reflectance
-
     c = np.asarray(cos_theta, dtype=np.float64)
-    spectra = stack_reflectance(tables().wavelengths, c[..., None], stack, polarization)
+    spectra = stack.reflectance(tables().wavelengths, c[..., None], polarization)
     xyz = reflectance_to_xyz(spectra, illuminant)
     if kind == "mono":
         return xyz[..., 1:2]

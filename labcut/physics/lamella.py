@@ -69,6 +69,11 @@ class Stack(NamedTuple):
     pairs: Any
     n_surface: Any
 
+    def reflectance(self, wavelength_nm: Any, cos_theta: Any, polarization: str | None = None) -> Any:
+        """:func:`stack_reflectance` of this stack (what the colour tables ask of the stack they
+        are given, :func:`labcut.colour.stack_table`)."""
+        return stack_reflectance(wavelength_nm, cos_theta, self, polarization)
+
 
 def _one_minus_exp(ops: Any, x: Any) -> Any:
     """1 - exp(-x) without cancellation for small x >= 0."""
