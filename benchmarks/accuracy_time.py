@@ -228,7 +228,7 @@ def render_study(quick: bool) -> list[dict]:
 def budget_study(quick: bool) -> list[dict]:
     """``time_budget=``: the quality chosen, predicted and actual seconds, for each case and budget."""
     import labcut
-    from labcut.orientation.budget import corrections_path
+    from labcut.commands.budget import corrections_path
 
     corrections_path().unlink(missing_ok=True)  # start from the calibration alone: the table shows the learning
     out = []
@@ -262,7 +262,7 @@ def compare_budget_study(quick: bool) -> list[dict]:
     import warnings
 
     import labcut
-    from labcut.orientation.budget import forget
+    from labcut.commands.budget import forget
     from labcut.reports.budget import KIND
 
     forget(KIND)  # start from the calibration alone: the table shows the learning

@@ -804,7 +804,6 @@ def render_command_timing(mode: str, polarised: bool, integrator: str, look: str
         from .orientation.timing import calibration_run
 
         from .physics.material import Labradorite
-        from .rendering.api import render_image, render_question
         from .scene.directions import normalize_normal
 
         sphere = Stone(trimesh.creation.icosphere(subdivisions=3, radius=5.0), convex=True).mesh
@@ -816,16 +815,27 @@ def render_command_timing(mode: str, polarised: bool, integrator: str, look: str
         with calibration_run():
             for res, n in _RENDER_CAL:
                 # labcut.render's own steps for a given spp: the request, then the render
-                ask = render_question(material=mat, resolution=res, spp=n, **kw)
-                render_image(sphere, ask, normal, n)  # warm: kernels
+                render_once(sphere, mat, normal, res, n, kw)  # warm: kernels
                 t = time.perf_counter()
-                render_image(sphere, render_question(material=mat, resolution=res, spp=n, **kw), normal, n)
+                render_once(sphere, mat, normal, res, n, kw)
                 rows.append((res * res * n, time.perf_counter() - t))
         return linear_fit(rows)
 
     value = calibration("planner-render-timing.json", key, measure, refresh=refresh,
                         check=lambda v: (float(v["fixed"]), float(v["per_sample"])))
     return float(value["fixed"]), float(value["per_sample"])
+
+
+def render_once(mesh: Any, material: Any, normal: Any, resolution: int, spp: int, request: dict[str, Any]) -> Any:
+    """A render at ``spp`` samples per pixel by :func:`labcut.render`'s own steps (the request, the
+    render, the check of each camera's flash): what :func:`render_command_timing` times."""
+    from .orientation.flash_check import flash_by_view
+    from .rendering.api import render_image, render_question
+
+    ask = render_question(material=material, resolution=resolution, spp=spp, **request)
+    result = render_image(mesh, ask, normal, spp)
+    result.flash, result.notes = flash_by_view(mesh, ask.material, normal, ask.scenario.main_setting(), ask.cameras)
+    return result
 
 
 def linear_fit(rows: Sequence[tuple[float, float]]) -> dict[str, float]:

@@ -29,7 +29,7 @@ import numpy as np
 from .backend import serial_blas
 from .errors import ParameterError
 from .geometry.stone import Stone
-from .orientation.budget import kind_of, mark_warm
+from .commands.budget import kind_of, mark_warm
 from .orientation.kernels import DEFAULT_KERNELS, KernelOptions
 from .orientation.optimize import hemisphere_grid, score_map
 from .orientation.recommend import Recommendation, answer_recommendation, build_scorer, evaluation_metrics

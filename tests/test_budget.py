@@ -1,4 +1,4 @@
-"""``time_budget=`` / ``--time-budget`` (labcut.orientation.budget)."""
+"""``time_budget=`` / ``--time-budget`` (labcut.commands.budget)."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ import pytest
 
 import labcut
 from labcut.errors import LabcutWarning, ParameterError
-from labcut.orientation.budget import choose, correction, ladder, record
+from labcut.commands.budget import choose, correction, ladder, record
 
 
 def test_the_ladder_gets_more_accurate_in_every_knob():
@@ -26,7 +26,7 @@ def test_the_ladder_gets_more_accurate_in_every_knob():
 @pytest.fixture(autouse=True)
 def _own_corrections(monkeypatch, tmp_path):
     """Each test starts with no learnt correction (its own corrections file)."""
-    monkeypatch.setattr("labcut.orientation.budget.corrections_path", lambda: tmp_path / "corrections.json")
+    monkeypatch.setattr("labcut.commands.budget.corrections_path", lambda: tmp_path / "corrections.json")
 
 
 def _fake_timing(monkeypatch, per_point: float):
@@ -106,7 +106,7 @@ def test_cli_time_budget(cli, tmp_path):
 
 
 def test_render_budget_picks_the_most_samples_that_fit(monkeypatch):
-    from labcut.rendering.budget import MAX_SPP, choose_spp
+    from labcut.commands.render_budget import MAX_SPP, choose_spp
 
     # 0.1 s fixed + 1e-7 s per sample: at 100² px one spp costs 1 ms
     monkeypatch.setattr("labcut.planner.render_command_timing", lambda mode, polarised, integrator, look="diagram": (0.1, 1e-7))
@@ -293,7 +293,7 @@ def test_a_pilot_scene_that_is_not_a_scenario_is_a_parameter_error():
 def test_a_first_call_in_a_process_learns_its_own_seconds(monkeypatch):
     """The first recommendation of a kind in a process (a CLI call) costs more than the warm ones
     the calibration times: that is learnt as seconds added to every rung, and leaves the factor alone."""
-    from labcut.orientation import budget as budget_module
+    from labcut.commands import budget as budget_module
 
     _fake_timing(monkeypatch, 1e-4)  # standard 0.8 s
     monkeypatch.setattr(budget_module, "_WARM", set())
@@ -318,7 +318,7 @@ def test_a_first_call_in_a_process_learns_its_own_seconds(monkeypatch):
 
 def test_recommend_tells_the_budget_whether_it_is_the_first_of_its_kind(monkeypatch):
     from labcut.commands import recommend as recommend_command
-    from labcut.orientation import budget as budget_module
+    from labcut.commands import budget as budget_module
 
     _fake_timing(monkeypatch, 1e-4)
     monkeypatch.setattr(budget_module, "_WARM", set())

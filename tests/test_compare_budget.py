@@ -8,7 +8,7 @@ import pytest
 
 import labcut
 from labcut.errors import LabcutWarning, ParameterError
-from labcut.orientation.budget import correction
+from labcut.commands.budget import correction
 from labcut.reports import budget as B
 from labcut.reports.compare import plan_comparison, resolve_cuts
 from labcut.scene.quality import Quality
@@ -19,7 +19,7 @@ CUTS = ["cab:oval,16x12,low,res=48", "cab:oval,16x12,high,res=48"]
 @pytest.fixture(autouse=True)
 def _own_corrections(monkeypatch, tmp_path):
     """Each test starts with no learnt correction (its own corrections file)."""
-    monkeypatch.setattr("labcut.orientation.budget.corrections_path", lambda: tmp_path / "corrections.json")
+    monkeypatch.setattr("labcut.commands.budget.corrections_path", lambda: tmp_path / "corrections.json")
 
 
 def _fake_machine(monkeypatch, per_point: float = 1e-4, per_sample: float = 1e-7, per_evaluated_point: float = 0.0):
@@ -56,13 +56,13 @@ def test_the_most_accurate_rung_that_fits_is_chosen(monkeypatch):
     assert B.choose_quality(1.5, cuts, ["bench"], {}).quality.name == "budget-2"
     c = B.choose_quality(0.01, cuts, ["bench"], {})
     assert c.quality.name == "budget-0" and "below the cheapest comparison's predicted" in c.note
-    from labcut.orientation.budget import record
+    from labcut.commands.budget import record
 
     for _ in range(4):
         record(B.KIND, 1.0, 2.0)  # comparisons ran twice as long as predicted
     assert correction(B.KIND) == pytest.approx(2.0, rel=0.07) and correction(False) == 1.0
     assert B.choose_quality(2.0, cuts, ["bench"], {}).quality.name == "budget-2"  # one rung down now (standard: 3.1 s)
-    from labcut.orientation.budget import forget
+    from labcut.commands.budget import forget
 
     record(False, 1.0, 3.0)
     forget(B.KIND)  # only that kind's correction is dropped

@@ -28,9 +28,9 @@ LAYERS: list[tuple[str, ...]] = [
     # what computes and decides nothing: the flash problem, its kernels and scorer, the answer's
     # steps, the render estimator; the renderer (plans, scenes, passes), rays, plots
     ("labcut.orientation", "labcut.rendering", "labcut.plots"),
-    # what decides: the effect planner, its predictions and calibrations, the time budgets
-    ("labcut.planner", "labcut.orientation.timing", "labcut.orientation.budget", "labcut.rendering.budget"),
-    # the commands: recommend, evaluate, render, animate
+    # what decides: the effect planner, its predictions and their calibrations' runs
+    ("labcut.planner",),
+    # the commands: recommend, evaluate, render, animate, and the time budgets they fit into
     ("labcut.commands",),
     ("labcut.study",),
     ("labcut.reports",),
@@ -40,7 +40,7 @@ LAYERS: list[tuple[str, ...]] = [
 
 #: a short name for each layer (docs/architecture.md and its figure)
 LAYER_NAMES = ["errors · validation", "backend · fileio", "physics · colour", "geometry · scene",
-               "orientation · rendering · plots", "planner · timing · budgets", "commands", "study", "reports", "batch"]
+               "orientation · rendering · plots", "planner", "commands · budgets", "study", "reports", "batch"]
 
 
 def layer_of(module: str) -> int | None:

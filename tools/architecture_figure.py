@@ -33,8 +33,8 @@ def main() -> None:
         "batch": "Dask batch runs over catalogues",
         "reports": "compare_cuts: reports over cuts x scenarios",
         "study": "Study: a Stone + one question; keeps plan, problem, answers; with_...() re-asks",
-        "commands": "recommend_orientation, evaluate_orientation, render, animate",
-        "planner · timing · budgets": "plan_effects decides effects and estimator; predictions, calibrations, time budgets",
+        "commands · budgets": "recommend_orientation, evaluate_orientation, render, animate; time budgets",
+        "planner": "plan_effects decides effects and estimator; predicts seconds (calibrations in orientation.timing)",
         "orientation · rendering · plots": "FlashProblem → Scorer (KernelOptions), answers  |  BSDF, render plan, scenes, passes",
         "geometry · scene": "Stone: mesh (mm, +Z up), facts, derived geometry  |  Lights, Views, Scenario",
         "physics · colour": "Stack → R_s, R_p (numpy f64 / Dr.Jit f32)  |  schiller lobe f_s  |  CIE tables",
@@ -58,8 +58,8 @@ def main() -> None:
     centre = {name: len(layers) - 1 - k + 0.56 for k, (name, _) in enumerate(layers)}
     flow = [
         ("--scenario pendant --normal ...\n→ one Scenario, validated once", centre["labcut_cli"]),
-        ("Study / recommend_orientation:\ncheck, plan, budget, then answer", centre["commands"]),
-        ("plan_question: occlusion from stone.convex,\ninter-reflection from pilot renders", centre["planner · timing · budgets"]),
+        ("Study / recommend_orientation:\ncheck, plan, budget, then answer", centre["commands · budgets"]),
+        ("plan_question: occlusion from stone.convex,\ninter-reflection from pilot renders", centre["planner"]),
         ("FlashProblem → Scorer sums q(h·m) for every\nnormal m (Dr.Jit kernels: KernelOptions);\nrender: main pose, camera, emitters",
          centre["orientation · rendering · plots"]),
         ("Scenario.settings(): per pose, Lights\nand Views rotated into the mesh frame", centre["geometry · scene"]),

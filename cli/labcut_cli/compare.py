@@ -166,7 +166,7 @@ def compare(
     import warnings
 
     from labcut.errors import LabcutWarning
-    from labcut.orientation.budget import quality_or_budget
+    from labcut.commands.budget import quality_or_budget
     from labcut.reports.compare import plan_comparison, run_comparison
 
     from .progress import progress_bar

@@ -170,7 +170,7 @@ def recommend_orientation(
     import labcut
     from labcut.errors import ParameterError
     from labcut.fileio import check_output_path
-    from labcut.orientation.budget import quality_or_budget
+    from labcut.commands.budget import quality_or_budget
     from labcut.orientation.optimize import OPTIMIZERS
 
     from .progress import progress_bar

@@ -1,6 +1,6 @@
 """``labcut.recommend_orientation`` and ``labcut.evaluate_orientation``: the flash questions as
 commands: check the question, plan its effects (:mod:`labcut.planner`), fit it into a time budget
-(:mod:`labcut.orientation.budget`), then answer with the flash problem's scorer
+(:mod:`labcut.commands.budget`), then answer with the flash problem's scorer
 (:func:`labcut.orientation.recommend.answer_recommendation`,
 :func:`~labcut.orientation.recommend.evaluation_metrics`), and let the budget's calibration learn
 from the run. A :class:`labcut.Study` answers the same questions from the same pieces.
@@ -17,7 +17,7 @@ from ..backend import with_serial_blas
 from ..errors import LabcutWarning, ParameterError
 from ..geometry.meshio import validate_mesh
 from ..geometry.stone import Stone, mesh_of
-from ..orientation.budget import choose, kind_of, mark_warm, quality_or_budget, record
+from .budget import choose, kind_of, mark_warm, quality_or_budget, record
 from ..orientation.optimize import OPTIMIZERS
 from ..orientation.recommend import Recommendation, answer_recommendation, build_scorer, evaluation_metrics, question
 from ..orientation.scoring import FlashMetrics, Scorer
@@ -100,7 +100,7 @@ def recommend_orientation(
         docs/zoning.md): the render estimator answers, weighing each zone's flash as the viewers
         see it (starting from a coarse map of rendered zoned flash).
     time_budget: seconds the call may take: the most accurate quality predicted to fit on this
-        machine replaces ``quality`` (:mod:`labcut.orientation.budget`; the choice is in
+        machine replaces ``quality`` (:mod:`labcut.commands.budget`; the choice is in
         ``settings["time_budget"]``). Below the cheapest setting's prediction the cheapest runs,
         with a one-line :class:`~labcut.errors.LabcutWarning`.
     setup: the whole question at once, validated (:meth:`FlashSetup.build
@@ -133,7 +133,7 @@ def recommend_orientation(
         ask, budget = within_budget(mesh, ask, time_budget, quality_given=not is_default(quality, "standard"))
     scorer, plan = planned_scorer(mesh, ask, "recommend", plan)
     rec = answer_recommendation(mesh, ask, scorer, plan, optimizer=optimizer, progress=report, budget=budget, start=start)
-    if budget is not None:  # the calibration learns from this run (orientation/budget.py)
+    if budget is not None:  # the calibration learns from this run (commands/budget.py)
         # what the calibration predicts: the recommendation, not the plans' pilot renders; the
         # first of its kind in this process feeds the first-call seconds instead of the factor
         record(budget.kind, budget.uncorrected(budget.predicted_seconds),
@@ -144,7 +144,7 @@ def recommend_orientation(
 
 def within_budget(mesh: Any, ask: FlashSetup, time_budget: Any, *, quality_given: bool) -> tuple[FlashSetup, Any]:
     """``ask`` at the most accurate quality predicted to fit ``time_budget`` seconds
-    (:func:`labcut.orientation.budget.choose`), and the choice."""
+    (:func:`labcut.commands.budget.choose`), and the choice."""
     quality_or_budget(quality_given, True)
     # which estimator answers (the planner's choice does not depend on the quality): the budget predicts that one
     # a stone's first plan makes its pilot renders (at the pilot quality, whatever the rung: the rung's

@@ -3,7 +3,7 @@ per pixel (a time budget's choice), record the effect plan, render (:func:`labcu
 
 The rendering itself (the plan of variant, integrator, depth and lobes; the Mitsuba scene; the
 passes, the denoiser, the exposure) is :mod:`labcut.rendering.api`'s; this layer adds what asks
-the planner: the budget (:func:`labcut.rendering.budget.choose_spp`) and the effect plan's record
+the planner: the budget (:func:`labcut.commands.render_budget.choose_spp`) and the effect plan's record
 (:func:`labcut.planner.plan_effects`).
 """
 
@@ -20,9 +20,10 @@ from ..errors import LabcutWarning
 from ..geometry.meshio import validate_mesh
 from ..geometry.stone import mesh_of
 from ..physics.material import Labradorite
+from ..orientation.flash_check import flash_by_view
 from ..planner import plan_effects
 from ..rendering.api import LOBES, RenderResult, plan_for, render_image, render_question
-from ..rendering.budget import choose_spp
+from .render_budget import choose_spp
 from ..rendering.scene import CameraView
 from ..scene import Scenario
 from ..scene.directions import normalize_normal
@@ -72,7 +73,7 @@ def render(
         4 x 2) | (tilt°, azimuth°) in the mesh frame.
     spp: samples per pixel (>= 1; default 64); rendered in passes so ``progress(done, total)`` can report.
     time_budget: seconds the render may take: the most samples per pixel (a power of two) predicted
-        to fit on this machine replace ``spp`` (:mod:`labcut.rendering.budget`; below 1 spp's
+        to fit on this machine replace ``spp`` (:mod:`labcut.commands.render_budget`; below 1 spp's
         prediction 1 spp runs with a one-line :class:`~labcut.errors.LabcutWarning`); the choice
         is in ``RenderResult.budget``.
     mode: ``rgb`` | ``mono`` | ``spectral``; ``polarizer_deg`` renders polarized and returns the
@@ -139,5 +140,7 @@ def render_setup(mesh: Any, ask: Any, normal: np.ndarray, *, progress: Callable[
                            zoning=ask.zoning, max_depth=ask.max_depth, resolution=ask.resolution, spp=int(spp),
                            views=views, look=rplan.look,
                            predict=False).to_dict()  # what the render did; --plan predicts beforehand
-    return render_image(mesh, ask, normal, int(spp), progress=progress, check_flash=check_flash, effects=effects,
-                        budget=budget)
+    result = render_image(mesh, ask, normal, int(spp), progress=progress, effects=effects, budget=budget)
+    if check_flash:
+        result.flash, result.notes = flash_by_view(mesh, ask.material, normal, ask.scenario.main_setting(), ask.cameras)
+    return result

@@ -84,7 +84,7 @@ class RenderResult:
     tonemap: str = "hue"
     exposure_metering: str = "image"
     studio: dict[str, Any] = field(default_factory=dict)
-    #: ``time_budget=``'s choice (:class:`labcut.rendering.budget.SppChoice` as a dict), or empty
+    #: ``time_budget=``'s choice (:class:`labcut.commands.render_budget.SppChoice` as a dict), or empty
     budget: dict[str, Any] = field(default_factory=dict)
 
     @property
@@ -304,7 +304,7 @@ def render_question(setup: Any = None, **asked: Any) -> Any:
 
 
 def render_image(mesh: Any, ask: Any, normal: np.ndarray, spp: int, *,
-                 progress: Callable[[int, int], None] | None = None, check_flash: bool = True,
+                 progress: Callable[[int, int], None] | None = None,
                  effects: dict[str, Any] | None = None, budget: Any = None) -> RenderResult:
     """Render a checked mesh under the :class:`~labcut.rendering.setup.RenderSetup` ``ask`` at the
     unit lamella ``normal`` with ``spp`` samples per pixel (checks nothing again; not saved):
@@ -384,8 +384,6 @@ def render_image(mesh: Any, ask: Any, normal: np.ndarray, spp: int, *,
         studio=studio_info,
         budget={} if budget is None else budget.to_dict(),
     )
-    if check_flash:
-        result.flash, result.notes = flash_by_view(mesh, ask.material, normal, setting, views)
     return result
 
 
@@ -433,38 +431,3 @@ def _interruptible() -> Any:
             signal.signal(signal.SIGINT, previous)
     if event.is_set():
         raise KeyboardInterrupt
-
-
-def flash_by_view(mesh: Any, material: Labradorite, lamella_normal: Any, setting: Setting,
-                  cameras: Sequence[CameraView]) -> tuple[list[dict[str, Any]], list[str]]:
-    """Does the stone flash from each camera? The surface-sample estimator (draft quality) under
-    the render's lights, one view per camera (mesh frame). Returns per camera ``{"view", "flash_area",
-    "flash"}`` (None for a camera that sees the face edge-on or from behind) and the notes to show."""
-    from ..orientation.problem import build_problem
-    from ..orientation.scoring import Scorer
-    from ..scene import Views
-
-    normal = normalize_normal(lamella_normal)
-    dirs = np.array([c.direction for c in cameras], dtype=np.float64)
-    dirs /= np.linalg.norm(dirs, axis=1, keepdims=True)
-    usable = np.flatnonzero(dirs[:, 2] > 1e-3)
-    areas: list[float | None] = [None] * len(cameras)
-    if len(usable):
-        try:
-            problem = build_problem(mesh, material, quality="draft",
-                                    settings=[Setting(setting.lights, Views(dirs[usable]), 1.0, setting.pose)])
-            per_view = Scorer(problem).metrics(normal).per_view["flash_area"]
-        except ParameterError:  # no light reaches what any camera sees
-            per_view = [0.0] * len(usable)
-        for i, a in zip(usable, per_view):
-            areas[int(i)] = float(a)
-    flash = [{"view": c.name, "flash_area": a, "flash": None if a is None else a > 0.0} for c, a in zip(cameras, areas)]
-    dark = [f["view"] for f in flash if f["flash"] is False]
-    notes = []
-    if dark:
-        where = "this view" if len(cameras) == 1 else f"{len(dark)} of {len(cameras)} views ({', '.join(dark)})"
-        notes.append(
-            f"the stone shows no flash from {where}: no part of it reaches the flash threshold there, so what the "
-            "image shows is surface glare and the grey body (a PNG's automatic exposure brightens them)"
-        )
-    return flash, notes

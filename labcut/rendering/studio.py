@@ -31,7 +31,7 @@ Everything here is built in code (no download) and set up in the mesh frame (mm,
 * **The camera**: a perspective camera (:data:`Studio.fov_deg`) framing the stone with a margin
   of table around it.
 
-The flash metrics (:func:`~labcut.rendering.api.flash_by_view`, the estimators) never use this
+The flash metrics (:func:`~labcut.orientation.flash_check.flash_by_view`, the estimators) never use this
 look: it is for pictures.
 """
 

@@ -19,8 +19,8 @@ once and kept in the user cache:
 
 The sum, times an adaptive correction learnt from past budgeted comparisons (the actual over the
 predicted seconds, a geometric running mean kept with the recommendation's corrections,
-:func:`labcut.orientation.budget.record` under the name ``"compare"``), is each rung's
-prediction; the most accurate rung of :func:`labcut.orientation.budget.ladder` predicted to fit
+:func:`labcut.commands.budget.record` under the name ``"compare"``), is each rung's
+prediction; the most accurate rung of :func:`labcut.commands.budget.ladder` predicted to fit
 runs. A budget below the cheapest rung's prediction runs the cheapest with a one-line note; a
 budget that is not a positive number of seconds is a :class:`~labcut.errors.ParameterError`.
 """
@@ -31,12 +31,12 @@ from collections.abc import Mapping, Sequence
 from typing import Any
 
 from ..geometry.stone import Stone
-from ..orientation.budget import BudgetChoice, correction, ladder, pick
+from ..commands.budget import BudgetChoice, correction, ladder, pick
 from ..validation import check_budget
 from ..scene.quality import Quality
 from ..scene.scenario import scenarios_from
 
-#: the correction's name in the user cache (:func:`labcut.orientation.budget.record`)
+#: the correction's name in the user cache (:func:`labcut.commands.budget.record`)
 KIND = "compare"
 #: the two (resolution px, spp, strip angles) :func:`compare_render_timing` times
 _CAL = ((48, 4, (0.0, 10.0)), (128, 16, (-10.0, 0.0, 10.0)))
@@ -146,7 +146,7 @@ def predict_comparison(cuts: Sequence[Any], scenarios: Sequence[Any], quality: Q
 
 def choose_quality(budget: Any, cuts: Sequence[Any], scenarios: Sequence[Any], effects: Mapping[str, bool],
                    resolution: int | None = None, spp: int | None = None) -> BudgetChoice:
-    """The most accurate rung of :func:`~labcut.orientation.budget.ladder` whose predicted
+    """The most accurate rung of :func:`~labcut.commands.budget.ladder` whose predicted
     comparison (:func:`predict_comparison` x the ``compare`` correction) fits ``budget`` seconds."""
     seconds = check_budget(budget)
     factor = correction(KIND)

@@ -144,7 +144,7 @@ class Comparison:
     seconds: float
     tau: float = 0.1
     seed: int = 0
-    #: ``time_budget=``'s choice (:class:`labcut.orientation.budget.BudgetChoice` as a dict), or empty
+    #: ``time_budget=``'s choice (:class:`labcut.commands.budget.BudgetChoice` as a dict), or empty
     budget: dict[str, Any] = field(default_factory=dict)
 
     # ------------------------------------------------------------------ access
@@ -461,7 +461,7 @@ class ComparisonPlan:
     effects: dict[str, bool] = field(default_factory=dict)
     #: the effect plan of each (cut name, scenario name) (:class:`labcut.planner.EffectPlan`)
     effect_plans: dict[tuple[str, str], Any] = field(default_factory=dict)
-    #: ``time_budget=``'s choice of quality (:class:`labcut.orientation.budget.BudgetChoice`), or None
+    #: ``time_budget=``'s choice of quality (:class:`labcut.commands.budget.BudgetChoice`), or None
     budget: Any = None
 
     @property
@@ -490,7 +490,7 @@ def plan_comparison(
     starting the long work; a bad one is a one-line :class:`~labcut.errors.ParameterError` or
     :class:`~labcut.errors.MeshError` naming it. Arguments as :func:`compare_cuts`."""
     from ..scene.quality import Quality
-    from ..orientation.budget import quality_or_budget
+    from ..commands.budget import quality_or_budget
     from ..validation import is_default
 
     quality_or_budget(not is_default(quality, "standard"), time_budget is not None)
@@ -696,7 +696,7 @@ def run_comparison(plan: ComparisonPlan, progress: Callable[[int, int], None] | 
     seconds = time.perf_counter() - start
     budget: dict[str, Any] = {}
     if plan.budget is not None:  # the calibration learns from this run (reports/budget.py)
-        from ..orientation.budget import record
+        from ..commands.budget import record
         from .budget import KIND
 
         record(KIND, plan.budget.predicted_seconds / plan.budget.correction, seconds)
