@@ -7,7 +7,7 @@ for each switch, ``N`` rounds (default 9) of one call with the switch as labcut 
 with it set back to what came before, interleaved so that the machine's drift falls on both;
 the best and the median of each, and the answers' angle (the switch must not move the answer
 beyond its error bar). Each switch is a field of the call's
-:class:`~labcut.orientation.kernels.KernelOptions` (handed in through its ``FlashSetup``):
+:class:`~labcut.orientation.kernels.KernelOptions` (handed in through its ``FlashQuestion``):
 
 * ``bins``: the triples binned in Dr.Jit kernels (64-bit fixed-point sums) against numpy's
   bincounts;
@@ -52,10 +52,10 @@ def measure(rounds: int) -> list[dict]:
 
     import labcut
     from labcut.orientation.kernels import KernelOptions
-    from labcut.orientation.setup import FlashSetup
+    from labcut.orientation.question import FlashQuestion
 
     mesh = labcut.load_mesh(ROOT / "meshes" / "oval-16x12-low.ply")
-    asked = FlashSetup.build("blue", "bench", quality="standard")
+    asked = FlashQuestion.build("blue", "bench", quality="standard")
 
     def call(kernels: KernelOptions) -> tuple[float, np.ndarray, float]:
         t = time.perf_counter()

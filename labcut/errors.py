@@ -8,13 +8,32 @@ and, where there is one, what to do.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+
 
 class LabcutError(Exception):
     """Base class of every error labcut raises on purpose."""
 
 
 class ParameterError(LabcutError, ValueError):
-    """A parameter is out of range, not finite, or of the wrong kind."""
+    """A parameter is out of range, not finite, or of the wrong kind.
+
+    ``parameter`` is the library's name of the parameter the message begins with (``"seed"``,
+    ``"time budget"``), or None; a front end that calls it otherwise (the CLI's ``--seed``)
+    asks :meth:`renamed` instead of matching the message's text.
+    """
+
+    def __init__(self, message: str, *, parameter: str | None = None) -> None:
+        super().__init__(message)
+        self.parameter = parameter if parameter and message.startswith(parameter) else None
+
+    def renamed(self, names: Mapping[str, str]) -> ParameterError:
+        """This error with its parameter called by ``names[parameter]`` (itself when the
+        parameter is unnamed or not in ``names``)."""
+        option = names.get(self.parameter) if self.parameter else None
+        if option is None:
+            return self
+        return ParameterError(option + str(self)[len(self.parameter):], parameter=option)
 
 
 class MeshError(LabcutError):

@@ -369,7 +369,7 @@ def _pilot_cache_path() -> Any:
 
 
 def plan_question(mesh: Any, setup: Any, command: str = "recommend", *, predict: bool = True) -> EffectPlan:
-    """The effect plan of a flash question (a :class:`~labcut.orientation.setup.FlashSetup`) about
+    """The effect plan of a flash question (a :class:`~labcut.orientation.question.FlashQuestion`) about
     ``mesh``: :func:`plan_effects` given every part of it (material, scene, quality, estimator,
     effect overrides, zoning) and the pilots' scene (:func:`pilot_scene`). ``predict``: also
     predict each estimator's seconds (on by default, as ``plan_effects``)."""

@@ -1,7 +1,7 @@
 """One flash question of one stone, asked and re-asked: :class:`Study`.
 
 A Study is a stone (:class:`~labcut.Stone`) with a material, a scenario (how it is lit, worn and
-seen), a quality and the rest of a flash question (:class:`~labcut.orientation.setup.FlashSetup`),
+seen), a quality and the rest of a flash question (:class:`~labcut.orientation.question.FlashQuestion`),
 and everything answering it makes: the effect plan, the sample estimator's flash problem and its
 scorer (with the binned energy map), the recommendation. Each is made at the first question that
 needs it and kept; :meth:`Study.with_lights`, :meth:`~Study.with_material`,
@@ -34,7 +34,7 @@ from .orientation.kernels import DEFAULT_KERNELS, KernelOptions
 from .orientation.optimize import hemisphere_grid, score_map
 from .orientation.recommend import Recommendation, answer_recommendation, build_scorer, evaluation_metrics
 from .orientation.scoring import FlashMetrics, Scorer
-from .orientation.setup import FlashSetup
+from .orientation.question import FlashQuestion
 from .planner import plan_question
 from .scene.directions import direction
 from .scene.scenario import SCENARIOS
@@ -47,7 +47,7 @@ class Study:
     ``stone``: a :class:`~labcut.Stone` or a trimesh (wrapped). The question's arguments are
     :func:`labcut.recommend_orientation`'s (``material``, ``scenario``, ``lighting``,
     ``viewing``, ``quality``, ``objective``, ``tau``, ``seed``, ``max_tilt``, ``tilt_axis``,
-    ``estimator``, ``effects``, ``zoning``), checked once here; or ``setup``, the question
+    ``estimator``, ``effects``, ``zoning``), checked once here; or ``question``, the question
     already built. ``kernels``: which steps of the sample estimator run as Dr.Jit kernels
     (:class:`~labcut.orientation.kernels.KernelOptions`; how, not what: the answers agree to
     float32 rounding).
@@ -59,18 +59,18 @@ class Study:
     def __init__(self, stone: Any, material: Any = None, scenario: Any = None, quality: Quality | str = "standard", *,
                  lighting: Any = None, viewing: Any = None, objective: str = "energy", tau: float = 0.1, seed: int = 0,
                  max_tilt: float = 90.0, tilt_axis: Any = None, estimator: str = "auto",
-                 effects: Mapping[str, Any] | None = None, zoning: Any = None, setup: FlashSetup | None = None,
+                 effects: Mapping[str, Any] | None = None, zoning: Any = None, question: FlashQuestion | None = None,
                  kernels: KernelOptions = DEFAULT_KERNELS) -> None:
         self.stone = Stone.of(stone, "stone").validate("stone")
-        if setup is None:
-            setup = FlashSetup.build(material, scenario, lighting, viewing, objective=objective, quality=quality, tau=tau,
-                                     seed=seed, max_tilt=max_tilt, tilt_axis=tilt_axis, estimator=estimator,
-                                     effects=effects, zoning=zoning)
-        elif not isinstance(setup, FlashSetup):
-            raise ParameterError(f"setup must be a labcut FlashSetup (FlashSetup.build(...)), got {type(setup).__name__}")
+        if question is None:
+            question = FlashQuestion.build(material, scenario, lighting, viewing, objective=objective, quality=quality, tau=tau,
+                                        seed=seed, max_tilt=max_tilt, tilt_axis=tilt_axis, estimator=estimator,
+                                        effects=effects, zoning=zoning)
+        elif not isinstance(question, FlashQuestion):
+            raise ParameterError(f"question must be a labcut FlashQuestion (FlashQuestion.build(...)), got {type(question).__name__}")
         if not isinstance(kernels, KernelOptions):
             raise ParameterError(f"kernels must be a KernelOptions, got {type(kernels).__name__}")
-        self.setup = replace(setup, kernels=kernels)
+        self.question = replace(question, kernels=kernels)
         self.builds: dict[str, int] = {"plan": 0, "problem": 0, "recommendation": 0}
         self._plan: Any = None
         self._scorer: Scorer | None = None
@@ -79,19 +79,19 @@ class Study:
     # ------------------------------------------------------------------ the question
     @property
     def material(self) -> Any:
-        return self.setup.material
+        return self.question.material
 
     @property
     def scenario(self) -> Any:
-        return self.setup.scenario
+        return self.question.scenario
 
     @property
     def quality(self) -> Quality:
-        return self.setup.quality
+        return self.question.quality
 
     @property
     def kernels(self) -> KernelOptions:
-        return self.setup.kernels
+        return self.question.kernels
 
     def __repr__(self) -> str:
         return (f"Study({self.stone!r}, scenario={self.scenario.name!r}, "
@@ -103,7 +103,7 @@ class Study:
         which estimator answers; made once."""
         if self._plan is None:
             with serial_blas():  # as recommend_orientation plans: the same numbers to the last bit
-                self._plan = plan_question(self.stone.mesh, self.setup, "recommend")
+                self._plan = plan_question(self.stone.mesh, self.question, "recommend")
             self.builds["plan"] += 1
         return self._plan
 
@@ -113,7 +113,7 @@ class Study:
         if self._scorer is None:
             plan = self.plan()
             with serial_blas():
-                self._scorer = build_scorer(self.stone.mesh, self.setup, plan)
+                self._scorer = build_scorer(self.stone.mesh, self.question, plan)
             self.builds["problem"] += 1
         return self._scorer
 
@@ -125,7 +125,7 @@ class Study:
         if hit is None:
             scorer, plan = self.scorer, self.plan()
             with serial_blas():
-                hit = answer_recommendation(self.stone.mesh, self.setup, scorer, plan, optimizer=optimizer,
+                hit = answer_recommendation(self.stone.mesh, self.question, scorer, plan, optimizer=optimizer,
                                             progress=progress)
             mark_warm(kind_of(hit.estimator, plan.on("occlusion")))  # as recommend_orientation
             self._recommendations[optimizer] = hit
@@ -139,7 +139,7 @@ class Study:
         m = orientation(normal, tilt, azimuth)
         scorer, plan = self.scorer, self.plan()
         with serial_blas():
-            return evaluation_metrics(self.stone.mesh, self.setup, scorer, plan, m)
+            return evaluation_metrics(self.stone.mesh, self.question, scorer, plan, m)
 
     def score_map(self, spacing_deg: float | None = None) -> tuple[np.ndarray, np.ndarray]:
         """``(normals, scores)``: the objective over the allowed hemisphere, normals ``spacing_deg``
@@ -147,7 +147,7 @@ class Study:
         spacing = self.quality.map_spacing_deg if spacing_deg is None else float(spacing_deg)
         if not (spacing > 0 and np.isfinite(spacing)):
             raise ParameterError(f"spacing_deg must be a positive number of degrees, got {spacing_deg!r}")
-        normals = hemisphere_grid(spacing, self.setup.constraint)
+        normals = hemisphere_grid(spacing, self.question.constraint)
         scorer = self.scorer
         with serial_blas():
             return normals, score_map(scorer, normals)
@@ -166,13 +166,13 @@ class Study:
         for taken in ("material", "scenario", "lighting", "viewing", "setup", "lamella_normal"):
             if taken in kwargs:
                 raise ParameterError(f"Study.render takes its {taken} from the Study (with_... makes another)")
-        return render(self.stone, self.material, m, scenario=self.scenario, zoning=self.setup.zoning, **kwargs)
+        return render(self.stone, self.material, m, scenario=self.scenario, zoning=self.question.zoning, **kwargs)
 
     # ------------------------------------------------------------------ re-asking
-    def _derived(self, setup: FlashSetup, *, keep_plan: bool = False, keep_problem: bool = False) -> Study:
+    def _derived(self, question: FlashQuestion, *, keep_plan: bool = False, keep_problem: bool = False) -> Study:
         other = Study.__new__(Study)
         other.stone = self.stone
-        other.setup = setup
+        other.question = question
         other.builds = self.builds  # one count for a Study and all derived from it
         other._plan = self._plan if keep_plan else None
         other._scorer = self._scorer if keep_problem else None
@@ -183,7 +183,7 @@ class Study:
         """The same question of another material (a :class:`~labcut.Labradorite` or a preset name)."""
         from .physics.material import Labradorite
 
-        return self._derived(replace(self.setup, material=Labradorite.coerce(material)))
+        return self._derived(replace(self.question, material=Labradorite.coerce(material)))
 
     def with_scenario(self, scenario: Any) -> Study:
         """The same question under another scenario (a name, a JSON file or a :class:`~labcut.Scenario`)."""
@@ -192,21 +192,21 @@ class Study:
     def with_lights(self, lighting: Any) -> Study:
         """The same question with other lights (a lighting preset, a JSON or .exr/.hdr file or a
         :class:`~labcut.Lights`), the scenario's viewers and poses kept."""
-        scenario, _, viewing = self.setup.scene_spec
+        scenario, _, viewing = self.question.scene_spec
         if scenario is None and viewing is None:  # the default scenario (or one of lights alone): its poses and viewers
             scenario = self.scenario.name if self.scenario.name in SCENARIOS else self.scenario
         return self._derived(self._rebuilt(scenario=scenario, lighting=lighting, viewing=viewing))
 
     def with_quality(self, quality: Quality | str) -> Study:
         """The same question at another :class:`~labcut.Quality`."""
-        return self._derived(self.setup.at_quality(quality))
+        return self._derived(self.question.at_quality(quality))
 
     def with_objective(self, objective: str) -> Study:
         """The same question ranked by another objective (``energy``, ``area``, ``intensity``,
         ``balanced``): the plan and the flash problem are shared."""
         other = self._derived(self._rebuilt(objective=objective), keep_plan=True)
         if self._scorer is not None:  # the same triples, ranked by the other objective
-            other._scorer = Scorer(self._scorer.problem, other.setup.objective)
+            other._scorer = Scorer(self._scorer.problem, other.question.objective)
         return other
 
     def with_kernels(self, kernels: KernelOptions) -> Study:
@@ -214,11 +214,11 @@ class Study:
         (the plan is shared)."""
         if not isinstance(kernels, KernelOptions):
             raise ParameterError(f"kernels must be a KernelOptions, got {type(kernels).__name__}")
-        return self._derived(replace(self.setup, kernels=kernels), keep_plan=True)
+        return self._derived(replace(self.question, kernels=kernels), keep_plan=True)
 
-    def _rebuilt(self, **changes: Any) -> FlashSetup:
-        """This Study's setup built again with ``changes`` (checked as any question is)."""
-        s = self.setup
+    def _rebuilt(self, **changes: Any) -> FlashQuestion:
+        """This Study's question built again with ``changes`` (checked as any question is)."""
+        s = self.question
         spec = dict(zip(("scenario", "lighting", "viewing"), s.scene_spec))
         if "scenario" in changes and "lighting" not in changes:
             spec = {"scenario": changes.pop("scenario"), "lighting": None, "viewing": None}
@@ -227,7 +227,7 @@ class Study:
                      effects=s.effect_overrides, zoning=s.zoning, max_tilt=s.constraint.max_tilt_deg,
                      tilt_axis=s.constraint.tilt_axis)
         asked.update(changes)
-        return replace(FlashSetup.build(s.material, spec["scenario"], spec["lighting"], spec["viewing"], **asked),
+        return replace(FlashQuestion.build(s.material, spec["scenario"], spec["lighting"], spec["viewing"], **asked),
                        kernels=s.kernels)
 
 

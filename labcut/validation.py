@@ -22,13 +22,13 @@ def check_number(value: Any, name: str, low: float = -math.inf, high: float = ma
     stone's size") only word the message."""
     of = f" of {unit}" if unit else ""
     if isinstance(value, bool):
-        raise ParameterError(f"{name} must be a number{of}, got {value!r}")
+        raise ParameterError(f"{name} must be a number{of}, got {value!r}", parameter=name)
     try:
         x = float(value)
     except (TypeError, ValueError):
-        raise ParameterError(f"{name} must be a number{of}, got {value!r}") from None
+        raise ParameterError(f"{name} must be a number{of}, got {value!r}", parameter=name) from None
     if not math.isfinite(x):
-        raise ParameterError(f"{name} must be a finite number{of}, got {value!r}")
+        raise ParameterError(f"{name} must be a finite number{of}, got {value!r}", parameter=name)
     if (x <= low if low_open else x < low) or x > high:
         unit_s = f" {unit}" if unit else ""
         if high == math.inf:
@@ -38,10 +38,10 @@ def check_number(value: Any, name: str, low: float = -math.inf, high: float = ma
         else:
             bound = f"lie in {'(' if low_open else '['}{low:g}, {high:g}]{unit_s}"
         bound = bound if bound.startswith("lie") else f"be {bound}"
-        raise ParameterError(f"{name} must {bound}{f' ({why})' if why else ''}, got {x:g}")
+        raise ParameterError(f"{name} must {bound}{f' ({why})' if why else ''}, got {x:g}", parameter=name)
     if integer:
         if x != int(x):
-            raise ParameterError(f"{name} must be a whole number, got {value!r}")
+            raise ParameterError(f"{name} must be a whole number, got {value!r}", parameter=name)
         return int(x)
     return x
 
@@ -52,12 +52,12 @@ def unit_vector(value: Any, name: str) -> np.ndarray:
     try:
         v = np.asarray(value, dtype=np.float64).reshape(3)
     except (TypeError, ValueError):
-        raise ParameterError(f"{name} must be three numbers [x, y, z], got {value!r}") from None
+        raise ParameterError(f"{name} must be three numbers [x, y, z], got {value!r}", parameter=name) from None
     if not np.all(np.isfinite(v)):
-        raise ParameterError(f"{name} must be finite, got {v.tolist()}")
+        raise ParameterError(f"{name} must be finite, got {v.tolist()}", parameter=name)
     scale = float(np.max(np.abs(v)))
     if scale == 0.0:
-        raise ParameterError(f"{name} must not be the zero vector")
+        raise ParameterError(f"{name} must not be the zero vector", parameter=name)
     v = v / scale
     return v / np.linalg.norm(v)
 
@@ -95,7 +95,7 @@ def name_or_mm(text: str, names: tuple[str, ...], what: str, where: str = "") ->
         value = math.nan
     if not math.isfinite(value):
         place = f" in {where!r}" if where else ""
-        raise ParameterError(f"{what} must be {', '.join(names)} or a number of mm{place}, got {text!r}")
+        raise ParameterError(f"{what} must be {', '.join(names)} or a number of mm{place}, got {text!r}", parameter=what)
     return value
 
 

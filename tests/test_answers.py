@@ -121,7 +121,7 @@ def test_a_failing_render_leaves_the_answer(tmp_path, capsys, monkeypatch):
         raise labcut.BackendError("the renderer ran out of memory")
 
     monkeypatch.setattr(api, "render", broken)
-    monkeypatch.setattr(api, "render_setup", broken)  # what the CLI calls with its checked RenderSetup
+    monkeypatch.setattr(api, "render_checked", broken)  # what the CLI calls with its checked RenderRequest
     monkeypatch.setattr(labcut, "render", broken, raising=False)
     js, png, mp = tmp_path / "r.json", tmp_path / "r.png", tmp_path / "m.png"
     code, out, err = _run_in_process(["recommend-orientation", OVAL, "--quality", "draft", "--json", js, "--render", png,

@@ -38,6 +38,32 @@ def test_evaluate_orientation(cli):
     assert 0.0 < data["flash_area"] <= 1.0 and data["flash_energy"] > 0
 
 
+@pytest.mark.parametrize(("args", "start"), [
+    (["--max-tilt", "0"], "error: --max-tilt must lie in (0, 90]"),
+    (["--tilt-axis", "0,0,1"], "error: --tilt-axis must be horizontal"),
+    (["--quality", "ultra"], "error: --quality must be one of"),
+    (["--objective", "sparkle"], "error: --objective must be one of"),
+])
+def test_library_errors_name_the_option(cli, args, start):
+    """The library's ParameterError names its parameter; the CLI calls it by its option."""
+    proc = cli("recommend-orientation", OVAL, *args, "--json", "-")
+    assert proc.returncode == 2
+    assert proc.stderr.strip().splitlines()[-1].startswith(start), proc.stderr
+
+
+def test_parameter_error_renamed_keeps_the_rest_of_the_message():
+    from labcut.errors import ParameterError
+    from labcut.validation import check_number
+
+    with pytest.raises(ParameterError) as info:
+        check_number(-1, "time budget", 0.0, low_open=True, unit="s")
+    assert info.value.parameter == "time budget"
+    renamed = info.value.renamed({"time budget": "--time-budget"})
+    assert str(renamed) == "--time-budget must be greater than 0 s, got -1"
+    assert info.value.renamed({"seed": "--seed"}) is info.value
+    assert ParameterError("seed x", parameter="spp").parameter is None  # a name the message does not begin with
+
+
 @pytest.mark.parametrize(
     "args",
     [

@@ -15,8 +15,8 @@ MODULES = [
     "labcut.geometry.cabochon",
     "labcut.planner",
     "labcut.reports.compare",
-    "labcut.orientation.setup",
-    "labcut.rendering.setup",
+    "labcut.orientation.question",
+    "labcut.rendering.request",
 ]
 
 

@@ -16,7 +16,7 @@ from labcut.errors import ParameterError
 from labcut.orientation.kernels import DEFAULT_KERNELS, KernelOptions
 from labcut.orientation.problem import build_problem
 from labcut.orientation.scoring import Scorer
-from labcut.orientation.setup import FlashSetup
+from labcut.orientation.question import FlashQuestion
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -77,9 +77,9 @@ def test_the_problem_and_its_scorer_hold_the_options_they_were_given(oval):
 
 
 def test_a_setups_options_reach_the_whole_recommendation(oval):
-    """The numpy reference paths through FlashSetup: a different computation (float64 terms, not
+    """The numpy reference paths through FlashQuestion: a different computation (float64 terms, not
     the kernels' float32: the bits differ) of the same answer (well within its error bar)."""
-    asked = FlashSetup.build(labcut.Labradorite(), "bench", quality="draft", estimator="samples")
+    asked = FlashQuestion.build(labcut.Labradorite(), "bench", quality="draft", estimator="samples")
     fast = labcut.recommend_orientation(oval, setup=asked)
     ref = labcut.recommend_orientation(oval, setup=replace(asked, kernels=KernelOptions.reference()))
     angle = math.degrees(float(np.linalg.norm(np.cross(fast.normal, ref.normal))))  # exact for tiny angles
@@ -120,7 +120,7 @@ def test_the_estimators_answer_through_one_interface(oval):
     from labcut.planner import plan_question
 
     assert set(ESTIMATORS) == {"samples", "render"}
-    asked = FlashSetup.build(labcut.Labradorite(), "bench", quality="draft", estimator="samples")
+    asked = FlashQuestion.build(labcut.Labradorite(), "bench", quality="draft", estimator="samples")
     plan = plan_question(oval, asked, "evaluate", predict=False)
     settings = asked.scenario.settings()
     scorer = Scorer(build_problem(oval, asked.material, quality="draft", settings=settings))

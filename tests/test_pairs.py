@@ -18,7 +18,7 @@ import labcut
 from labcut.errors import ParameterError
 from labcut.orientation.pairs import build_pairs
 from labcut.orientation.problem import build_problem, lobe_reach
-from labcut.orientation.setup import FlashSetup
+from labcut.orientation.question import FlashQuestion
 from labcut.orientation.uncertainty import finer_poses, half_directions, stencil
 
 MESHES = Path(__file__).resolve().parents[1] / "meshes"
@@ -39,7 +39,7 @@ CASES = [
 
 
 def _both(mesh, scenario, which, occlusion=None):
-    setup = FlashSetup.build("blue", scenario, quality="draft")
+    setup = FlashQuestion.build("blue", scenario, quality="draft")
     q = half_directions(setup.quality) if which == "half" else finer_poses(setup.quality)
     other = setup.at_quality(q)
     settings = other.scenario.settings()
@@ -87,7 +87,7 @@ def test_the_carving_with_and_without_occlusion_rays(meshes):
 
 def test_bad_normals_and_arguments_are_refused(meshes):
     mesh = meshes["oval-16x12-low.ply"]
-    setup = FlashSetup.build("blue", "bench", quality="draft")
+    setup = FlashQuestion.build("blue", "bench", quality="draft")
     settings = setup.scenario.settings()
     pairs = build_pairs(mesh, setup.material, setup.quality, setup.tau, setup.seed, settings)
     with pytest.raises(ParameterError, match="finite"):

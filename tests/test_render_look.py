@@ -194,14 +194,14 @@ def test_rock_animation_one_exposure_webp_and_gif(oval, tmp_path, monkeypatch):
 
     mesh, material, rec = oval
     seen = []
-    real = render_cmd.render_setup
+    real = render_cmd.render_checked
 
     def spy(mesh, setup, *args, **kwargs):
         result = real(mesh, setup, *args, **kwargs)
         seen.append((setup.exposure, result.exposure))
         return result
 
-    monkeypatch.setattr(render_cmd, "render_setup", spy)
+    monkeypatch.setattr(render_cmd, "render_checked", spy)
     anim = anim_mod.animate(mesh, material, rec.normal, motion="rock", frames=4, scenario=rec.scenario, spp=2,
                             resolution=32, output=tmp_path / "rock.webp")
     assert len(anim.frames) == 4 and anim.angles_deg == pytest.approx([0.0, 30.0, 0.0, -30.0], abs=1e-9)

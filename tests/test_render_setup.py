@@ -1,4 +1,4 @@
-"""RenderSetup and Motion: a render request validated once, carried as it is (issue 16 §1)."""
+"""RenderRequest and Motion: a render request validated once, carried as it is (issue 16 §1)."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ import pytest
 import labcut
 from labcut.errors import ParameterError
 from labcut.rendering import api
-from labcut.rendering.setup import Motion, RenderSetup
+from labcut.rendering.request import Motion, RenderRequest
 
 
 @pytest.fixture(scope="module")
@@ -17,12 +17,12 @@ def cab():
 
 
 def test_build_holds_the_request():
-    s = RenderSetup.build("red", "ring", view="face-up", spp=8, resolution=24, look="studio", seed=3)
+    s = RenderRequest.build("red", "ring", view="face-up", spp=8, resolution=24, look="studio", seed=3)
     assert s.material.name == "red" and s.scenario.name == "ring" and s.spp == 8 and s.resolution == 24
     assert [c.name for c in s.cameras] == ["face-up"] and s.look == "studio" and s.plan_denoise
-    assert s.to_dict()["views"] == ["face-up"] and "RenderSetup('red'" in repr(s)
-    assert RenderSetup.build().spp == 64 and not RenderSetup.build().plan_denoise
-    assert RenderSetup.build(time_budget=2).time_budget == 2.0
+    assert s.to_dict()["views"] == ["face-up"] and "RenderRequest('red'" in repr(s)
+    assert RenderRequest.build().spp == 64 and not RenderRequest.build().plan_denoise
+    assert RenderRequest.build(time_budget=2).time_budget == 2.0
 
 
 @pytest.mark.parametrize("kwargs, words", [
@@ -43,15 +43,15 @@ def test_build_holds_the_request():
 ])
 def test_build_refuses_bad_requests(kwargs, words):
     with pytest.raises(ParameterError, match=words):
-        RenderSetup.build(**kwargs)
+        RenderRequest.build(**kwargs)
 
 
 def test_render_takes_the_setup_as_it_is(cab, monkeypatch):
     loose = labcut.render(cab, "blue", (0.1, 0.0, 1.0), scenario="ring", spp=2, resolution=16, seed=4, check_flash=False)
-    setup = RenderSetup.build("blue", "ring", spp=2, resolution=16, seed=4)
+    setup = RenderRequest.build("blue", "ring", spp=2, resolution=16, seed=4)
     built = []
-    real = RenderSetup.build
-    monkeypatch.setattr(RenderSetup, "build", classmethod(lambda cls, *a, **k: built.append(1) or real(*a, **k)))
+    real = RenderRequest.build
+    monkeypatch.setattr(RenderRequest, "build", classmethod(lambda cls, *a, **k: built.append(1) or real(*a, **k)))
     held = labcut.render(cab, lamella_normal=(0.1, 0.0, 1.0), setup=setup, check_flash=False)
     assert not built  # given a setup, render checks nothing again
     assert np.allclose(loose.image, held.image, rtol=1e-4, atol=1e-6) and held.spp == 2 and held.scenario["name"] == "ring"
@@ -59,7 +59,7 @@ def test_render_takes_the_setup_as_it_is(cab, monkeypatch):
         labcut.render(cab, setup=setup, spp=4)
     with pytest.raises(ParameterError, match="already holds.*material"):
         labcut.render(cab, "red", setup=setup)
-    with pytest.raises(ParameterError, match="must be a labcut RenderSetup"):
+    with pytest.raises(ParameterError, match="must be a labcut RenderRequest"):
         labcut.render(cab, setup={"spp": 2})
 
 
@@ -78,7 +78,7 @@ def test_animate_refuses_what_the_motion_or_setup_holds(cab):
     with pytest.raises(ParameterError, match="holds its frames"):
         animate(cab, motion=Motion.build("rock", frames=4), frames=8)
     with pytest.raises(ParameterError, match="already holds the render request; do not also pass spp"):
-        animate(cab, setup=RenderSetup.build(spp=2, resolution=16), spp=4)
+        animate(cab, setup=RenderRequest.build(spp=2, resolution=16), spp=4)
 
 
 def _main(*args: str) -> int:
@@ -95,15 +95,15 @@ def test_cli_builds_the_setup_once_before_the_mesh(tmp_path, monkeypatch, capsys
     mesh = tmp_path / "cab.stl"
     labcut.cabochon("oval", 10, 8, resolution=32).export(mesh)
     built = []
-    real = RenderSetup.build
-    monkeypatch.setattr(RenderSetup, "build", classmethod(lambda cls, *a, **k: built.append(1) or real(*a, **k)))
+    real = RenderRequest.build
+    monkeypatch.setattr(RenderRequest, "build", classmethod(lambda cls, *a, **k: built.append(1) or real(*a, **k)))
     out = tmp_path / "a.png"
     assert _main("render", str(mesh), "-o", str(out), "--spp", "2", "--resolution", "16", "--look", "diagram") == 0
     assert built == [1] and out.is_file()
     # a bad option fails before the mesh is read, named as the option
     loads = []
     monkeypatch.setattr(meshio, "load_mesh", lambda *a, **k: loads.append(1))
-    for args, words in ((["--spp", "4", "--time-budget", "1"], "give --spp or --time-budget"),
+    for args, words in ((["--spp", "4", "--time-budget", "1"], "--spp or --time-budget: give one, not both"),
                         (["--mode", "infrared"], "mode must be one of"),
                         (["--mode", "mono", "--denoise"], "denoising needs")):
         capsys.readouterr()
@@ -119,5 +119,5 @@ def test_a_missing_denoiser_fails_before_any_work(monkeypatch):
 
     monkeypatch.setattr(denoise, "available", lambda: False)
     with pytest.raises(BackendError, match="pyoidn"):
-        RenderSetup.build(look="studio")
-    assert RenderSetup.build(look="studio", denoise=False).look == "studio"  # denoise off needs no pyoidn
+        RenderRequest.build(look="studio")
+    assert RenderRequest.build(look="studio", denoise=False).look == "studio"  # denoise off needs no pyoidn

@@ -16,7 +16,7 @@ import pytest
 
 import labcut
 from labcut.orientation.problem import build_problem, surface_samples
-from labcut.orientation.setup import FlashSetup
+from labcut.orientation.question import FlashQuestion
 from labcut.orientation.uncertainty import (
     estimate_uncertainty,
     finer_poses,
@@ -44,7 +44,7 @@ def _full(mesh, setup, quality, occlusion=None):
     ("ring", "balanced", (0.1, 0.05, 1.0)),
 ])
 def test_reused_error_bars_equal_the_direct_computation(oval, scenario, objective, normal):
-    setup = FlashSetup.build("blue", scenario, quality="draft", objective=objective)
+    setup = FlashQuestion.build("blue", scenario, quality="draft", objective=objective)
     problem = _full(oval, setup, setup.quality)
     got = uncertainty_for(oval, setup, problem, normal, occlusion=None, tolerance_deg=3.0)
     rocks = setup.scenario.rock_deg > 0.0 or setup.scenario.sway_deg > 0.0
@@ -57,7 +57,7 @@ def test_reused_error_bars_equal_the_direct_computation(oval, scenario, objectiv
 def test_problems_of_one_stone_share_their_surface_samples(oval):
     """The error bars' problems find the answer's surface samples in the mesh's cache (same count
     and seed), and a fresh copy of the mesh (no cache) draws the very same ones."""
-    setup = FlashSetup.build("blue", "bench", quality="draft")
+    setup = FlashQuestion.build("blue", "bench", quality="draft")
     n = setup.quality.surface_points
     first = surface_samples(oval, n, 3)
     assert surface_samples(oval, n, 3) is first
@@ -79,7 +79,7 @@ def test_the_drjit_triple_kernel_equals_the_numpy_reference(name, scenario, monk
     from labcut.orientation.kernels import KernelOptions
 
     mesh = labcut.load_mesh(MESHES / name)
-    setup = FlashSetup.build("blue", scenario, quality="draft")
+    setup = FlashQuestion.build("blue", scenario, quality="draft")
     settings = setup.scenario.settings()
     fast = build_problem(mesh, setup.material, quality="draft", settings=settings)
     slow = build_problem(mesh, setup.material, quality="draft", settings=settings, kernels=KernelOptions(triples=False))
@@ -87,7 +87,7 @@ def test_the_drjit_triple_kernel_equals_the_numpy_reference(name, scenario, monk
         np.testing.assert_array_equal(getattr(fast, key), getattr(slow, key))
     np.testing.assert_allclose(fast.h, slow.h, rtol=0, atol=1e-6)
     np.testing.assert_allclose(fast.c, slow.c, rtol=0, atol=1e-5 * float(slow.c.max()))
-    asked = FlashSetup.build("blue", scenario, quality="draft", estimator="samples")
+    asked = FlashQuestion.build("blue", scenario, quality="draft", estimator="samples")
     rec_slow = labcut.recommend_orientation(mesh, setup=replace(asked, kernels=KernelOptions(triples=False)))
     rec_fast = labcut.recommend_orientation(mesh.copy(), setup=asked)
     angle = math.degrees(math.acos(min(1.0, abs(float(np.dot(rec_fast.normal, rec_slow.normal))))))

@@ -16,7 +16,7 @@ import pytest
 import labcut
 from labcut.errors import ParameterError
 from labcut.orientation.recommend import Recommendation
-from labcut.orientation.setup import FlashSetup
+from labcut.orientation.question import FlashQuestion
 from labcut.orientation.uncertainty import (
     Uncertainty,
     estimate_uncertainty,
@@ -78,9 +78,9 @@ def test_every_recommendation_carries_error_bars_in_its_json_and_repr(oval, tmp_
 
 def test_the_sampling_bar_shrinks_with_more_surface_points(oval):
     """Four times the surface samples: the bootstrap spread of the normal about halves."""
-    setup = FlashSetup.build("blue", "bench", quality="draft")
+    setup = FlashQuestion.build("blue", "bench", quality="draft")
     few = labcut.recommend_orientation(oval, setup=setup)
-    many = labcut.recommend_orientation(oval, setup=FlashSetup.build(
+    many = labcut.recommend_orientation(oval, setup=FlashQuestion.build(
         "blue", "bench", quality=Quality.coerce("draft").replace(surface_points=12000)))
     ratio = many.uncertainty.sampling_angle_deg / few.uncertainty.sampling_angle_deg
     assert 0.3 < ratio < 0.8
@@ -123,7 +123,7 @@ def test_a_bar_too_narrow_would_miss():
 
 
 def test_bad_inputs_are_one_line_errors(oval):
-    setup = FlashSetup.build("blue", "bench", quality="draft")
+    setup = FlashQuestion.build("blue", "bench", quality="draft")
     from labcut.commands.recommend import planned_scorer as _setup
 
     scorer, _ = _setup(oval, setup)

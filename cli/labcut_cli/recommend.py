@@ -94,25 +94,25 @@ def parse_exposure(text: str) -> float | None:
     return value
 
 
+#: what a library parameter is called on this command line, for its one-line errors
+_OPTION_NAMES = {"objective": "--objective", "quality": "--quality", "max_tilt": "--max-tilt",
+                 "tilt axis": "--tilt-axis", "seed": "--seed"}
+
+
 def _question(material: Any, scenario: str | None, lighting: str | None, viewing: str | None, quality: str,
               estimator: str, effect: list[str] | None, zoning: str | None, **rest: Any) -> Any:
-    """The command's :class:`~labcut.orientation.setup.FlashSetup`, built (and so checked) once
+    """The command's :class:`~labcut.orientation.question.FlashQuestion`, built (and so checked) once
     from its options, before the mesh is read; errors name the options."""
     from labcut.errors import ParameterError
-    from labcut.orientation.setup import FlashSetup
+    from labcut.orientation.question import FlashQuestion
 
     effects = po.check(estimator, effect)
     zone = m.build_zoning(zoning, material)
     try:
-        return FlashSetup.build(material, scenario, lighting, viewing, quality=quality, estimator=estimator,
+        return FlashQuestion.build(material, scenario, lighting, viewing, quality=quality, estimator=estimator,
                                 effects=effects, zoning=zone, **rest)
     except ParameterError as exc:
-        text = str(exc)
-        for word in ("objective", "quality", "max_tilt", "tilt axis", "seed"):
-            if text.startswith(word):
-                text = "--" + word.replace("_", "-").replace(" ", "-") + text[len(word):]
-                break
-        raise ParameterError(text) from None
+        raise exc.renamed(_OPTION_NAMES) from None
 
 
 def render_summary(result: Any, path: Path | str) -> dict[str, Any]:
@@ -187,15 +187,15 @@ def recommend_orientation(
     exposure_value = parse_exposure(exposure)
     quality_or_budget(quality is not None, time_budget is not None, flags=True)
     quality = quality or "standard"
-    # the whole question, checked once (FlashSetup.build); the library takes it as it is
+    # the whole question, checked once (FlashQuestion.build); the library takes it as it is
     setup = _question(material, scenario, lighting, viewing, quality, estimator, effect, zoning, objective=objective,
                       max_tilt=max_tilt, tilt_axis=parse_vector(tilt_axis, "--tilt-axis") if tilt_axis else None, seed=seed)
     scene, zone = setup.scenario, setup.zoning
     render_ask = None
     if render_path is not None:  # the render's request, checked once too, before the long work
-        from labcut.rendering.setup import RenderSetup
+        from labcut.rendering.request import RenderRequest
 
-        render_ask = RenderSetup.build(setup.material, scene, spp=spp, resolution=resolution, zoning=zone,
+        render_ask = RenderRequest.build(setup.material, scene, spp=spp, resolution=resolution, zoning=zone,
                                        exposure=exposure_value, look=lo.spec(look), denoise=denoise)
     if time_budget is not None:
         from labcut.validation import check_budget
@@ -274,11 +274,11 @@ def recommend_orientation(
         return
     try:
         with progress_bar("rendering", "samples/pixel") as update:
-            from labcut.commands.render import render_setup
+            from labcut.commands.render import render_checked
             from labcut.scene.directions import normalize_normal
 
             assert render_ask is not None
-            result = render_setup(mesh, render_ask.replace(scenario=rec.scenario), normalize_normal(rec.normal), progress=update)
+            result = render_checked(mesh, render_ask.replace(scenario=rec.scenario), normalize_normal(rec.normal), progress=update)
         with all_or_nothing() as written:
             result.save(render_path)
             written.append(Path(render_path))

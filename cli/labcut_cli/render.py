@@ -101,9 +101,9 @@ def render(
     only with --polarizer, direct lighting for convex stones, a path tracer for carvings.
     """
     from labcut.fileio import check_output_path
-    from labcut.commands.render import render_setup
+    from labcut.commands.render import render_checked
     from labcut.scene.directions import normalize_normal
-    from labcut.rendering.setup import LOBES, Motion, RenderSetup
+    from labcut.rendering.request import LOBES, Motion, RenderRequest
     from labcut.rendering.images import IMAGE_SUFFIXES
 
     from .progress import progress_bar
@@ -130,8 +130,8 @@ def render(
     if "," in view:
         view_spec = parse_vector(view, "--view", length=2)  # type: ignore[assignment]
     scene = so.resolve(scenario, lighting, viewing)
-    # the whole request, checked once (RenderSetup.build), before the mesh loads; the library takes it as it is
-    setup = _option_error(lambda: RenderSetup.build(
+    # the whole request, checked once (RenderRequest.build), before the mesh loads; the library takes it as it is
+    setup = _option_error(lambda: RenderRequest.build(
         material, scene, view=view_spec, spp=spp, time_budget=time_budget, resolution=resolution, mode=mode,
         polarizer_deg=polarizer, lobes=("schiller",) if schiller_only else LOBES, seed=seed, zoning=zoning_spec,
         exposure=parse_exposure(exposure), look=lo.spec(look, seed), denoise=denoise))
@@ -150,7 +150,7 @@ def render(
         _animate(mesh_path, mesh, lamella, setup, move, output, json_path)
         return
     with notes_after(), progress_bar("rendering", "samples/pixel") as update:
-        result = render_setup(mesh, setup, lamella, progress=update)
+        result = render_checked(mesh, setup, lamella, progress=update)
     summary = {
         "output": str(output),
         "mesh": {**result.mesh, "path": str(mesh_path)},
@@ -212,24 +212,18 @@ def _write(made: Any, output: Path, summary: dict[str, Any], json_path: Optional
 #: what a library parameter is called on this command line, for its one-line errors
 _OPTION_NAMES = {"spp": "--spp", "resolution": "--resolution", "mode": "--mode", "polarizer angle": "--polarizer",
                  "time budget": "--time-budget", "seed": "--seed", "frames": "--frames", "rock amplitude": "--rock-deg",
-                 "fps": "--fps", "motion": "--animate", "exposure": "--exposure", "lobes": "--schiller-only"}
+                 "fps": "--fps", "motion": "--animate", "exposure": "--exposure", "lobes": "--schiller-only",
+                 "spp or time budget": "--spp or --time-budget"}
 
 
 def _option_error(build: Any) -> Any:
-    """``build()``, a ParameterError's leading library name replaced by the option's."""
+    """``build()``, a ParameterError's library parameter name replaced by the option's."""
     from labcut.errors import ParameterError
 
     try:
         return build()
     except ParameterError as exc:
-        text = str(exc)
-        for word, option in _OPTION_NAMES.items():
-            if text.startswith(word + " "):
-                text = option + text[len(word):]
-                break
-        if text.startswith("give spp or a time budget"):
-            text = "give --spp or --time-budget, not both (the budget chooses the samples per pixel)"
-        raise ParameterError(text) from None
+        raise exc.renamed(_OPTION_NAMES) from None
 
 
 def _animate(mesh_path: Path, mesh, lamella, setup, move, output: Path, json_path: Optional[str]) -> None:

@@ -28,7 +28,7 @@ from ..geometry.stone import mesh_of
 from ..scene import Scenario
 from ..scene.directions import rotation
 
-from ..rendering.setup import FRAME_LIMITS, MOTIONS, Motion, RenderSetup  # noqa: F401  (re-exported)
+from ..rendering.request import FRAME_LIMITS, MOTIONS, Motion, RenderRequest  # noqa: F401  (re-exported)
 
 ANIMATION_SUFFIXES = (".webp", ".gif")
 
@@ -64,7 +64,7 @@ class Animation:
 
 def frame_angles(motion: str, frames: int, amplitude_deg: float = 30.0) -> list[float]:
     """The angle of each frame (degrees): a sine rock of ±``amplitude_deg`` or a full turn
-    (:class:`~labcut.rendering.setup.Motion`)."""
+    (:class:`~labcut.rendering.request.Motion`)."""
     return Motion.build(motion, frames, amplitude_deg).angles_deg
 
 
@@ -92,7 +92,7 @@ def animate(
     motion: str | Motion = "rock",
     frames: int = 36,
     amplitude_deg: float = 30.0,
-    setup: RenderSetup | None = None,
+    setup: RenderRequest | None = None,
     scenario: Any = None,
     lighting: Any = None,
     viewing: Any = None,
@@ -112,13 +112,13 @@ def animate(
     (.webp or .gif). ``progress(done_frames, frames)`` is called after each frame. ``exposure``:
     a multiplier for every frame (None: the rest pose's automatic exposure, reused for all).
 
-    ``motion`` may be a validated :class:`~labcut.rendering.setup.Motion` (then ``frames``,
+    ``motion`` may be a validated :class:`~labcut.rendering.request.Motion` (then ``frames``,
     ``amplitude_deg`` and ``fps`` are its own), and ``setup`` a validated
-    :class:`~labcut.rendering.setup.RenderSetup` of the rest pose (then ``material`` and the render
+    :class:`~labcut.rendering.request.RenderRequest` of the rest pose (then ``material`` and the render
     arguments stay at their defaults): what the CLI passes, checked once."""
     mesh = mesh_of(mesh)  # a Stone or a trimesh
     from ..validation import given_besides
-    from .render import render_setup
+    from .render import render_checked
 
     asked = {"material": material, "scenario": scenario, "lighting": lighting, "viewing": viewing, "spp": spp,
              "resolution": resolution, "exposure": exposure, "look": look, "denoise": denoise, "zoning": zoning, "seed": seed}
@@ -129,10 +129,10 @@ def animate(
     else:
         move = Motion.build(motion, frames, amplitude_deg, fps)
     if setup is None:
-        setup = RenderSetup.build(asked.pop("material"), asked.pop("scenario"), asked.pop("lighting"), asked.pop("viewing"),
+        setup = RenderRequest.build(asked.pop("material"), asked.pop("scenario"), asked.pop("lighting"), asked.pop("viewing"),
                                   **asked)
-    elif not isinstance(setup, RenderSetup):
-        raise ParameterError(f"setup must be a labcut RenderSetup (RenderSetup.build(...)), got {type(setup).__name__}")
+    elif not isinstance(setup, RenderRequest):
+        raise ParameterError(f"setup must be a labcut RenderRequest (RenderRequest.build(...)), got {type(setup).__name__}")
     else:
         given_besides(asked, _ANIMATION_DEFAULTS, "setup= already holds the render request")
     if output is not None:
@@ -153,7 +153,7 @@ def animate(
     start = time.perf_counter()
     for i, angle in enumerate(angles):
         frame = setup.replace(scenario=posed(setup.scenario, move.motion, angle), exposure=used)
-        result = render_setup(mesh, frame, normal, check_flash=(i == 0))
+        result = render_checked(mesh, frame, normal, check_flash=(i == 0))
         if used is None:
             used = result.exposure  # the rest pose's (frame 0: angle 0) automatic exposure, for every frame
         if i == 0:

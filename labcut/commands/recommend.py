@@ -21,7 +21,7 @@ from .budget import choose, kind_of, mark_warm, quality_or_budget, record
 from ..orientation.optimize import OPTIMIZERS
 from ..orientation.recommend import Recommendation, answer_recommendation, build_scorer, evaluation_metrics, question
 from ..orientation.scoring import FlashMetrics, Scorer
-from ..orientation.setup import FlashSetup
+from ..orientation.question import FlashQuestion
 from ..physics.material import Labradorite
 from ..planner import EffectPlan, occlusion_on, plan_question
 from ..scene import Lights, Scenario, Views
@@ -30,7 +30,7 @@ from ..scene.quality import Quality
 from ..validation import is_default
 
 
-def planned_scorer(mesh: Any, setup: FlashSetup, command: str = "recommend", plan: Any = None) -> tuple[Scorer, Any]:
+def planned_scorer(mesh: Any, setup: FlashQuestion, command: str = "recommend", plan: Any = None) -> tuple[Scorer, Any]:
     """Plan the effects of ``setup`` on ``mesh`` (:func:`labcut.planner.plan_effects`; ``plan``: one
     already made for them, used as it is) and build the sample estimator's problem as planned
     (:func:`build_scorer`): ``(scorer, plan)``."""
@@ -63,7 +63,7 @@ def recommend_orientation(
     estimator: str = "auto",
     effects: Mapping[str, Any] | None = None,
     zoning: Any = None,
-    setup: FlashSetup | None = None,
+    setup: FlashQuestion | None = None,
     time_budget: float | None = None,
     plan: Any = None,
 ) -> Recommendation:
@@ -103,8 +103,8 @@ def recommend_orientation(
         machine replaces ``quality`` (:mod:`labcut.commands.budget`; the choice is in
         ``settings["time_budget"]``). Below the cheapest setting's prediction the cheapest runs,
         with a one-line :class:`~labcut.errors.LabcutWarning`.
-    setup: the whole question at once, validated (:meth:`FlashSetup.build
-        <labcut.orientation.setup.FlashSetup.build>`, what the CLI passes); then the arguments it
+    setup: the whole question at once, validated (:meth:`FlashQuestion.build
+        <labcut.orientation.question.FlashQuestion.build>`, what the CLI passes); then the arguments it
         holds (material to zoning above, but not ``optimizer`` and ``progress``) stay unset.
     plan: the effect plan of this mesh and question already made
         (:func:`labcut.planner.plan_effects` with ``command="recommend"``, e.g. to show it first, as
@@ -142,7 +142,7 @@ def recommend_orientation(
     return rec
 
 
-def within_budget(mesh: Any, ask: FlashSetup, time_budget: Any, *, quality_given: bool) -> tuple[FlashSetup, Any]:
+def within_budget(mesh: Any, ask: FlashQuestion, time_budget: Any, *, quality_given: bool) -> tuple[FlashQuestion, Any]:
     """``ask`` at the most accurate quality predicted to fit ``time_budget`` seconds
     (:func:`labcut.commands.budget.choose`), and the choice."""
     quality_or_budget(quality_given, True)
@@ -172,7 +172,7 @@ def evaluate_orientation(
     estimator: str = "auto",
     effects: Mapping[str, Any] | None = None,
     zoning: Any = None,
-    setup: FlashSetup | None = None,
+    setup: FlashQuestion | None = None,
     plan: Any = None,
 ) -> FlashMetrics:
     """Flash metrics (DESIGN.md §4) of a given lamella normal (mesh frame, axial) under a

@@ -60,8 +60,8 @@ def render(
 
     Parameters
     ----------
-    setup: the whole request at once, validated (:meth:`RenderSetup.build
-        <labcut.rendering.setup.RenderSetup.build>`, what the CLI passes); then ``material`` and
+    setup: the whole request at once, validated (:meth:`RenderRequest.build
+        <labcut.rendering.request.RenderRequest.build>`, what the CLI passes); then ``material`` and
         the request's arguments below stay at their defaults (``lamella_normal``, ``output``,
         ``progress`` and ``check_flash`` are not part of it).
     scenario: how the stone is lit, worn and seen (default ``bench``): a name, a JSON file or a
@@ -115,15 +115,15 @@ def render(
         from ..fileio import check_output_path
 
         check_output_path(output, (".png", ".exr"))
-    result = render_setup(mesh, ask, normal, progress=progress, check_flash=check_flash)
+    result = render_checked(mesh, ask, normal, progress=progress, check_flash=check_flash)
     if output is not None:
         result.save(output)
     return result
 
 
-def render_setup(mesh: Any, ask: Any, normal: np.ndarray, *, progress: Callable[[int, int], None] | None = None,
+def render_checked(mesh: Any, ask: Any, normal: np.ndarray, *, progress: Callable[[int, int], None] | None = None,
                  check_flash: bool = True) -> RenderResult:
-    """:func:`render` of a checked mesh, :class:`~labcut.rendering.setup.RenderSetup` ``ask`` and
+    """:func:`render` of a checked mesh, :class:`~labcut.rendering.request.RenderRequest` ``ask`` and
     unit lamella ``normal`` (checks nothing again); the result is not saved."""
     rplan = plan_for(mesh, ask)
     spp = ask.spp

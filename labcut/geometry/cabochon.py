@@ -60,11 +60,11 @@ def _resolution(resolution: int | str) -> int:
         try:
             resolution = int(resolution)
         except ValueError:
-            raise ParameterError(f"resolution must be an integer or 'default', got {resolution!r}") from None
+            raise ParameterError(f"resolution must be an integer or 'default', got {resolution!r}", parameter="resolution") from None
     if isinstance(resolution, bool) or not isinstance(resolution, (int, np.integer)):
-        raise ParameterError(f"resolution must be an integer or 'default', got {resolution!r}")
+        raise ParameterError(f"resolution must be an integer or 'default', got {resolution!r}", parameter="resolution")
     if not MIN_RESOLUTION <= int(resolution) <= MAX_RESOLUTION:
-        raise ParameterError(f"resolution must be between {MIN_RESOLUTION} and {MAX_RESOLUTION}, got {resolution}")
+        raise ParameterError(f"resolution must be between {MIN_RESOLUTION} and {MAX_RESOLUTION}, got {resolution}", parameter="resolution")
     return int(resolution)
 
 

@@ -90,7 +90,7 @@ class SampleEstimator:
 
 @dataclass
 class RenderEstimator:
-    """The render estimator for a question (``ask``, a :class:`~labcut.orientation.setup.FlashSetup`)
+    """The render estimator for a question (``ask``, a :class:`~labcut.orientation.question.FlashQuestion`)
     about ``mesh``: paths as deep as the plan's inter-reflection asks (``max_depth``), the render
     settings of the question's quality (:data:`~labcut.orientation.render_estimator.RENDER_QUALITY`)."""
 

@@ -33,14 +33,14 @@ class Constraint:
 
     def __post_init__(self) -> None:
         if not (isinstance(self.max_tilt_deg, int | float) and math.isfinite(self.max_tilt_deg) and 0.0 < self.max_tilt_deg <= 90.0):
-            raise ParameterError(f"max_tilt must lie in (0, 90] degrees, got {self.max_tilt_deg!r}")
+            raise ParameterError(f"max_tilt must lie in (0, 90] degrees, got {self.max_tilt_deg!r}", parameter="max_tilt")
         if self.tilt_axis is not None:
             a = np.asarray(self.tilt_axis, dtype=np.float64)
             if a.shape != (3,) or not np.all(np.isfinite(a)):
-                raise ParameterError("tilt axis must be three finite numbers")
+                raise ParameterError("tilt axis must be three finite numbers", parameter="tilt axis")
             a = a - a[2] * np.array([0.0, 0.0, 1.0])
             if np.linalg.norm(a) < 1e-9:
-                raise ParameterError("tilt axis must be horizontal (it may not be the face-up axis)")
+                raise ParameterError("tilt axis must be horizontal (it may not be the face-up axis)", parameter="tilt axis")
             object.__setattr__(self, "tilt_axis", tuple(float(x) for x in a / np.linalg.norm(a)))
 
     @property

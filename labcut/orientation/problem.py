@@ -372,7 +372,7 @@ def check_problem_inputs(mesh: Any, seed: Any, tau: Any) -> Any:
         mesh = mesh.mesh
 
     if not (isinstance(seed, int | np.integer) and 0 <= int(seed) < 2**63):
-        raise ParameterError(f"seed must be a whole number >= 0, got {seed!r}")
+        raise ParameterError(f"seed must be a whole number >= 0, got {seed!r}", parameter="seed")
     if not (isinstance(tau, int | float) and math.isfinite(tau) and 0.0 < tau < 10.0):
         raise ParameterError(f"flash threshold tau must lie in (0, 10), got {tau!r}")
     if not isinstance(mesh, trimesh.Trimesh) or len(mesh.faces) == 0:

@@ -22,7 +22,7 @@ from ..geometry.stone import Stone
 from .problem import build_problem
 from .scoring import FlashMetrics, Scorer
 from .estimators import estimator_for
-from .setup import FlashSetup
+from .question import FlashQuestion
 from .uncertainty import Uncertainty, uncertainty_for
 
 #: the presets' map spacing (degrees), read from :class:`~labcut.scene.quality.Quality`
@@ -323,20 +323,20 @@ _QUESTION_DEFAULTS: dict[str, Any] = {
 }
 
 
-def question(setup: FlashSetup | None = None, **asked: Any) -> FlashSetup:
-    """The :class:`~labcut.orientation.setup.FlashSetup` of a call: ``setup`` itself, or one built
+def question(setup: FlashQuestion | None = None, **asked: Any) -> FlashQuestion:
+    """The :class:`~labcut.orientation.question.FlashQuestion` of a call: ``setup`` itself, or one built
     (and so validated) from the loose arguments ``asked`` (names of :data:`_QUESTION_DEFAULTS`).
     Both at once is an error: the setup holds the question."""
     if setup is None:
-        return FlashSetup.build(asked.get("material"), asked.get("scenario"), asked.get("lighting"), asked.get("viewing"),
+        return FlashQuestion.build(asked.get("material"), asked.get("scenario"), asked.get("lighting"), asked.get("viewing"),
                                 **{k: v for k, v in asked.items() if k not in ("material", "scenario", "lighting", "viewing")})
-    if not isinstance(setup, FlashSetup):
-        raise ParameterError(f"setup must be a labcut FlashSetup (FlashSetup.build(...)), got {type(setup).__name__}")
+    if not isinstance(setup, FlashQuestion):
+        raise ParameterError(f"setup must be a labcut FlashQuestion (FlashQuestion.build(...)), got {type(setup).__name__}")
     given_besides(asked, _QUESTION_DEFAULTS, "setup= already holds the question")
     return setup
 
 
-def build_scorer(mesh: Any, setup: FlashSetup, plan: Any) -> Scorer:
+def build_scorer(mesh: Any, setup: FlashQuestion, plan: Any) -> Scorer:
     """The sample estimator's scorer of the question ``setup`` about ``mesh`` (a checked trimesh),
     its flash problem built as ``plan`` (an :class:`~labcut.planner.EffectPlan`) says: occlusion
     rays or not, the setup's kernel options."""
@@ -345,7 +345,7 @@ def build_scorer(mesh: Any, setup: FlashSetup, plan: Any) -> Scorer:
     return Scorer(problem, setup.objective)
 
 
-def answer_recommendation(mesh: Any, ask: FlashSetup, scorer: Scorer, plan: Any, *, optimizer: str = "nlopt",
+def answer_recommendation(mesh: Any, ask: FlashQuestion, scorer: Scorer, plan: Any, *, optimizer: str = "nlopt",
                           progress: Callable[[str, float], None] | None = None, budget: Any = None,
                           start: float | None = None) -> Recommendation:
     """The recommendation of question ``ask`` about ``mesh`` (a checked trimesh) from its sample
@@ -469,7 +469,7 @@ def _runners_up(scorer: Scorer, constraint: Constraint, normals: np.ndarray, sco
     return out
 
 
-def evaluation_metrics(mesh: Any, ask: FlashSetup, scorer: Scorer, plan: Any, m: np.ndarray) -> FlashMetrics:
+def evaluation_metrics(mesh: Any, ask: FlashQuestion, scorer: Scorer, plan: Any, m: np.ndarray) -> FlashMetrics:
     """Flash metrics of the unit lamella normal ``m`` for question ``ask`` about ``mesh``, by the
     estimator ``plan`` names (:func:`~labcut.orientation.estimators.estimator_for`: the sample
     estimator's ``scorer``, or renders)."""

@@ -290,7 +290,7 @@ class RenderRecommendation:
 
 def _quality(quality: str) -> RenderQuality:
     if quality not in RENDER_QUALITY:
-        raise ParameterError(f"quality must be one of {', '.join(RENDER_QUALITY)}, got {quality!r}")
+        raise ParameterError(f"quality must be one of {', '.join(RENDER_QUALITY)}, got {quality!r}", parameter="quality")
     return RENDER_QUALITY[quality]
 
 

@@ -178,7 +178,7 @@ class RenderObjective:
         from .scoring import OBJECTIVES
 
         if objective not in OBJECTIVES:
-            raise ParameterError(f"objective must be one of {', '.join(OBJECTIVES)}, got {objective!r}")
+            raise ParameterError(f"objective must be one of {', '.join(OBJECTIVES)}, got {objective!r}", parameter="objective")
         self.tau = check_number(tau, "flash threshold tau", 0.0, 10.0, low_open=True)
         self.resolution = check_number(resolution, "resolution", 8, 4096, integer=True)
         self.spp = check_number(spp, "spp (samples per pixel)", 1, 1 << 16, integer=True)

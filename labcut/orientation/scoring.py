@@ -530,7 +530,7 @@ class Scorer:
 
     def __init__(self, problem: FlashProblem, objective: str = "energy") -> None:
         if objective not in OBJECTIVES:
-            raise ParameterError(f"objective must be one of {', '.join(OBJECTIVES)}, got {objective!r}")
+            raise ParameterError(f"objective must be one of {', '.join(OBJECTIVES)}, got {objective!r}", parameter="objective")
         from ..backend import ad_types
 
         dr, t = ad_types()

@@ -384,9 +384,9 @@ def estimate_uncertainty(problem: FlashProblem, normal: Any, objective: str = "e
 def uncertainty_for(mesh: Any, setup: Any, problem: FlashProblem, normal: Any, *, occlusion: bool | None,
                     tolerance_deg: float | None) -> Uncertainty:
     """:func:`estimate_uncertainty` of a recommendation asked as ``setup`` (a
-    :class:`~labcut.orientation.setup.FlashSetup`) whose sample problem is ``problem``: the
-    half-direction problem of the same question (:meth:`FlashSetup.at_quality
-    <labcut.orientation.setup.FlashSetup.at_quality>` with :func:`half_directions`, the answer's
+    :class:`~labcut.orientation.question.FlashQuestion`) whose sample problem is ``problem``: the
+    half-direction problem of the same question (:meth:`FlashQuestion.at_quality
+    <labcut.orientation.question.FlashQuestion.at_quality>` with :func:`half_directions`, the answer's
     own surface samples) and, for a scenario that rocks, the finer-pose one (:func:`finer_poses`).
 
     Both are built as pairs only (:func:`labcut.orientation.pairs.build_pairs`): their stencil sums

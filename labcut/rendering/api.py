@@ -167,7 +167,7 @@ def build_scene(
     """The Mitsuba scene for one camera (selects the plan's variant). Returns (scene, plan).
 
     ``request``: the other arguments of the render request, as
-    :meth:`RenderSetup.build <labcut.rendering.setup.RenderSetup.build>` takes them
+    :meth:`RenderRequest.build <labcut.rendering.request.RenderRequest.build>` takes them
     (``polarizer_deg``, ``lobes``, ``max_depth``, ``perspective``, ``zoning``, ``look``,
     ``denoise``); the lights and camera come from ``setting`` and ``view``.
 
@@ -188,7 +188,7 @@ def build_scene(
     filter (the colour only; :func:`labcut.rendering.denoise.trace_aux` traces the shading guide
     and normal the denoiser wants from this scene in passes of their own).
     """
-    from .setup import RenderSetup
+    from .request import RenderRequest
 
     if setting is None:
         setting = resolve_scene().main_setting()
@@ -198,7 +198,7 @@ def build_scene(
     bad = sorted(set(request) - {"polarizer_deg", "lobes", "max_depth", "perspective", "zoning", "look", "denoise"})
     if bad:
         raise ParameterError(f"build_scene takes no {', '.join(bad)} (the camera and lights come from setting and view)")
-    ask = RenderSetup.build(material, resolution=resolution, mode=mode, **request)
+    ask = RenderRequest.build(material, resolution=resolution, mode=mode, **request)
     return _scene(mesh, ask, normalize_normal(lamella_normal), setting, cams[0], integrator)
 
 
@@ -247,7 +247,7 @@ def _scene_parts(mesh: Any, ask: Any, normal: np.ndarray, setting: Setting, inte
 
 def _scene(mesh: Any, ask: Any, normal: np.ndarray, setting: Setting, cam: CameraView,
            integrator: str | None = None, parts: _SceneParts | None = None) -> tuple[Any, RenderPlan]:
-    """The Mitsuba scene of one camera for a validated :class:`~labcut.rendering.setup.RenderSetup`
+    """The Mitsuba scene of one camera for a validated :class:`~labcut.rendering.request.RenderRequest`
     ``ask`` and a unit lamella ``normal`` (checks nothing: :func:`build_scene` and :func:`render` did);
     ``parts``: the render's :func:`_scene_parts`, shared by its cameras (built here when None)."""
     import mitsuba as mi
@@ -288,17 +288,17 @@ _REQUEST_DEFAULTS: dict[str, Any] = {
 
 
 def render_question(setup: Any = None, **asked: Any) -> Any:
-    """The :class:`~labcut.rendering.setup.RenderSetup` of a call: ``setup`` itself, or one built
+    """The :class:`~labcut.rendering.request.RenderRequest` of a call: ``setup`` itself, or one built
     (and so validated) from the loose arguments ``asked`` (names of :data:`_REQUEST_DEFAULTS`).
     Both at once is an error: the setup holds the request."""
     from ..validation import given_besides
-    from .setup import RenderSetup
+    from .request import RenderRequest
 
     if setup is None:
-        return RenderSetup.build(asked.pop("material", None), asked.pop("scenario", None), asked.pop("lighting", None),
+        return RenderRequest.build(asked.pop("material", None), asked.pop("scenario", None), asked.pop("lighting", None),
                                  asked.pop("viewing", None), **asked)
-    if not isinstance(setup, RenderSetup):
-        raise ParameterError(f"setup must be a labcut RenderSetup (RenderSetup.build(...)), got {type(setup).__name__}")
+    if not isinstance(setup, RenderRequest):
+        raise ParameterError(f"setup must be a labcut RenderRequest (RenderRequest.build(...)), got {type(setup).__name__}")
     given_besides(asked, _REQUEST_DEFAULTS, "setup= already holds the render request")
     return setup
 
@@ -306,7 +306,7 @@ def render_question(setup: Any = None, **asked: Any) -> Any:
 def render_image(mesh: Any, ask: Any, normal: np.ndarray, spp: int, *,
                  progress: Callable[[int, int], None] | None = None,
                  effects: dict[str, Any] | None = None, budget: Any = None) -> RenderResult:
-    """Render a checked mesh under the :class:`~labcut.rendering.setup.RenderSetup` ``ask`` at the
+    """Render a checked mesh under the :class:`~labcut.rendering.request.RenderRequest` ``ask`` at the
     unit lamella ``normal`` with ``spp`` samples per pixel (checks nothing again; not saved):
     the render itself, as :func:`labcut.render` runs it once it has chosen ``spp`` (a time budget's
     choice, ``budget``) and recorded the effect plan (``effects``, its ``to_dict()``)."""

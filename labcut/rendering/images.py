@@ -57,7 +57,7 @@ def tonemap(image: np.ndarray, exposure: float | None = None, curve: str = "hue"
     from ..colour import encode_srgb
 
     if exposure is not None and (isinstance(exposure, bool) or not (isinstance(exposure, int | float) and np.isfinite(exposure) and exposure > 0)):
-        raise ParameterError(f"exposure must be a finite number > 0, got {exposure!r}")
+        raise ParameterError(f"exposure must be a finite number > 0, got {exposure!r}", parameter="exposure")
     if curve not in ("hue", "agx"):
         raise ParameterError(f"tone curve must be 'hue' or 'agx', got {curve!r}")
     x = np.clip(np.nan_to_num(np.asarray(image, dtype=np.float64)), 0.0, None)

@@ -1,6 +1,6 @@
 """A render's plan: which Mitsuba variant, integrator, path depth and lobes a request needs for a
 stone, and why (:func:`plan_render`). Decided before any scene is built; the request's checks
-(:class:`~labcut.rendering.setup.RenderSetup`) and the render (:mod:`labcut.rendering.api`) share it.
+(:class:`~labcut.rendering.request.RenderRequest`) and the render (:mod:`labcut.rendering.api`) share it.
 """
 
 from __future__ import annotations
@@ -63,7 +63,7 @@ def plan_render(
     lobes = tuple(lobes)
     bad = [x for x in lobes if x not in LOBES]
     if bad or not lobes:
-        raise ParameterError(f"lobes must be a non-empty subset of {', '.join(LOBES)}, got {list(lobes)}")
+        raise ParameterError(f"lobes must be a non-empty subset of {', '.join(LOBES)}, got {list(lobes)}", parameter="lobes")
     polarized = polarizer_deg is not None
     if polarized and mode == "rgb":
         mode = "spectral"

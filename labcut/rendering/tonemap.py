@@ -68,7 +68,7 @@ def agx(image: np.ndarray) -> np.ndarray:
 def check_exposure(exposure: float) -> float:
     """A valid exposure multiplier (finite, > 0) or :class:`ParameterError`."""
     if isinstance(exposure, bool) or not (isinstance(exposure, int | float | np.floating) and math.isfinite(exposure) and exposure > 0):
-        raise ParameterError(f"exposure must be a finite number > 0, got {exposure!r}")
+        raise ParameterError(f"exposure must be a finite number > 0, got {exposure!r}", parameter="exposure")
     return float(exposure)
 
 
@@ -80,7 +80,7 @@ def ev(exposure: float) -> float:
 def from_ev(value: float) -> float:
     """Multiplier of an exposure value in stops (finite, within ±40)."""
     if isinstance(value, bool) or not (isinstance(value, int | float) and math.isfinite(value) and abs(value) <= 40.0):
-        raise ParameterError(f"exposure value must be a finite number of stops within ±40, got {value!r}")
+        raise ParameterError(f"exposure value must be a finite number of stops within ±40, got {value!r}", parameter="exposure")
     return float(2.0 ** value)
 
 

@@ -3,7 +3,7 @@
 The effect planner (:mod:`labcut.planner`) decides, for a stone in a scene, which of
 :data:`EFFECTS` are simulated and which estimator (:data:`ESTIMATORS`) answers; a user may force
 the :data:`SWITCHABLE` ones on or off (``effects=`` / ``--effect NAME=on|off``). These names and
-their checks live here, below both the question (:class:`~labcut.orientation.setup.FlashSetup`
+their checks live here, below both the question (:class:`~labcut.orientation.question.FlashQuestion`
 checks a question's overrides) and the planner that reads them.
 """
 

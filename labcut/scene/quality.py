@@ -95,27 +95,27 @@ class Quality:
 
     def __post_init__(self) -> None:
         if not isinstance(self.name, str) or not self.name:
-            raise ParameterError(f"quality name must be a non-empty string, got {self.name!r}")
+            raise ParameterError(f"quality name must be a non-empty string, got {self.name!r}", parameter="quality")
         for key, low, high in self._COUNTS:
             object.__setattr__(self, key, _whole(getattr(self, key), f"quality {key}", low, high))
         for key, low, high in self._ANGLES:
             value = getattr(self, key)
             if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value) or not low < value <= high:
-                raise ParameterError(f"quality {key} must be a number of degrees in ({low:g}, {high:g}], got {value!r}")
+                raise ParameterError(f"quality {key} must be a number of degrees in ({low:g}, {high:g}], got {value!r}", parameter="quality")
             object.__setattr__(self, key, float(value))
         try:
             steps = tuple(self.rock_steps)
         except TypeError:
-            raise ParameterError(f"quality rock_steps must be two whole numbers, got {self.rock_steps!r}") from None
+            raise ParameterError(f"quality rock_steps must be two whole numbers, got {self.rock_steps!r}", parameter="quality") from None
         if len(steps) != 2:
-            raise ParameterError(f"quality rock_steps must be two whole numbers, got {self.rock_steps!r}")
+            raise ParameterError(f"quality rock_steps must be two whole numbers, got {self.rock_steps!r}", parameter="quality")
         object.__setattr__(self, "rock_steps", tuple(_whole(s, "quality rock_steps", 1, 1000) for s in steps))
         try:
             strip = tuple(float(a) for a in self.strip_angles_deg)
         except (TypeError, ValueError):
-            raise ParameterError(f"quality strip_angles_deg must be numbers of degrees, got {self.strip_angles_deg!r}") from None
+            raise ParameterError(f"quality strip_angles_deg must be numbers of degrees, got {self.strip_angles_deg!r}", parameter="quality") from None
         if not strip or not all(math.isfinite(a) and abs(a) <= 60.0 for a in strip):
-            raise ParameterError(f"quality strip_angles_deg must be 1 or more angles within ±60°, got {self.strip_angles_deg!r}")
+            raise ParameterError(f"quality strip_angles_deg must be 1 or more angles within ±60°, got {self.strip_angles_deg!r}", parameter="quality")
         object.__setattr__(self, "strip_angles_deg", strip)
 
     # ------------------------------------------------------------------ construction
@@ -131,14 +131,14 @@ class Quality:
             key = value.strip().lower()
             if key in cls.PRESETS:
                 return cls.PRESETS[key]
-            raise ParameterError(f"quality must be one of {', '.join(QUALITIES)}, got {value!r}")
+            raise ParameterError(f"quality must be one of {', '.join(QUALITIES)}, got {value!r}", parameter="quality")
         if isinstance(value, dict):
             base = cls.PRESETS.get(str(value.get("name", "")), cls.PRESETS["standard"])
             unknown = sorted(set(value) - {f.name for f in fields(cls)})
             if unknown:
-                raise ParameterError(f"quality: unknown field(s) {', '.join(unknown)}")
+                raise ParameterError(f"quality: unknown field(s) {', '.join(unknown)}", parameter="quality")
             return dataclasses.replace(base, **value)
-        raise ParameterError(f"quality must be one of {', '.join(QUALITIES)} or a labcut Quality, got {value!r}")
+        raise ParameterError(f"quality must be one of {', '.join(QUALITIES)} or a labcut Quality, got {value!r}", parameter="quality")
 
     def replace(self, **changes: Any) -> Quality:
         """This quality with some fields changed (validated); named ``custom`` unless ``name`` is given."""

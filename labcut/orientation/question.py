@@ -1,13 +1,13 @@
-"""One frozen, validated description of a flash question: :class:`FlashSetup`.
+"""One frozen, validated description of a flash question: :class:`FlashQuestion`.
 
 Everything but the stone that decides an answer of :func:`labcut.recommend_orientation` or
 :func:`labcut.evaluate_orientation`: the material, the scenario (lights, viewers, poses), the
 :class:`~labcut.Quality`, the objective, the flash threshold ``tau`` (units of ``L_ref``), the
 sampling seed, where the normal may go (:class:`~labcut.orientation.optimize.Constraint`: max
 tilt in degrees from +Z, optional horizontal tilt axis, mesh frame), the estimator, the effect
-overrides and colour zoning. :meth:`FlashSetup.build` is the one place these are checked; the
+overrides and colour zoning. :meth:`FlashQuestion.build` is the one place these are checked; the
 CLI builds a setup once, before any work, and hands it to the library, which does not check
-again; :meth:`FlashSetup.to_dict` is what a recommendation's ``settings`` record.
+again; :meth:`FlashQuestion.to_dict` is what a recommendation's ``settings`` record.
 """
 
 from __future__ import annotations
@@ -30,7 +30,7 @@ from .scoring import OBJECTIVES
 
 
 @dataclass(frozen=True)
-class FlashSetup:
+class FlashQuestion:
     """A validated flash question (module docstring); build it with :meth:`build`."""
 
     material: Labradorite
@@ -69,25 +69,25 @@ class FlashSetup:
         estimator: str = "auto",
         effects: Mapping[str, Any] | None = None,
         zoning: Any = None,
-    ) -> FlashSetup:
+    ) -> FlashQuestion:
         """Check every argument once and return the setup; arguments as
         :func:`labcut.recommend_orientation`. Raises a one-line
         :class:`~labcut.errors.ParameterError` naming the first bad one.
 
         Examples
         --------
-        >>> from labcut.orientation.setup import FlashSetup
-        >>> s = FlashSetup.build("blue", "pendant", quality="draft", max_tilt=30)
+        >>> from labcut.orientation.question import FlashQuestion
+        >>> s = FlashQuestion.build("blue", "pendant", quality="draft", max_tilt=30)
         >>> s.scenario.name, s.quality.name, s.constraint.max_tilt_deg, s.to_dict()["tau"]
         ('pendant', 'draft', 30.0, 0.1)
-        >>> FlashSetup.build(objective="sparkle")
+        >>> FlashQuestion.build(objective="sparkle")
         Traceback (most recent call last):
         ...
         labcut.errors.ParameterError: objective must be one of energy, area, intensity, balanced, got 'sparkle'
         """
 
         if objective not in OBJECTIVES:
-            raise ParameterError(f"objective must be one of {', '.join(OBJECTIVES)}, got {objective!r}")
+            raise ParameterError(f"objective must be one of {', '.join(OBJECTIVES)}, got {objective!r}", parameter="objective")
         if estimator not in ESTIMATORS:
             raise ParameterError(f"estimator must be one of {', '.join(ESTIMATORS)}, got {estimator!r}")
         quality = Quality.coerce(quality)
@@ -108,7 +108,7 @@ class FlashSetup:
         return cls(material, scene, quality, objective, float(tau_v), int(seed_v), constraint, estimator,
                    tuple(sorted(switches.items())), zone, (scenario, lighting, viewing))
 
-    def at_quality(self, quality: Quality | str) -> FlashSetup:
+    def at_quality(self, quality: Quality | str) -> FlashQuestion:
         """The same question sampled at another :class:`~labcut.Quality` (the scene's lamp, map
         and viewing-cone directions and rocking poses re-drawn from :attr:`scene_spec`; a
         :class:`~labcut.Scenario` given as an object keeps its own directions)."""
@@ -135,5 +135,5 @@ class FlashSetup:
 
     def __repr__(self) -> str:
         tilt = "" if math.isclose(self.constraint.max_tilt_deg, 90.0) else f", max_tilt={self.constraint.max_tilt_deg:g}°"
-        return (f"FlashSetup({self.material.name!r}, scenario={self.scenario.name!r}, quality={self.quality.name!r}, "
+        return (f"FlashQuestion({self.material.name!r}, scenario={self.scenario.name!r}, quality={self.quality.name!r}, "
                 f"objective={self.objective!r}, tau={self.tau:g}, seed={self.seed}{tilt}, estimator={self.estimator!r})")

@@ -1,11 +1,11 @@
-"""One frozen, validated description of how to render a stone: :class:`RenderSetup`.
+"""One frozen, validated description of how to render a stone: :class:`RenderRequest`.
 
 Everything but the stone and the lamella normal that decides a :func:`labcut.render`: the
 material, the scenario (its rest pose's lights and main viewer, mesh frame), the cameras, the
 samples per pixel or a time budget, resolution (px), colour mode, polarizer angle (degrees),
 lobes, path depth, look (:class:`~labcut.rendering.studio.Studio` or the diagram look),
 denoising, colour zoning, exposure (a multiplier, or None for automatic) and the sampler seed.
-:meth:`RenderSetup.build` is the one place these are checked: the CLI builds a setup once, before
+:meth:`RenderRequest.build` is the one place these are checked: the CLI builds a setup once, before
 the mesh is read, and hands it to :func:`labcut.render` / :func:`labcut.commands.animate.animate`,
 which do not check again. :class:`Motion` does the same for an animation's motion.
 
@@ -34,7 +34,7 @@ DEFAULT_SPP = 64
 
 
 @dataclass(frozen=True)
-class RenderSetup:
+class RenderRequest:
     """A validated render request (module docstring); build it with :meth:`build`."""
 
     material: Labradorite
@@ -82,18 +82,18 @@ class RenderSetup:
         exposure: float | None = None,
         look: Any = "diagram",
         denoise: bool | None = None,
-    ) -> RenderSetup:
+    ) -> RenderRequest:
         """Check every argument once and return the setup; arguments as :func:`labcut.render`
         (``spp`` None: 64, or chosen by ``time_budget``; both at once is an error). Raises a
         one-line :class:`~labcut.errors.ParameterError` naming the first bad one.
 
         Examples
         --------
-        >>> from labcut.rendering.setup import RenderSetup
-        >>> s = RenderSetup.build("blue", "ring", look="studio", spp=16, resolution=128)
+        >>> from labcut.rendering.request import RenderRequest
+        >>> s = RenderRequest.build("blue", "ring", look="studio", spp=16, resolution=128)
         >>> s.scenario.name, s.spp, s.look, s.plan_denoise
         ('ring', 16, 'studio', True)
-        >>> RenderSetup.build(mode="mono", denoise=True)
+        >>> RenderRequest.build(mode="mono", denoise=True)
         Traceback (most recent call last):
         ...
         labcut.errors.ParameterError: denoising needs rgb or spectral colour without a polarizer
@@ -103,7 +103,7 @@ class RenderSetup:
 
         material = Labradorite.coerce(material)
         if not isinstance(mode, str) or mode not in MODES:
-            raise ParameterError(f"mode must be one of {', '.join(MODES)}, got {mode!r}")
+            raise ParameterError(f"mode must be one of {', '.join(MODES)}, got {mode!r}", parameter="mode")
         if polarizer_deg is not None:
             polarizer_deg = check_number(polarizer_deg, "polarizer angle", unit="degrees")
         if time_budget is not None:
@@ -111,7 +111,8 @@ class RenderSetup:
 
             time_budget = check_budget(time_budget)
             if spp is not None:
-                raise ParameterError("give spp or a time budget, not both (the budget chooses the samples per pixel)")
+                raise ParameterError("spp or time budget: give one, not both (the budget chooses the samples per pixel)",
+                                     parameter="spp or time budget")
             spp_v = DEFAULT_SPP
         else:
             spp_v = DEFAULT_SPP if spp is None else check_number(spp, "spp", 1, 1 << 20, integer=True)
@@ -156,7 +157,7 @@ class RenderSetup:
             return self.denoise
         return self.studio is not None and self.polarizer_deg is None and self.mode != "mono"
 
-    def replace(self, **changes: Any) -> RenderSetup:
+    def replace(self, **changes: Any) -> RenderRequest:
         """The same setup with fields changed, for callers that already hold valid values (a
         scenario turned by an animation's pose, the spp a time budget chose)."""
         from dataclasses import replace
@@ -176,7 +177,7 @@ class RenderSetup:
 
     def __repr__(self) -> str:
         budget = f", time_budget={self.time_budget:g} s" if self.time_budget is not None else f", spp={self.spp}"
-        return (f"RenderSetup({self.material.name!r}, scenario={self.scenario.name!r}, {len(self.cameras)} view(s), "
+        return (f"RenderRequest({self.material.name!r}, scenario={self.scenario.name!r}, {len(self.cameras)} view(s), "
                 f"{self.resolution}² px{budget}, mode={self.mode!r}, look={self.look!r})")
 
 
@@ -203,9 +204,9 @@ class Motion:
         """
         key = motion.strip().lower() if isinstance(motion, str) else motion
         if key not in MOTIONS:
-            raise ParameterError(f"motion must be one of {', '.join(MOTIONS)}, got {motion!r}")
+            raise ParameterError(f"motion must be one of {', '.join(MOTIONS)}, got {motion!r}", parameter="motion")
         if isinstance(frames, bool) or not (isinstance(frames, int) and FRAME_LIMITS[0] <= frames <= FRAME_LIMITS[1]):
-            raise ParameterError(f"frames must be a whole number in [{FRAME_LIMITS[0]}, {FRAME_LIMITS[1]}], got {frames!r}")
+            raise ParameterError(f"frames must be a whole number in [{FRAME_LIMITS[0]}, {FRAME_LIMITS[1]}], got {frames!r}", parameter="frames")
         amp = check_number(amplitude_deg, "rock amplitude", 0.0, 60.0, low_open=True, unit="degrees")
         rate = check_number(fps, "fps", 1.0, 60.0)
         return cls(key, int(frames), float(amp), float(rate))
