@@ -674,11 +674,11 @@ def estimator_seconds(scene: Any, command: str, occlusion: bool, inter_reflectio
     if calibrating():
         return {}
     from .orientation.optimize import Constraint, hemisphere_grid
-    from .orientation.render_estimator import RENDER_QUALITY, predict_render_seconds
+    from .orientation.render_estimator import RenderQuality, predict_render_seconds
 
     settings = scene.settings()
     q = scene.quality
-    rq = RENDER_QUALITY.get(q.name, RENDER_QUALITY["standard"])
+    rq = RenderQuality.of(q)
     n_views = sum(len(st.views) for st in settings)
     depth = 4 if inter_reflection else 2
     if command == "evaluate":

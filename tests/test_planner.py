@@ -242,7 +242,7 @@ def test_hemispherical_fresnel_matches_its_closed_form():
 # ---------------------------------------------------------------------- predicted time of each choice
 def test_every_command_predicts_the_seconds_of_its_choices(oval, biplane):
     from labcut.orientation.optimize import Constraint, hemisphere_grid
-    from labcut.orientation.render_estimator import RENDER_QUALITY, predict_render_seconds
+    from labcut.orientation.render_estimator import RenderQuality, predict_render_seconds
     from labcut.scene import resolve_scene
 
     rec = plan_effects(oval, scenario="display", quality="draft").predicted_seconds
@@ -254,7 +254,7 @@ def test_every_command_predicts_the_seconds_of_its_choices(oval, biplane):
     # a zoned stone's render estimator starts from a coarse map of renders: counted
     zoned = plan_effects(oval, scenario="display", quality="draft", zoning="smooth").predicted_seconds
     views = sum(len(st.views) for st in resolve_scene("display", quality="draft").settings())
-    rq = RENDER_QUALITY["draft"]
+    rq = RenderQuality.of("draft")
     coarse = len(hemisphere_grid(rq.coarse_deg, Constraint(90.0)))
     extra = (predict_render_seconds(views, rq.resolution, rq.spp, True, rq.iterations, coarse, 2)
              - predict_render_seconds(views, rq.resolution, rq.spp, True, rq.iterations, 0, 2))

@@ -62,3 +62,24 @@ def test_problem_samples_follow_the_quality():
     assert p.n_points == 500
     with pytest.raises(ParameterError, match="quality"):
         build_problem(mesh, labcut.Labradorite(), quality="fine", settings=scene.settings())
+
+
+def test_the_render_estimators_settings_are_the_qualitys():
+    """One quality table: the render estimator reads the quality's ``estimator_*`` fields (the
+    values the estimator was tuned with), for a preset and for a custom quality alike."""
+    from labcut.orientation.estimators import RenderEstimator
+    from labcut.orientation.question import FlashQuestion
+    from labcut.orientation.render_estimator import RenderQuality
+
+    assert RenderQuality.of("draft") == RenderQuality(48, 4, 15, 20.0)
+    assert RenderQuality.of("standard") == RenderQuality(96, 8, 25, 15.0)
+    assert RenderQuality.of("high") == RenderQuality(160, 16, 40, 10.0)
+    custom = Quality.coerce("draft").replace(estimator_resolution=24, estimator_spp=2, estimator_iterations=3)
+    assert RenderQuality.of(custom) == RenderQuality(24, 2, 3, 20.0)
+    assert RenderQuality.of(custom.to_dict()) == RenderQuality.of(custom)
+    ask = FlashQuestion.build(None, "bench", None, None, quality=custom, estimator="render")
+    mesh = labcut.cabochon(outline="oval", length=16, width=12, dome="low")
+    objective = RenderEstimator(mesh, ask).render_objective()
+    assert (objective.resolution, objective.spp) == (24, 2)
+    with pytest.raises(ParameterError, match="estimator_coarse_deg"):
+        Quality.coerce("draft").replace(estimator_coarse_deg=0.5)

@@ -20,7 +20,7 @@ from labcut import Labradorite, ParameterError
 from labcut.orientation import render_estimator as re_
 from labcut.orientation.optimize import Constraint
 from labcut.orientation.render_estimator import (
-    RENDER_QUALITY, RenderObjective, optimize_render, predict_render_seconds, recommend_by_render, render_metrics,
+    RenderQuality, RenderObjective, optimize_render, predict_render_seconds, recommend_by_render, render_metrics,
 )
 from labcut.orientation.render_objective import combine_views, view_terms
 from labcut.orientation.scoring import normal_to_stereo, stereo_jacobian, stereo_to_normal
@@ -191,7 +191,7 @@ def test_recommend_by_render(oval, still):
     steps = []
     rec = recommend_by_render(oval, LAB, still, start_normal=(0.1, 0.0, 1.0), quality="draft",
                               progress=lambda stage, f: steps.append(f))
-    q = RENDER_QUALITY["draft"]
+    q = RenderQuality.of("draft")
     assert rec.stats["resolution"] == q.resolution and rec.stats["spp"] == q.spp and rec.stats["integrator"] == "direct"
     assert rec.stats["evaluations"] <= q.iterations + 1 and rec.stats["renders"] > 0 and rec.stats["seconds"] > 0
     assert rec.score == pytest.approx(rec.metrics.flash_energy)

@@ -29,7 +29,6 @@ import numpy as np
 
 from ..errors import ParameterError
 from ..scene.directions import axial_upper
-from ..scene.quality import QUALITIES
 from .scoring import FlashMetrics, Scorer
 
 
@@ -92,7 +91,7 @@ class SampleEstimator:
 class RenderEstimator:
     """The render estimator for a question (``ask``, a :class:`~labcut.orientation.question.FlashQuestion`)
     about ``mesh``: paths as deep as the plan's inter-reflection asks (``max_depth``), the render
-    settings of the question's quality (:data:`~labcut.orientation.render_estimator.RENDER_QUALITY`)."""
+    settings of the question's quality (its ``estimator_*`` fields)."""
 
     mesh: Any
     ask: Any
@@ -102,18 +101,13 @@ class RenderEstimator:
     scores_are_samples: bool = False
     _objective: Any = field(default=None, repr=False)
 
-    @property
-    def quality_name(self) -> str:
-        name = self.ask.quality.name
-        return name if name in QUALITIES else "standard"
-
     def render_objective(self) -> Any:
         """The renders' objective (:class:`~labcut.orientation.render_objective.RenderObjective`), made once."""
         if self._objective is None:
-            from .render_estimator import RENDER_QUALITY
+            from .render_estimator import RenderQuality
             from .render_objective import RenderObjective
 
-            q = RENDER_QUALITY[self.quality_name]
+            q = RenderQuality.of(self.ask.quality)
             a = self.ask
             self._objective = RenderObjective(self.mesh, a.material, a.scenario.settings(), objective=a.objective,
                                               tau=a.tau, resolution=q.resolution, spp=q.spp, seed=a.seed,
@@ -138,7 +132,7 @@ class RenderEstimator:
         a = self.ask
         found = recommend_by_render(
             self.mesh, a.material, a.scenario.settings(), start_normal=None if a.zoning is not None else normal,
-            objective=a.objective, tau=a.tau, constraint=a.constraint, quality=self.quality_name, seed=a.seed,
+            objective=a.objective, tau=a.tau, constraint=a.constraint, quality=a.quality, seed=a.seed,
             progress=progress, max_depth=self.max_depth, zoning=a.zoning)
         angle = math.degrees(math.acos(min(1.0, abs(float(found.normal @ normal)))))
         stats = dict(found.stats, samples_normal=[float(x) for x in normal], samples_score=float(score),

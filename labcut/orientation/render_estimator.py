@@ -15,7 +15,7 @@ the objective is deterministic), its gradient by Dr.Jit automatic differentiatio
 integrator (``direct`` for direct lighting, ``prb`` when paths bounce between the parts of a
 carving). :func:`optimize_render` climbs it with L-BFGS from a start (the sample estimator's
 answer, or a coarse map of renders); :func:`recommend_by_render` is the whole estimator, at a
-quality of :data:`RENDER_QUALITY`; :func:`predict_render_seconds` its cost on this machine,
+quality of :class:`RenderQuality` (of the quality's ``estimator_*`` fields); :func:`predict_render_seconds` its cost on this machine,
 calibrated by a measurement (:func:`render_timing`).
 
 Frames and units: normals and directions in the mesh frame (mm, +Z face-up); radiance as
@@ -29,7 +29,6 @@ import math
 import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import asdict, dataclass, field
-from types import MappingProxyType
 from typing import Any
 
 import numpy as np
@@ -40,13 +39,14 @@ from ..errors import ParameterError
 from ..physics.material import Labradorite
 from ..scene.directions import normalize_normal
 from ..scene import Lights, Setting, Views
+from ..scene.quality import Quality
 from .problem import reference_radiance
 from ..validation import check_number
 from .render_objective import CARVING_DEPTH, DIRECT_DEPTH, SMOOTH_WIDTH, RenderObjective
 from .scoring import FlashMetrics
 
 __all__ = [
-    "RENDER_QUALITY", "RenderObjective", "RenderOptimum", "RenderQuality", "RenderRecommendation", "RenderTiming",
+    "RenderObjective", "RenderOptimum", "RenderQuality", "RenderRecommendation", "RenderTiming",
     "SMOOTH_WIDTH", "STALLS", "optimize_render", "predict_render_seconds", "recommend_by_render", "render_metrics",
     "render_timing",
 ]
@@ -121,21 +121,22 @@ STALLS = 4
 
 @dataclass(frozen=True)
 class RenderQuality:
-    """Settings of the render estimator at one quality: image side (pixels, orthographic, the
-    stone's bounding sphere fills it), samples per pixel, L-BFGS evaluations, and the spacing
-    (degrees) of the coarse map of renders that picks a start when none is given."""
+    """The render estimator's settings at one :class:`~labcut.scene.quality.Quality`: image side
+    (pixels, orthographic, the stone's bounding sphere fills it), samples per pixel, L-BFGS
+    evaluations, and the spacing (degrees) of the coarse map of renders that picks a start when
+    none is given. A view of the quality's ``estimator_*`` fields (the one quality table)."""
 
     resolution: int
     spp: int
     iterations: int
     coarse_deg: float
 
-
-RENDER_QUALITY: Mapping[str, RenderQuality] = MappingProxyType({
-    "draft": RenderQuality(resolution=48, spp=4, iterations=15, coarse_deg=20.0),
-    "standard": RenderQuality(resolution=96, spp=8, iterations=25, coarse_deg=15.0),
-    "high": RenderQuality(resolution=160, spp=16, iterations=40, coarse_deg=10.0),
-})
+    @classmethod
+    def of(cls, quality: Quality | str | Mapping[str, Any]) -> RenderQuality:
+        """The render settings of ``quality`` (a preset name, a Quality or its dict)."""
+        q = Quality.coerce(dict(quality) if isinstance(quality, Mapping) else quality)
+        return cls(resolution=q.estimator_resolution, spp=q.estimator_spp, iterations=q.estimator_iterations,
+                   coarse_deg=q.estimator_coarse_deg)
 
 
 @dataclass
@@ -288,19 +289,13 @@ class RenderRecommendation:
                 "metrics": self.metrics.to_dict(), "stats": self.stats}
 
 
-def _quality(quality: str) -> RenderQuality:
-    if quality not in RENDER_QUALITY:
-        raise ParameterError(f"quality must be one of {', '.join(RENDER_QUALITY)}, got {quality!r}", parameter="quality")
-    return RENDER_QUALITY[quality]
-
-
 def recommend_by_render(mesh: Any, material: Any, settings: Sequence[Setting], start_normal: Any = None,
-                        objective: str = "energy", tau: float = 0.1, constraint: Any = None, quality: str = "standard",
+                        objective: str = "energy", tau: float = 0.1, constraint: Any = None, quality: Quality | str = "standard",
                         seed: int = 0, progress: Callable[[str, float], None] | None = None, *,
                         max_depth: int | None = None, zoning: Any = None) -> RenderRecommendation:
     """The render estimator end to end: the lamella normal that maximises ``objective`` through
     renders (:class:`RenderObjective`, :func:`optimize_render`), at a quality of
-    :data:`RENDER_QUALITY` (image size, samples per pixel, L-BFGS evaluations).
+    :class:`RenderQuality` (of the quality's ``estimator_*`` fields) (image size, samples per pixel, L-BFGS evaluations).
 
     ``settings``: a scenario's poses (:meth:`labcut.Scenario.settings`, mesh frame).
     ``start_normal``: where the optimiser starts (e.g. the sample estimator's answer); None: the
@@ -315,7 +310,7 @@ def recommend_by_render(mesh: Any, material: Any, settings: Sequence[Setting], s
     (:data:`SMOOTH_WIDTH` x tau wide) and scored with the hard threshold."""
     from .optimize import Constraint, hemisphere_grid
 
-    q = _quality(quality)
+    q = RenderQuality.of(quality)
     constraint = Constraint() if constraint is None else constraint
     if not isinstance(constraint, Constraint):
         raise ParameterError(f"constraint must be a labcut Constraint, got {type(constraint).__name__}")
@@ -343,7 +338,7 @@ def recommend_by_render(mesh: Any, material: Any, settings: Sequence[Setting], s
     metrics = obj.metrics(best.normal)
     report("done", 1.0)
     stats = {
-        "estimator": "render", "quality": quality, "resolution": q.resolution, "spp": q.spp, "iterations": q.iterations,
+        "estimator": "render", "quality": Quality.coerce(quality).name, "resolution": q.resolution, "spp": q.spp, "iterations": q.iterations,
         "seed": int(seed), "integrator": obj.integrator, "max_depth": obj.max_depth, "convex": obj.convex,
         "views": obj.n_views, "objective": objective, "tau": float(tau),
         "zoning": None if obj.zoning is None else (obj.zoning.name or "custom"),
@@ -468,7 +463,7 @@ def predict_render_seconds(n_views_total: int, resolution: int, spp: int, convex
     n_views = check_number(n_views_total, "n_views_total", 1, 1_000_000, integer=True)
     res = check_number(resolution, "resolution", 8, 4096, integer=True)
     spp = check_number(spp, "spp (samples per pixel)", 1, 1 << 16, integer=True)
-    iters = RENDER_QUALITY["standard"].iterations if iterations is None else check_number(iterations, "iterations", 1, 10_000, integer=True)
+    iters = Quality.PRESETS["standard"].estimator_iterations if iterations is None else check_number(iterations, "iterations", 1, 10_000, integer=True)
     coarse = check_number(coarse_normals, "coarse_normals", 0, 1_000_000, integer=True)
     depth = (DIRECT_DEPTH if convex else CARVING_DEPTH) if max_depth is None else check_number(max_depth, "max_depth", 2, 16, integer=True)
     integ = "direct" if depth == DIRECT_DEPTH else "prb"

@@ -58,6 +58,17 @@ class Quality:
     * ``miss_step_deg``: the misorientation curve's step;
     * ``render_resolution`` (pixels, square), ``render_spp`` (samples per pixel) and
       ``strip_angles_deg`` (the rocking strip's tilts) of a report's renders.
+
+    The render estimator (:mod:`labcut.orientation.render_estimator`):
+
+    * ``estimator_resolution`` (pixels, square, orthographic: the stone's bounding sphere fills
+      it) and ``estimator_spp`` (samples per pixel) of its differentiable renders;
+    * ``estimator_iterations``: its L-BFGS evaluations;
+    * ``estimator_coarse_deg``: the spacing of the coarse map of renders that picks its start
+      when none is given.
+
+    The four have the ``standard`` preset's values as defaults, so a Quality written out by hand
+    before they existed still builds.
     """
 
     name: str
@@ -77,6 +88,10 @@ class Quality:
     render_resolution: int
     render_spp: int
     strip_angles_deg: tuple[float, ...]
+    estimator_resolution: int = 96
+    estimator_spp: int = 8
+    estimator_iterations: int = 25
+    estimator_coarse_deg: float = 15.0
 
     PRESETS: ClassVar[dict[str, Quality]]
 
@@ -85,12 +100,13 @@ class Quality:
         ("surface_points", 16, 10_000_000), ("lamp_samples", 1, 100_000), ("env_samples", 1, 100_000),
         ("cone_views", 1, 100_000), ("ring_views", 1, 100_000), ("nlopt_evals", 4, 1_000_000),
         ("gradient_starts", 1, 10_000), ("tilt_points", 16, 10_000_000), ("render_resolution", 8, 8192),
-        ("render_spp", 1, 1 << 20),
+        ("render_spp", 1, 1 << 20), ("estimator_resolution", 8, 4096), ("estimator_spp", 1, 1 << 16),
+        ("estimator_iterations", 1, 10_000),
     )
     #: (field, low (open), high) of the angle fields, degrees
     _ANGLES: ClassVar[tuple[tuple[str, float, float], ...]] = (
         ("map_spacing_deg", 0.05, 30.0), ("grid_coarse_deg", 0.05, 30.0), ("tilt_step_deg", 0.05, 30.0),
-        ("miss_step_deg", 0.01, 15.0),
+        ("miss_step_deg", 0.01, 15.0), ("estimator_coarse_deg", 1.0, 45.0),
     )
 
     def __post_init__(self) -> None:
@@ -166,15 +182,18 @@ Quality.PRESETS = {
         "draft", surface_points=3000, lamp_samples=7, env_samples=32, cone_views=7, ring_views=12, rock_steps=(5, 2),
         map_spacing_deg=4.0, grid_coarse_deg=2.0, nlopt_evals=40, gradient_starts=8,
         tilt_step_deg=10.0, tilt_points=1000, miss_step_deg=1.0,
-        render_resolution=96, render_spp=8, strip_angles_deg=(-20.0, 0.0, 20.0)),
+        render_resolution=96, render_spp=8, strip_angles_deg=(-20.0, 0.0, 20.0),
+        estimator_resolution=48, estimator_spp=4, estimator_iterations=15, estimator_coarse_deg=20.0),
     "standard": Quality(
         "standard", surface_points=8000, lamp_samples=13, env_samples=64, cone_views=13, ring_views=20, rock_steps=(9, 4),
         map_spacing_deg=3.0, grid_coarse_deg=1.5, nlopt_evals=60, gradient_starts=12,
         tilt_step_deg=7.5, tilt_points=2000, miss_step_deg=0.5,
-        render_resolution=128, render_spp=32, strip_angles_deg=(-20.0, -10.0, 0.0, 10.0, 20.0)),
+        render_resolution=128, render_spp=32, strip_angles_deg=(-20.0, -10.0, 0.0, 10.0, 20.0),
+        estimator_resolution=96, estimator_spp=8, estimator_iterations=25, estimator_coarse_deg=15.0),
     "high": Quality(
         "high", surface_points=24000, lamp_samples=25, env_samples=128, cone_views=25, ring_views=40, rock_steps=(17, 6),
         map_spacing_deg=1.5, grid_coarse_deg=1.0, nlopt_evals=120, gradient_starts=20,
         tilt_step_deg=5.0, tilt_points=5000, miss_step_deg=0.25,
-        render_resolution=256, render_spp=128, strip_angles_deg=(-24.0, -16.0, -8.0, 0.0, 8.0, 16.0, 24.0)),
+        render_resolution=256, render_spp=128, strip_angles_deg=(-24.0, -16.0, -8.0, 0.0, 8.0, 16.0, 24.0),
+        estimator_resolution=160, estimator_spp=16, estimator_iterations=40, estimator_coarse_deg=10.0),
 }
