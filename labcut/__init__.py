@@ -16,10 +16,8 @@ environment variables, no import hooks, no other package's modules). The other h
 
 from __future__ import annotations
 
-import importlib
-from typing import Any
-
 from . import backend as _backend
+from ._exports import lazy_exports as _lazy_exports
 
 _backend.check_llvm()  # before Mitsuba loads Dr.Jit: a libLLVM it would abort on is a clear error
 
@@ -50,6 +48,7 @@ _LAZY = {
     "Stone": "labcut.geometry.stone:Stone",
     "Study": "labcut.study:Study",
     "render": "labcut.commands.render:render",
+    "animate": "labcut.commands.animate:animate",
     "recommend_orientation": "labcut.commands.recommend:recommend_orientation",
     "evaluate_orientation": "labcut.commands.recommend:evaluate_orientation",
     "Recommendation": "labcut.orientation.recommend:Recommendation",
@@ -66,28 +65,6 @@ _LAZY = {
 }
 
 
-def __getattr__(name: str) -> Any:
-    target = _LAZY.get(name)
-    if target is None:
-        raise AttributeError(f"module 'labcut' has no attribute {name!r}")
-    module_name, _, attr = target.partition(":")
-    module = importlib.import_module(module_name)
-    value = getattr(module, attr) if attr else module
-    globals()[name] = value
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted(list(globals()) + list(_LAZY))
-
-
-__all__ = [
-    "BackendError",
-    "LabcutError",
-    "LabcutWarning",
-    "LLVMVersionError",
-    "MeshError",
-    "OutputError",
-    "ParameterError",
-    *_LAZY,
-]
+__getattr__, __dir__, __all__ = _lazy_exports(__name__, _LAZY, eager=(
+    "BackendError", "LabcutError", "LabcutWarning", "LLVMVersionError", "MeshError", "OutputError", "ParameterError",
+))

@@ -10,6 +10,8 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 
+__all__ = ["BackendError", "LLVMVersionError", "LabcutError", "LabcutWarning", "MeshError", "OutputError", "ParameterError"]
+
 
 class LabcutError(Exception):
     """Base class of every error labcut raises on purpose."""

@@ -17,6 +17,8 @@ from typing import Any
 
 from .errors import LabcutError, OutputError, ParameterError
 
+__all__ = ["atomic_output", "cache_path", "cached_array", "cached_arrays", "calibration", "check_output_path", "code_hash", "read_cache", "read_json", "write_cache"]
+
 
 def check_output_path(path: str | os.PathLike[str], suffixes: tuple[str, ...] | None = None) -> Path:
     """Validate an output path: its folder exists and, if given, its suffix is allowed."""
@@ -174,6 +176,40 @@ def cached_array(name: str, key: str, build: Any, *, shape: tuple[int, ...], dty
         path.parent.mkdir(parents=True, exist_ok=True)
         with atomic_output(path, (".npy",)) as tmp:
             np.save(tmp, value, allow_pickle=False)
+    except (OSError, LabcutError):
+        pass
+    return value
+
+
+def cached_arrays(name: str, key: str, build: Any) -> dict[str, Any]:
+    """``build()`` (a dict of numpy arrays, none of them objects), kept in labcut's user cache
+    folder (:func:`cache_path`, ``tables/``) as one ``.npz`` named by ``name`` and a hash of
+    ``key``: a later process reads the same arrays back, bit for bit. ``key`` names everything
+    the arrays depend on (labcut's and the libraries' versions, the input's bytes, the
+    parameters). A file that is missing, unreadable or holds other names is built again; a cache
+    folder that cannot be written is no error (built again next time)."""
+    import hashlib
+    import zipfile
+
+    import numpy as np
+
+    digest = hashlib.blake2b(key.encode(), digest_size=16).hexdigest()
+    path = cache_path("tables") / f"{name}-{digest}.npz"
+    try:
+        with np.load(path, allow_pickle=False) as held:
+            stored = {k: held[k] for k in held.files}
+        held_key = stored.pop("__key__", None)
+        if held_key is not None and str(held_key) == key and "__names__" in stored:
+            names = [str(n) for n in stored.pop("__names__")]
+            if sorted(names) == sorted(stored):
+                return stored
+    except (OSError, ValueError, EOFError, KeyError, zipfile.BadZipFile):
+        pass
+    value = {k: np.asarray(v) for k, v in build().items()}
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        with atomic_output(path, (".npz",)) as tmp, open(tmp, "wb") as out:
+            np.savez(out, __key__=np.array(key), __names__=np.array(sorted(value)), **value)
     except (OSError, LabcutError):
         pass
     return value

@@ -57,6 +57,8 @@ from .errors import ParameterError
 from .geometry.stone import Stone, mesh_of
 from .scene.effects import ESTIMATORS, check_effects
 
+__all__ = ["COMMANDS", "Decision", "EffectPlan", "measured_interreflection", "pilot_scene", "plan_effects", "plan_question"]
+
 COMMANDS = ("render", "recommend", "evaluate", "compare")
 #: the stated tolerance of the planner's "off" decisions: an effect whose measured or bounded
 #: change of the flash energy stays below this share of it is left off. A fixed number, not yet

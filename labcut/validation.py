@@ -14,6 +14,8 @@ import numpy as np
 
 from .errors import ParameterError
 
+__all__ = ["check_budget", "check_number", "given_besides", "is_default", "name_or_mm", "unit_vector"]
+
 
 def check_number(value: Any, name: str, low: float = -math.inf, high: float = math.inf, *,
                  low_open: bool = False, integer: bool = False, unit: str = "", why: str = "") -> Any:

@@ -21,7 +21,7 @@ ROOT = Path(__file__).resolve().parents[1]
 PACKAGE = ROOT / "labcut"
 
 LAYERS: list[tuple[str, ...]] = [
-    ("labcut.errors", "labcut.validation"),
+    ("labcut.errors", "labcut.validation", "labcut._exports"),
     ("labcut.backend", "labcut.fileio"),
     ("labcut.physics", "labcut.colour"),
     ("labcut.geometry", "labcut.scene"),

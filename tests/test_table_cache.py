@@ -131,3 +131,43 @@ def test_a_calibration_file_is_read_once_per_process_and_merged_on_write(tmp_pat
     assert fileio.calibration("c.json", "new", lambda: {"v": 9}) == {"v": 9}
     on_disk = real(tmp_path / "c.json")
     assert on_disk["other"] == {"v": -1} and on_disk["new"] == {"v": 9} and on_disk["k0"] == {"v": 0}
+
+
+def test_arrays_are_built_once_then_read_back_and_a_damaged_file_is_built_again(cache):
+    value = {"a": np.arange(5.0), "b": np.eye(3, dtype=np.int64)}
+    build, calls = _counting(value)
+    first = fileio.cached_arrays("s", "key A", build)
+    again = fileio.cached_arrays("s", "key A", build)
+    assert len(calls) == 1 and set(again) == {"a", "b"}
+    assert all(np.array_equal(first[k], value[k]) and again[k].dtype == value[k].dtype for k in value)
+    (path,) = cache.glob("s-*.npz")
+    path.write_bytes(b"PK not a zip")
+    assert np.array_equal(fileio.cached_arrays("s", "key A", build)["b"], value["b"]) and len(calls) == 2
+    np.savez(path, __key__=np.array("another key"), __names__=np.array(["a", "b"]), **value)  # a hash collision
+    fileio.cached_arrays("s", "key A", build)
+    assert len(calls) == 3
+    fileio.cached_arrays("s", "key B", build)
+    assert len(calls) == 4 and len(list(cache.glob("s-*.npz"))) == 2
+
+
+def test_the_smooth_split_is_read_back_the_same_and_follows_the_mesh(cache):
+    """A stone's smooth-shaded split copy is kept on disk: read back, it is trimesh's split to the
+    last bit; a moved vertex or another angle is another entry."""
+    import math
+
+    import trimesh
+
+    from labcut.geometry.surface import smooth_split
+
+    mesh = labcut.cabochon(outline="oval", length=16, width=12, dome="low")
+    ref = trimesh.graph.smooth_shade(mesh, angle=math.radians(30.0))
+    for _ in range(2):
+        got = smooth_split(mesh, 30.0)
+        for name in ("vertices", "faces", "face_normals", "vertex_normals", "area_faces"):
+            assert np.array_equal(getattr(got, name), getattr(ref, name)), name
+    assert len(list(cache.glob("smooth-split-*.npz"))) == 1
+    smooth_split(mesh, 20.0)
+    moved = mesh.copy()
+    moved.vertices[0] += 1e-9
+    smooth_split(moved, 30.0)
+    assert len(list(cache.glob("smooth-split-*.npz"))) == 3

@@ -14,7 +14,7 @@ from typing import Annotated, Any, Optional
 import typer
 from rich.table import Table
 
-from labcut.scene.scenario import SCENARIOS
+from labcut.scene import SCENARIOS
 
 from . import materials as m
 from .root import app, console, err_console
@@ -90,9 +90,9 @@ def batch(
 ) -> None:
     """Run a catalogue of cuts (x materials x scenarios) on Dask: each row's recommended lamella
     orientation, streamed to Parquet as rows finish; re-running skips rows already done."""
-    from labcut.batch.catalog import Defaults, read_catalog
-    from labcut.batch.runner import connect, run
-    from labcut.batch.store import ResultStore
+    from labcut.batch import Defaults, read_catalog
+    from labcut.batch import connect, run
+    from labcut.batch import ResultStore
     from labcut.errors import ParameterError
     from labcut.fileio import check_output_path
 

@@ -14,7 +14,7 @@ from typing import Annotated, Any, Optional
 import typer
 from rich.table import Table
 
-from labcut.scene.scenario import SCENARIOS
+from labcut.scene import SCENARIOS
 
 from . import materials as m
 from . import meshes as mo
@@ -64,8 +64,8 @@ def _check_outputs(html: Path | None, json_path: str | None, csv_path: Path | No
 
 def short_orientation(normal: Any, scenario: Any, parallel_within_deg: float | None) -> str:
     """``9° top``, ``4° front-left``, ``parallel (±2.3°)``: an orientation for a narrow table."""
-    from labcut.orientation.recommend import side_name
-    from labcut.scene.directions import tilt_azimuth
+    from labcut.orientation import side_name
+    from labcut.scene import tilt_azimuth
 
     if parallel_within_deg is not None:
         return f"parallel (±{parallel_within_deg:.1f}°)"
@@ -120,7 +120,7 @@ def scenario_table(cmp: Any, name: str) -> Table:
 
 def compromise_table(cmp: Any) -> Table:
     """One lamella orientation per cut for all the scenarios, and what each scenario keeps of its best."""
-    from labcut.reports.compare import naming_scenario
+    from labcut.reports import naming_scenario
 
     naming = naming_scenario(cmp.scenarios)
     table = Table(title="One orientation for all scenarios", caption=cmp.sides_note, title_justify="left")
@@ -166,8 +166,8 @@ def compare(
     import warnings
 
     from labcut.errors import LabcutWarning
-    from labcut.commands.budget import quality_or_budget
-    from labcut.reports.compare import plan_comparison, run_comparison
+    from labcut.commands import quality_or_budget
+    from labcut.reports import plan_comparison, run_comparison
 
     from .progress import progress_bar
 

@@ -102,10 +102,10 @@ def cabochon(
 ) -> None:
     """Build a watertight cabochon (mm, +Z face-up, base on z = 0), summarise it and export it."""
     from labcut.errors import ParameterError
-    from labcut.geometry.cabochon import cabochon as build
-    from labcut.geometry.inspect import summarize
-    from labcut.geometry.meshio import WRITE_FORMATS, save_mesh
-    from labcut.geometry.outlines import OUTLINES
+    from labcut import cabochon as build
+    from labcut.geometry import summarize
+    from labcut.geometry import WRITE_FORMATS, save_mesh
+    from labcut.geometry import OUTLINES
     from labcut.fileio import check_output_path
 
     # check the outputs before the work
@@ -169,7 +169,7 @@ def inspect_mesh(
 ) -> None:
     """Validate a mesh and print its dimensions, volume, weight in carats, triangles, convexity and repairs."""
     from labcut.fileio import check_output_path
-    from labcut.geometry.inspect import summarize
+    from labcut.geometry import summarize
 
     to_stdout = json_path is not None and str(json_path) == "-"
     if json_path is not None and not to_stdout:

@@ -25,7 +25,7 @@ def spec(look: str, seed: int = 0) -> Any:
     """The ``look=`` of :func:`labcut.render` for ``--look``: a :class:`~labcut.rendering.studio.Studio`
     whose inclusions use ``seed``, or ``"diagram"``. A bad name is a ParameterError naming --look."""
     from labcut.errors import ParameterError
-    from labcut.rendering.studio import LOOKS, Studio, resolve_look
+    from labcut.rendering import LOOKS, Studio, resolve_look
 
     try:
         studio = resolve_look(look)

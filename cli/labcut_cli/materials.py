@@ -111,7 +111,7 @@ def build_zoning(text: str | None, material: Any) -> Any:
     if text is None:
         return None
     from labcut.errors import ParameterError
-    from labcut.rendering.zoning import PRESETS, Zoning
+    from labcut.rendering import ZONING_PRESETS as PRESETS, Zoning
 
     if text.strip().lower() in PRESETS:
         return Zoning.preset(text, material)

@@ -79,9 +79,9 @@ PROGRESS_BYTES = 2_000_000
 def check_mesh_options(units: str, up_axis: str, size: float | None = None) -> tuple[str | float, str]:
     """Validate ``--units``, ``--up-axis`` (and ``--size``) before any work; returns units and up axis as
     ``load_mesh`` takes them."""
-    from labcut.geometry.gemcad import design_size
-    from labcut.geometry.meshio import units_scale
-    from labcut.geometry.orient import check_up_axis
+    from labcut.geometry import design_size
+    from labcut.geometry import units_scale
+    from labcut.geometry import check_up_axis
 
     design_size(size)
     unit_arg: str | float = units.strip()
@@ -104,7 +104,7 @@ def load(mesh_path: Path, units: str = "auto", up_axis: str = "auto", size: floa
 def read(mesh_path: Path, unit_arg: str | float, up: str, size: float | None = None, **kwargs: Any) -> Any:
     """:func:`load` with options :func:`check_mesh_options` already checked (``unit_arg``, ``up``)."""
     from labcut.errors import LabcutWarning
-    from labcut.geometry.meshio import load_mesh
+    from labcut.geometry import load_mesh
 
     big = Path(mesh_path).is_file() and Path(mesh_path).stat().st_size >= PROGRESS_BYTES
     with warnings.catch_warnings(record=True) as caught:

@@ -9,7 +9,7 @@ from typing import Annotated, Any, Optional
 
 import typer
 
-from labcut.scene.effects import ESTIMATORS, SWITCHABLE
+from labcut.scene import ESTIMATORS, SWITCHABLE
 
 Plan = Annotated[bool, typer.Option("--plan", help="Print the effect plan first: which effects are simulated, how, why, and the predicted time.")]
 PlanOnly = Annotated[bool, typer.Option("--plan-only", help="Print the effect plan (and write it with --json) and exit without running.")]
@@ -42,7 +42,7 @@ def takes_plan_options(func: Any) -> Any:
 def check(estimator: str, effect: list[str] | None) -> dict[str, bool]:
     """Validate ``--estimator`` and parse ``--effect`` before any work (one-line errors)."""
     from labcut.errors import ParameterError
-    from labcut.scene.effects import parse_effects
+    from labcut.scene import parse_effects
 
     if estimator not in ESTIMATORS:
         raise ParameterError(f"--estimator must be one of {', '.join(ESTIMATORS)}, got {estimator!r}")

@@ -26,7 +26,7 @@ Exposure = Annotated[str, typer.Option("--exposure", help="Exposure of the PNG: 
 
 def _metrics_table(title: str, metrics) -> Table:
     """Flash metrics whose labels say what the numbers are, and whose numbers add up."""
-    from labcut.orientation.recommend import energy_parts
+    from labcut.orientation import energy_parts
 
     in_flash, _ = energy_parts(metrics)
     energy = round(metrics.flash_energy, 4)
@@ -104,7 +104,7 @@ def _question(material: Any, scenario: str | None, lighting: str | None, viewing
     """The command's :class:`~labcut.orientation.question.FlashQuestion`, built (and so checked) once
     from its options, before the mesh is read; errors name the options."""
     from labcut.errors import ParameterError
-    from labcut.orientation.question import FlashQuestion
+    from labcut.orientation import FlashQuestion
 
     effects = po.check(estimator, effect)
     zone = m.build_zoning(zoning, material)
@@ -170,8 +170,8 @@ def recommend_orientation(
     import labcut
     from labcut.errors import ParameterError
     from labcut.fileio import check_output_path
-    from labcut.commands.budget import quality_or_budget
-    from labcut.orientation.optimize import OPTIMIZERS
+    from labcut.commands import quality_or_budget
+    from labcut.orientation import OPTIMIZERS
 
     from .progress import progress_bar
 
@@ -193,7 +193,7 @@ def recommend_orientation(
     scene, zone = setup.scenario, setup.zoning
     render_ask = None
     if render_path is not None:  # the render's request, checked once too, before the long work
-        from labcut.rendering.request import RenderRequest
+        from labcut.rendering import RenderRequest
 
         render_ask = RenderRequest.build(setup.material, scene, spp=spp, resolution=resolution, zoning=zone,
                                        exposure=exposure_value, look=lo.spec(look), denoise=denoise)
@@ -226,7 +226,7 @@ def recommend_orientation(
     # 1. the answer: JSON, score map, table (all or nothing among themselves)
     with all_or_nothing() as written:
         if map_path is not None:
-            from labcut.plots.scoremap import plot_score_map
+            from labcut.plots import plot_score_map
 
             plot_score_map(rec, map_path, title=f"{mesh_path.name}: {objective}, {_scene_label(scene)}")
             written.append(Path(map_path))
@@ -274,8 +274,8 @@ def recommend_orientation(
         return
     try:
         with progress_bar("rendering", "samples/pixel") as update:
-            from labcut.commands.render import render_checked
-            from labcut.scene.directions import normalize_normal
+            from labcut.commands import render_checked
+            from labcut.scene import normalize_normal
 
             assert render_ask is not None
             result = render_checked(mesh, render_ask.replace(scenario=rec.scenario), normalize_normal(rec.normal), progress=update)
@@ -316,8 +316,8 @@ def evaluate_orientation(
     estimator, effect, plan, plan_only = plan_options.estimator, plan_options.effect, plan_options.plan, plan_options.plan_only
     import labcut
     from labcut.fileio import check_output_path
-    from labcut.orientation.recommend import METRIC_DEFINITIONS, FRAME, metrics_dict
-    from labcut.scene.directions import normalize_normal
+    from labcut.orientation import METRIC_DEFINITIONS, FRAME, metrics_dict
+    from labcut.scene import normalize_normal
 
     if json_path not in (None, "-"):
         check_output_path(json_path, (".json",))

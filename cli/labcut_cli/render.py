@@ -101,10 +101,10 @@ def render(
     only with --polarizer, direct lighting for convex stones, a path tracer for carvings.
     """
     from labcut.fileio import check_output_path
-    from labcut.commands.render import render_checked
-    from labcut.scene.directions import normalize_normal
-    from labcut.rendering.request import LOBES, Motion, RenderRequest
-    from labcut.rendering.images import IMAGE_SUFFIXES
+    from labcut.commands import render_checked
+    from labcut.scene import normalize_normal
+    from labcut.rendering import LOBES, Motion, RenderRequest
+    from labcut.rendering import IMAGE_SUFFIXES
 
     from .progress import progress_bar
 
@@ -229,7 +229,7 @@ def _option_error(build: Any) -> Any:
 def _animate(mesh_path: Path, mesh, lamella, setup, move, output: Path, json_path: Optional[str]) -> None:
     """``labcut render --animate``: every frame under one exposure, the file written once all are done."""
     import labcut
-    from labcut.commands.animate import animate
+    from labcut import animate
 
     from .progress import progress_bar
 

@@ -10,8 +10,8 @@ from typing import Annotated, Any, Optional
 
 import typer
 
-from labcut.scene.presets import LIGHTING, VIEWING
-from labcut.scene.scenario import SCENARIOS
+from labcut.scene import LIGHTING, VIEWING
+from labcut.scene import SCENARIOS
 
 Scenario = Annotated[
     Optional[str],
@@ -30,6 +30,6 @@ Viewing = Annotated[
 def resolve(scenario: str | None, lighting: str | None, viewing: str | None, quality: str = "standard") -> Any:
     """The :class:`labcut.Scenario` of a command's options (validated before any work starts)."""
     from labcut.scene import resolve_scene
-    from labcut.scene.sets import QUALITIES
+    from labcut.scene import QUALITIES
 
     return resolve_scene(scenario, lighting, viewing, quality if quality in QUALITIES else "standard")

@@ -36,7 +36,7 @@ def spectrum(
 
     from labcut.errors import ParameterError
     from labcut.fileio import check_output_path
-    from labcut.physics.summary import check_angles, spectrum_summary
+    from labcut.physics import check_angles, spectrum_summary
 
     try:
         angle_list = [float(a) for a in angles.split(",") if a.strip()]
@@ -73,7 +73,7 @@ def spectrum(
             write_json(json_path, _finite(result))
             written.append(Path(json_path))
         if plot is not None and not no_plot:
-            from labcut.plots.spectrum import plot_spectrum
+            from labcut.plots import plot_spectrum
 
             plot_spectrum(material, angle_list, plot)
             written.append(Path(plot))

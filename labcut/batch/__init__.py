@@ -9,8 +9,8 @@ for every row on Dask distributed and streams the results to a Parquet store
 from __future__ import annotations
 
 from .catalog import Catalog, CatalogError, Defaults, Row, read_catalog
-from .runner import BatchResult, run, run_row
+from .runner import BatchResult, connect, run, run_row
 from .store import ResultStore, read_results
 
-__all__ = ["BatchResult", "Catalog", "CatalogError", "Defaults", "ResultStore", "Row", "read_catalog", "read_results",
+__all__ = ["BatchResult", "Catalog", "CatalogError", "Defaults", "connect", "ResultStore", "Row", "read_catalog", "read_results",
            "run", "run_row"]

@@ -10,6 +10,7 @@ its mesh (each once per stone).
 
 from __future__ import annotations
 
+import hashlib
 import math
 from dataclasses import dataclass
 from typing import Any
@@ -23,13 +24,37 @@ SMOOTH_ANGLE_DEG = 30.0  # edges sharper than this keep flat shading
 FACETED_ANGLE_DEG = 0.5  # a faceted design (GemCad) is flat-shaded at every facet junction
 
 
-def smooth_split(mesh: Any, angle_deg: float) -> Any:
+def smooth_split(mesh: Any, angle_deg: float, *, cache: bool = True) -> Any:
     """``trimesh.graph.smooth_shade`` of ``mesh`` at ``angle_deg``: a copy split along edges sharper
     than it, whose vertex normals are the smooth shading normals the renderer and the flash
-    estimator use. Built once per stone by :meth:`labcut.geometry.stone.Stone.smooth_split`."""
+    estimator use. Built once per stone by :meth:`labcut.geometry.stone.Stone.smooth_split`.
+
+    With ``cache`` the copy's vertices, faces and normals are kept in labcut's user cache,
+    keyed by the mesh's bytes, the angle and labcut's and trimesh's versions
+    (:func:`labcut.fileio.cached_arrays`): the stone's next process reads them back instead of
+    splitting again. Either way the copy is built from those arrays, so a cached and a fresh
+    split are the same to the last bit."""
     import trimesh
 
-    return trimesh.graph.smooth_shade(mesh, angle=math.radians(angle_deg))
+    def split() -> dict[str, np.ndarray]:
+        made = trimesh.graph.smooth_shade(mesh, angle=math.radians(angle_deg))
+        return {"vertices": np.asarray(made.vertices, dtype=np.float64), "faces": np.asarray(made.faces, dtype=np.int64),
+                "face_normals": np.asarray(made.face_normals, dtype=np.float64),
+                "vertex_normals": np.asarray(made.vertex_normals, dtype=np.float64)}
+
+    if cache:
+        from .. import __version__
+        from ..fileio import cached_arrays
+
+        digest = hashlib.blake2b(np.ascontiguousarray(mesh.vertices, dtype=np.float64).tobytes(), digest_size=16)
+        digest.update(np.ascontiguousarray(mesh.faces, dtype=np.int64).tobytes())
+        key = (f"smooth split v1 | labcut {__version__} trimesh {trimesh.__version__} | angle {float(angle_deg)!r} | "
+               f"{len(mesh.vertices)} vertices {len(mesh.faces)} faces {digest.hexdigest()}")
+        arrays = cached_arrays("smooth-split", key, split)
+    else:
+        arrays = split()
+    return trimesh.Trimesh(vertices=arrays["vertices"], faces=arrays["faces"], face_normals=arrays["face_normals"],
+                           vertex_normals=arrays["vertex_normals"], process=False, validate=False)
 
 
 #: meshes with more triangles than this are shaded for the flash estimator by

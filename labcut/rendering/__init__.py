@@ -1,8 +1,34 @@
-"""Rendering with Mitsuba 3: the ``labradorite`` BSDF plugin, render plans and scenes
-(:func:`labcut.render`, the command, is :mod:`labcut.commands.render`)."""
+"""Rendering with Mitsuba 3: the ``labradorite`` BSDF plugin, render requests and plans, scenes,
+the studio look, colour zoning and images (:func:`labcut.render`, the command, is
+:mod:`labcut.commands.render`)."""
 
-from .api import RenderPlan, RenderResult, build_scene, plan_render, render_image
-from .scene import CameraView, camera_views, emitters
+from __future__ import annotations
 
-__all__ = ["CameraView", "RenderPlan", "RenderResult", "build_scene", "camera_views", "emitters", "plan_render",
-           "render_image"]
+from .._exports import lazy_exports
+
+#: the public names of :mod:`labcut.rendering`, imported on first use
+_EXPORTS = {
+    "RenderPlan": ".plan:RenderPlan",
+    "plan_render": ".plan:plan_render",
+    "LOBES": ".plan:LOBES",
+    "RenderResult": ".api:RenderResult",
+    "build_scene": ".api:build_scene",
+    "render_image": ".api:render_image",
+    "CameraView": ".scene:CameraView",
+    "camera_views": ".scene:camera_views",
+    "emitters": ".scene:emitters",
+    "RenderRequest": ".request:RenderRequest",
+    "Motion": ".request:Motion",
+    "MOTIONS": ".request:MOTIONS",
+    "MODES": ".request:MODES",
+    "FRAME_LIMITS": ".request:FRAME_LIMITS",
+    "IMAGE_SUFFIXES": ".images:IMAGE_SUFFIXES",
+    "save_image": ".images:save_image",
+    "LOOKS": ".studio:LOOKS",
+    "Studio": ".studio:Studio",
+    "resolve_look": ".studio:resolve_look",
+    "Zoning": ".zoning:Zoning",
+    "ZONING_PRESETS": ".zoning:PRESETS",
+}
+
+__getattr__, __dir__, __all__ = lazy_exports(__name__, _EXPORTS)

@@ -5,7 +5,8 @@ recommendations, flash metrics, renders and figures into a self-contained HTML p
 JSON/CSV tables (docs/compare.md).
 """
 
-from .compare import Comparison, compare_cuts
+from .compare import Comparison, compare_cuts, naming_scenario, plan_comparison, run_comparison
 from .cuts import Cut, parse_cab_spec, resolve_cuts
 
-__all__ = ["Comparison", "Cut", "compare_cuts", "parse_cab_spec", "resolve_cuts"]
+__all__ = ["Comparison", "Cut", "compare_cuts", "naming_scenario", "parse_cab_spec", "plan_comparison", "resolve_cuts",
+           "run_comparison"]

@@ -11,7 +11,8 @@ This layer sits below rendering and orientation; both take a :class:`Scenario`
 * :class:`Quality`: every knob that trades accuracy for time (``draft``, ``standard``, ``high``).
 """
 
-from .directions import FRONT_AZIMUTH_DEG, direction, tilt_azimuth
+from .directions import FRONT_AZIMUTH_DEG, direction, normalize_normal, tilt_azimuth
+from .effects import EFFECTS, ESTIMATORS, SWITCHABLE, check_effects, parse_effects
 from .envmap import Environment, studio_environment
 from .presets import LIGHTING, VIEWING
 from .quality import QUALITIES, Quality
@@ -19,7 +20,10 @@ from .scenario import SCENARIOS, Scenario, Setting, resolve_scene, scenario_from
 from .sets import Lights, Views, lights_from, views_from
 
 __all__ = [
+    "EFFECTS",
+    "ESTIMATORS",
     "FRONT_AZIMUTH_DEG",
+    "SWITCHABLE",
     "LIGHTING",
     "QUALITIES",
     "SCENARIOS",
@@ -30,8 +34,11 @@ __all__ = [
     "Scenario",
     "Setting",
     "Views",
+    "check_effects",
     "direction",
     "lights_from",
+    "normalize_normal",
+    "parse_effects",
     "resolve_scene",
     "scenario_from",
     "studio_environment",
