@@ -36,7 +36,7 @@ from .orientation.recommend import Recommendation, answer_recommendation, build_
 from .orientation.scoring import FlashMetrics, Scorer
 from .orientation.question import FlashQuestion
 from .planner import plan_question
-from .scene.directions import direction
+from .scene.directions import lamella_normal
 from .scene.scenario import SCENARIOS
 from .scene.quality import Quality
 
@@ -136,7 +136,7 @@ class Study:
         """Flash metrics (DESIGN.md §4) of one lamella orientation: a ``normal`` (mesh frame, axial),
         or ``tilt`` (degrees from +Z) and ``azimuth`` (degrees from +X toward +Y). The answer of
         :func:`labcut.evaluate_orientation` for the same question."""
-        m = orientation(normal, tilt, azimuth)
+        m = lamella_normal(normal, tilt, azimuth)
         scorer, plan = self.scorer, self.plan()
         with serial_blas():
             return evaluation_metrics(self.stone.mesh, self.question, scorer, plan, m)
@@ -162,7 +162,7 @@ class Study:
         if normal is None and tilt is None and azimuth is None:
             m = self.recommend().normal
         else:
-            m = orientation(normal, tilt, azimuth)
+            m = lamella_normal(normal, tilt, azimuth)
         for taken in ("material", "scenario", "lighting", "viewing", "setup", "lamella_normal"):
             if taken in kwargs:
                 raise ParameterError(f"Study.render takes its {taken} from the Study (with_... makes another)")
@@ -229,20 +229,3 @@ class Study:
         asked.update(changes)
         return replace(FlashQuestion.build(s.material, spec["scenario"], spec["lighting"], spec["viewing"], **asked),
                        kernels=s.kernels)
-
-
-def orientation(normal: Any = None, tilt: float | None = None, azimuth: float | None = None) -> np.ndarray:
-    """A lamella normal (unit, mesh frame, z >= 0) from a ``normal`` vector or from ``tilt`` and
-    ``azimuth`` in degrees; exactly one of the two ways."""
-    from .scene.directions import normalize_normal
-    from .validation import check_number
-
-    if normal is not None:
-        if tilt is not None or azimuth is not None:
-            raise ParameterError("give a normal or tilt and azimuth, not both")
-        return normalize_normal(normal)
-    if tilt is None or azimuth is None:
-        raise ParameterError("give a lamella normal, or both tilt and azimuth (degrees)")
-    t = check_number(tilt, "tilt", 0.0, 90.0)
-    a = check_number(azimuth, "azimuth", -360.0, 360.0)
-    return normalize_normal(direction(t, a))

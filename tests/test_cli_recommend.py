@@ -115,3 +115,37 @@ def test_messages_keep_their_text(cli, tmp_path, args, fragment):
     args = [str(tmp_path / "empty.json") if a == "EMPTY" else a for a in args]
     proc = cli("recommend-orientation", OVAL, *args)
     assert proc.returncode == 2 and fragment in proc.stderr and len(proc.stderr.strip().splitlines()) == 1
+
+
+def test_evaluate_by_tilt_and_azimuth_matches_the_normal(cli):
+    """``evaluate-orientation --tilt T --azimuth A`` is the normal (sin T cos A, sin T sin A, cos T)."""
+    import math
+
+    t, a = 12.0, 250.0
+    n = [math.sin(math.radians(t)) * math.cos(math.radians(a)), math.sin(math.radians(t)) * math.sin(math.radians(a)),
+         math.cos(math.radians(t))]
+    by_angles = json.loads(cli("evaluate-orientation", OVAL, "--tilt", str(t), "--azimuth", str(a), "--quality", "draft",
+                               "--json", "-").stdout)
+    by_normal = json.loads(cli("evaluate-orientation", OVAL, "--normal", ",".join(map(repr, n)), "--quality", "draft",
+                               "--json", "-").stdout)
+    assert by_angles["normal"] == pytest.approx(n, abs=1e-12)
+    assert by_angles["flash_energy"] == pytest.approx(by_normal["flash_energy"], rel=1e-9)
+    for args, words in ((["--tilt", "5"], "--tilt and --azimuth together"),
+                        (["--normal", "0,0,1", "--tilt", "5", "--azimuth", "0"], "not both"),
+                        (["--tilt", "95", "--azimuth", "0"], "--tilt must lie in [0, 90]")):
+        proc = cli("evaluate-orientation", OVAL, *args, "--quality", "draft", "--json", "-")
+        assert proc.returncode == 2 and words in proc.stderr, proc.stderr
+
+
+def test_evaluate_orientation_api_takes_tilt_and_azimuth():
+    import labcut
+
+    import math
+
+    mesh = labcut.cabochon(outline="oval", length=16, width=12, dome="low")
+    by_angles = labcut.evaluate_orientation(mesh, tilt=20.0, azimuth=90.0, quality="draft")
+    by_normal = labcut.evaluate_orientation(mesh, [0.0, math.sin(math.radians(20)), math.cos(math.radians(20))],
+                                            quality="draft")
+    assert by_angles.flash_energy == pytest.approx(by_normal.flash_energy, rel=1e-9)
+    with pytest.raises(labcut.ParameterError, match="both tilt and azimuth"):
+        labcut.evaluate_orientation(mesh, tilt=20.0, quality="draft")

@@ -301,7 +301,9 @@ def recommend_orientation(
 @m.takes_material
 def evaluate_orientation(
     mesh_path: Annotated[Path, typer.Argument(metavar="MESH", help="Stone mesh: STL, OBJ, PLY, OFF, GLB/GLTF, 3MF.")],
-    normal: Annotated[str, typer.Option("--normal", "-n", help="Lamella normal X,Y,Z in the mesh frame (+Z face-up, -Y front).")] = "0,0,1",
+    normal: Annotated[Optional[str], typer.Option("--normal", "-n", help="Lamella normal X,Y,Z in the mesh frame (+Z face-up, -Y front); default 0,0,1.")] = None,
+    tilt: Annotated[Optional[float], typer.Option("--tilt", help="Or the normal's tilt from the face-up axis, degrees (with --azimuth).")] = None,
+    azimuth: Annotated[Optional[float], typer.Option("--azimuth", help="The normal's azimuth from +X (the stone's right) towards +Y, degrees (with --tilt).")] = None,
     mesh_options: Any = None,  # --units, --up-axis, --size (meshes.takes_mesh_options)
     material: Any = None,  # the material options (materials.takes_material)
     scenario: so.Scenario = None,
@@ -312,16 +314,26 @@ def evaluate_orientation(
     plan_options: Any = None,  # --estimator, --effect, --plan, --plan-only (plan_options.takes_plan_options)
     zoning: m.ZoningOpt = None,
 ) -> None:
-    """Flash metrics of MESH cut with its lamella plane normal to --normal."""
+    """Flash metrics of MESH cut with its lamella plane normal to --normal (or at --tilt and --azimuth)."""
     estimator, effect, plan, plan_only = plan_options.estimator, plan_options.effect, plan_options.plan, plan_options.plan_only
     import labcut
     from labcut.fileio import check_output_path
     from labcut.orientation import METRIC_DEFINITIONS, FRAME, metrics_dict
-    from labcut.scene import normalize_normal
+    from labcut.errors import ParameterError
+    from labcut.scene import lamella_normal
 
     if json_path not in (None, "-"):
         check_output_path(json_path, (".json",))
-    m_vec = normalize_normal(parse_vector(normal, "--normal"))
+    if normal is not None and (tilt is not None or azimuth is not None):
+        raise ParameterError("give --normal or --tilt with --azimuth, not both")
+    if (tilt is None) != (azimuth is None):
+        raise ParameterError("give --tilt and --azimuth together (degrees), or --normal")
+    if normal is None and tilt is None:
+        normal = "0,0,1"
+    try:
+        m_vec = lamella_normal(None if normal is None else parse_vector(normal, "--normal"), tilt, azimuth)
+    except ParameterError as exc:
+        raise exc.renamed({"tilt": "--tilt", "azimuth": "--azimuth"}) from None
     setup = _question(material, scenario, lighting, viewing, quality, estimator, effect, zoning)
     scene = setup.scenario
     from labcut.planner import plan_question

@@ -25,7 +25,7 @@ from ..orientation.question import FlashQuestion
 from ..physics.material import Labradorite
 from ..planner import EffectPlan, occlusion_on, plan_question
 from ..scene import Lights, Scenario, Views
-from ..scene.directions import normalize_normal
+from ..scene.directions import lamella_normal
 from ..scene.quality import Quality
 from ..validation import is_default
 
@@ -160,7 +160,7 @@ def within_budget(mesh: Any, ask: FlashQuestion, time_budget: Any, *, quality_gi
 @with_serial_blas
 def evaluate_orientation(
     mesh: Any,
-    normal: Any,
+    normal: Any = None,
     material: Labradorite | str | None = None,
     lighting: str | Lights | None = None,
     viewing: str | Views | None = None,
@@ -174,8 +174,12 @@ def evaluate_orientation(
     zoning: Any = None,
     setup: FlashQuestion | None = None,
     plan: Any = None,
+    tilt: float | None = None,
+    azimuth: float | None = None,
 ) -> FlashMetrics:
-    """Flash metrics (DESIGN.md §4) of a given lamella normal (mesh frame, axial) under a
+    """Flash metrics (DESIGN.md §4) of a given lamella orientation under a scenario: a ``normal``
+    (mesh frame, axial) or ``tilt`` (degrees from +Z) and ``azimuth`` (degrees from +X toward +Y),
+    one of the two (:func:`labcut.scene.lamella_normal`); under a
     scenario (default ``bench``; ``lighting``/``viewing`` as in :func:`recommend_orientation`).
 
     ``estimator``/``effects`` as in :func:`recommend_orientation`: with the render estimator the
@@ -187,7 +191,7 @@ def evaluate_orientation(
     :func:`recommend_orientation`."""
     mesh = mesh_of(mesh)  # a Stone or a trimesh
 
-    m = normalize_normal(normal)
+    m = lamella_normal(normal, tilt, azimuth)
     ask = question(setup, material=material, scenario=scenario, lighting=lighting, viewing=viewing, quality=quality, tau=tau,
                    seed=seed, estimator=estimator, effects=effects, zoning=zoning)
     scorer, plan = planned_scorer(mesh, ask, "evaluate", plan)

@@ -11,7 +11,7 @@ This layer sits below rendering and orientation; both take a :class:`Scenario`
 * :class:`Quality`: every knob that trades accuracy for time (``draft``, ``standard``, ``high``).
 """
 
-from .directions import FRONT_AZIMUTH_DEG, direction, normalize_normal, tilt_azimuth
+from .directions import FRONT_AZIMUTH_DEG, direction, lamella_normal, normalize_normal, tilt_azimuth
 from .effects import EFFECTS, ESTIMATORS, SWITCHABLE, check_effects, parse_effects
 from .envmap import Environment, studio_environment
 from .presets import LIGHTING, VIEWING
@@ -36,6 +36,7 @@ __all__ = [
     "Views",
     "check_effects",
     "direction",
+    "lamella_normal",
     "lights_from",
     "normalize_normal",
     "parse_effects",

@@ -14,6 +14,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import ParameterError
+from ..validation import check_number
 from ..validation import unit_vector as _unit_vector
 
 FRONT_AZIMUTH_DEG = 270.0
@@ -107,3 +108,18 @@ def normalize_normal(normal: Any) -> np.ndarray:
 def unit_vector(value: Any, what: str) -> np.ndarray:
     """A validated unit vector from three finite numbers (not all zero)."""
     return _unit_vector(value, what)
+
+
+def lamella_normal(normal: Any = None, tilt: float | None = None, azimuth: float | None = None) -> np.ndarray:
+    """A lamella normal (unit, mesh frame, the upper of its two signs: z >= 0) from a ``normal``
+    vector or from ``tilt`` (degrees from +Z, [0, 90]) and ``azimuth`` (degrees from +X toward +Y,
+    [-360, 360]); exactly one of the two ways (:class:`~labcut.errors.ParameterError` otherwise)."""
+    if normal is not None:
+        if tilt is not None or azimuth is not None:
+            raise ParameterError("give a lamella normal or tilt and azimuth, not both")
+        return normalize_normal(normal)
+    if tilt is None or azimuth is None:
+        raise ParameterError("give a lamella normal, or both tilt and azimuth (degrees)")
+    t = check_number(tilt, "tilt", 0.0, 90.0, unit="degrees")
+    a = check_number(azimuth, "azimuth", -360.0, 360.0, unit="degrees")
+    return normalize_normal(direction(t, a))
