@@ -62,6 +62,8 @@ _LAZY = {
     "Comparison": "labcut.reports.compare:Comparison",
     "plan_effects": "labcut.planner:plan_effects",
     "EffectPlan": "labcut.planner:EffectPlan",
+    "plan_rough": "labcut.rough.plan:plan_rough",
+    "RoughPlan": "labcut.rough.plan:RoughPlan",
 }
 
 

@@ -33,7 +33,7 @@ LAYERS: list[tuple[str, ...]] = [
     # the commands: recommend, evaluate, render, animate, and the time budgets they fit into
     ("labcut.commands",),
     ("labcut.study",),
-    ("labcut.reports",),
+    ("labcut.reports", "labcut.rough"),
     ("labcut.batch",),
 ]
 

@@ -38,9 +38,12 @@ def smooth_split(mesh: Any, angle_deg: float, *, cache: bool = True) -> Any:
 
     def split() -> dict[str, np.ndarray]:
         made = trimesh.graph.smooth_shade(mesh, angle=math.radians(angle_deg))
+        parts = [np.asarray(c, dtype=np.int64).ravel() for c in made.metadata.get("original_components", [])]
         return {"vertices": np.asarray(made.vertices, dtype=np.float64), "faces": np.asarray(made.faces, dtype=np.int64),
                 "face_normals": np.asarray(made.face_normals, dtype=np.float64),
-                "vertex_normals": np.asarray(made.vertex_normals, dtype=np.float64)}
+                "vertex_normals": np.asarray(made.vertex_normals, dtype=np.float64),
+                "component_faces": np.concatenate(parts) if parts else np.arange(len(made.faces), dtype=np.int64),
+                "component_sizes": np.array([len(c) for c in parts] or [len(made.faces)], dtype=np.int64)}
 
     if cache:
         from .. import __version__
@@ -48,13 +51,16 @@ def smooth_split(mesh: Any, angle_deg: float, *, cache: bool = True) -> Any:
 
         digest = hashlib.blake2b(np.ascontiguousarray(mesh.vertices, dtype=np.float64).tobytes(), digest_size=16)
         digest.update(np.ascontiguousarray(mesh.faces, dtype=np.int64).tobytes())
-        key = (f"smooth split v1 | labcut {__version__} trimesh {trimesh.__version__} | angle {float(angle_deg)!r} | "
+        key = (f"smooth split v2 | labcut {__version__} trimesh {trimesh.__version__} | angle {float(angle_deg)!r} | "
                f"{len(mesh.vertices)} vertices {len(mesh.faces)} faces {digest.hexdigest()}")
         arrays = cached_arrays("smooth-split", key, split)
     else:
         arrays = split()
-    return trimesh.Trimesh(vertices=arrays["vertices"], faces=arrays["faces"], face_normals=arrays["face_normals"],
+    made = trimesh.Trimesh(vertices=arrays["vertices"], faces=arrays["faces"], face_normals=arrays["face_normals"],
                            vertex_normals=arrays["vertex_normals"], process=False, validate=False)
+    # which of the mesh's faces each patch of the copy came from, in the copy's face order (trimesh's own record)
+    made.metadata["original_components"] = np.split(arrays["component_faces"], np.cumsum(arrays["component_sizes"])[:-1])
+    return made
 
 
 #: meshes with more triangles than this are shaded for the flash estimator by

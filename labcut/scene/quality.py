@@ -67,8 +67,14 @@ class Quality:
     * ``estimator_coarse_deg``: the spacing of the coarse map of renders that picks its start
       when none is given.
 
-    The four have the ``standard`` preset's values as defaults, so a Quality written out by hand
-    before they existed still builds.
+    Rough planning (:mod:`labcut.rough`):
+
+    * ``rough_directions``: face-up axes tried for a cut inside a rough (spread over the sphere);
+    * ``rough_spins``: turns of the cut about its face-up axis tried with each;
+    * ``rough_refine``: steps of the local search that polishes the best poses.
+
+    These seven have the ``standard`` preset's values as defaults, so a Quality written out by
+    hand before they existed still builds.
     """
 
     name: str
@@ -92,6 +98,9 @@ class Quality:
     estimator_spp: int = 8
     estimator_iterations: int = 25
     estimator_coarse_deg: float = 15.0
+    rough_directions: int = 240
+    rough_spins: int = 12
+    rough_refine: int = 40
 
     PRESETS: ClassVar[dict[str, Quality]]
 
@@ -101,7 +110,8 @@ class Quality:
         ("cone_views", 1, 100_000), ("ring_views", 1, 100_000), ("nlopt_evals", 4, 1_000_000),
         ("gradient_starts", 1, 10_000), ("tilt_points", 16, 10_000_000), ("render_resolution", 8, 8192),
         ("render_spp", 1, 1 << 20), ("estimator_resolution", 8, 4096), ("estimator_spp", 1, 1 << 16),
-        ("estimator_iterations", 1, 10_000),
+        ("estimator_iterations", 1, 10_000), ("rough_directions", 8, 100_000), ("rough_spins", 1, 360),
+        ("rough_refine", 0, 10_000),
     )
     #: (field, low (open), high) of the angle fields, degrees
     _ANGLES: ClassVar[tuple[tuple[str, float, float], ...]] = (
@@ -183,17 +193,20 @@ Quality.PRESETS = {
         map_spacing_deg=4.0, grid_coarse_deg=2.0, nlopt_evals=40, gradient_starts=8,
         tilt_step_deg=10.0, tilt_points=1000, miss_step_deg=1.0,
         render_resolution=96, render_spp=8, strip_angles_deg=(-20.0, 0.0, 20.0),
-        estimator_resolution=48, estimator_spp=4, estimator_iterations=15, estimator_coarse_deg=20.0),
+        estimator_resolution=48, estimator_spp=4, estimator_iterations=15, estimator_coarse_deg=20.0,
+        rough_directions=96, rough_spins=8, rough_refine=16),
     "standard": Quality(
         "standard", surface_points=8000, lamp_samples=13, env_samples=64, cone_views=13, ring_views=20, rock_steps=(9, 4),
         map_spacing_deg=3.0, grid_coarse_deg=1.5, nlopt_evals=60, gradient_starts=12,
         tilt_step_deg=7.5, tilt_points=2000, miss_step_deg=0.5,
         render_resolution=128, render_spp=32, strip_angles_deg=(-20.0, -10.0, 0.0, 10.0, 20.0),
-        estimator_resolution=96, estimator_spp=8, estimator_iterations=25, estimator_coarse_deg=15.0),
+        estimator_resolution=96, estimator_spp=8, estimator_iterations=25, estimator_coarse_deg=15.0,
+        rough_directions=240, rough_spins=12, rough_refine=40),
     "high": Quality(
         "high", surface_points=24000, lamp_samples=25, env_samples=128, cone_views=25, ring_views=40, rock_steps=(17, 6),
         map_spacing_deg=1.5, grid_coarse_deg=1.0, nlopt_evals=120, gradient_starts=20,
         tilt_step_deg=5.0, tilt_points=5000, miss_step_deg=0.25,
         render_resolution=256, render_spp=128, strip_angles_deg=(-24.0, -16.0, -8.0, 0.0, 8.0, 16.0, 24.0),
-        estimator_resolution=160, estimator_spp=16, estimator_iterations=40, estimator_coarse_deg=10.0),
+        estimator_resolution=160, estimator_spp=16, estimator_iterations=40, estimator_coarse_deg=10.0,
+        rough_directions=600, rough_spins=24, rough_refine=80),
 }

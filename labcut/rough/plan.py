@@ -1,0 +1,361 @@
+"""``labcut.plan_rough``: which stones to cut from a rough, where, how big and how tilted,
+trading weight against flash (docs/rough.md).
+
+The rough's flash plane is fixed (its lamella normal ``n``, rough frame); what the cutter chooses
+is the cut, its size and its pose. A pose's flash is the share of the cut's best flash that its
+lamella orientation ``R^T n`` keeps (the cut's own score map, :mod:`labcut.rough.candidates`);
+its weight comes from the largest scale that fits (:mod:`labcut.rough.pose`). Plans are ranked
+by carats^1.5 x flash ratio (``rank``, :data:`labcut.rough.search.RANKS`); the front of weight
+against flash and the slab question (the best flash against the stone's size) come with it.
+Every returned stone's flash ratio is measured again on the stone itself (its own recommendation
+and evaluation, :class:`labcut.Study`), and every stone is checked against the rough with
+manifold3d (:mod:`labcut.rough.check`).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Callable
+
+import numpy as np
+
+from ..errors import MeshError, ParameterError
+from ..physics.material import Labradorite
+from ..scene.directions import tilt_azimuth
+from ..scene.quality import Quality
+from ..study import Study
+from ..validation import check_budget, check_number, unit_vector
+from .candidates import CutModel, build_models
+from .check import OUTSIDE_LIMIT, clearance_mm, gap_mm, outside_share, overlap_mm3
+from .pose import axial_upper, transform
+from .search import Piece, Placement, Region, check_rank, partition, rank_value, search_region
+from .shape import Rough, load_rough
+from .workshop import stone_steps
+
+#: most stones one plan cuts from a rough
+MAX_COUNT = 12
+#: the largest margin (mm) a plan keeps
+MAX_MARGIN_MM = 20.0
+
+
+@dataclass
+class PlannedStone:
+    """One stone of a plan (DESIGN.md §5): ``cut`` in its own face-up frame at its planned size,
+    ``mesh`` the same in the rough's frame, ``transform`` (4 x 4, cut frame -> rough frame),
+    ``carats`` (at 2.69 g/cm³), ``flash_ratio`` (its flash energy with the lamella normal the rough
+    imposes over the same cut's best, both measured on the stone), ``lamella_normal_cut`` (``R^T
+    n``, unit, cut frame), ``tolerance_deg`` (how far the lamella may stray from the cut's best
+    and keep most of its flash), ``workshop`` (the steps, in workshop words)."""
+
+    name: str
+    cut: Any
+    mesh: Any
+    transform: np.ndarray
+    carats: float
+    flash_ratio: float
+    lamella_normal_cut: np.ndarray
+    tolerance_deg: float
+    workshop: list[str]
+    best_normal_cut: np.ndarray
+    off_best_deg: float
+    design: dict[str, Any]
+    spec: str | None
+    map_flash_ratio: float
+    saws: list[tuple[np.ndarray, float]] = field(default_factory=list)
+
+    @property
+    def size_mm(self) -> tuple[float, float, float]:
+        e = np.asarray(self.cut.extents, dtype=np.float64)
+        return float(e[0]), float(e[1]), float(e[2])
+
+    @property
+    def within_tolerance(self) -> bool:
+        return self.off_best_deg <= self.tolerance_deg
+
+    def to_dict(self) -> dict[str, Any]:
+        tilt, az = tilt_azimuth(self.lamella_normal_cut)
+        return {
+            "name": self.name, "spec": self.spec, "size_mm": list(self.size_mm), "carats": self.carats,
+            "flash_ratio": self.flash_ratio, "flash_ratio_from_map": self.map_flash_ratio,
+            "lamella_normal_cut": self.lamella_normal_cut.tolist(), "lamella_tilt_deg": tilt, "lamella_azimuth_deg": az,
+            "best_normal_cut": self.best_normal_cut.tolist(), "off_best_deg": self.off_best_deg,
+            "tolerance_deg": self.tolerance_deg, "within_tolerance": self.within_tolerance,
+            "transform": self.transform.tolist(), "workshop": list(self.workshop), "design": dict(self.design),
+        }
+
+
+@dataclass
+class RoughPlan:
+    """What :func:`plan_rough` found (DESIGN.md §5): ``rough``, ``stones`` best first,
+    ``yield_fraction`` (the stones' volume over the rough's), ``pareto`` (the front of weight
+    against flash ratio over every cut and pose tried for one stone), ``tradeoff`` (the best flash
+    ratio against the stone's length, the slab question), ``checks`` (manifold3d's verdicts)."""
+
+    rough: Rough
+    lamella_normal: np.ndarray
+    stones: list[PlannedStone]
+    yield_fraction: float
+    pareto: list[dict[str, Any]]
+    tradeoff: dict[str, Any]
+    checks: dict[str, Any]
+    settings: dict[str, Any]
+    notes: list[str]
+    seconds: float
+
+    def to_dict(self) -> dict[str, Any]:
+        tilt, az = tilt_azimuth(self.lamella_normal)
+        return {
+            "rough": self.rough.to_dict(), "lamella_normal": self.lamella_normal.tolist(),
+            "flash_plane": {"tilt_deg": tilt, "azimuth_deg": az, "from": "the rough's top face (+Z), azimuth from +X towards +Y"},
+            "stones": [s.to_dict() for s in self.stones], "count": len(self.stones),
+            "carats": float(sum(s.carats for s in self.stones)), "yield_fraction": self.yield_fraction,
+            "pareto": self.pareto, "tradeoff": self.tradeoff, "checks": self.checks, "settings": self.settings,
+            "notes": list(self.notes), "seconds": self.seconds,
+            "frame": "rough frame: the file's (mm); a slab spans [0, L] x [0, W] x [0, T], its top face at z = T",
+        }
+
+    def save_json(self, path: str | Path) -> Path:
+        from ..fileio import atomic_output
+        import json
+
+        with atomic_output(path, (".json",)) as tmp:
+            Path(tmp).write_text(json.dumps(self.to_dict(), indent=2, allow_nan=False))
+        return Path(path)
+
+    def save_html(self, path: str | Path, *, renders: bool = True) -> Path:
+        """A self-contained HTML report (figures inline): :func:`labcut.rough.report.write_html`."""
+        from .report import write_html
+
+        return write_html(self, path, renders=renders)
+
+    def save_png(self, path: str | Path) -> Path:
+        """The plan's figure (three views of the rough with its stones and flash plane, the front) as PNG."""
+        from .report import write_png
+
+        return write_png(self, path)
+
+
+def _normal(lamella_normal: Any) -> np.ndarray:
+    return unit_vector(lamella_normal, "lamella normal")
+
+
+def plan_rough(rough: Any, lamella_normal: Any, cuts: Any = None, material: Any = None, scenario: Any = "bench",
+               count: int = 1, margin_mm: float = 0.5, quality: Quality | str = "standard",
+               time_budget: float | None = None, *, rank: str = "value", calibrated: bool = False,
+               units: str | float = "auto", up_axis: str = "+Z",
+               progress: Callable[[str, float], None] | None = None) -> RoughPlan:
+    """Plan the stones to cut from ``rough`` whose lamella normal is ``lamella_normal`` (rough frame).
+
+    ``rough``: ``"slab:LxWxT"`` (mm), a mesh file (read in its own frame: ``units``, ``up_axis``
+    default ``"+Z"``), a trimesh or a :class:`~labcut.Stone`. ``cuts``: None (the cabochon
+    families; ``calibrated``: their standard sizes only) or cuts as :func:`labcut.compare_cuts`
+    takes them, each scaled to fit. ``material``, ``scenario``, ``quality`` as everywhere.
+    ``count``: how many stones, non-overlapping, ``margin_mm`` apart and from the rough's surface.
+    ``time_budget`` (s): the search stops polishing and sawing when it runs out (the answer then
+    says so in ``notes``). ``rank``: ``"value"`` (carats^1.5 x flash ratio), ``"weight"``,
+    ``"flash"``. ``progress(stage, fraction)``: called as the work goes.
+
+    Raises :class:`~labcut.errors.ParameterError` (bad normal, count, margin, rank, spec) or
+    :class:`~labcut.errors.MeshError` (a rough that cannot be read or repaired; a rough too small
+    for any candidate)."""
+    started = time.monotonic()
+    report = progress or (lambda stage, fraction: None)
+    n = _normal(lamella_normal)
+    count = int(check_number(count, "count", 1, MAX_COUNT, integer=True))
+    margin = float(check_number(margin_mm, "margin", 0.0, MAX_MARGIN_MM, unit="mm"))
+    check_rank(rank)
+    q = Quality.coerce(quality)
+    deadline = math.inf if time_budget is None else started + check_budget(time_budget)
+    mat = Labradorite.coerce(material)
+    report("reading the rough", 0.0)
+    r = load_rough(rough, units=units, up_axis=up_axis)
+    region = Region(np.concatenate([r.planes[:, :3], r.planes[:, 3:] - margin], axis=1))
+    if region.empty:
+        raise MeshError(f"the rough {r.name!r} is too small to keep a {margin:g} mm margin all round")
+    report("flash maps of the candidate cuts", 0.05)
+    lo, hi = r.bounds
+    models = build_models(cuts, mat, scenario, q, calibrated=calibrated, largest_mm=float(np.max(hi - lo)),
+                          units=units, up_axis="auto", progress=lambda d, t: report("flash maps of the candidate cuts", 0.05 + 0.35 * d / t))
+    report("placing the cuts", 0.4)
+    whole = search_region(models, region, n, q, rank, deadline=deadline)
+    if not whole:
+        raise MeshError(f"the rough {r.name!r} is too small for any candidate cut (the smallest stone is "
+                        f"{4.0:g} mm long, with a {margin:g} mm margin)")
+    notes: list[str] = []
+    if count > 1:
+        report("choosing the saw cuts", 0.55)
+        ranked = sorted({id(p.model): p.model for p in whole}.values(), key=lambda m: -max(p.value(rank) for p in whole if p.model is m))
+        pieces = partition(r.mesh.vertices, region, count, ranked[:3], n, q, rank, margin, deadline)
+        if len(pieces) < count:
+            notes.append(f"{len(pieces)} stone(s), not {count}: no saw cut leaves room for another stone")
+    else:
+        pieces = [Piece(region)]
+    report("measuring the stones", 0.75)
+    stones: list[PlannedStone] = []
+    for k, piece in enumerate(pieces):
+        found = whole if count == 1 else search_region(models, piece.region, n, q, rank, deadline=deadline)
+        made = _first_that_holds(found, r, n, mat, scenario, q, margin, piece)
+        if made is not None:
+            stones.append(made)
+        report("measuring the stones", 0.75 + 0.2 * (k + 1) / len(pieces))
+    if not stones:
+        raise MeshError(f"no candidate cut fits inside the rough {r.name!r} with a {margin:g} mm margin")
+    order = np.argsort([-rank_value(s.carats, s.flash_ratio, rank) for s in stones], kind="stable")
+    stones = [stones[i] for i in order]
+    for i, s in enumerate(stones):
+        s.name = f"stone {i + 1}: {s.name}"
+        s.workshop = stone_steps(s, r, n, i + 1)
+    if time.monotonic() > deadline:
+        notes.append("the time budget ran out: the search stopped early (a longer budget may find better poses)")
+    checks = _checks(r, stones, margin)
+    plan = RoughPlan(
+        rough=r, lamella_normal=n, stones=stones,
+        yield_fraction=float(sum(float(s.mesh.volume) for s in stones) / r.volume_mm3),
+        pareto=_pareto(whole), tradeoff=_tradeoff(whole, region, n, q, rank), checks=checks,
+        settings={"count": count, "margin_mm": margin, "quality": q.name, "rank": rank, "calibrated": calibrated,
+                  "scenario": str(getattr(scenario, "name", scenario)), "material": mat.to_dict(),
+                  "candidates": [m.name for m in models], "time_budget_s": time_budget},
+        notes=notes + list(r.notes), seconds=time.monotonic() - started)
+    report("done", 1.0)
+    return plan
+
+
+def _stone_meshes(p: Placement) -> tuple[Any, Any, np.ndarray]:
+    cut = p.model.mesh.copy()
+    cut.apply_scale(p.scale)
+    t = transform(p.rotation, p.scale, p.model.ref, p.centre)
+    mesh = cut.copy()
+    mesh.apply_transform(t)
+    return cut, mesh, t
+
+
+def _holds(rough: Rough, mesh: Any, margin: float) -> bool:
+    if rough.convex:
+        return True  # exact by construction (the rough's own half-spaces, moved in by the margin)
+    if outside_share(rough.mesh, mesh) > OUTSIDE_LIMIT:
+        return False
+    return margin <= 0 or clearance_mm(rough.mesh, mesh, 500) >= margin * 0.999
+
+
+def _deep_point(rough: Rough, region: Region) -> np.ndarray:
+    """A point of the rough far from its surface: the deepest of the region's centre and 400
+    points spread over the rough's box that lie inside it (:func:`labcut.rough.check.inside`)."""
+    from .check import inside, surface_distance
+
+    lo, hi = rough.bounds
+    grid = lo + (hi - lo) * np.random.default_rng(0).random((400, 3))
+    pts = np.vstack([region.centre, grid])
+    pts = pts[inside(rough.mesh, pts)]
+    if len(pts) == 0:
+        return region.centre
+    return pts[int(np.argmax(surface_distance(rough.mesh, pts)))]
+
+
+def _shrunk(p: Placement, rough: Rough, region: Region, margin: float) -> Placement | None:
+    """``p`` shrunk towards a deep point of a non-convex rough until it holds (bisection), or None."""
+    if p.model.fixed:
+        return None
+    c = _deep_point(rough, region)
+    lo, hi = 0.0, 1.0
+    best = None
+    for _ in range(12):
+        lam = (lo + hi) / 2.0
+        trial = Placement(p.model, p.rotation, p.scale * lam, lam * p.centre + (1.0 - lam) * c, p.flash)
+        if trial.scale < p.model.smallest_scale():
+            lo = lam
+            continue
+        if _holds(rough, _stone_meshes(trial)[1], margin):
+            best, lo = trial, lam
+        else:
+            hi = lam
+    return best
+
+
+def _first_that_holds(found: list[Placement], rough: Rough, n: np.ndarray, material: Any, scenario: Any,
+                      quality: Quality, margin: float, piece: Piece) -> PlannedStone | None:
+    for p in found[:8]:
+        if not _holds(rough, _stone_meshes(p)[1], margin):
+            p = _shrunk(p, rough, piece.region, margin)
+            if p is None:
+                continue
+        return _measured(p, n, material, scenario, quality, piece)
+    return None
+
+
+def _measured(p: Placement, n: np.ndarray, material: Any, scenario: Any, quality: Quality, piece: Piece) -> PlannedStone:
+    """The stone of placement ``p``, its flash ratio measured on the stone itself."""
+    cut, mesh, t = _stone_meshes(p)
+    m_cut = axial_upper(p.rotation.T @ n)
+    m_cut = m_cut / np.linalg.norm(m_cut)
+    study = Study(cut, material, scenario, quality)
+    rec = study.recommend()
+    energy = study.evaluate(m_cut).flash_energy
+    ratio = float(energy / rec.score) if rec.score > 0 else 0.0
+    best = np.asarray(rec.normal, dtype=np.float64)
+    off = math.degrees(math.acos(min(1.0, abs(float(best @ m_cut)))))
+    return PlannedStone(name=p.model.name, cut=cut, mesh=mesh, transform=t, carats=p.carats, flash_ratio=ratio,
+                        lamella_normal_cut=m_cut, tolerance_deg=float(rec.tolerance_deg), workshop=[],
+                        best_normal_cut=best, off_best_deg=off, design=dict(p.model.design), spec=p.model.spec,
+                        map_flash_ratio=p.flash, saws=list(piece.saws))
+
+
+def _checks(rough: Rough, stones: list[PlannedStone], margin: float) -> dict[str, Any]:
+    """manifold3d's verdicts on the plan: each stone's share outside the rough and its clearance,
+    the volume and the gap between each pair of stones."""
+    out: dict[str, Any] = {"stones": [], "pairs": []}
+    for s in stones:
+        out["stones"].append({"outside_share": outside_share(rough.mesh, s.mesh),
+                              "clearance_mm": clearance_mm(rough.mesh, s.mesh, 500)})
+    for i in range(len(stones)):
+        for j in range(i + 1, len(stones)):
+            out["pairs"].append({"stones": [i + 1, j + 1], "overlap_mm3": overlap_mm3(stones[i].mesh, stones[j].mesh),
+                                 "gap_mm": gap_mm(stones[i].mesh, stones[j].mesh, 500)})
+    out["inside"] = all(c["outside_share"] <= OUTSIDE_LIMIT for c in out["stones"])
+    out["apart"] = all(c["overlap_mm3"] <= 1e-6 for c in out["pairs"])
+    out["margin_mm"] = margin
+    return out
+
+
+def _pareto(found: list[Placement]) -> list[dict[str, Any]]:
+    """The placements no other beats on both weight and flash (heaviest first)."""
+    pts = sorted(found, key=lambda p: (-p.carats, -p.flash))
+    front, best_flash = [], -1.0
+    for p in pts:
+        if p.flash > best_flash + 1e-9:
+            front.append({"cut": p.model.name, "carats": p.carats, "flash_ratio": p.flash,
+                          "length_mm": p.scale * p.model.length_mm})
+            best_flash = p.flash
+    return front
+
+
+#: the flash ratios at which the slab question's curve is read
+TRADEOFF_LEVELS = (0.5, 0.6, 0.7, 0.8, 0.85, 0.9, 0.95, 0.98, 1.0)
+
+
+def _tradeoff(found: list[Placement], region: Region, n: np.ndarray, quality: Quality, rank: str) -> dict[str, Any]:
+    """The slab question, for the best-ranked cut: the longest stone (mm) that keeps at least each
+    flash ratio of :data:`TRADEOFF_LEVELS` (from the cut's map), over the rotation grid, each an
+    exact fit of the three roomiest rotations at that level."""
+    from .pose import centred_scales, largest_fit, rotations, sphere_directions, supports
+    from .search import thinned
+
+    model = max(found, key=lambda p: p.value(rank)).model
+    period = math.pi if model.symmetric else 2.0 * math.pi
+    rots = rotations(sphere_directions(quality.rough_directions), np.arange(quality.rough_spins) * (period / quality.rough_spins))
+    planes = region.screening_planes()
+    scale = centred_scales(supports(rots, planes[:, :3], thinned(model.points)), planes, region.centre)
+    flash = model.flash_ratio(axial_upper(np.einsum("rji,j->ri", rots, n)))
+    curve = []
+    for level in TRADEOFF_LEVELS:
+        idx = np.flatnonzero(flash >= level - 1e-9)
+        best = 0.0
+        for i in idx[np.argsort(-scale[idx])[:3]]:
+            fit = largest_fit(supports(rots[i][None], region.planes[:, :3], model.points)[0], region.planes)
+            if fit is not None:
+                best = max(best, min(fit.scale, 1.0) if model.fixed else fit.scale)
+        curve.append({"flash_ratio": level, "length_mm": best * model.length_mm})
+    return {"cut": model.name, "curve": curve,
+            "reads": "the longest stone of this cut that keeps at least each share of its best flash"}
