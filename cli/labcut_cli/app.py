@@ -24,6 +24,7 @@ from . import render  # noqa: F401  (registers render)
 from . import scenes  # noqa: F401  (registers scenarios)
 from . import compare  # noqa: F401  (registers compare)
 from . import batch  # noqa: F401  (registers batch)
+from . import rough  # noqa: F401  (registers rough)
 from .root import app, err_console
 
 

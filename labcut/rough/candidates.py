@@ -49,6 +49,10 @@ HALF_TURN = {"oval", "round", "cushion", "marquise", "rectangle"}
 #: the smallest stone a plan returns, mm along its longest side
 MIN_STONE_MM = 4.0
 
+#: spacing (degrees) of each cut's score map: finer than a recommendation's (a cut's flash peak is
+#: a few degrees wide; the map is cheap once the cut's flash problem is built)
+MAP_SPACING_DEG = 1.5
+
 #: the cabochon builder's outline points for the planning meshes (smooth enough for the flash map)
 PLAN_RESOLUTION = 96
 
@@ -110,7 +114,7 @@ def _model(name: str, mesh: Any, spec: str | None, design: dict[str, Any], fixed
     ref = (lo + hi) / 2.0
     v = np.asarray(mesh.vertices, dtype=np.float64)
     hull = v[ConvexHull(v).vertices]
-    normals, scores = study.score_map()
+    normals, scores = study.score_map(MAP_SPACING_DEG)
     return CutModel(name, mesh, spec, design, fixed, symmetric, ref, hull - ref, np.asarray(normals, dtype=np.float64),
                     np.asarray(scores, dtype=np.float64))
 
@@ -136,14 +140,17 @@ def family_specs(calibrated: bool = False, largest_mm: float | None = None) -> l
 
 
 def build_models(cuts: Any, material: Any, scenario: Any, quality: Any, *, calibrated: bool = False,
-                 largest_mm: float | None = None, units: str | float = "auto", up_axis: str = "auto",
-                 progress: Any = None) -> list[CutModel]:
+                 fixed_size: bool = False, largest_mm: float | None = None, units: str | float = "auto",
+                 up_axis: str = "auto", progress: Any = None) -> list[CutModel]:
     """The candidate cuts with their flash maps: the default families (``cuts`` None) or the cuts
-    given (as :func:`labcut.reports.cuts.resolve_cuts` takes them; scaled to fit). Calibrated
-    families share one map per outline and dome (flash does not depend on size)."""
+    given (as :func:`labcut.reports.cuts.resolve_cuts` takes them; scaled to fit, or kept at their
+    size with ``fixed_size``). Calibrated families share one map per outline and dome (flash does
+    not depend on size)."""
     from ..reports.cuts import resolve_cuts
 
     report = progress or (lambda done, total: None)
+    if fixed_size and cuts is None:
+        raise ParameterError("fixed size keeps the size of the cuts given (--cut); the default cabochons take --calibrated")
     if cuts is None:
         specs = family_specs(calibrated, largest_mm)
         if not specs:
@@ -154,12 +161,12 @@ def build_models(cuts: Any, material: Any, scenario: Any, quality: Any, *, calib
         if calibrated:
             raise ParameterError("--calibrated chooses among the default cabochon families; with --cut the cuts given are scaled to fit")
         resolved = resolve_cuts(cuts, units=units, up_axis=up_axis)
-        items = [(c.name, c.mesh, c.source, c.design, False, False) for c in resolved]
+        items = [(c.name, c.mesh, c.source, c.design, bool(fixed_size), False) for c in resolved]
     models: list[CutModel] = []
     maps: dict[tuple[str, str], tuple[np.ndarray, np.ndarray]] = {}
     for k, (name, mesh, spec, design, fixed, sym) in enumerate(items):
-        key = (str(design.get("outline", name)), str(design.get("dome_mm", name)) if not fixed else name.split()[-1])
-        if fixed and key in maps:
+        key = (str(design.get("outline", name)), name.split()[-1])
+        if fixed and cuts is None and key in maps:
             model = _model(name, mesh, spec, design, fixed, sym, _Cached(*maps[key]))
         else:
             model = _model(name, mesh, spec, design, fixed, sym, Study(mesh, material, scenario, quality))

@@ -31,7 +31,7 @@ from ..validation import check_budget, check_number, unit_vector
 from .candidates import CutModel, build_models
 from .check import OUTSIDE_LIMIT, clearance_mm, gap_mm, outside_share, overlap_mm3
 from .pose import axial_upper, transform
-from .search import Piece, Placement, Region, check_rank, partition, rank_value, search_region
+from .search import Piece, Placement, Ranking, Region, partition, search_region
 from .shape import Rough, load_rough
 from .workshop import stone_steps
 
@@ -144,7 +144,8 @@ def _normal(lamella_normal: Any) -> np.ndarray:
 
 def plan_rough(rough: Any, lamella_normal: Any, cuts: Any = None, material: Any = None, scenario: Any = "bench",
                count: int = 1, margin_mm: float = 0.5, quality: Quality | str = "standard",
-               time_budget: float | None = None, *, rank: str = "value", calibrated: bool = False,
+               time_budget: float | None = None, *, rank: str = "value", min_flash: float = 0.0, calibrated: bool = False,
+               fixed_size: bool = False,
                units: str | float = "auto", up_axis: str = "+Z",
                progress: Callable[[str, float], None] | None = None) -> RoughPlan:
     """Plan the stones to cut from ``rough`` whose lamella normal is ``lamella_normal`` (rough frame).
@@ -152,11 +153,12 @@ def plan_rough(rough: Any, lamella_normal: Any, cuts: Any = None, material: Any 
     ``rough``: ``"slab:LxWxT"`` (mm), a mesh file (read in its own frame: ``units``, ``up_axis``
     default ``"+Z"``), a trimesh or a :class:`~labcut.Stone`. ``cuts``: None (the cabochon
     families; ``calibrated``: their standard sizes only) or cuts as :func:`labcut.compare_cuts`
-    takes them, each scaled to fit. ``material``, ``scenario``, ``quality`` as everywhere.
+    takes them, each scaled to fit (``fixed_size``: kept at its own size). ``material``, ``scenario``, ``quality`` as everywhere.
     ``count``: how many stones, non-overlapping, ``margin_mm`` apart and from the rough's surface.
     ``time_budget`` (s): the search stops polishing and sawing when it runs out (the answer then
     says so in ``notes``). ``rank``: ``"value"`` (carats^1.5 x flash ratio), ``"weight"``,
-    ``"flash"``. ``progress(stage, fraction)``: called as the work goes.
+    ``"flash"``; ``min_flash``: the least flash ratio a stone may keep (a pose below it is not
+    taken). ``progress(stage, fraction)``: called as the work goes.
 
     Raises :class:`~labcut.errors.ParameterError` (bad normal, count, margin, rank, spec) or
     :class:`~labcut.errors.MeshError` (a rough that cannot be read or repaired; a rough too small
@@ -166,7 +168,7 @@ def plan_rough(rough: Any, lamella_normal: Any, cuts: Any = None, material: Any 
     n = _normal(lamella_normal)
     count = int(check_number(count, "count", 1, MAX_COUNT, integer=True))
     margin = float(check_number(margin_mm, "margin", 0.0, MAX_MARGIN_MM, unit="mm"))
-    check_rank(rank)
+    ranking = Ranking(rank, float(check_number(min_flash, "min flash", 0.0, 1.0)))
     q = Quality.coerce(quality)
     deadline = math.inf if time_budget is None else started + check_budget(time_budget)
     mat = Labradorite.coerce(material)
@@ -177,18 +179,23 @@ def plan_rough(rough: Any, lamella_normal: Any, cuts: Any = None, material: Any 
         raise MeshError(f"the rough {r.name!r} is too small to keep a {margin:g} mm margin all round")
     report("flash maps of the candidate cuts", 0.05)
     lo, hi = r.bounds
-    models = build_models(cuts, mat, scenario, q, calibrated=calibrated, largest_mm=float(np.max(hi - lo)),
+    models = build_models(cuts, mat, scenario, q, calibrated=calibrated, fixed_size=fixed_size, largest_mm=float(np.max(hi - lo)),
                           units=units, up_axis="auto", progress=lambda d, t: report("flash maps of the candidate cuts", 0.05 + 0.35 * d / t))
     report("placing the cuts", 0.4)
-    whole = search_region(models, region, n, q, rank, deadline=deadline)
+    whole = search_region(models, region, n, q, ranking, deadline=deadline)
+    if whole and ranking.min_flash > 0:
+        whole = [p for p in whole if p.flash >= ranking.min_flash - 1e-12]
+        if not whole:
+            raise ParameterError(f"no pose of any candidate cut keeps a flash ratio of {ranking.min_flash:g} in this rough: "
+                                 f"lower the least flash", parameter="min flash")
     if not whole:
         raise MeshError(f"the rough {r.name!r} is too small for any candidate cut (the smallest stone is "
                         f"{4.0:g} mm long, with a {margin:g} mm margin)")
     notes: list[str] = []
     if count > 1:
         report("choosing the saw cuts", 0.55)
-        ranked = sorted({id(p.model): p.model for p in whole}.values(), key=lambda m: -max(p.value(rank) for p in whole if p.model is m))
-        pieces = partition(r.mesh.vertices, region, count, ranked[:3], n, q, rank, margin, deadline)
+        ranked = sorted({id(p.model): p.model for p in whole}.values(), key=lambda m: -max(p.value(ranking) for p in whole if p.model is m))
+        pieces = partition(r.mesh.vertices, region, count, ranked[:3], n, q, ranking, margin, deadline)
         if len(pieces) < count:
             notes.append(f"{len(pieces)} stone(s), not {count}: no saw cut leaves room for another stone")
     else:
@@ -196,14 +203,14 @@ def plan_rough(rough: Any, lamella_normal: Any, cuts: Any = None, material: Any 
     report("measuring the stones", 0.75)
     stones: list[PlannedStone] = []
     for k, piece in enumerate(pieces):
-        found = whole if count == 1 else search_region(models, piece.region, n, q, rank, deadline=deadline)
-        made = _first_that_holds(found, r, n, mat, scenario, q, margin, piece)
+        found = whole if count == 1 else search_region(models, piece.region, n, q, ranking, deadline=deadline)
+        made = _first_that_holds(found, r, n, mat, scenario, q, margin, piece, ranking)
         if made is not None:
             stones.append(made)
         report("measuring the stones", 0.75 + 0.2 * (k + 1) / len(pieces))
     if not stones:
         raise MeshError(f"no candidate cut fits inside the rough {r.name!r} with a {margin:g} mm margin")
-    order = np.argsort([-rank_value(s.carats, s.flash_ratio, rank) for s in stones], kind="stable")
+    order = np.argsort([-float(ranking(s.carats, s.flash_ratio)) for s in stones], kind="stable")
     stones = [stones[i] for i in order]
     for i, s in enumerate(stones):
         s.name = f"stone {i + 1}: {s.name}"
@@ -214,8 +221,8 @@ def plan_rough(rough: Any, lamella_normal: Any, cuts: Any = None, material: Any 
     plan = RoughPlan(
         rough=r, lamella_normal=n, stones=stones,
         yield_fraction=float(sum(float(s.mesh.volume) for s in stones) / r.volume_mm3),
-        pareto=_pareto(whole), tradeoff=_tradeoff(whole, region, n, q, rank), checks=checks,
-        settings={"count": count, "margin_mm": margin, "quality": q.name, "rank": rank, "calibrated": calibrated,
+        pareto=_pareto(whole), tradeoff=_tradeoff(whole, region, n, q, ranking), checks=checks,
+        settings={"count": count, "margin_mm": margin, "quality": q.name, "rank": rank, "min_flash": ranking.min_flash, "calibrated": calibrated, "fixed_size": fixed_size,
                   "scenario": str(getattr(scenario, "name", scenario)), "material": mat.to_dict(),
                   "candidates": [m.name for m in models], "time_budget_s": time_budget},
         notes=notes + list(r.notes), seconds=time.monotonic() - started)
@@ -241,14 +248,17 @@ def _holds(rough: Rough, mesh: Any, margin: float) -> bool:
 
 
 def _deep_point(rough: Rough, region: Region) -> np.ndarray:
-    """A point of the rough far from its surface: the deepest of the region's centre and 400
-    points spread over the rough's box that lie inside it (:func:`labcut.rough.check.inside`)."""
+    """A point of the piece far from the rough's surface: the deepest of the region's centre and
+    400 points spread over the rough's box that lie inside both the region (the piece, the margin
+    kept) and the rough itself (:func:`labcut.rough.check.inside`). A stone shrunk towards it
+    stays in its piece (the piece is convex)."""
     from .check import inside, surface_distance
 
     lo, hi = rough.bounds
     grid = lo + (hi - lo) * np.random.default_rng(0).random((400, 3))
     pts = np.vstack([region.centre, grid])
-    pts = pts[inside(rough.mesh, pts)]
+    pts = pts[np.all(pts @ region.planes[:, :3].T <= region.planes[:, 3] + 1e-9, axis=1)]
+    pts = pts[inside(rough.mesh, pts)] if len(pts) else pts
     if len(pts) == 0:
         return region.centre
     return pts[int(np.argmax(surface_distance(rough.mesh, pts)))]
@@ -275,31 +285,63 @@ def _shrunk(p: Placement, rough: Rough, region: Region, margin: float) -> Placem
 
 
 def _first_that_holds(found: list[Placement], rough: Rough, n: np.ndarray, material: Any, scenario: Any,
-                      quality: Quality, margin: float, piece: Piece) -> PlannedStone | None:
+                      quality: Quality, margin: float, piece: Piece, ranking: Ranking) -> PlannedStone | None:
     for p in found[:8]:
         if not _holds(rough, _stone_meshes(p)[1], margin):
             p = _shrunk(p, rough, piece.region, margin)
             if p is None:
                 continue
-        return _measured(p, n, material, scenario, quality, piece)
+        return _measured(p, n, material, scenario, quality, piece, rough, margin, ranking)
     return None
 
 
-def _measured(p: Placement, n: np.ndarray, material: Any, scenario: Any, quality: Quality, piece: Piece) -> PlannedStone:
-    """The stone of placement ``p``, its flash ratio measured on the stone itself."""
-    cut, mesh, t = _stone_meshes(p)
-    m_cut = axial_upper(p.rotation.T @ n)
-    m_cut = m_cut / np.linalg.norm(m_cut)
-    study = Study(cut, material, scenario, quality)
+#: shares of the turn that would bring the lamella onto the cut's best orientation, tried last
+SNAP_FRACTIONS = (1.0, 0.75, 0.5, 0.25)
+
+
+def _measured(p: Placement, n: np.ndarray, material: Any, scenario: Any, quality: Quality, piece: Piece,
+              rough: Rough, margin: float, ranking: Ranking) -> PlannedStone:
+    """The stone of placement ``p``, its flash measured on the stone itself; first turned the
+    whole way, or part of it, towards the cut's own best orientation when that fits and is worth
+    more (the map's spacing blurs the last degrees; here the flash is exact)."""
+    from ..scene.directions import rotation as axis_rotation
+    from .search import _exact
+
+    study = Study(_stone_meshes(p)[0], material, scenario, quality)
     rec = study.recommend()
-    energy = study.evaluate(m_cut).flash_energy
-    ratio = float(energy / rec.score) if rec.score > 0 else 0.0
-    best = np.asarray(rec.normal, dtype=np.float64)
-    off = math.degrees(math.acos(min(1.0, abs(float(best @ m_cut)))))
-    return PlannedStone(name=p.model.name, cut=cut, mesh=mesh, transform=t, carats=p.carats, flash_ratio=ratio,
+    best_n = axial_upper(np.asarray(rec.normal, dtype=np.float64))
+
+    def exact_flash(rot: np.ndarray) -> tuple[float, np.ndarray]:
+        m = axial_upper(rot.T @ n)
+        m = m / np.linalg.norm(m)
+        return (float(study.evaluate(m).flash_energy / rec.score) if rec.score > 0 else 0.0), m
+
+    chosen, (ratio, m_cut) = p, exact_flash(p.rotation)
+    worth = float(ranking(chosen.carats, ratio))
+    angle = math.degrees(math.acos(min(1.0, float(m_cut @ best_n))))
+    if angle > 1e-6:
+        axis = np.cross(m_cut, best_n)
+        axis /= np.linalg.norm(axis)
+        for frac in SNAP_FRACTIONS:
+            rot = p.rotation @ axis_rotation(axis, frac * angle).T  # R'^T n = Q R^T n: the lamella turned by Q
+            cand = _exact(p.model, rot, piece.region, p.flash)
+            if cand is None:
+                continue
+            r2, m2 = exact_flash(rot)
+            w2 = float(ranking(cand.carats, r2))
+            if w2 > worth * (1.0 + 1e-9) and (rough.convex or _holds(rough, _stone_meshes(cand)[1], margin)):
+                chosen, ratio, m_cut, worth = cand, r2, m2, w2
+    cut, mesh, t = _stone_meshes(chosen)
+    if chosen.scale != p.scale:  # measured again on the stone as it will be cut
+        study = Study(cut, material, scenario, quality)
+        rec = study.recommend()
+        best_n = axial_upper(np.asarray(rec.normal, dtype=np.float64))
+        ratio = float(study.evaluate(m_cut).flash_energy / rec.score) if rec.score > 0 else 0.0
+    off = math.degrees(math.acos(min(1.0, abs(float(best_n @ m_cut)))))
+    return PlannedStone(name=chosen.model.name, cut=cut, mesh=mesh, transform=t, carats=chosen.carats, flash_ratio=ratio,
                         lamella_normal_cut=m_cut, tolerance_deg=float(rec.tolerance_deg), workshop=[],
-                        best_normal_cut=best, off_best_deg=off, design=dict(p.model.design), spec=p.model.spec,
-                        map_flash_ratio=p.flash, saws=list(piece.saws))
+                        best_normal_cut=best_n, off_best_deg=off, design=dict(chosen.model.design), spec=chosen.model.spec,
+                        map_flash_ratio=chosen.flash, saws=list(piece.saws))
 
 
 def _checks(rough: Rough, stones: list[PlannedStone], margin: float) -> dict[str, Any]:
@@ -314,7 +356,7 @@ def _checks(rough: Rough, stones: list[PlannedStone], margin: float) -> dict[str
             out["pairs"].append({"stones": [i + 1, j + 1], "overlap_mm3": overlap_mm3(stones[i].mesh, stones[j].mesh),
                                  "gap_mm": gap_mm(stones[i].mesh, stones[j].mesh, 500)})
     out["inside"] = all(c["outside_share"] <= OUTSIDE_LIMIT for c in out["stones"])
-    out["apart"] = all(c["overlap_mm3"] <= 1e-6 for c in out["pairs"])
+    out["apart"] = all(c["overlap_mm3"] <= 1e-6 and c["gap_mm"] >= margin * 0.99 for c in out["pairs"])
     out["margin_mm"] = margin
     return out
 
@@ -335,7 +377,7 @@ def _pareto(found: list[Placement]) -> list[dict[str, Any]]:
 TRADEOFF_LEVELS = (0.5, 0.6, 0.7, 0.8, 0.85, 0.9, 0.95, 0.98, 1.0)
 
 
-def _tradeoff(found: list[Placement], region: Region, n: np.ndarray, quality: Quality, rank: str) -> dict[str, Any]:
+def _tradeoff(found: list[Placement], region: Region, n: np.ndarray, quality: Quality, rank: Ranking) -> dict[str, Any]:
     """The slab question, for the best-ranked cut: the longest stone (mm) that keeps at least each
     flash ratio of :data:`TRADEOFF_LEVELS` (from the cut's map), over the rotation grid, each an
     exact fit of the three roomiest rotations at that level."""
@@ -346,7 +388,7 @@ def _tradeoff(found: list[Placement], region: Region, n: np.ndarray, quality: Qu
     period = math.pi if model.symmetric else 2.0 * math.pi
     rots = rotations(sphere_directions(quality.rough_directions), np.arange(quality.rough_spins) * (period / quality.rough_spins))
     planes = region.screening_planes()
-    scale = centred_scales(supports(rots, planes[:, :3], thinned(model.points)), planes, region.centre)
+    scale = centred_scales(supports(rots, planes[:, :3], thinned(model.points)), planes, region.middle)
     flash = model.flash_ratio(axial_upper(np.einsum("rji,j->ri", rots, n)))
     curve = []
     for level in TRADEOFF_LEVELS:

@@ -28,6 +28,9 @@ from .pose import (axial_upper, centred_scales, chebyshev_centre, largest_fit, r
 
 #: ranking of plans: name -> exponents (a, b) of carats^a x flash_ratio^b
 RANKS: dict[str, tuple[float, float]] = {"value": (1.5, 1.0), "weight": (1.0, 0.0), "flash": (0.1, 1.0)}
+#: the flash ratio a pose counts with at least: where no pose flashes (a flash plane the rough
+#: cannot turn up), plans still rank by weight
+FLASH_FLOOR = 0.01
 #: hull points and planes the screening reads at most (the exact programme reads them all)
 SCREEN_POINTS = 256
 SCREEN_PLANES = 256
@@ -40,16 +43,25 @@ EXACT_COARSE = 2
 POLISHED = 2
 
 
-def check_rank(rank: str) -> str:
-    if rank not in RANKS:
-        raise ParameterError(f"rank must be one of {', '.join(RANKS)}, got {rank!r}", parameter="rank")
-    return rank
+@dataclass(frozen=True)
+class Ranking:
+    """How plans are ordered: ``name`` of :data:`RANKS` (carats^a x flash_ratio^b) and the least
+    flash ratio a stone may keep (``min_flash``; below it a pose is worth nothing)."""
 
+    name: str = "value"
+    min_flash: float = 0.0
 
-def rank_value(carats: Any, flash: Any, rank: str) -> Any:
-    """The value that orders plans: carats^a x flash_ratio^b (:data:`RANKS`)."""
-    a, b = RANKS[rank]
-    return np.power(np.asarray(carats, dtype=np.float64), a) * np.power(np.clip(flash, 0.0, None), b)
+    def __post_init__(self) -> None:
+        if self.name not in RANKS:
+            raise ParameterError(f"rank must be one of {', '.join(RANKS)}, got {self.name!r}", parameter="rank")
+        if not (isinstance(self.min_flash, int | float) and 0.0 <= self.min_flash <= 1.0):
+            raise ParameterError(f"min flash must lie in [0, 1], got {self.min_flash!r}", parameter="min flash")
+
+    def __call__(self, carats: Any, flash: Any) -> Any:
+        a, b = RANKS[self.name]
+        flash = np.clip(np.asarray(flash, dtype=np.float64), 0.0, None)
+        value = np.power(np.asarray(carats, dtype=np.float64), a) * np.power(np.maximum(flash, FLASH_FLOOR), b)
+        return value * (flash >= self.min_flash - 1e-12)
 
 
 @dataclass
@@ -68,8 +80,8 @@ class Placement:
     def carats(self) -> float:
         return float(self.model.carats(self.scale))
 
-    def value(self, rank: str) -> float:
-        return float(rank_value(self.carats, self.flash, rank))
+    def value(self, rank: Ranking) -> float:
+        return float(rank(self.carats, self.flash))
 
 
 @dataclass
@@ -80,10 +92,13 @@ class Region:
     planes: np.ndarray
     centre: np.ndarray = field(init=False)
     radius: float = field(init=False)
+    middle: np.ndarray = field(init=False)
 
     def __post_init__(self) -> None:
         found = chebyshev_centre(self.planes)
         self.centre, self.radius = (np.zeros(3), 0.0) if found is None else found
+        # the mean of the region's corners: a slab's middle (its deepest points are a whole sheet)
+        self.middle = self.centre if self.radius <= 1e-6 else _corners(self).mean(axis=0)
 
     @property
     def empty(self) -> bool:
@@ -103,6 +118,19 @@ class Region:
         a = Region(np.vstack([self.planes, np.append(n, offset - half_gap)]))
         b = Region(np.vstack([self.planes, np.append(-n, -offset - half_gap)]))
         return a, b
+
+
+def _aligned(model: CutModel, normal: np.ndarray, n_spins: int) -> np.ndarray:
+    """Rotations that put the rough's lamella normal exactly on the cut's best map normal: the
+    least turn taking one onto the other, then every spin about the lamella normal."""
+    best = model.normals[int(np.argmax(model.scores))]
+    axis = np.cross(best, normal)
+    s, c = float(np.linalg.norm(axis)), float(best @ normal)
+    base = np.eye(3) if s < 1e-12 else axis_rotation(axis / s, math.degrees(math.atan2(s, c)))
+    if s < 1e-12 and c < 0:
+        base = axis_rotation(np.array([1.0, 0.0, 0.0]), 180.0)
+    turns = np.arange(max(n_spins, 1) * 2) * (360.0 / (max(n_spins, 1) * 2))
+    return np.stack([axis_rotation(normal, t) @ base for t in turns])
 
 
 def thinned(points: np.ndarray, count: int = SCREEN_POINTS) -> np.ndarray:
@@ -127,7 +155,7 @@ def _exact(model: CutModel, rot: np.ndarray, region: Region, flash: float) -> Pl
     return Placement(model, rot, fit.scale, fit.centre, flash)
 
 
-def search_region(models: list[CutModel], region: Region, normal: np.ndarray, quality: Any, rank: str, *,
+def search_region(models: list[CutModel], region: Region, normal: np.ndarray, quality: Any, rank: Ranking, *,
                   coarse: bool = False, deadline: float = math.inf) -> list[Placement]:
     """Every pose solved exactly for ``models`` in ``region`` (rough frame; the lamella ``normal``
     in it), best first by ``rank``. ``coarse``: a third of the face-up axes, half the spins, no
@@ -136,20 +164,20 @@ def search_region(models: list[CutModel], region: Region, normal: np.ndarray, qu
         return []
     n_dirs = max(8, quality.rough_directions // (3 if coarse else 1))
     n_spins = max(1, quality.rough_spins // (2 if coarse else 1))
-    ups = sphere_directions(n_dirs)
+    ups = np.vstack([sphere_directions(n_dirs), np.eye(3), -np.eye(3), normal, -normal])  # the rough's axes: a stone lying flat
     screen_planes = region.screening_planes()
     found: list[Placement] = []
     for model in models:
         period = math.pi if model.symmetric else 2.0 * math.pi
         spins = np.arange(n_spins) * (period / n_spins)
-        rots = rotations(ups, spins)
+        rots = np.concatenate([rotations(ups, spins), _aligned(model, normal, n_spins)])
         h = supports(rots, screen_planes[:, :3], thinned(model.points))
-        scale = centred_scales(h, screen_planes, region.centre)
+        scale = centred_scales(h, screen_planes, region.middle)
         flash = model.flash_ratio(axial_upper(np.einsum("rji,j->ri", rots, normal)))
         if model.fixed:
-            bound = rank_value(model.carats(1.0), flash, rank) * (scale >= 0.8)
+            bound = rank(model.carats(1.0), flash) * (scale >= 0.8)
         else:
-            bound = rank_value(model.carats(scale), flash, rank) * (scale >= model.smallest_scale())
+            bound = rank(model.carats(scale), flash) * (scale >= model.smallest_scale())
         chosen = set(np.argsort(-bound)[: EXACT_COARSE if coarse else EXACT_BY_RANK].tolist())
         if not coarse:
             roomy = np.flatnonzero(scale >= 0.5 * scale.max()) if scale.max() > 0 else np.arange(0)
@@ -168,7 +196,7 @@ def search_region(models: list[CutModel], region: Region, normal: np.ndarray, qu
     return found
 
 
-def polish(start: Placement, region: Region, normal: np.ndarray, steps: int, rank: str, n_dirs: int,
+def polish(start: Placement, region: Region, normal: np.ndarray, steps: int, rank: Ranking, n_dirs: int,
            deadline: float = math.inf) -> Placement:
     """A local search from ``start``: the face-up axis tipped and the cut spun by steps that halve
     after a round without gain (``steps`` exact programmes at most; stops at ``deadline``)."""
@@ -229,7 +257,7 @@ class Piece:
 
 
 def partition(rough_points: np.ndarray, region: Region, count: int, models: list[CutModel], normal: np.ndarray,
-              quality: Any, rank: str, margin: float, deadline: float = math.inf) -> list[Piece]:
+              quality: Any, rank: Ranking, margin: float, deadline: float = math.inf) -> list[Piece]:
     """``count`` pieces of ``region`` (fewer when no cut leaves room for another stone): at each
     step the saw cut (of :func:`saw_directions` x :data:`SAW_FRACTIONS` of a piece's extent) whose
     two pieces' best stones are worth most more than the piece's own."""
@@ -268,8 +296,19 @@ def partition(rough_points: np.ndarray, region: Region, count: int, models: list
     return pieces
 
 
+def _corners(region: Region) -> np.ndarray:
+    """The corners of ``region`` (the intersection of its half-spaces, around its deepest point);
+    its deepest point alone when qhull cannot make them (a region thinner than qhull resolves)."""
+    from scipy.spatial import HalfspaceIntersection
+
+    try:
+        hs = np.concatenate([region.planes[:, :3], -region.planes[:, 3:]], axis=1)  # a . x - b <= 0
+        return np.asarray(HalfspaceIntersection(hs, region.centre).intersections)
+    except Exception:  # qhull: a degenerate region
+        return region.centre[None]
+
+
 def _region_points(region: Region, rough_points: np.ndarray) -> np.ndarray:
-    """The rough's hull points inside ``region`` (a piece's extent), or the region's centre."""
-    inside = np.all(rough_points @ region.planes[:, :3].T <= region.planes[:, 3] + 1e-6, axis=1)
-    pts = rough_points[inside]
-    return pts if len(pts) >= 2 else np.vstack([region.centre, region.centre])
+    """The corners of ``region``, or the rough's points when there are fewer than two."""
+    corners = _corners(region)
+    return corners if len(corners) >= 2 else rough_points
