@@ -305,7 +305,7 @@ def _measured(p: Placement, n: np.ndarray, material: Any, scenario: Any, quality
     whole way, or part of it, towards the cut's own best orientation when that fits and is worth
     more (the map's spacing blurs the last degrees; here the flash is exact)."""
     from ..scene.directions import rotation as axis_rotation
-    from .search import _exact
+    from .search import exact_placement
 
     study = Study(_stone_meshes(p)[0], material, scenario, quality)
     rec = study.recommend()
@@ -324,7 +324,7 @@ def _measured(p: Placement, n: np.ndarray, material: Any, scenario: Any, quality
         axis /= np.linalg.norm(axis)
         for frac in SNAP_FRACTIONS:
             rot = p.rotation @ axis_rotation(axis, frac * angle).T  # R'^T n = Q R^T n: the lamella turned by Q
-            cand = _exact(p.model, rot, piece.region, p.flash)
+            cand = exact_placement(p.model, rot, piece.region, p.flash)
             if cand is None:
                 continue
             r2, m2 = exact_flash(rot)

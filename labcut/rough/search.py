@@ -140,7 +140,9 @@ def thinned(points: np.ndarray, count: int = SCREEN_POINTS) -> np.ndarray:
     return points[np.unique(np.argmax(sphere_directions(count) @ points.T, axis=1))]
 
 
-def _exact(model: CutModel, rot: np.ndarray, region: Region, flash: float) -> Placement | None:
+def exact_placement(model: CutModel, rot: np.ndarray, region: Region, flash: float) -> Placement | None:
+    """``model`` turned by ``rot`` at the largest scale that fits ``region`` (a fixed size: at
+    scale 1 when it fits), or None when it does not fit at its smallest size; ``flash`` travels."""
     h = supports(rot[None], region.planes[:, :3], model.points)[0]
     fit = largest_fit(h, region.planes)
     if fit is None:
@@ -185,7 +187,7 @@ def search_region(models: list[CutModel], region: Region, normal: np.ndarray, qu
         for i in sorted(chosen):
             if bound[i] <= 0 and not model.fixed:
                 continue
-            p = _exact(model, rots[i], region, float(flash[i]))
+            p = exact_placement(model, rots[i], region, float(flash[i]))
             if p is not None:
                 found.append(p)
     found.sort(key=lambda p: -p.value(rank))
@@ -221,7 +223,7 @@ def polish(start: Placement, region: Region, normal: np.ndarray, steps: int, ran
             done += 1
             rot = rotation_of(u / np.linalg.norm(u), p)
             flash = float(model.flash_ratio(axial_upper(rot.T @ normal))[0])
-            cand = _exact(model, rot, region, flash)
+            cand = exact_placement(model, rot, region, flash)
             if cand is not None and cand.value(rank) > best.value(rank) * (1.0 + 1e-9):
                 best, up, psi, improved = cand, rot[:, 2].copy(), p, True
         if not improved:
