@@ -42,6 +42,8 @@ demo: setup
 	$(BIN)/labcut compare meshes/oval-16x12-low.ply meshes/oval-16x12-medium.ply meshes/oval-16x12-high.ply \
 		--preset blue --scenario bench --scenario pendant --quality draft \
 		--html $(OUT)/compare.html --json $(OUT)/compare.json --csv $(OUT)/compare.csv
+	$(BIN)/labcut rough meshes/rough/nodule-convex.ply --flash-tilt 30 --flash-azimuth 60 --count 2 --quality draft \
+		--preset blue --json $(OUT)/rough-plan.json --html $(OUT)/rough-plan.html --png $(OUT)/rough-plan.png
 	rm -rf $(OUT)/batch.parquet
 	$(BIN)/labcut batch examples/catalog-demo.csv --quality draft --out $(OUT)/batch.parquet --html $(OUT)/batch.html
 	@echo "demo outputs in $(OUT)/"

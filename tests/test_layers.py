@@ -40,7 +40,7 @@ LAYERS: list[tuple[str, ...]] = [
 
 #: a short name for each layer (docs/architecture.md and its figure)
 LAYER_NAMES = ["errors · validation", "backend · fileio", "physics · colour", "geometry · scene",
-               "orientation · rendering · plots", "planner", "commands · budgets", "study", "reports", "batch"]
+               "orientation · rendering · plots", "planner", "commands · budgets", "study", "reports · rough", "batch"]
 
 
 def layer_of(module: str) -> int | None:

@@ -286,13 +286,26 @@ def _shrunk(p: Placement, rough: Rough, region: Region, margin: float) -> Placem
 
 def _first_that_holds(found: list[Placement], rough: Rough, n: np.ndarray, material: Any, scenario: Any,
                       quality: Quality, margin: float, piece: Piece, ranking: Ranking) -> PlannedStone | None:
-    for p in found[:8]:
+    """The best-ranked of the first placements once each holds in the rough itself: a convex
+    rough's hold as they are (the first is taken); a non-convex rough's are shrunk where they poke
+    out, so the first :data:`HOLD_TRIES` are compared after shrinking."""
+    held: list[Placement] = []
+    for p in found[: HOLD_TRIES * 2]:
         if not _holds(rough, _stone_meshes(p)[1], margin):
             p = _shrunk(p, rough, piece.region, margin)
             if p is None:
                 continue
-        return _measured(p, n, material, scenario, quality, piece, rough, margin, ranking)
-    return None
+        held.append(p)
+        if rough.convex or len(held) >= HOLD_TRIES:
+            break
+    if not held:
+        return None
+    best = max(held, key=lambda p: p.value(ranking))
+    return _measured(best, n, material, scenario, quality, piece, rough, margin, ranking)
+
+
+#: placements of a non-convex rough compared once shrunk to hold
+HOLD_TRIES = 4
 
 
 #: shares of the turn that would bring the lamella onto the cut's best orientation, tried last
