@@ -253,3 +253,12 @@ def test_cli_plans_a_slab(cli, tmp_path):
     assert proc.returncode == 0, proc.stderr
     assert "stone 1" in proc.stdout and "Saw" in proc.stdout or "flat" in proc.stdout
     assert (tmp_path / "p.png").exists()
+
+
+def test_a_spent_time_budget_still_answers_and_says_so():
+    plan = labcut.plan_rough("slab:40x30x6", [0.0, 0.0, 1.0], cuts=["cab:oval,16x12,low"], count=2, quality="draft",
+                             time_budget=0.01)
+    assert plan.stones and plan.checks["inside"]
+    assert any("time budget" in n for n in plan.notes)
+    with pytest.raises(ParameterError, match="time budget"):
+        labcut.plan_rough("slab:40x30x6", [0.0, 0.0, 1.0], time_budget=-1)
