@@ -48,7 +48,8 @@ class Study:
     :func:`labcut.recommend_orientation`'s (``material``, ``scenario``, ``lighting``,
     ``viewing``, ``quality``, ``objective``, ``tau``, ``seed``, ``max_tilt``, ``tilt_axis``,
     ``estimator``, ``effects``, ``zoning``), checked once here; or ``question``, the question
-    already built. ``kernels``: which steps of the sample estimator run as Dr.Jit kernels
+    already built. ``plan``: the effect plan already made for this question (as a comparison
+    makes them all first), used as it is. ``kernels``: which steps of the sample estimator run as Dr.Jit kernels
     (:class:`~labcut.orientation.kernels.KernelOptions`; how, not what: the answers agree to
     float32 rounding).
 
@@ -60,7 +61,7 @@ class Study:
                  lighting: Any = None, viewing: Any = None, objective: str = "energy", tau: float = 0.1, seed: int = 0,
                  max_tilt: float = 90.0, tilt_axis: Any = None, estimator: str = "auto",
                  effects: Mapping[str, Any] | None = None, zoning: Any = None, question: FlashQuestion | None = None,
-                 kernels: KernelOptions = DEFAULT_KERNELS) -> None:
+                 kernels: KernelOptions = DEFAULT_KERNELS, plan: Any = None) -> None:
         self.stone = Stone.of(stone, "stone").validate("stone")
         if question is None:
             question = FlashQuestion.build(material, scenario, lighting, viewing, objective=objective, quality=quality, tau=tau,
@@ -72,7 +73,7 @@ class Study:
             raise ParameterError(f"kernels must be a KernelOptions, got {type(kernels).__name__}")
         self.question = replace(question, kernels=kernels)
         self.builds: dict[str, int] = {"plan": 0, "problem": 0, "recommendation": 0}
-        self._plan: Any = None
+        self._plan: Any = plan  # an effect plan made elsewhere for this very question (a comparison's), or None
         self._scorer: Scorer | None = None
         self._recommendations: dict[str, Recommendation] = {}
 

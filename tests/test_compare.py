@@ -130,12 +130,12 @@ def test_file_warnings_name_the_cut(tmp_path):
 
 def test_everything_is_checked_before_the_long_work(monkeypatch):
     """A bad cut, scenario, reference, quality or material fails at once: nothing is recommended."""
-    import labcut.commands.recommend as rec
+    from labcut.study import Study
 
     def boom(*a, **k):
         raise AssertionError("long work started before the inputs were checked")
 
-    monkeypatch.setattr(rec, "recommend_orientation", boom)
+    monkeypatch.setattr(Study, "recommend", boom)  # what run_comparison asks first of each cut
     good = ["cab:oval,16x12,low,res=32", "cab:oval,16x12,high,res=32"]
     cases = [
         ({"cuts": [good[0], "cab:oval,16x12,lo"]}, "cut 2 ('cab:oval,16x12,lo')"),
@@ -508,3 +508,27 @@ def test_size_sets_the_girdle_width_of_designs_only():
     assert plan.cuts[1].design["length_mm"] == pytest.approx(16.0, abs=0.01)
     with pytest.raises(ParameterError, match="no cut is one"):
         plan_comparison([meshes / "oval-16x12-low.ply"], None, ["bench"], size=8)
+
+
+def test_a_comparison_answers_as_recommend_orientation_and_builds_each_problem_once(monkeypatch):
+    """Each cut and scenario's recommendation is recommend_orientation's to the last bit, and its
+    flash problem serves the curves and the compromise (one build per cut and scenario)."""
+    from labcut.study import Study
+
+    built = []
+
+    original = Study.scorer.fget
+
+    def counting(self):
+        if self._scorer is None:
+            built.append(1)
+        return original(self)
+
+    monkeypatch.setattr(Study, "scorer", property(counting))
+    cmp = labcut.compare_cuts(["cab:oval,16x12,low,res=32", "cab:round,10,high,res=32"], scenarios=["bench", "pendant"],
+                              quality="draft", resolution=16, spp=1)
+    assert len(built) == 4
+    mesh = labcut.cabochon("oval", 16, 12, dome="low", resolution=32)
+    rec = labcut.recommend_orientation(mesh, scenario="pendant", quality="draft")
+    got = cmp.cuts[0].scenarios["pendant"].recommendation
+    assert np.array_equal(got.normal, rec.normal) and got.score == rec.score

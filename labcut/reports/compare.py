@@ -634,13 +634,12 @@ def run_comparison(plan: ComparisonPlan, progress: Callable[[int, int], None] | 
     """The long work of :func:`compare_cuts` for a checked :class:`ComparisonPlan`."""
     from ..geometry.inspect import summarize
     from ..orientation.problem import reference_radiance
-    from ..commands.recommend import recommend_orientation
+    from ..study import Study
     from ..orientation.recommend import describe, workshop
     from ..rendering.scene import RENDER_IRRADIANCE
     from .analysis import (
         compromise,
         misorientation_curve,
-        scorer_for,
         tilt_axes,
         tilt_curve,
     )
@@ -665,10 +664,12 @@ def run_comparison(plan: ComparisonPlan, progress: Callable[[int, int], None] | 
         for sc in scens:
             t0 = time.perf_counter()
             eplan = plan.effect_plans.get((cut.name, sc.name))
-            rec = recommend_orientation(cut.mesh, lab, scenario=sc, quality=quality, seed=seed, tau=tau, estimator="samples",
-                                        effects=plan.effects, plan=eplan)  # planned once, in plan_comparison
-            scorer = scorer_for(cut.mesh, lab, sc, quality, tau, seed,
-                                occlusion=None if eplan is None else eplan.on("occlusion"))
+            # one Study per cut and scenario: the recommendation's flash problem and scorer serve the
+            # curves and the compromise too (planned once, in plan_comparison)
+            study = Study(cut.mesh, lab, sc, quality, seed=seed, tau=tau, estimator="samples", effects=plan.effects,
+                          plan=eplan)
+            rec = study.recommend()
+            scorer = study.scorer
             scorers.append(scorer)
             mis = misorientation_curve(scorer.energy_map, rec.normal, rec.tolerance_deg, quality)
             tilt = tilt_curve(cut.mesh, lab, rec.normal, sc, quality, tau, seed)
