@@ -204,6 +204,7 @@ def plan_rough(rough: Any, lamella_normal: Any, cuts: Any = None, material: Any 
     stones: list[PlannedStone] = []
     for k, piece in enumerate(pieces):
         found = whole if count == 1 else search_region(models, piece.region, n, q, ranking, deadline=deadline)
+        found = [p for p in found if p.flash >= ranking.min_flash - 1e-12]
         made = _first_that_holds(found, r, n, mat, scenario, q, margin, piece, ranking)
         if made is not None:
             stones.append(made)

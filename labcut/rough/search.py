@@ -37,6 +37,8 @@ SCREEN_PLANES = 256
 #: poses per cut that the exact programme solves, by rank, and more by flash alone (the front)
 EXACT_BY_RANK = 12
 EXACT_BY_FLASH = 6
+#: poses per cut solved exactly for their weight alone (the heavy end of the weight-flash front)
+EXACT_BY_WEIGHT = 4
 #: poses per cut a coarse search (choosing saw cuts) solves exactly
 EXACT_COARSE = 2
 #: poses per region polished by the local search
@@ -184,8 +186,9 @@ def search_region(models: list[CutModel], region: Region, normal: np.ndarray, qu
         if not coarse:
             roomy = np.flatnonzero(scale >= 0.5 * scale.max()) if scale.max() > 0 else np.arange(0)
             chosen |= set(roomy[np.argsort(-flash[roomy])[:EXACT_BY_FLASH]].tolist())
+            chosen |= set(np.argsort(-scale)[:EXACT_BY_WEIGHT].tolist())  # the front's heavy end
         for i in sorted(chosen):
-            if bound[i] <= 0 and not model.fixed:
+            if scale[i] < (0.8 if model.fixed else model.smallest_scale()) * 0.5:
                 continue
             p = exact_placement(model, rots[i], region, float(flash[i]))
             if p is not None:
