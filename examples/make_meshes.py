@@ -107,6 +107,16 @@ def main(out_dir: Path | None = None) -> None:
             "",
             *commands,
             "",
+            "## Roughs (`meshes/rough/`)",
+            "",
+            "Made by `.venv/bin/python tools/make_roughs.py` (deterministic), for `labcut rough` (docs/rough.md):",
+            "",
+            "- `slab-40x30x6.ply`: a sawn slab 40 x 30 x 6 mm spanning [0, 40] x [0, 30] x [0, 6];",
+            "- `nodule-convex.ply`: a convex nodule about 46 x 32 x 23 mm, the convex hull of 400 points on an",
+            "  ellipsoid pushed in and out by up to 12 % (seed 7);",
+            "- `nodule-dented.ply`: a non-convex nodule about 44 x 34 x 26 mm, such a hull (seed 11) with a bite",
+            "  of an 11 mm sphere taken out of one side (manifold3d difference).",
+            "",
         ]
     )
     with atomic_output(out / "README.md", (".md",)) as tmp:

@@ -20,7 +20,9 @@ def lazy_exports(package: str, names: Mapping[str, str],
     """``(__getattr__, __dir__, __all__)`` of ``package`` whose lazy public ``names`` map to
     ``"module:attribute"`` (a module of ``package`` given relative, as ``".summary:check_angles"``,
     or absolute; no attribute: the module itself). ``eager``: public names the package defines
-    itself (they join ``__all__``). A name is resolved once, then kept in the package's namespace."""
+    itself (they join ``__all__``). A name is looked up in its module at every access, not copied
+    into the package: what the module holds (a replaced or patched function too) is what the
+    package gives."""
     targets = dict(names)
 
     def __getattr__(name: str) -> Any:
@@ -29,9 +31,7 @@ def lazy_exports(package: str, names: Mapping[str, str],
             raise AttributeError(f"module {package!r} has no attribute {name!r}")
         module_name, _, attr = target.partition(":")
         module = importlib.import_module(module_name, package if module_name.startswith(".") else None)
-        value = getattr(module, attr) if attr else module
-        setattr(sys.modules[package], name, value)
-        return value
+        return getattr(module, attr) if attr else module
 
     def __dir__() -> list[str]:
         return sorted(set(vars(sys.modules[package])) | set(targets))

@@ -80,10 +80,19 @@ def test_no_public_name_is_shadowed_by_a_module(namespace):
             assert isinstance(getattr(module, name), type(module)), f"{namespace}.{name} is both a name and a module"
 
 
-def test_a_lazy_name_is_kept_once_resolved_and_unknown_names_fail():
+def test_a_lazy_name_is_what_its_module_holds_and_unknown_names_fail(monkeypatch):
+    """A package's name is looked up in its module at each access (never a stale copy: a test that
+    patches the module, and undoes it, leaves the package as it was)."""
+    import labcut.commands as commands
+    import labcut.commands.render as module
     import labcut.geometry as geometry
+    from labcut.geometry import meshio
 
-    first = geometry.load_mesh
-    assert "load_mesh" in vars(geometry) and geometry.load_mesh is first
+    assert geometry.load_mesh is meshio.load_mesh
+    with monkeypatch.context() as m:
+        m.setattr(module, "render_checked", "patched")
+        assert commands.render_checked == "patched"
+    assert commands.render_checked is module.render_checked and callable(commands.render_checked)
+    assert "load_mesh" not in vars(geometry)
     with pytest.raises(AttributeError, match="no attribute 'nothing_here'"):
         geometry.nothing_here  # noqa: B018
