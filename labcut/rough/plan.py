@@ -104,6 +104,7 @@ class RoughPlan:
     settings: dict[str, Any]
     notes: list[str]
     seconds: float
+    scenario: Any = None  # the scenario as given (a preset name, a JSON file or a Scenario): the renders' too
 
     def to_dict(self) -> dict[str, Any]:
         tilt, az = tilt_azimuth(self.lamella_normal)
@@ -226,7 +227,7 @@ def plan_rough(rough: Any, lamella_normal: Any, cuts: Any = None, material: Any 
         settings={"count": count, "margin_mm": margin, "quality": q.name, "rank": rank, "min_flash": ranking.min_flash, "calibrated": calibrated, "fixed_size": fixed_size,
                   "scenario": str(getattr(scenario, "name", scenario)), "material": mat.to_dict(),
                   "candidates": [m.name for m in models], "time_budget_s": time_budget},
-        notes=notes + list(r.notes), seconds=time.monotonic() - started)
+        notes=notes + list(r.notes), seconds=time.monotonic() - started, scenario=scenario)
     report("done", 1.0)
     return plan
 

@@ -126,7 +126,8 @@ def stone_renders(plan: Any) -> list[bytes]:
     out = []
     for s in plan.stones:
         result = render(s.cut, _material(plan), s.lamella_normal_cut,
-                        scenario=plan.settings["scenario"], resolution=RENDER_RESOLUTION, spp=RENDER_SPP,
+                        scenario=plan.scenario if plan.scenario is not None else plan.settings["scenario"],
+                        resolution=RENDER_RESOLUTION, spp=RENDER_SPP,
                         check_flash=False)
         out.append(render_png(result.image, result.exposure))
     return out
