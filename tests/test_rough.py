@@ -151,7 +151,7 @@ def test_two_stones_in_the_dented_nodule_are_inside_apart_and_keep_the_margin():
     assert plan.stones[0].carats >= plan.stones[1].carats * 0.5  # best first by value
 
 
-@settings(max_examples=4, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@settings(max_examples=3, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(seed=st.integers(0, 10_000), tilt=st.floats(0.0, 90.0), azimuth=st.floats(0.0, 360.0),
        count=st.sampled_from([1, 2]))
 def test_random_roughs_and_normals(seed, tilt, azimuth, count):
