@@ -394,8 +394,8 @@ TRADEOFF_LEVELS = (0.5, 0.6, 0.7, 0.8, 0.85, 0.9, 0.95, 0.98, 1.0)
 
 def _tradeoff(found: list[Placement], region: Region, n: np.ndarray, quality: Quality, rank: Ranking) -> dict[str, Any]:
     """The slab question, for the best-ranked cut: the longest stone (mm) that keeps at least each
-    flash ratio of :data:`TRADEOFF_LEVELS` (from the cut's map), over the rotation grid, each an
-    exact fit of the three roomiest rotations at that level."""
+    flash ratio of :data:`TRADEOFF_LEVELS` (from the cut's map): the longest of the poses the search
+    solved and of the exact fits of the grid's three roomiest rotations at that level."""
     from .pose import centred_scales, largest_fit, rotations, sphere_directions, supports
     from .search import thinned
 
@@ -408,7 +408,8 @@ def _tradeoff(found: list[Placement], region: Region, n: np.ndarray, quality: Qu
     curve = []
     for level in TRADEOFF_LEVELS:
         idx = np.flatnonzero(flash >= level - 1e-9)
-        best = 0.0
+        # the poses the search solved (and polished) count too: the curve never falls below the front
+        best = max([p.scale for p in found if p.model is model and p.flash >= level - 1e-9], default=0.0)
         for i in idx[np.argsort(-scale[idx])[:3]]:
             fit = largest_fit(supports(rots[i][None], region.planes[:, :3], model.points)[0], region.planes)
             if fit is not None:
