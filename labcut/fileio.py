@@ -17,7 +17,7 @@ from typing import Any
 
 from .errors import LabcutError, OutputError, ParameterError
 
-__all__ = ["atomic_output", "cache_path", "cached_array", "cached_arrays", "calibration", "check_output_path", "code_hash", "read_cache", "read_json", "write_cache"]
+__all__ = ["atomic_output", "cache_path", "cached_array", "cached_arrays", "distinct_outputs", "calibration", "check_output_path", "code_hash", "read_cache", "read_json", "write_cache"]
 
 
 def check_output_path(path: str | os.PathLike[str], suffixes: tuple[str, ...] | None = None) -> Path:
@@ -33,6 +33,20 @@ def check_output_path(path: str | os.PathLike[str], suffixes: tuple[str, ...] | 
 
 
 @contextlib.contextmanager
+def distinct_outputs(outputs: dict[str, Any]) -> None:
+    """Raise :class:`~labcut.errors.ParameterError` when two of ``outputs`` (``{option: path or
+    None}``; ``"-"``, standard output, is never a file) name the same file: one would silently
+    replace the other."""
+    seen: dict[Path, str] = {}
+    for option, path in outputs.items():
+        if path is None or str(path) == "-":
+            continue
+        key = Path(os.path.abspath(os.path.expanduser(str(path))))
+        if key in seen:
+            raise ParameterError(f"{seen[key]} and {option} name the same file ({path}): give each output its own path")
+        seen[key] = option
+
+
 def atomic_output(path: str | os.PathLike[str], suffixes: tuple[str, ...] | None = None) -> Iterator[Path]:
     """Yield a temporary path with the target's suffix; move it onto ``path`` on success.
 

@@ -149,3 +149,32 @@ def test_evaluate_orientation_api_takes_tilt_and_azimuth():
     assert by_angles.flash_energy == pytest.approx(by_normal.flash_energy, rel=1e-9)
     with pytest.raises(labcut.ParameterError, match="both tilt and azimuth"):
         labcut.evaluate_orientation(mesh, tilt=20.0, quality="draft")
+
+
+def test_two_outputs_on_one_path_are_refused_before_any_work(cli, tmp_path):
+    """--render and --map on one file: the render would silently replace the map (issue 34)."""
+    out = tmp_path / "x.png"
+    proc = cli("recommend-orientation", OVAL, "--quality", "draft", "--render", str(out), "--map", str(out))
+    assert proc.returncode == 2
+    assert "--render and --map name the same file" in proc.stderr.strip().splitlines()[-1]
+    assert not out.exists()
+
+
+def test_a_zero_tilt_axis_says_zero():
+    from labcut.errors import ParameterError
+    from labcut.orientation.optimize import Constraint
+
+    with pytest.raises(ParameterError, match="tilt axis must not be the zero vector"):
+        Constraint(tilt_axis=(0.0, 0.0, 0.0))
+    with pytest.raises(ParameterError, match="must be horizontal"):
+        Constraint(tilt_axis=(0.0, 0.0, 2.0))
+
+
+def test_scenario_and_direction_sets_print_in_one_line():
+    import labcut
+
+    sc = labcut.Scenario.preset("pendant", "draft")
+    text = repr(sc)
+    assert "\n" not in text and len(text) < 200 and "array" not in text
+    assert text.startswith("Scenario('pendant', Lights(") and f"{len(sc.lights)} directions" in text
+    assert repr(labcut.Lights([[0, 0, 1]])) == "Lights('custom', 1 direction, towards (0.00, 0.00, 1.00))"

@@ -169,13 +169,14 @@ def recommend_orientation(
     estimator, effect, plan, plan_only = plan_options.estimator, plan_options.effect, plan_options.plan, plan_options.plan_only
     import labcut
     from labcut.errors import ParameterError
-    from labcut.fileio import check_output_path
+    from labcut.fileio import check_output_path, distinct_outputs
     from labcut.commands import quality_or_budget
     from labcut.orientation import OPTIMIZERS
 
     from .progress import progress_bar
 
     # validate everything before the work starts
+    distinct_outputs({"--json": json_path, "--render": render_path, "--map": map_path})
     if json_path not in (None, "-"):
         check_output_path(json_path, (".json",))
     if render_path is not None:

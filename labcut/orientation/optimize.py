@@ -38,6 +38,8 @@ class Constraint:
             a = np.asarray(self.tilt_axis, dtype=np.float64)
             if a.shape != (3,) or not np.all(np.isfinite(a)):
                 raise ParameterError("tilt axis must be three finite numbers", parameter="tilt axis")
+            if not np.any(a):
+                raise ParameterError("tilt axis must not be the zero vector", parameter="tilt axis")
             a = a - a[2] * np.array([0.0, 0.0, 1.0])
             if np.linalg.norm(a) < 1e-9:
                 raise ParameterError("tilt axis must be horizontal (it may not be the face-up axis)", parameter="tilt axis")

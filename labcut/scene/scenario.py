@@ -69,6 +69,12 @@ class Scenario:
     description: str = ""
     quality: Quality | str = "standard"  # coerced to a Quality: its direction counts and rocking steps
 
+    def __repr__(self) -> str:
+        """One line: the name, the lights and views (:meth:`Lights.__repr__`), the rocking and the
+        quality (``to_dict()`` holds every number)."""
+        rock = f", rock ±{self.rock_deg:g}°, sway ±{self.sway_deg:g}°" if self.rock_deg or self.sway_deg else ""
+        return f"Scenario({self.name!r}, {self.lights!r}, {self.views!r}{rock}, quality={str(self.quality)!r})"
+
     def __post_init__(self) -> None:
         object.__setattr__(self, "pose", check_rotation(self.pose, f"scenario {self.name!r} pose"))
         for key in ("rock_deg", "sway_deg"):

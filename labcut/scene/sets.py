@@ -88,11 +88,19 @@ class DirectionSet:
     def __len__(self) -> int:
         return int(len(self.weights))
 
+    def __repr__(self) -> str:
+        """One line: the kind, the name, how many directions and where they point on average
+        (``to_dict()`` holds every direction)."""
+        mean = self.weights @ self.directions
+        norm = float(np.linalg.norm(mean))
+        towards = "" if norm < 1e-9 else f", towards ({', '.join(f'{x:.2f}' for x in mean / norm)})"
+        return f"{type(self).__name__}({self.name!r}, {len(self)} direction{'s' if len(self) != 1 else ''}{towards})"
+
     def to_dict(self) -> dict[str, Any]:
         return {"name": self.name, "directions": self.directions.tolist(), "weights": self.weights.tolist()}
 
 
-@dataclass(frozen=True, init=False, eq=False)
+@dataclass(frozen=True, init=False, eq=False, repr=False)  # __repr__: DirectionSet's one line
 class Lights(DirectionSet):
     """Distant lights: unit ``directions`` towards each light and their ``weights`` (irradiance).
 
@@ -210,7 +218,7 @@ class Lights(DirectionSet):
         return out
 
 
-@dataclass(frozen=True, init=False, eq=False)
+@dataclass(frozen=True, init=False, eq=False, repr=False)  # __repr__: DirectionSet's one line
 class Views(DirectionSet):
     """Viewing directions (towards the viewer) and how often each is used (normalised weights).
 
