@@ -32,7 +32,6 @@ def check_output_path(path: str | os.PathLike[str], suffixes: tuple[str, ...] | 
     return out
 
 
-@contextlib.contextmanager
 def distinct_outputs(outputs: dict[str, Any]) -> None:
     """Raise :class:`~labcut.errors.ParameterError` when two of ``outputs`` (``{option: path or
     None}``; ``"-"``, standard output, is never a file) name the same file: one would silently
@@ -47,6 +46,7 @@ def distinct_outputs(outputs: dict[str, Any]) -> None:
         seen[key] = option
 
 
+@contextlib.contextmanager
 def atomic_output(path: str | os.PathLike[str], suffixes: tuple[str, ...] | None = None) -> Iterator[Path]:
     """Yield a temporary path with the target's suffix; move it onto ``path`` on success.
 

@@ -9,20 +9,14 @@ chromium is not installed (and cannot be: no root, no network).
 
 from __future__ import annotations
 
-import os
 from pathlib import Path
 
 import pytest
 
 import labcut
+from browser import launch, needs_chromium, open_page
 
-CHROMIUM = os.environ.get("LABCUT_CHROMIUM", "/usr/bin/chromium")
-pytestmark = pytest.mark.skipif(
-    not Path(CHROMIUM).exists(),
-    reason=f"chromium is not installed at {CHROMIUM} (make setup installs Debian's chromium as root: tools/ensure-chromium.sh)",
-)
-ARGS = ["--no-sandbox", "--headless", "--disable-gpu", "--no-first-run", "--disable-background-networking",
-        "--disable-component-update", "--disable-sync"]
+pytestmark = needs_chromium
 
 
 @pytest.fixture(scope="module")
@@ -35,26 +29,16 @@ def report(tmp_path_factory):
     return cmp.save_html(out / "report.html"), cmp
 
 
-def _browser(p):
-    return p.chromium.launch(executable_path=CHROMIUM, args=ARGS)
-
-
 def test_report_opens_cleanly_in_chromium(report):
     from playwright.sync_api import sync_playwright
 
     path, cmp = report
     url = path.resolve().as_uri()
     with sync_playwright() as p:
-        browser = _browser(p)
+        browser = launch(p)
         try:
-            page = browser.new_page(viewport={"width": 1200, "height": 900})
-            errors, requests = [], []
-            page.on("console", lambda m: errors.append(f"console {m.type}: {m.text}") if m.type == "error" else None)
-            page.on("pageerror", lambda e: errors.append(f"page error: {e}"))
-            page.on("request", lambda r: requests.append(r.url))
-            page.goto(url, wait_until="load")
-            images = page.evaluate(
-                "Array.from(document.images).map(i => ({w: i.naturalWidth, h: i.naturalHeight, ok: i.complete, alt: i.alt}))")
+            opened = open_page(browser, url)
+            page, errors, requests, images = opened.page, opened.errors, opened.requests, opened.images
             page.screenshot(path=str(path.with_name("report-desktop.png")), full_page=True)
 
             assert errors == []

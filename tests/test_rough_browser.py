@@ -4,20 +4,13 @@ page errors, nothing fetched but the page itself, no sideways scroll on a phone,
 
 from __future__ import annotations
 
-import os
-from pathlib import Path
 
 import pytest
 
 import labcut
+from browser import launch, needs_chromium, open_page
 
-CHROMIUM = os.environ.get("LABCUT_CHROMIUM", "/usr/bin/chromium")
-pytestmark = pytest.mark.skipif(
-    not Path(CHROMIUM).exists(),
-    reason=f"chromium is not installed at {CHROMIUM} (make setup installs Debian's chromium as root: tools/ensure-chromium.sh)",
-)
-ARGS = ["--no-sandbox", "--headless", "--disable-gpu", "--no-first-run", "--disable-background-networking",
-        "--disable-component-update", "--disable-sync"]
+pytestmark = needs_chromium
 
 
 def test_rough_report_opens_cleanly_in_chromium(tmp_path):
@@ -28,16 +21,10 @@ def test_rough_report_opens_cleanly_in_chromium(tmp_path):
     path = plan.save_html(tmp_path / "rough.html")
     url = path.resolve().as_uri()
     with sync_playwright() as p:
-        browser = p.chromium.launch(executable_path=CHROMIUM, args=ARGS)
+        browser = launch(p)
         try:
-            page = browser.new_page(viewport={"width": 1200, "height": 900})
-            errors, requests = [], []
-            page.on("console", lambda m: errors.append(f"console {m.type}: {m.text}") if m.type == "error" else None)
-            page.on("pageerror", lambda e: errors.append(f"page error: {e}"))
-            page.on("request", lambda r: requests.append(r.url))
-            page.goto(url, wait_until="load")
-            images = page.evaluate(
-                "Array.from(document.images).map(i => ({w: i.naturalWidth, h: i.naturalHeight, ok: i.complete, alt: i.alt}))")
+            opened = open_page(browser, url)
+            page, errors, requests, images = opened.page, opened.errors, opened.requests, opened.images
             assert errors == []
             assert requests == [url], f"the page fetched more than its own file: {requests}"
             assert len(images) == 2 + len(plan.stones)
