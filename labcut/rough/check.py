@@ -22,13 +22,14 @@ def solid(mesh: Any) -> Any:
     return manifold3d.Manifold(m)
 
 
-def outside_share(rough: Any, stone: Any) -> float:
-    """Volume of ``stone`` outside ``rough``, as a share of the stone's volume (manifold3d)."""
+def outside_share(rough: Any, stone: Any, rough_solid: Any = None) -> float:
+    """Volume of ``stone`` outside ``rough``, as a share of the stone's volume (manifold3d;
+    ``rough_solid``: the rough's solid already made)."""
     s = solid(stone)
     vol = s.volume()
     if vol <= 0:
         return 1.0
-    return float((s - solid(rough)).volume() / vol)
+    return float((s - (solid(rough) if rough_solid is None else rough_solid)).volume() / vol)
 
 
 def overlap_mm3(a: Any, b: Any) -> float:
@@ -66,16 +67,17 @@ def triangle_distances(p: np.ndarray, a: np.ndarray, b: np.ndarray, c: np.ndarra
 NEAR_TRIANGLES = 24
 
 
-def surface_distance(mesh: Any, points: np.ndarray) -> np.ndarray:
+def surface_distance(mesh: Any, points: np.ndarray, tree: Any = None) -> np.ndarray:
     """Distance (mm) from each point to the surface of ``mesh``: exact point-triangle distances
     to the :data:`NEAR_TRIANGLES` triangles whose centroids lie nearest (all of them for a small
-    mesh), so a well-tessellated surface's nearest triangle is among them."""
+    mesh), so a well-tessellated surface's nearest triangle is among them. ``tree``: the
+    centroids' ``cKDTree`` already made."""
     from scipy.spatial import cKDTree
 
     tri = np.asarray(mesh.triangles, dtype=np.float64)
     pts = np.asarray(points, dtype=np.float64)
     k = min(NEAR_TRIANGLES, len(tri))
-    _, idx = cKDTree(tri.mean(axis=1)).query(pts, k=k)
+    _, idx = (cKDTree(tri.mean(axis=1)) if tree is None else tree).query(pts, k=k)
     idx = np.asarray(idx).reshape(len(pts), k)
     rep = np.repeat(pts, k, axis=0)
     t = tri[idx.ravel()]
@@ -100,7 +102,7 @@ def inside(mesh: Any, points: np.ndarray, chunk: int = 2_000_000) -> np.ndarray:
     return total / (4.0 * np.pi) > 0.5
 
 
-def clearance_mm(rough: Any, stone: Any, samples: int = 2000) -> float:
+def clearance_mm(rough: Any, stone: Any, samples: int = 2000, tree: Any = None) -> float:
     """The least distance (mm) from the stone's surface to the rough's, over the stone's vertices
     and ``samples`` points of its surface: the margin kept (for a stone inside the rough)."""
     from ..geometry.surface import sample_surface
@@ -109,7 +111,28 @@ def clearance_mm(rough: Any, stone: Any, samples: int = 2000) -> float:
     if samples:
         extra, _ = sample_surface(stone, samples, seed=0)
         pts = np.vstack([pts, extra])
-    return float(np.min(surface_distance(rough, pts)))
+    return float(np.min(surface_distance(rough, pts, tree)))
+
+
+class Checker:
+    """The checks of stones against one rough, its manifold3d solid and its triangles' tree made
+    once (a non-convex rough's plan asks them for every step of every shrink)."""
+
+    def __init__(self, rough: Any) -> None:
+        from scipy.spatial import cKDTree
+
+        self.rough = rough
+        self.solid = solid(rough)
+        self.tree = cKDTree(np.asarray(rough.triangles, dtype=np.float64).mean(axis=1))
+
+    def outside_share(self, stone: Any) -> float:
+        return outside_share(self.rough, stone, self.solid)
+
+    def clearance_mm(self, stone: Any, samples: int = 500) -> float:
+        return clearance_mm(self.rough, stone, samples, self.tree)
+
+    def distance(self, points: np.ndarray) -> np.ndarray:
+        return surface_distance(self.rough, points, self.tree)
 
 
 def gap_mm(a: Any, b: Any, samples: int = 2000) -> float:

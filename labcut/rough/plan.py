@@ -29,7 +29,7 @@ from ..scene.quality import Quality
 from ..study import Study
 from ..validation import check_budget, check_number, unit_vector
 from .candidates import CutModel, build_models
-from .check import OUTSIDE_LIMIT, clearance_mm, gap_mm, outside_share, overlap_mm3
+from .check import OUTSIDE_LIMIT, Checker, gap_mm, overlap_mm3
 from .pose import axial_upper, transform
 from .search import Piece, Placement, Ranking, Region, partition, search_region
 from .shape import Rough, load_rough
@@ -244,9 +244,15 @@ def _stone_meshes(p: Placement) -> tuple[Any, Any, np.ndarray]:
 def _holds(rough: Rough, mesh: Any, margin: float) -> bool:
     if rough.convex:
         return True  # exact by construction (the rough's own half-spaces, moved in by the margin)
-    if outside_share(rough.mesh, mesh) > OUTSIDE_LIMIT:
+    checker = _checker(rough)
+    if checker.outside_share(mesh) > OUTSIDE_LIMIT:
         return False
-    return margin <= 0 or clearance_mm(rough.mesh, mesh, 500) >= margin * 0.999
+    return margin <= 0 or checker.clearance_mm(mesh) >= margin * 0.999
+
+
+def _checker(rough: Rough) -> Checker:
+    """The rough's :class:`~labcut.rough.check.Checker`, made once per rough."""
+    return rough.cached("checker", lambda: Checker(rough.mesh))
 
 
 def _deep_point(rough: Rough, region: Region) -> np.ndarray:
@@ -254,7 +260,7 @@ def _deep_point(rough: Rough, region: Region) -> np.ndarray:
     400 points spread over the rough's box that lie inside both the region (the piece, the margin
     kept) and the rough itself (:func:`labcut.rough.check.inside`). A stone shrunk towards it
     stays in its piece (the piece is convex)."""
-    from .check import inside, surface_distance
+    from .check import inside
 
     lo, hi = rough.bounds
     grid = lo + (hi - lo) * np.random.default_rng(0).random((400, 3))
@@ -263,7 +269,7 @@ def _deep_point(rough: Rough, region: Region) -> np.ndarray:
     pts = pts[inside(rough.mesh, pts)] if len(pts) else pts
     if len(pts) == 0:
         return region.centre
-    return pts[int(np.argmax(surface_distance(rough.mesh, pts)))]
+    return pts[int(np.argmax(_checker(rough).distance(pts)))]
 
 
 def _shrunk(p: Placement, rough: Rough, region: Region, margin: float) -> Placement | None:
@@ -364,8 +370,8 @@ def _checks(rough: Rough, stones: list[PlannedStone], margin: float) -> dict[str
     the volume and the gap between each pair of stones."""
     out: dict[str, Any] = {"stones": [], "pairs": []}
     for s in stones:
-        out["stones"].append({"outside_share": outside_share(rough.mesh, s.mesh),
-                              "clearance_mm": clearance_mm(rough.mesh, s.mesh, 500)})
+        out["stones"].append({"outside_share": _checker(rough).outside_share(s.mesh),
+                              "clearance_mm": _checker(rough).clearance_mm(s.mesh)})
     for i in range(len(stones)):
         for j in range(i + 1, len(stones)):
             out["pairs"].append({"stones": [i + 1, j + 1], "overlap_mm3": overlap_mm3(stones[i].mesh, stones[j].mesh),

@@ -58,6 +58,13 @@ class Rough:
     convex: bool
     planes: np.ndarray = field(repr=False)
     notes: tuple[str, ...] = ()
+    _derived: dict[str, Any] = field(default_factory=dict, repr=False, compare=False)
+
+    def cached(self, key: str, build: Any) -> Any:
+        """``build()``, made once per rough and ``key`` (the checks' solid and tree)."""
+        if key not in self._derived:
+            self._derived[key] = build()
+        return self._derived[key]
 
     @property
     def volume_mm3(self) -> float:
