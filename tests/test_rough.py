@@ -193,8 +193,8 @@ def test_plan_to_dict_json_png_and_html(tmp_path):
     png = plan.save_png(tmp_path / "plan.png")
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     page = plan.save_html(tmp_path / "plan.html", renders=False).read_text()
-    assert "Workshop steps" in page and "data:image/png;base64," in page and "http" not in page.split("<body>")[1].replace(
-        "https://", "").split("labcut")[0]
+    assert "Workshop steps" in page and "data:image/png;base64," in page
+    assert 'src="http' not in page and 'href="http' not in page  # self-contained
 
 
 # ------------------------------------------------------------------ bad input
@@ -238,6 +238,20 @@ def test_cli_bad_input_one_line_exit_2_nothing_written(cli, tmp_path, args):
     last = proc.stderr.strip().splitlines()[-1]
     assert last.startswith("error:") and "Traceback" not in proc.stderr
     assert not any(p.exists() for p in outs)
+
+
+@pytest.mark.parametrize(("args", "words"), [
+    (["--lamella", "0,0,0"], "error: --lamella must not be the zero vector"),
+    (["--flash-tilt", "10"], "error: give --flash-tilt and --flash-azimuth together"),
+    (["--lamella", "0,0,1", "--units", "in"], "error: a slab (slab:LxWxT) is given in mm"),
+    (["--lamella", "0,0,1", "--up-axis", "w"], "error: --up-axis must be one of"),
+    (["--lamella", "0,0,1", "--quality", "ultra"], "error: --quality must be one of"),
+])
+def test_cli_errors_name_the_option_before_any_work(cli, args, words):
+    proc = cli("rough", "slab:40x30x6", *args)
+    assert proc.returncode == 2
+    assert proc.stderr.strip().splitlines() == [proc.stderr.strip().splitlines()[-1]]  # one line: no progress bar first
+    assert proc.stderr.strip().startswith(words), proc.stderr
 
 
 def test_cli_plans_a_slab(cli, tmp_path):

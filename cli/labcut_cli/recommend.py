@@ -18,7 +18,7 @@ from . import meshes as mo
 from . import plan_options as po
 from . import look_options as lo
 from . import scene_options as so
-from .root import all_or_nothing, app, console, err_console, notes_after, parse_vector, write_json
+from .root import all_or_nothing, app, console, err_console, normal_or_angles, notes_after, parse_vector, write_json
 
 Quality = Annotated[str, typer.Option(help="draft, standard or high.")]
 Exposure = Annotated[str, typer.Option("--exposure", help="Exposure of the PNG: auto (from the image) or a multiplier > 0.")]
@@ -320,21 +320,10 @@ def evaluate_orientation(
     import labcut
     from labcut.fileio import check_output_path
     from labcut.orientation import METRIC_DEFINITIONS, FRAME, metrics_dict
-    from labcut.errors import ParameterError
-    from labcut.scene import lamella_normal
 
     if json_path not in (None, "-"):
         check_output_path(json_path, (".json",))
-    if normal is not None and (tilt is not None or azimuth is not None):
-        raise ParameterError("give --normal or --tilt with --azimuth, not both")
-    if (tilt is None) != (azimuth is None):
-        raise ParameterError("give --tilt and --azimuth together (degrees), or --normal")
-    if normal is None and tilt is None:
-        normal = "0,0,1"
-    try:
-        m_vec = lamella_normal(None if normal is None else parse_vector(normal, "--normal"), tilt, azimuth)
-    except ParameterError as exc:
-        raise exc.renamed({"tilt": "--tilt", "azimuth": "--azimuth"}) from None
+    m_vec = normal_or_angles(normal, tilt, azimuth, ("--normal", "--tilt", "--azimuth"), default="0,0,1")
     setup = _question(material, scenario, lighting, viewing, quality, estimator, effect, zoning)
     scene = setup.scenario
     from labcut.planner import plan_question

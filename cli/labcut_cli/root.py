@@ -44,6 +44,29 @@ def parse_vector(text: str, name: str = "vector", length: int = 3) -> tuple[floa
     return values
 
 
+def normal_or_angles(vector: str | None, tilt: float | None, azimuth: float | None, options: tuple[str, str, str],
+                     default: str | None = None) -> Any:
+    """A unit lamella normal from a vector option (``options[0]``, text ``X,Y,Z``) or from a tilt
+    and an azimuth option (degrees; ``options[1:]``), one of the two ways; ``default`` (a vector's
+    text) when neither is given, else a one-line error naming the options."""
+    from labcut.errors import ParameterError
+    from labcut.scene import lamella_normal
+
+    v_opt, t_opt, a_opt = options
+    if vector is not None and (tilt is not None or azimuth is not None):
+        raise ParameterError(f"give {v_opt} or {t_opt} with {a_opt}, not both")
+    if (tilt is None) != (azimuth is None):
+        raise ParameterError(f"give {t_opt} and {a_opt} together (degrees), or {v_opt}")
+    if vector is None and tilt is None:
+        if default is None:
+            raise ParameterError(f"give {v_opt} X,Y,Z or {t_opt} DEG with {a_opt} DEG")
+        vector = default
+    try:
+        return lamella_normal(None if vector is None else parse_vector(vector, v_opt), tilt, azimuth)
+    except ParameterError as exc:
+        raise exc.renamed({"tilt": t_opt, "azimuth": a_opt, "lamella normal": v_opt}) from None
+
+
 @contextlib.contextmanager
 def all_or_nothing() -> Iterator[list[Path]]:
     """Collect the output files a command writes; if it fails half-way, remove them again,

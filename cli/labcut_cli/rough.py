@@ -15,31 +15,14 @@ import typer
 from rich.table import Table
 
 from . import materials as m
-from .root import all_or_nothing, app, console, err_console, parse_vector, write_json
+from .root import all_or_nothing, app, console, err_console, normal_or_angles, write_json
 
 #: what a library parameter is called on this command line, for its one-line errors
 _OPTION_NAMES = {"lamella normal": "--lamella", "count": "--count", "margin": "--margin", "rank": "--rank",
-                 "min flash": "--min-flash", "time budget": "--time-budget", "quality": "--quality"}
+                 "min flash": "--min-flash", "time budget": "--time-budget", "quality": "--quality", "units": "--units",
+                 "up axis": "--up-axis"}
 
 RANK_HELP = "How plans are ranked: value (carats^1.5 x flash ratio, the default), weight, or flash."
-
-
-def _normal(lamella: str | None, tilt: float | None, azimuth: float | None) -> Any:
-    """The lamella normal in the rough's frame from --lamella or --flash-tilt/--flash-azimuth."""
-    from labcut.errors import ParameterError
-    from labcut.scene import lamella_normal
-
-    if lamella is not None and (tilt is not None or azimuth is not None):
-        raise ParameterError("give --lamella or --flash-tilt with --flash-azimuth, not both")
-    if lamella is None and (tilt is None or azimuth is None):
-        raise ParameterError("give the flash plane: --lamella X,Y,Z (its normal in the rough's frame) or "
-                             "--flash-tilt DEG --flash-azimuth DEG (from the rough's top face)")
-    if lamella is not None:
-        return parse_vector(lamella, "--lamella")
-    try:
-        return lamella_normal(None, tilt, azimuth)
-    except ParameterError as exc:
-        raise exc.renamed({"tilt": "--flash-tilt", "azimuth": "--flash-azimuth"}) from None
 
 
 def stones_table(plan: Any) -> Table:
@@ -84,6 +67,7 @@ def rough(
     """Plan the stones to cut from ROUGH with its flash plane where it is: which cuts, how big, where
     and how tilted, trading weight against flash; saw, template and dop steps for each stone."""
     from labcut import plan_rough
+    from labcut.rough import check_request
     from labcut.errors import ParameterError
     from labcut.fileio import check_output_path
 
@@ -95,8 +79,10 @@ def rough(
         check_output_path(html_path, (".html", ".htm"))
     if png_path is not None:
         check_output_path(png_path, (".png",))
-    normal = _normal(lamella, flash_tilt, flash_azimuth)
+    normal = normal_or_angles(lamella, flash_tilt, flash_azimuth, ("--lamella", "--flash-tilt", "--flash-azimuth"))
     try:
+        check_request(rough_spec, normal, count, margin, quality, time_budget, rank, min_flash, units, up_axis,
+                      calibrated, fixed_size, cut or None)  # every option, before the progress bar
         with progress_bar("planning", "%") as update:
             plan = plan_rough(rough_spec, normal, cuts=cut or None, material=material, scenario=scenario, count=count,
                               margin_mm=margin, quality=quality, time_budget=time_budget, rank=rank, min_flash=min_flash,

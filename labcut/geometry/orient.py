@@ -72,14 +72,14 @@ PLANAR_TOL = 1e-4
 def check_up_axis(up_axis: Any) -> str:
     """Normalise an up-axis name (``auto``, ``+Z``, ``z``, ``-y``, ...); anything else is a ParameterError."""
     if not isinstance(up_axis, str):
-        raise ParameterError(f"up_axis must be one of {', '.join(UP_AXES)}, got {up_axis!r}")
+        raise ParameterError(f"up axis must be one of {', '.join(UP_AXES)}, got {up_axis!r}", parameter="up axis")
     key = up_axis.strip().upper()
     if key == "AUTO":
         return "auto"
     if key in ("X", "Y", "Z"):
         key = "+" + key
     if key not in UP_ROTATIONS:
-        raise ParameterError(f"up axis must be one of {', '.join(UP_AXES)}, got {up_axis!r}")
+        raise ParameterError(f"up axis must be one of {', '.join(UP_AXES)}, got {up_axis!r}", parameter="up axis")
     return key
 
 

@@ -12,6 +12,7 @@ from .._exports import lazy_exports
 #: the public names of :mod:`labcut.rough`, imported on first use
 _EXPORTS = {
     "plan_rough": ".plan:plan_rough",
+    "check_request": ".plan:check_request",
     "RoughPlan": ".plan:RoughPlan",
     "PlannedStone": ".plan:PlannedStone",
     "Rough": ".shape:Rough",

@@ -107,14 +107,15 @@ class CutModel:
         return 1.0 if self.fixed else MIN_STONE_MM / self.length_mm
 
 
-def _model(name: str, mesh: Any, spec: str | None, design: dict[str, Any], fixed: bool, symmetric: bool, study: Study) -> CutModel:
+def _model(name: str, mesh: Any, spec: str | None, design: dict[str, Any], fixed: bool, symmetric: bool,
+           score_map: tuple[np.ndarray, np.ndarray]) -> CutModel:
     from scipy.spatial import ConvexHull
 
     lo, hi = np.asarray(mesh.bounds, dtype=np.float64)
     ref = (lo + hi) / 2.0
     v = np.asarray(mesh.vertices, dtype=np.float64)
     hull = v[ConvexHull(v).vertices]
-    normals, scores = study.score_map(MAP_SPACING_DEG)
+    normals, scores = score_map
     return CutModel(name, mesh, spec, design, fixed, symmetric, ref, hull - ref, np.asarray(normals, dtype=np.float64),
                     np.asarray(scores, dtype=np.float64))
 
@@ -140,17 +141,14 @@ def family_specs(calibrated: bool = False, largest_mm: float | None = None) -> l
 
 
 def build_models(cuts: Any, material: Any, scenario: Any, quality: Any, *, calibrated: bool = False,
-                 fixed_size: bool = False, largest_mm: float | None = None, units: str | float = "auto",
-                 up_axis: str = "auto", progress: Any = None) -> list[CutModel]:
+                 fixed_size: bool = False, largest_mm: float | None = None, progress: Any = None) -> list[CutModel]:
     """The candidate cuts with their flash maps: the default families (``cuts`` None) or the cuts
-    given (as :func:`labcut.reports.cuts.resolve_cuts` takes them; scaled to fit, or kept at their
-    size with ``fixed_size``). Calibrated families share one map per outline and dome (flash does
+    given (as :func:`labcut.reports.cuts.resolve_cuts` takes them, units and up axis read from each
+    file; scaled to fit, or kept at their size with ``fixed_size``). Calibrated families share one map per outline and dome (flash does
     not depend on size)."""
     from ..reports.cuts import resolve_cuts
 
     report = progress or (lambda done, total: None)
-    if fixed_size and cuts is None:
-        raise ParameterError("fixed size keeps the size of the cuts given (--cut); the default cabochons take --calibrated")
     if cuts is None:
         specs = family_specs(calibrated, largest_mm)
         if not specs:
@@ -158,30 +156,15 @@ def build_models(cuts: Any, material: Any, scenario: Any, quality: Any, *, calib
         resolved = resolve_cuts([s for _, s, _, _ in specs])
         items = [(name, cut.mesh, spec, cut.design, fixed, sym) for (name, spec, fixed, sym), cut in zip(specs, resolved)]
     else:
-        if calibrated:
-            raise ParameterError("--calibrated chooses among the default cabochon families; with --cut the cuts given are scaled to fit")
-        resolved = resolve_cuts(cuts, units=units, up_axis=up_axis)
+        resolved = resolve_cuts(cuts)  # a cut file's units and up axis as the file says (--units is the rough's)
         items = [(c.name, c.mesh, c.source, c.design, bool(fixed_size), False) for c in resolved]
     models: list[CutModel] = []
     maps: dict[tuple[str, str], tuple[np.ndarray, np.ndarray]] = {}
     for k, (name, mesh, spec, design, fixed, sym) in enumerate(items):
         key = (str(design.get("outline", name)), name.split()[-1])
-        if fixed and cuts is None and key in maps:
-            model = _model(name, mesh, spec, design, fixed, sym, _Cached(*maps[key]))
-        else:
-            model = _model(name, mesh, spec, design, fixed, sym, Study(mesh, material, scenario, quality))
-            maps[key] = (model.normals, model.scores)
+        if not (fixed and cuts is None and key in maps):
+            maps[key] = Study(mesh, material, scenario, quality).score_map(MAP_SPACING_DEG)
+        model = _model(name, mesh, spec, design, fixed, sym, maps[key])
         models.append(model)
         report(k + 1, len(items))
     return models
-
-
-@dataclass
-class _Cached:
-    """A score map already made (calibrated sizes of one family share it)."""
-
-    normals: np.ndarray
-    scores: np.ndarray
-
-    def score_map(self) -> tuple[np.ndarray, np.ndarray]:
-        return self.normals, self.scores

@@ -23,16 +23,19 @@ from typing import Any, Callable
 import numpy as np
 
 from ..errors import MeshError, ParameterError
+from ..geometry.meshio import units_scale
+from ..geometry.orient import check_up_axis
 from ..physics.material import Labradorite
+from ..scene.directions import rotation as axis_rotation
 from ..scene.directions import tilt_azimuth
 from ..scene.quality import Quality
 from ..study import Study
 from ..validation import check_budget, check_number, unit_vector
 from .candidates import CutModel, build_models
-from .check import OUTSIDE_LIMIT, Checker, gap_mm, overlap_mm3
-from .pose import axial_upper, transform
-from .search import Piece, Placement, Ranking, Region, partition, search_region
-from .shape import Rough, load_rough
+from .check import OUTSIDE_LIMIT, Checker, gap_mm, inside, overlap_mm3
+from .pose import axial_upper, centred_scales, largest_fit, rotations, sphere_directions, supports, transform
+from .search import Piece, Placement, Ranking, Region, exact_placement, partition, search_region, thinned
+from .shape import SLAB_PREFIX, Rough, load_rough
 from .workshop import stone_steps
 
 #: most stones one plan cuts from a rough
@@ -139,8 +142,30 @@ class RoughPlan:
         return write_png(self, path)
 
 
-def _normal(lamella_normal: Any) -> np.ndarray:
-    return unit_vector(lamella_normal, "lamella normal")
+def check_request(rough: Any, lamella_normal: Any, count: Any = 1, margin_mm: Any = 0.5, quality: Any = "standard",
+                  time_budget: Any = None, rank: str = "value", min_flash: Any = 0.0, units: Any = "auto",
+                  up_axis: Any = "+Z", calibrated: bool = False, fixed_size: bool = False,
+                  cuts: Any = None) -> tuple[np.ndarray, int, float, Ranking, Quality, float | None]:
+    """Every option of :func:`plan_rough` checked before any work (the CLI asks it before its
+    progress bar): ``(normal, count, margin, ranking, quality, time budget)``. A slab is in mm:
+    a unit other than ``auto``/``mm`` for it is an error (``units`` is a mesh file's)."""
+    n = unit_vector(lamella_normal, "lamella normal")
+    count = int(check_number(count, "count", 1, MAX_COUNT, integer=True))
+    margin = float(check_number(margin_mm, "margin", 0.0, MAX_MARGIN_MM, unit="mm"))
+    ranking = Ranking(rank, float(check_number(min_flash, "min flash", 0.0, 1.0)))
+    q = Quality.coerce(quality)
+    budget = None if time_budget is None else check_budget(time_budget)
+    check_up_axis(up_axis)
+    if not (isinstance(units, str) and units.strip().lower() == "auto"):
+        name, factor = units_scale(units)
+        if isinstance(rough, str) and rough.strip().lower().startswith(SLAB_PREFIX) and factor != 1.0:
+            raise ParameterError(f"a slab (slab:LxWxT) is given in mm; units {name} apply to a rough's mesh file",
+                                 parameter="units")
+    if fixed_size and cuts is None:
+        raise ParameterError("fixed size keeps the size of the cuts given (--cut); the default cabochons take --calibrated")
+    if calibrated and cuts is not None:
+        raise ParameterError("--calibrated chooses among the default cabochon families; with --cut the cuts given are scaled to fit")
+    return n, count, margin, ranking, q, budget
 
 
 def plan_rough(rough: Any, lamella_normal: Any, cuts: Any = None, material: Any = None, scenario: Any = "bench",
@@ -166,12 +191,9 @@ def plan_rough(rough: Any, lamella_normal: Any, cuts: Any = None, material: Any 
     for any candidate)."""
     started = time.monotonic()
     report = progress or (lambda stage, fraction: None)
-    n = _normal(lamella_normal)
-    count = int(check_number(count, "count", 1, MAX_COUNT, integer=True))
-    margin = float(check_number(margin_mm, "margin", 0.0, MAX_MARGIN_MM, unit="mm"))
-    ranking = Ranking(rank, float(check_number(min_flash, "min flash", 0.0, 1.0)))
-    q = Quality.coerce(quality)
-    deadline = math.inf if time_budget is None else started + check_budget(time_budget)
+    n, count, margin, ranking, q, budget = check_request(rough, lamella_normal, count, margin_mm, quality, time_budget,
+                                                         rank, min_flash, units, up_axis, calibrated, fixed_size, cuts)
+    deadline = math.inf if budget is None else started + budget
     mat = Labradorite.coerce(material)
     report("reading the rough", 0.0)
     r = load_rough(rough, units=units, up_axis=up_axis)
@@ -181,7 +203,7 @@ def plan_rough(rough: Any, lamella_normal: Any, cuts: Any = None, material: Any 
     report("flash maps of the candidate cuts", 0.05)
     lo, hi = r.bounds
     models = build_models(cuts, mat, scenario, q, calibrated=calibrated, fixed_size=fixed_size, largest_mm=float(np.max(hi - lo)),
-                          units=units, up_axis="auto", progress=lambda d, t: report("flash maps of the candidate cuts", 0.05 + 0.35 * d / t))
+                          progress=lambda d, t: report("flash maps of the candidate cuts", 0.05 + 0.35 * d / t))
     report("placing the cuts", 0.4)
     whole = search_region(models, region, n, q, ranking, deadline=deadline)
     if whole and ranking.min_flash > 0:
@@ -260,8 +282,6 @@ def _deep_point(rough: Rough, region: Region) -> np.ndarray:
     400 points spread over the rough's box that lie inside both the region (the piece, the margin
     kept) and the rough itself (:func:`labcut.rough.check.inside`). A stone shrunk towards it
     stays in its piece (the piece is convex)."""
-    from .check import inside
-
     lo, hi = rough.bounds
     grid = lo + (hi - lo) * np.random.default_rng(0).random((400, 3))
     pts = np.vstack([region.centre, grid])
@@ -299,7 +319,7 @@ def _first_that_holds(found: list[Placement], rough: Rough, n: np.ndarray, mater
     out, so the first :data:`HOLD_TRIES` are compared after shrinking."""
     held: list[Placement] = []
     for p in found[: HOLD_TRIES * 2]:
-        if not _holds(rough, _stone_meshes(p)[1], margin):
+        if not rough.convex and not _holds(rough, _stone_meshes(p)[1], margin):
             p = _shrunk(p, rough, piece.region, margin)
             if p is None:
                 continue
@@ -325,10 +345,8 @@ def _measured(p: Placement, n: np.ndarray, material: Any, scenario: Any, quality
     """The stone of placement ``p``, its flash measured on the stone itself; first turned the
     whole way, or part of it, towards the cut's own best orientation when that fits and is worth
     more (the map's spacing blurs the last degrees; here the flash is exact)."""
-    from ..scene.directions import rotation as axis_rotation
-    from .search import exact_placement
-
-    study = Study(_stone_meshes(p)[0], material, scenario, quality)
+    meshes = _stone_meshes(p)
+    study = Study(meshes[0], material, scenario, quality)
     rec = study.recommend()
     best_n = axial_upper(np.asarray(rec.normal, dtype=np.float64))
 
@@ -352,7 +370,7 @@ def _measured(p: Placement, n: np.ndarray, material: Any, scenario: Any, quality
             w2 = float(ranking(cand.carats, r2))
             if w2 > worth * (1.0 + 1e-9) and (rough.convex or _holds(rough, _stone_meshes(cand)[1], margin)):
                 chosen, ratio, m_cut, worth = cand, r2, m2, w2
-    cut, mesh, t = _stone_meshes(chosen)
+    cut, mesh, t = meshes if chosen is p else _stone_meshes(chosen)
     if chosen.scale != p.scale:  # measured again on the stone as it will be cut
         study = Study(cut, material, scenario, quality)
         rec = study.recommend()
@@ -402,9 +420,6 @@ def _tradeoff(found: list[Placement], region: Region, n: np.ndarray, quality: Qu
     """The slab question, for the best-ranked cut: the longest stone (mm) that keeps at least each
     flash ratio of :data:`TRADEOFF_LEVELS` (from the cut's map): the longest of the poses the search
     solved and of the exact fits of the grid's three roomiest rotations at that level."""
-    from .pose import centred_scales, largest_fit, rotations, sphere_directions, supports
-    from .search import thinned
-
     model = max(found, key=lambda p: p.value(rank)).model
     period = math.pi if model.symmetric else 2.0 * math.pi
     rots = rotations(sphere_directions(quality.rough_directions), np.arange(quality.rough_spins) * (period / quality.rough_spins))

@@ -84,30 +84,33 @@ def centred_scales(h: np.ndarray, planes: np.ndarray, centre: np.ndarray) -> np.
     return np.clip(ratio.min(axis=1), 0.0, None)
 
 
-def largest_fit(h: np.ndarray, planes: np.ndarray) -> Fit | None:
-    """The largest scale ``s`` and position ``t`` with ``s h_i + a_i . t <= b_i`` for every plane
-    (one rotation's supports ``h``, shape (m,)): a linear programme (HiGHS), exact for the
-    convex region ``planes``. None when nothing fits (the region is empty)."""
+def _largest_first(column: np.ndarray, planes: np.ndarray) -> tuple[float, np.ndarray] | None:
+    """The linear programme both fits below are: the largest ``s >= 0`` with a ``t`` such that
+    ``s column_i + a_i . t <= b_i`` for every plane (HiGHS); ``(s, t)``, or None when no positive
+    ``s`` fits."""
     from scipy.optimize import linprog
 
-    a = np.concatenate([h[:, None], planes[:, :3]], axis=1)
+    a = np.concatenate([np.asarray(column, dtype=np.float64).reshape(-1, 1), planes[:, :3]], axis=1)
     res = linprog(c=[-1.0, 0.0, 0.0, 0.0], A_ub=a, b_ub=planes[:, 3], bounds=[(0.0, None)] + [(None, None)] * 3,
                   method="highs")
     if res.status != 0 or res.x is None or res.x[0] <= 0:
         return None
-    return Fit(float(res.x[0]), np.asarray(res.x[1:], dtype=np.float64))
+    return float(res.x[0]), np.asarray(res.x[1:], dtype=np.float64)
+
+
+def largest_fit(h: np.ndarray, planes: np.ndarray) -> Fit | None:
+    """The largest scale ``s`` and position ``t`` with ``s h_i + a_i . t <= b_i`` for every plane
+    (one rotation's supports ``h``, shape (m,)): exact for the convex region ``planes``. None when
+    nothing fits (the region is empty)."""
+    found = _largest_first(h, planes)
+    return None if found is None else Fit(*found)
 
 
 def chebyshev_centre(planes: np.ndarray) -> tuple[np.ndarray, float] | None:
-    """The centre and radius (mm) of the largest ball inside ``planes``; None when empty."""
-    from scipy.optimize import linprog
-
-    a = np.concatenate([np.ones((len(planes), 1)), planes[:, :3]], axis=1)
-    res = linprog(c=[-1.0, 0.0, 0.0, 0.0], A_ub=a, b_ub=planes[:, 3], bounds=[(0.0, None)] + [(None, None)] * 3,
-                  method="highs")
-    if res.status != 0 or res.x is None or res.x[0] <= 0:
-        return None
-    return np.asarray(res.x[1:], dtype=np.float64), float(res.x[0])
+    """The centre and radius (mm) of the largest ball inside ``planes`` (unit normals: a ball's
+    support is its radius towards every plane); None when empty."""
+    found = _largest_first(np.ones(len(planes)), planes)
+    return None if found is None else (found[1], found[0])
 
 
 def axial_upper(m: np.ndarray) -> np.ndarray:

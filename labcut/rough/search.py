@@ -275,7 +275,7 @@ def partition(rough_points: np.ndarray, region: Region, count: int, models: list
 
     values = [worth(region)]
     while len(pieces) < count and time.monotonic() < deadline:
-        best: tuple[float, int, Region, Region, np.ndarray, float] | None = None
+        best: tuple[float, int, Region, Region, np.ndarray, float, float, float] | None = None
         for k, piece in enumerate(pieces):
             verts = _region_points(piece.region, rough_points)
             for d in dirs:
@@ -291,13 +291,13 @@ def partition(rough_points: np.ndarray, region: Region, count: int, models: list
                         continue
                     gain = va + vb - values[k]
                     if best is None or gain > best[0]:
-                        best = (gain, k, a, b, d, offset)
+                        best = (gain, k, a, b, d, offset, va, vb)
         if best is None:
             break
-        _, k, a, b, d, offset = best
+        _, k, a, b, d, offset, va, vb = best
         saws = pieces[k].saws
         pieces[k:k + 1] = [Piece(a, saws + [(d, offset)]), Piece(b, saws + [(-d, -offset)])]
-        values[k:k + 1] = [worth(a), worth(b)]
+        values[k:k + 1] = [va, vb]
     return pieces
 
 
