@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -12,7 +13,7 @@ import labcut
 from labcut.errors import LabcutWarning, MeshError, ParameterError
 from labcut.geometry.cabochon import cabochon
 from labcut.geometry.inspect import carats, summarize
-from labcut.geometry.meshio import load_mesh, save_mesh
+from labcut.geometry.meshio import UNITS, load_mesh, save_mesh
 
 ROOT = Path(__file__).resolve().parents[1]
 MESHES = ROOT / "meshes"
@@ -91,6 +92,28 @@ def test_units_and_recentre(tmp_path):
     for bad in ("furlong", -1.0, float("nan"), 0):
         with pytest.raises(ParameterError):
             load_mesh(path, units=bad)
+
+
+@pytest.mark.parametrize("length, unit", [(10.0, "in"), (5.0, "in"), (16.0, "m"), (16.0, "um")])
+def test_a_refused_size_names_the_unit_that_makes_a_usual_stone(tmp_path, length, unit):
+    # a 10 mm stone in inches reads 0.39 mm: centimetres would make it 3.9 mm, inches 10 mm; a 5 mm
+    # one reads 0.197 mm, which metres would make 197 mm
+    b = box((length, 0.75 * length, 0.2 * length))
+    b.apply_scale(1.0 / UNITS[unit])
+    path = write(tmp_path, "b.stl", b.vertices, b.faces)
+    with pytest.raises(ParameterError) as info:
+        load_mesh(path)
+    assert f"pass --units {unit} (units='{unit}')" in str(info.value), str(info.value)
+
+
+def test_every_bundled_mesh_and_design_loads_without_a_warning():
+    paths = sorted(p for p in MESHES.rglob("*") if p.suffix.lower() in (".ply", ".stl", ".asc", ".gem"))
+    assert any(p.parent.name == "rough" for p in paths) and any(p.parent.name == "designs" for p in paths)
+    for path in paths:
+        with warnings.catch_warnings():
+            warnings.simplefilter("error", LabcutWarning)
+            m = load_mesh(path)
+        assert m.metadata["labcut"]["warnings"] == [], path.name
 
 
 def test_convex_flag(tmp_path):

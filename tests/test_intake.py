@@ -208,6 +208,85 @@ def test_units_on_every_command_that_reads_a_mesh(cli, tmp_path, oval):
     assert proc.returncode == 2 and "unknown units" in proc.stderr
 
 
+# issue 34 (1): a file without a unit, in inches or centimetres, loads 25.4 or 10 times too small
+# but inside the 0.5-500 mm the size check accepts; it is warned about, with the --units that fits
+def _scaled(length_mm):
+    """The reference oval (16 x 12 mm) scaled to ``length_mm`` long, in mm."""
+    m = quiet_load(OVAL, up_axis="+Z")
+    m.apply_scale(length_mm / 16.0)
+    return m
+
+
+@pytest.mark.parametrize("length", [16.0, 20.0])
+@pytest.mark.parametrize("unit", ["in", "cm"])
+def test_a_stone_in_inches_or_centimetres_without_units_is_warned(tmp_path, unit, length):
+    path = export(_scaled(length), tmp_path / "oval.ply", "+Z", unit_mm=UNITS[unit])
+    with pytest.warns(LabcutWarning, match=f"pass --units {unit} \\(units='{unit}'\\) for {length:g} mm") as caught:
+        m = load_mesh(path)
+    msg = str(caught[0].message)
+    assert "oval.ply is" in msg and "the default: the file does not say" in msg and "\n" not in msg
+    assert m.metadata["labcut"]["warnings"] == [msg]
+    # the unit it names loads the stone at its size, without a warning; so does --units mm, on purpose
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", LabcutWarning)
+        assert max(load_mesh(path, units=unit).extents) == pytest.approx(length, rel=1e-5)
+        assert max(load_mesh(path, units="mm").extents) == pytest.approx(length / UNITS[unit], rel=1e-5)
+
+
+@pytest.mark.parametrize("length", [3.0, 4.0, 6.0, 60.0])
+def test_small_real_stones_in_mm_are_not_warned(tmp_path, length):
+    path = export(_scaled(length), tmp_path / "cab.stl", "+Z")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", LabcutWarning)
+        m = load_mesh(path)
+    assert m.metadata["labcut"]["warnings"] == [] and max(m.extents) == pytest.approx(length, rel=1e-5)
+
+
+# a property: a stone of a realistic size written in inches (5-60 mm) or centimetres (5-24 mm: a
+# larger one reads 2.5 mm or more, the size of a real small stone) with no unit in the file is
+# warned about (or, under 12.7 mm in inches, refused) naming the unit it is in, and that unit loads it
+# at its size
+@settings(max_examples=10)
+@given(case=st.one_of(st.tuples(st.just("in"), st.floats(5.0, 60.0)), st.tuples(st.just("cm"), st.floats(5.5, 24.0))),
+       suffix=st.sampled_from([".ply", ".stl", ".obj"]))
+def test_a_stone_in_inches_or_centimetres_is_caught_without_units(tmp_path_factory, case, suffix):
+    unit, length = case
+    path = export(_scaled(length), tmp_path_factory.mktemp("units") / f"stone{suffix}", "+Z", unit_mm=UNITS[unit])
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", LabcutWarning)
+        try:
+            load_mesh(path)
+            said = " ".join(str(w.message) for w in caught if issubclass(w.category, LabcutWarning))
+        except ParameterError as exc:  # under 0.5 mm read in mm: a stone under 12.7 mm in inches
+            said = str(exc)
+            assert unit == "in" and length < 12.8
+    assert f"--units {unit} (units='{unit}')" in said, (unit, length, said)
+    m = quiet_load(path, units=unit)
+    assert max(m.extents) == pytest.approx(length, rel=1e-5)
+    assert m.metadata["labcut"]["warnings"] == []
+
+
+def test_a_huge_or_tiny_units_factor_reads_in_a_short_message(tmp_path):
+    for factor, size in ((1e300, "1.6e+301"), (1e-300, "1.6e-299"), (1e5, "1.6e+06")):
+        with pytest.raises(ParameterError) as info:
+            load_mesh(OVAL, units=factor)
+        msg = str(info.value)
+        assert f"is {size} mm across" in msg and len(msg) < 250, msg
+
+
+def test_cli_warns_of_inches_and_keeps_errors_short(cli, tmp_path, oval):
+    path = export(oval, tmp_path / "inches.stl", "+Z", unit_mm=UNITS["in"])
+    proc = cli("inspect", str(path))
+    assert proc.returncode == 0, proc.stderr
+    assert "warning:" in proc.stderr and "--units in" in proc.stderr and "16 mm" in proc.stderr
+    proc = cli("inspect", str(path), "--units", "in")
+    assert proc.returncode == 0 and "warning:" not in proc.stderr and "16.000 x 12.000" in proc.stdout
+    proc = cli("inspect", str(path), "--units", "mm")  # the user says so: no warning
+    assert proc.returncode == 0 and "warning:" not in proc.stderr
+    proc = cli("inspect", str(OVAL), "--units", "1e300")
+    assert proc.returncode == 2 and "1.6e+301 mm across" in proc.stderr and len(proc.stderr) < 300, proc.stderr
+
+
 # ----------------------------------------------------------------------------- 3. render camera
 @pytest.mark.parametrize("scale", [1e-2, 1.0, 400.0])  # 0.16 mm to 6.4 m: near/far from the bounds
 def test_any_size_renders_a_stone_not_a_flat_image(scale):

@@ -4,9 +4,10 @@
 returns a validated :class:`trimesh.Trimesh` in mm, in the labcut frame (DESIGN.md
 §3: +Z face-up, base on z = 0). Units come from the caller, else from the file
 (glTF is metres by specification, 3MF declares its unit), else mm; a stone must then
-measure 0.5-500 mm across. The face-up side comes from the caller, else from the shape
-(a flat base, a table, a dome: :mod:`labcut.geometry.orient`), else from the format's
-convention (+Y for glTF, +Z otherwise). A mesh labcut accepts is
+measure 0.5-500 mm across, and one read in mm by default that is under 2.5 mm across is
+probably in inches or centimetres (a warning). The face-up side comes from the caller, else
+from the shape (a flat base, a table, a dome: :mod:`labcut.geometry.orient`), else from the
+format's convention (+Y for glTF, +Z otherwise). A mesh labcut accepts is
 
 * non-empty, with finite vertex coordinates;
 * free of degenerate triangles (repeated or collinear vertices);
@@ -66,6 +67,22 @@ WRITE_FORMATS = (".ply", ".stl", ".obj", ".off", ".glb", ".3mf")
 
 #: length of one file unit in mm
 UNITS = {"mm": 1.0, "cm": 10.0, "m": 1000.0, "um": 1e-3, "in": 25.4, "ft": 304.8}
+#: the units' names in a sentence
+UNIT_WORDS = {"mm": "millimetres", "cm": "centimetres", "m": "metres", "um": "microns", "in": "inches", "ft": "feet"}
+
+#: the usual sizes (mm across, the largest extent) of the stones labcut plans for: labradorite
+#: cabochons and carvings run about 4-64 mm, from 4 x 3 mm calibrated cabochons to 2.5-inch pendants
+#: and carvings; the middle of the range (its geometric mean, 16 mm) is the commonest cabochon. A unit
+#: is suggested for a file that does not say its own only when it puts the stone in this range
+#: (:func:`_units_warning`), and :func:`_check_size` names first the unit that puts a refused stone
+#: nearest the middle
+TYPICAL_STONE_MM = (4.0, 64.0)
+#: a file that does not say its unit, read in mm, whose stone measures less than this across (mm) is
+#: probably in inches or centimetres and is warned about (:func:`_units_warning`): 16-20 mm stones,
+#: the commonest cabochons, read 0.63-0.79 mm in inches and 1.6-2.0 mm in centimetres, while real cut
+#: labradorite, 3 mm calibrated cabochons included, is larger. Below it, the stone read in inches
+#: (under 63.5 mm) or centimetres (5-25 mm) is always in :data:`TYPICAL_STONE_MM`
+SMALL_STONE_MM = 2.5
 
 
 #: largest share of the surface that hole patches may make up
@@ -632,6 +649,9 @@ def load_mesh(
             per file unit. A given unit overrides the file's (with a note). The converted
             stone must measure 0.5-500 mm across (:data:`STONE_SIZE_MM`): anything else is a
             unit mistake and a :class:`~labcut.errors.ParameterError` that names ``--units``.
+            A file that does not say its unit and is under :data:`SMALL_STONE_MM` (2.5 mm)
+            across in mm is probably in inches or centimetres: a warning names the ``--units``
+            that would fit (:func:`_units_warning`); a given ``units="mm"`` is not warned about.
         up_axis: the file's axis that is face-up: ``"auto"`` (default: read from the shape,
             a flat base or a table or a dome, see :mod:`labcut.geometry.orient`; else the
             format's convention, +Y for glTF and +Z otherwise), or ``"+Z"``, ``"-Z"``, ``"+Y"``,
@@ -709,6 +729,10 @@ def load_mesh(
     v, f, repairs, more_notes, bodies, volume, cross = _validate_arrays(v, f, p.name, repair)
     notes.extend(more_notes)
     _check_size(v, factor, unit_name, units_source, p.name, fmt)
+    if units_source == "default":
+        suspect = _units_warning(float(extent(v).max()), p.name)
+        if suspect:
+            warns.append(suspect)
     report_stage("checking convexity", 0.6)
     mesh = trimesh.Trimesh(vertices=v, faces=f, process=False)
     if volume is None:
@@ -775,7 +799,10 @@ def load_mesh(
 
 
 def _check_size(v: np.ndarray, factor: float, unit_name: str, units_source: str, name: str, fmt: str) -> None:
-    """Refuse a stone whose largest size in mm lies outside :data:`STONE_SIZE_MM`: wrong units."""
+    """Refuse a stone whose largest size in mm lies outside :data:`STONE_SIZE_MM`: wrong units.
+    The message names the unit that would make it 2-200 mm across, the one nearest the middle of
+    :data:`TYPICAL_STONE_MM` when several would (a 10 mm stone in inches reads 0.39 mm: inches give
+    10 mm, centimetres 3.9 mm, feet 120 mm; inches are named)."""
     size_file = float(extent(v).max())
     size = size_file * factor
     lo, hi = STONE_SIZE_MM
@@ -783,16 +810,54 @@ def _check_size(v: np.ndarray, factor: float, unit_name: str, units_source: str,
         return
     why = {"given": "as given", "file": "glTF is metres by specification" if fmt in ("glb", "gltf") else "as the file declares",
            "default": "the default: the file does not say"}[units_source]
-    fits = [u for u, k in UNITS.items() if 2.0 <= size_file * k <= 200.0 and u != unit_name]
+    fits = sorted((u for u, k in UNITS.items() if 2.0 <= size_file * k <= 200.0 and u != unit_name),
+                  key=lambda u: _atypicality(size_file * UNITS[u]))
     hint = f"if the file is in {fits[0]}, pass --units {fits[0]} (units={fits[0]!r})" if fits else "give its unit with --units (units=)"
     raise ParameterError(
         f"{name} is {_mm(size)} mm across read in {unit_name} ({why}), outside the {lo:g}-{hi:g} mm of a stone; {hint}"
     )
 
 
+def _atypicality(size_mm: float) -> float:
+    """How far a stone's size (mm) is from the middle of :data:`TYPICAL_STONE_MM`, in log scale:
+    0 at its geometric mean (16 mm), larger further away, the same for half and double."""
+    lo, hi = TYPICAL_STONE_MM
+    return abs(math.log(size_mm / math.sqrt(lo * hi)))
+
+
+def _units_warning(size_file: float, name: str) -> str | None:
+    """A warning for a stone read in mm by default (the file does not say) that is probably in
+    inches or centimetres, or None: it is under :data:`SMALL_STONE_MM` across, and the unit puts it
+    in :data:`TYPICAL_STONE_MM`; the units that do are named, most typical size first.
+
+    The size is the only clue: the shape of a stone is the same at any scale, and inches and
+    centimetres both land within the 0.5-500 mm that :func:`_check_size` accepts. The threshold
+    trades misses for false alarms. At 2.5 mm it catches the stones of 12.7-63.5 mm saved in
+    inches (16 and 20 mm read 0.63 and 0.79 mm) and those of 5-25 mm saved in centimetres (16 and
+    20 mm read 1.6 and 2.0 mm), and leaves alone a real 3 mm calibrated cabochon in mm. A stone of
+    25 mm or more saved in centimetres reads 2.5 mm or more, as a real stone of that size would: no
+    rule on size can tell them apart, and it is not warned about. A real stone under 2.5 mm (melee)
+    is warned about; ``--units mm`` says the file is in mm and silences the warning."""
+    if size_file >= SMALL_STONE_MM:
+        return None
+    lo, hi = TYPICAL_STONE_MM
+    fits = sorted((u for u in ("in", "cm") if lo <= size_file * UNITS[u] <= hi),
+                  key=lambda u: _atypicality(size_file * UNITS[u]))
+    if not fits:
+        return None
+    options = [f"{UNIT_WORDS[u]}, {'pass ' if i == 0 else ''}--units {u} (units={u!r}) for {_mm(size_file * UNITS[u])} mm"
+               for i, u in enumerate(fits)]
+    return (f"{name} is {_mm(size_file)} mm across read in mm (the default: the file does not say), and cut stones are "
+            f"rarely under {SMALL_STONE_MM:g} mm: if the file is in {'; in '.join(options)}; if it is in mm, --units mm "
+            f"(units='mm') says so")
+
+
 def _mm(x: float) -> str:
-    """A length in mm for a message: 16000, 16.5, 0.016."""
-    return f"{x:.0f}" if x >= 100 else f"{x:.3g}"
+    """A length in mm for a message: 16000, 16.5, 0.016, and 1.6e+07, 1.6e-05 (never a hundred digits
+    of a size scaled by a huge or tiny ``units`` factor)."""
+    if 100 <= x < 1e6:
+        return f"{x:.0f}"
+    return f"{x:.3g}"
 
 
 def _fingerprint(mesh: Any) -> tuple[int, int, int, int]:
