@@ -17,11 +17,14 @@ from typing import Any
 
 from .errors import LabcutError, OutputError, ParameterError
 
-__all__ = ["atomic_output", "cache_path", "cached_array", "cached_arrays", "distinct_outputs", "calibration", "check_output_path", "code_hash", "read_cache", "read_json", "write_cache"]
+__all__ = ["atomic_output", "cache_path", "cached_array", "cached_arrays", "distinct_outputs", "calibration", "check_output_path", "check_outputs", "code_hash", "read_cache", "read_json", "write_cache"]
 
 
-def check_output_path(path: str | os.PathLike[str], suffixes: tuple[str, ...] | None = None) -> Path:
-    """Validate an output path: its folder exists and, if given, its suffix is allowed."""
+def check_output_path(path: str | os.PathLike[str], suffixes: tuple[str, ...] | None = None, *, probe: bool = True) -> Path:
+    """Validate an output path before any work: its folder exists, its suffix is allowed (when
+    ``suffixes`` is given), an existing target is a regular file, and (``probe``) a file can really be
+    created in its folder, so a read-only or virtual folder (``/proc``) fails now, not after the work.
+    """
     out = Path(path)
     if out.name == "" or out.is_dir():
         raise ParameterError(f"output path {str(path)!r} is a folder, not a file name")
@@ -29,7 +32,40 @@ def check_output_path(path: str | os.PathLike[str], suffixes: tuple[str, ...] | 
         raise ParameterError(f"output folder {str(out.parent)!r} does not exist")
     if suffixes is not None and out.suffix.lower() not in suffixes:
         raise ParameterError(f"output file {out.name!r} must end in one of {', '.join(suffixes)}")
+    if out.exists() and not out.is_file():  # a device or a pipe: replacing it would remove it
+        raise ParameterError(f"output path {str(path)!r} exists and is not a regular file")
+    if probe:
+        try:
+            fd, name = tempfile.mkstemp(prefix=f".{out.stem}.", suffix=".probe", dir=out.parent or ".")
+        except OSError as exc:
+            raise OutputError(f"cannot write {str(out)!r}: {exc.strerror or exc}") from None
+        os.close(fd)
+        os.unlink(name)
     return out
+
+
+def check_outputs(outputs: dict[str, tuple[Any, tuple[str, ...] | None]],
+                  inputs: dict[str, Any] | None = None) -> None:
+    """Check every output of a call before its work starts: each path as :func:`check_output_path`
+    does, none named twice (:func:`distinct_outputs`) and none the same file as an input.
+
+    ``outputs``: ``{option: (path or None, allowed suffixes)}``; ``"-"`` (standard output) and None
+    are skipped. ``inputs``: ``{option or argument name: path or None}``, the files the call reads.
+    """
+    distinct_outputs({option: path for option, (path, _) in outputs.items()})
+    read = {_same_file_key(p): name for name, p in (inputs or {}).items() if p is not None and str(p) != "-"}
+    for option, (path, suffixes) in outputs.items():
+        if path is None or str(path) == "-":
+            continue
+        if _same_file_key(path) in read:
+            raise ParameterError(f"{option} {path} is also the input {read[_same_file_key(path)]}: writing it would "
+                                 "replace what is being read; give the output its own path")
+        check_output_path(path, suffixes)
+
+
+def _same_file_key(path: Any) -> Path:
+    """A key under which two spellings of one file compare equal (relative, ``~``, symbolic links)."""
+    return Path(os.path.realpath(os.path.expanduser(str(path))))
 
 
 def distinct_outputs(outputs: dict[str, Any]) -> None:
@@ -40,7 +76,7 @@ def distinct_outputs(outputs: dict[str, Any]) -> None:
     for option, path in outputs.items():
         if path is None or str(path) == "-":
             continue
-        key = Path(os.path.abspath(os.path.expanduser(str(path))))
+        key = _same_file_key(path)
         if key in seen:
             raise ParameterError(f"{seen[key]} and {option} name the same file ({path}): give each output its own path")
         seen[key] = option
@@ -57,7 +93,7 @@ def atomic_output(path: str | os.PathLike[str], suffixes: tuple[str, ...] | None
     >>> with atomic_output("plot.png") as tmp:
     ...     figure.savefig(tmp)
     """
-    out = check_output_path(path, suffixes)
+    out = check_output_path(path, suffixes, probe=False)
     try:
         fd, tmp_name = tempfile.mkstemp(prefix=f".{out.stem}.", suffix=out.suffix, dir=out.parent or ".")
     except OSError as exc:

@@ -23,11 +23,11 @@ settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "labcut"))
 ROOT = Path(__file__).resolve().parents[1]
 
 
-def run_cli(*args: str, cwd: Path | None = None) -> subprocess.CompletedProcess[str]:
-    """Run the installed ``labcut`` console script; returns the completed process."""
+def run_cli(*args: str, cwd: Path | None = None, columns: int = 120) -> subprocess.CompletedProcess[str]:
+    """Run the installed ``labcut`` console script in a terminal ``columns`` wide; returns the completed process."""
     exe = Path(sys.executable).with_name("labcut")
     cmd = [str(exe)] if exe.exists() else [sys.executable, "-m", "labcut_cli.app"]
-    env = {**os.environ, "COLUMNS": "120", "NO_COLOR": "1"}
+    env = {**os.environ, "COLUMNS": str(columns), "NO_COLOR": "1"}
     env.pop("LABCUT_DEBUG", None)
     return subprocess.run([*cmd, *args], capture_output=True, text=True, cwd=cwd, env=env, timeout=300)
 

@@ -131,7 +131,7 @@ def test_a_failing_render_leaves_the_answer(tmp_path, capsys, monkeypatch):
     data = json.loads(js.read_text())
     assert data["normal"] and data["render"]["status"].startswith("pending")
     assert mp.exists() and not png.exists()
-    assert "recommendation above stands" in err
+    assert "answer above stands" in err
     assert [p.name for p in tmp_path.iterdir() if p.name.startswith(".")] == []
 
 

@@ -21,12 +21,14 @@ def test_compare_writes_html_json_csv_and_prints_the_ranking(cli, tmp_path):
     assert proc.returncode == 0, proc.stderr
     out = proc.stdout
     assert "Ranked by flash (reference: oval-16x12-low.ply)" in out and "oval-16x12-low.ply (2)" in out
-    assert "Scenario bench" in out and "flash most" in out
+    assert "Scenario bench" in out and "tie for the most flash" in out
     assert "report written to" in out and "comparing" in proc.stderr  # the progress bar is on stderr
     data = json.loads(js.read_text())
     assert [c["name"] for c in data["cuts"]] == ["oval-16x12-low.ply", "cab:oval,16x12,high,res=64", "oval-16x12-low.ply (2)"]
     assert data["material"]["name"] == "green" and [s["name"] for s in data["scenarios"]] == ["bench"]
     assert [c["rank"] for c in data["cuts"]] == [1, 3, 1]
+    assert [c["tied"] for c in data["cuts"]] == [True, False, True]  # one stone twice: a tie, said so
+    assert data["verdict"].startswith("oval-16x12-low.ply and oval-16x12-low.ply (2) tie for the most flash over bench")
     rows = list(csv.DictReader(cs.open()))
     assert {r["cut"] for r in rows} >= {c["name"] for c in data["cuts"]}
     text = html.read_text()
@@ -57,7 +59,9 @@ def test_json_to_stdout_and_reference_by_name(cli):
         ([OVAL, "--units", "furlong"], "furlong"),
         ([OVAL, "--resolution", "4"], "render resolution"),
         ([OVAL, "--html", "{out}/r.txt"], "must end in one of .html, .htm"),
-        ([OVAL, "--csv", "{out}/r.json"], "must end in one of .csv"),
+        ([OVAL, "--csv", "{out}/r.json"], "--json and --csv name the same file"),
+        ([OVAL, "--csv", "{out}/r.txt"], "must end in one of .csv"),
+        ([OVAL, "--html", "/proc/r.html"], "cannot write '/proc/r.html'"),
         ([OVAL, "--html", "{out}/nowhere/r.html"], "does not exist"),
     ],
 )

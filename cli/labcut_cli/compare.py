@@ -19,13 +19,14 @@ from labcut.scene import SCENARIOS
 from . import materials as m
 from . import meshes as mo
 from . import plan_options as po
-from .root import all_or_nothing, app, console, err_console, write_json
+from .root import all_or_nothing, app, check_outputs, console, err_console, figure_after_answer, write_json
 
 Cuts = Annotated[
     list[str],
     typer.Argument(
         metavar="CUT...",
-        help="Cuts to compare: mesh files (STL, OBJ, PLY, OFF, GLB/GLTF, 3MF) or cabochon specs "
+        help="Cuts to compare: mesh files (STL, OBJ, PLY, OFF, GLB/GLTF, 3MF), GemCad designs (.asc, .gem; "
+             "DESIGN@SIZE for its own girdle width in mm, e.g. SRB.asc@8 SRB.asc@12) or cabochon specs "
              "cab:OUTLINE,SIZE[,DOME][,key=value...], e.g. cab:oval,16x12,low or cab:round,12,high,profile=spherical.",
         show_default=False,
     ),
@@ -50,18 +51,6 @@ def _reference(text: str, count: int) -> int | str:
     return key
 
 
-def _check_outputs(html: Path | None, json_path: str | None, csv_path: Path | None) -> None:
-    """Each output's folder exists and its suffix fits (so the three can never be one file)."""
-    from labcut.fileio import check_output_path
-
-    if html is not None:
-        check_output_path(html, (".html", ".htm"))
-    if json_path not in (None, "-"):
-        check_output_path(json_path, (".json",))
-    if csv_path is not None:
-        check_output_path(csv_path, (".csv",))
-
-
 def short_orientation(normal: Any, scenario: Any, parallel_within_deg: float | None) -> str:
     """``9° top``, ``4° front-left``, ``parallel (±2.3°)``: an orientation for a narrow table."""
     from labcut.orientation import side_name
@@ -79,20 +68,30 @@ def _x(value: float | None) -> str:
     return "–" if value is None else f"x{value:.2f}"
 
 
+#: how every comparison table explains its ranks and error bars
+BARS_NOTE = ("± after a score: its error bar (about 95 %: a much finer sampling lands that close). "
+             "=1, =2: cuts whose scores lie within each other's error bars share a rank, a tie.")
+
+
 def summary_table(cmp: Any) -> Table:
-    """The ranked summary: overall rank, weight, overall score, per scenario energy (x reference) and tolerance."""
-    table = Table(title=f"Ranked by flash (reference: {cmp.reference_cut.name})", title_justify="left")
+    """The ranked summary: overall rank (=N for a tie), weight, overall score ± its error bar, per
+    scenario energy (x reference) and tolerance."""
+    from labcut.reports import rank_label
+
+    table = Table(title=f"Ranked by flash (reference: {cmp.reference_cut.name})", title_justify="left",
+                  caption=BARS_NOTE, caption_justify="left")
     table.add_column("rank", justify="right")
-    table.add_column("cut")
+    table.add_column("cut", overflow="fold")
     table.add_column("ct", justify="right")
     table.add_column("overall", justify="right")
     for n in cmp.scenario_names:
         table.add_column(f"{n}: energy, tolerance", justify="right")
     for c in cmp.ranked():
-        cells = [str(c.rank), c.name, f"{c.summary.weight_ct:.2f}", f"{c.overall_score:.2f}"]
+        cells = [rank_label(c.rank, c.tied), c.name, f"{c.summary.weight_ct:.2f}", f"{c.overall_score:.2f} ±{c.overall_error:.2f}"]
         for n in cmp.scenario_names:
             r = c.scenarios[n]
-            cells.append(f"{r.energy:.4f} {_x(r.normalised.get('flash_energy'))} ±{r.recommendation.tolerance_deg:.1f}°")
+            cells.append(f"{r.energy:.4f} ±{r.energy_error:.4f} {_x(r.normalised.get('flash_energy'))}; "
+                         f"±{r.recommendation.tolerance_deg:.1f}°")
         table.add_row(*cells)
     return table
 
@@ -100,20 +99,29 @@ def summary_table(cmp: Any) -> Table:
 def scenario_table(cmp: Any, name: str) -> Table:
     """One scenario: each cut's best orientation, tolerances, flash area and energy, flash colour."""
     sc = next(s for s in cmp.scenarios if s.name == name)
-    table = Table(title=f"Scenario {name}: each cut at its best orientation", title_justify="left")
-    for col, just in (("#", "right"), ("cut", "left"), ("best orientation", "left"), ("tolerance; f-b, side", "right"),
+    from labcut.reports import rank_label
+
+    table = Table(title=f"Scenario {name}: each cut at its best orientation", title_justify="left",
+                  caption=cmp.scenario_verdict(name), caption_justify="left", pad_edge=False)
+    along = "t-b" if sc.worn_upright else "f-b"
+    longest = max(len(c.name) for c in cmp.cuts)
+    for col, just in (("#", "right"), ("cut", "left"), ("best\norientation", "left"), (f"tolerance;\n{along}/side", "right"),
                       ("area", "right"), ("energy", "right"), ("colour", "right")):
-        table.add_column(col, justify=just)  # type: ignore[arg-type]
+        table.add_column(col, justify=just, overflow="fold",  # type: ignore[arg-type]
+                         min_width=min(longest, max(12, console.width - 64)) if col == "cut"
+                         else 11 if col.startswith("best") else None,
+                         max_width=max(11, console.width - 69) if col.startswith("best") else None)
     for c in cmp.cuts:
         r = c.scenarios[name]
         rec, met = r.recommendation, r.recommendation.metrics
         ax = rec.tolerance_by_axis
         nm = r.colour.stats.get("dominant_wavelength_nm") if r.colour is not None else None
+        mm2 = "" if met.flash_area_mm2 is None else f" {met.flash_area_mm2:.3g} mm²"
         table.add_row(
-            str(r.rank), c.name, short_orientation(rec.normal, sc, rec.parallel_within_deg),
-            f"±{rec.tolerance_deg:.1f}°; ±{ax['front_back_deg']:.1f}°, ±{ax['left_right_deg']:.1f}°",
-            f"{met.flash_area:.1%}", f"{met.flash_energy:.4f} {_x(r.normalised.get('flash_energy'))}",
-            "–" if nm is None else f"{nm:.0f} nm",
+            rank_label(r.rank, r.tied), c.name, short_orientation(rec.normal, sc, rec.parallel_within_deg),
+            f"±{rec.tolerance_deg:.1f}°\n±{ax['front_back_deg']:.1f}/{ax['left_right_deg']:.1f}°",
+            f"{met.flash_area:.1%}\n{mm2.strip()}", f"{met.flash_energy:.4f}\n±{r.energy_error:.4f}\n{_x(r.normalised.get('flash_energy'))}",
+            "–" if nm is None else f"{nm:.0f}nm",
         )
     return table
 
@@ -124,7 +132,7 @@ def compromise_table(cmp: Any) -> Table:
 
     naming = naming_scenario(cmp.scenarios)
     table = Table(title="One orientation for all scenarios", caption=cmp.sides_note, title_justify="left")
-    table.add_column("cut")
+    table.add_column("cut", overflow="fold")
     table.add_column("orientation")
     table.add_column("tolerance", justify="right")
     for n in cmp.scenario_names:
@@ -139,6 +147,7 @@ def compromise_table(cmp: Any) -> Table:
 @mo.takes_mesh_options
 @m.takes_material
 def compare(
+    ctx: typer.Context,
     cuts: Cuts,
     scenario: Scenarios = None,
     reference: Annotated[str, typer.Option("--reference", help="The cut every other is normalised to: its position (1 = the first CUT) or its name.")] = "1",
@@ -172,7 +181,7 @@ def compare(
     from .progress import progress_bar
 
     # every input is checked before the work starts
-    _check_outputs(html_path, json_path, csv_path)
+    check_outputs({"--html": (html_path, (".html", ".htm")), "--json": (json_path, (".json",)), "--csv": (csv_path, (".csv",))}, ctx)
     effects = po.check(estimator, effect)
     if estimator == "render":
         from labcut.errors import ParameterError
@@ -204,11 +213,8 @@ def compare(
     with progress_bar("comparing", "cut x scenario") as update:
         cmp = run_comparison(plan, progress=update)
 
+    # the answer first (JSON, CSV, tables); the report's figures after it, so a failing report leaves the answer
     with all_or_nothing() as written:
-        if html_path is not None:
-            with err_console.status("writing the report (figures)"):
-                cmp.save_html(html_path)
-            written.append(Path(html_path))
         if json_path not in (None, "-"):
             cmp.save_json(json_path)
             written.append(Path(json_path))
@@ -217,12 +223,12 @@ def compare(
             written.append(Path(csv_path))
     if json_path == "-":
         typer.echo(json.dumps(cmp.to_dict(), indent=2, allow_nan=False))
+        if html_path is not None:
+            with figure_after_answer(json_path, html_path, "report"):
+                cmp.save_html(html_path)
         return
     console.print(summary_table(cmp))
-    leaders = [c.name for c in cmp.ranked() if c.rank == 1]
-    verb = "flashes" if len(leaders) == 1 else "flash"
-    console.print(f"{' and '.join(leaders)} {verb} most over {', '.join(cmp.scenario_names)}, each cut at its own best lamella "
-                  "orientation (the report, --html, says each in a cutter's words).", highlight=False)
+    console.print(f"{cmp.verdict} (The report, --html, says each orientation in a cutter's words.)", highlight=False)
     for n in cmp.scenario_names:
         console.print(scenario_table(cmp, n))
     if len(cmp.scenarios) > 1:
@@ -236,6 +242,10 @@ def compare(
                  if bars else "")
         console.print(f"time budget {b['budget_seconds']:g} s: quality {b['quality']} (predicted {b['predicted_seconds']:.1f} s, "
                       f"took {cmp.seconds:.1f} s{worst})", highlight=False)
-    for label, path in (("report", html_path), ("JSON", json_path), ("CSV", csv_path)):
+    for label, path in (("JSON", json_path), ("CSV", csv_path)):
         if path is not None:
             console.print(f"{label} written to {path}")
+    if html_path is not None:
+        with figure_after_answer(json_path, html_path, "report"), err_console.status("writing the report (figures)"):
+            cmp.save_html(html_path)
+        console.print(f"report written to {html_path}")

@@ -13,7 +13,7 @@ import typer
 from rich.table import Table
 
 from . import meshes as mo
-from .root import app, console, write_json
+from .root import app, check_outputs, console, write_json
 
 
 def _read_outline_file(path: Path) -> Any:
@@ -80,6 +80,7 @@ def _summary_table(summary: Any, title: str, load_report: dict[str, Any] | None 
 
 @app.command()
 def cabochon(
+    ctx: typer.Context,
     outline: Annotated[
         str,
         typer.Option(
@@ -106,14 +107,10 @@ def cabochon(
     from labcut.geometry import summarize
     from labcut.geometry import WRITE_FORMATS, save_mesh
     from labcut.geometry import OUTLINES
-    from labcut.fileio import check_output_path
 
     # check the outputs before the work
-    if output is not None:
-        check_output_path(output, WRITE_FORMATS + tuple(s.upper() for s in WRITE_FORMATS))
+    check_outputs({"--output": (output, WRITE_FORMATS + tuple(s.upper() for s in WRITE_FORMATS)), "--json": (json_path, (".json",))}, ctx)
     to_stdout = json_path is not None and str(json_path) == "-"
-    if json_path is not None and not to_stdout:
-        check_output_path(json_path, (".json",))
 
     names = OUTLINES + ("navette",)
     if outline.strip().lower() in names:
@@ -161,6 +158,7 @@ def cabochon(
 @app.command("inspect")
 @mo.takes_mesh_options
 def inspect_mesh(
+    ctx: typer.Context,
     mesh_path: Annotated[Path, typer.Argument(metavar="MESH", help="STL, OBJ, PLY, OFF, GLB/GLTF or 3MF file.")],
     mesh_options: Any = None,  # --units, --up-axis, --size (meshes.takes_mesh_options)
     recentre: Annotated[bool, typer.Option(help="Centre on the Z axis with the base on z = 0.")] = True,
@@ -168,12 +166,10 @@ def inspect_mesh(
     json_path: Annotated[Optional[Path], typer.Option("--json", help="Also write the summary as JSON to this file ('-' for stdout).")] = None,
 ) -> None:
     """Validate a mesh and print its dimensions, volume, weight in carats, triangles, convexity and repairs."""
-    from labcut.fileio import check_output_path
     from labcut.geometry import summarize
 
+    check_outputs({"--json": (json_path, (".json",))}, ctx)
     to_stdout = json_path is not None and str(json_path) == "-"
-    if json_path is not None and not to_stdout:
-        check_output_path(json_path, (".json",))
     mesh = mesh_options.load(mesh_path, recentre=recentre, repair=repair)
     summary = summarize(mesh, mesh_path.name)
     import labcut

@@ -18,7 +18,7 @@ from . import meshes as mo
 from . import plan_options as po
 from . import look_options as lo
 from . import scene_options as so
-from .root import all_or_nothing, app, console, err_console, normal_or_angles, notes_after, parse_vector, write_json
+from .root import all_or_nothing, app, check_outputs, console, figure_after_answer, normal_or_angles, notes_after, parse_vector, write_json
 
 Quality = Annotated[str, typer.Option(help="draft, standard or high.")]
 Exposure = Annotated[str, typer.Option("--exposure", help="Exposure of the PNG: auto (from the image) or a multiplier > 0.")]
@@ -36,7 +36,9 @@ def _metrics_table(title: str, metrics) -> Table:
     table.add_column("value", justify="right")
     table.add_column("meaning (each a mean over the viewing directions)")
     rows = [
-        ("flash area", f"{metrics.flash_area:.1%}", "share of the visible stone that flashes (reaches the threshold)"),
+        ("flash area", f"{metrics.flash_area:.1%}", "share of the visible stone that flashes (reaches the threshold)"
+         + ("" if metrics.flash_area_mm2 is None else
+            f": {metrics.flash_area_mm2:.1f} mm² of the {metrics.visible_area_mm2:.0f} mm² seen")),
         ("flash intensity", f"{metrics.flash_intensity:.3f}", "mean brightness of the flashing part / a face-on flat flash"),
         ("flash energy", f"{energy:.4f}",
          f"mean brightness over all the visible stone = {shown_in:.4f} in the flashes (area x intensity, view by view) "
@@ -64,14 +66,22 @@ def _answer_table(rec, name: str, scene) -> Table:
     table.add_row("when sawing or dopping", shop["text"])
     bar = rec.uncertainty
     tilt = f"{rec.tilt_deg:.1f}°" + ("" if bar is None else f" ± {bar.angle_deg:.1f}°")
-    table.add_row("tilt, azimuth", f"{tilt} from the face-up axis (+Z); azimuth {rec.azimuth_deg:.0f}° "
-                                   "(from +X: 0° right, 90° back, 180° left, 270° front)")
+    upright = bool(getattr(rec.scenario, "worn_upright", False))
+    sides = "0° right, 90° top (+Y, the bail end, as worn), 180° left, 270° bottom" if upright else \
+        "0° right, 90° back, 180° left, 270° front"
+    table.add_row("tilt, azimuth", f"{tilt} from the face-up axis (+Z); azimuth {rec.azimuth_deg:.0f}° (from +X: {sides})")
+    if rec.parallel_within_deg is not None and rec.tilt_deg >= 0.5:
+        table.add_row("how these fit", f"the optimum leans {rec.tilt_deg:.1f}°, but lamellae parallel to the base keep at "
+                                       f"least 90 % of its {rec.objective} score, and so does any tilt within "
+                                       f"±{rec.parallel_within_deg:.1f}° of parallel: cut it parallel, the easier cut")
     if bar is not None:
         table.add_row("error bars", f"the converged normal lies within {bar.angle_deg:.1f}° of this one and the "
                                     f"{rec.objective} score within ±{bar.score_rel:.0%} (about 95 %; sampling "
                                     f"±{bar.sampling_angle_deg:.1f}°, directions ±{bar.discretisation_angle_deg:.1f}°)")
-    table.add_row("tolerance", f"±{rec.tolerance_deg:.1f}° in any direction keeps 90 % of the {rec.objective} score "
-                               f"(±{ax['front_back_deg']:.1f}° front-to-back, ±{ax['left_right_deg']:.1f}° side-to-side)")
+    along = "top-to-bottom" if upright else "front-to-back"
+    table.add_row("tolerance", f"±{rec.tolerance_deg:.1f}° in any direction around the optimum keeps 90 % of its "
+                               f"{rec.objective} score (±{ax['front_back_deg']:.1f}° {along}, "
+                               f"±{ax['left_right_deg']:.1f}° side-to-side)")
     table.add_row("lamella normal", f"{rec.normal[0]:+.3f}, {rec.normal[1]:+.3f}, {rec.normal[2]:+.3f} (mesh frame)")
     return table
 
@@ -134,6 +144,7 @@ def print_render_notes(result: Any) -> None:
 @po.takes_plan_options
 @m.takes_material
 def recommend_orientation(
+    ctx: typer.Context,
     mesh_path: Annotated[Path, typer.Argument(metavar="MESH", help="Stone mesh: STL, OBJ, PLY, OFF, GLB/GLTF, 3MF.")],
     mesh_options: Any = None,  # --units, --up-axis, --size (meshes.takes_mesh_options)
     material: Any = None,  # the material options (materials.takes_material)
@@ -169,20 +180,14 @@ def recommend_orientation(
     estimator, effect, plan, plan_only = plan_options.estimator, plan_options.effect, plan_options.plan, plan_options.plan_only
     import labcut
     from labcut.errors import ParameterError
-    from labcut.fileio import check_output_path, distinct_outputs
     from labcut.commands import quality_or_budget
     from labcut.orientation import OPTIMIZERS
 
     from .progress import progress_bar
 
     # validate everything before the work starts
-    distinct_outputs({"--json": json_path, "--render": render_path, "--map": map_path})
-    if json_path not in (None, "-"):
-        check_output_path(json_path, (".json",))
-    if render_path is not None:
-        check_output_path(render_path, (".png", ".exr"))
-    if map_path is not None:
-        check_output_path(map_path, (".png",))
+    check_outputs({"--json": (json_path, (".json",)), "--render": (render_path, (".png", ".exr")),
+                   "--map": (map_path, (".png",))}, ctx)
     if optimizer not in OPTIMIZERS:
         raise ParameterError(f"--optimizer must be one of {', '.join(OPTIMIZERS)}, got {optimizer!r}")
     exposure_value = parse_exposure(exposure)
@@ -224,18 +229,9 @@ def recommend_orientation(
     if render_path is not None:
         data["render"] = {"path": str(render_path), "status": "pending: rendered after the answer was written"}
 
-    # 1. the answer: JSON, score map, table (all or nothing among themselves)
-    with all_or_nothing() as written:
-        if map_path is not None:
-            from labcut.plots import plot_score_map
-
-            plot_score_map(rec, map_path, title=f"{mesh_path.name}: {objective}, {_scene_label(scene)}")
-            written.append(Path(map_path))
-        if json_path == "-":
-            typer.echo(json.dumps(data, indent=2, allow_nan=False))
-        elif json_path is not None:
-            write_json(json_path, data)
-            written.append(Path(json_path))
+    # 1. the answer: JSON and table; the figures come after it, so a failing figure leaves the answer
+    if json_path is not None:
+        write_json(json_path, data)
     quiet = json_path == "-"
     if not quiet:
         mo.print_provenance(mesh, mesh_path.name)
@@ -266,14 +262,20 @@ def recommend_orientation(
             console.print(f"render estimator ({r['integrator']}, depth {r['max_depth']}, {r['resolution']}² px, {r['spp']} spp): "
                           f"{r['evaluations']} evaluations, {r['renders']} renders, {r['seconds']:.1f} s; "
                           f"{r['angle_to_samples_deg']:.2f}° from the sample estimator's answer")
-        for label, path in (("JSON", json_path), ("score map", map_path)):
-            if path is not None:
-                console.print(f"{label} written to {path}")
+        if json_path is not None:
+            console.print(f"JSON written to {json_path}")
 
-    # 2. the optional render: a failure or Ctrl-C leaves the answer above in place
+    # 2. the optional figures, each after the answer: a failure or Ctrl-C leaves the answer above in place
+    if map_path is not None:
+        with figure_after_answer(json_path, map_path, "score map"):
+            from labcut.plots import plot_score_map
+
+            plot_score_map(rec, map_path, title=f"{mesh_path.name}: {objective}, {_scene_label(scene)}")
+        if not quiet:
+            console.print(f"score map written to {map_path}")
     if render_path is None:
         return
-    try:
+    with figure_after_answer(json_path, render_path, "render"):
         with progress_bar("rendering", "samples/pixel") as update:
             from labcut.commands import render_checked
             from labcut.scene import normalize_normal
@@ -286,11 +288,6 @@ def recommend_orientation(
             if json_path not in (None, "-"):
                 data["render"] = render_summary(result, render_path)
                 write_json(json_path, data)
-    except BaseException:
-        kept = f" in {json_path}" if json_path not in (None, "-") else ""
-        err_console.print(f"note: the recommendation above stands{kept}; the render {render_path} was not written",
-                          highlight=False, soft_wrap=True)
-        raise
     if not quiet:
         print_render_notes(result)
         console.print(f"render written to {render_path} (exposure {result.exposure:.3g}, {result.exposure_mode})")
@@ -301,6 +298,7 @@ def recommend_orientation(
 @po.takes_plan_options
 @m.takes_material
 def evaluate_orientation(
+    ctx: typer.Context,
     mesh_path: Annotated[Path, typer.Argument(metavar="MESH", help="Stone mesh: STL, OBJ, PLY, OFF, GLB/GLTF, 3MF.")],
     normal: Annotated[Optional[str], typer.Option("--normal", "-n", help="Lamella normal X,Y,Z in the mesh frame (+Z face-up, -Y front); default 0,0,1.")] = None,
     tilt: Annotated[Optional[float], typer.Option("--tilt", help="Or the normal's tilt from the face-up axis, degrees (with --azimuth).")] = None,
@@ -318,11 +316,9 @@ def evaluate_orientation(
     """Flash metrics of MESH cut with its lamella plane normal to --normal (or at --tilt and --azimuth)."""
     estimator, effect, plan, plan_only = plan_options.estimator, plan_options.effect, plan_options.plan, plan_options.plan_only
     import labcut
-    from labcut.fileio import check_output_path
     from labcut.orientation import METRIC_DEFINITIONS, FRAME, metrics_dict
 
-    if json_path not in (None, "-"):
-        check_output_path(json_path, (".json",))
+    check_outputs({"--json": (json_path, (".json",))}, ctx)
     m_vec = normal_or_angles(normal, tilt, azimuth, ("--normal", "--tilt", "--azimuth"), default="0,0,1")
     setup = _question(material, scenario, lighting, viewing, quality, estimator, effect, zoning)
     scene = setup.scenario

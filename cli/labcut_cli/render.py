@@ -13,7 +13,7 @@ from . import meshes as mo
 from . import plan_options as po
 from . import scene_options as so
 from .recommend import print_render_notes
-from .root import all_or_nothing, app, console, notes_after, parse_vector, write_json
+from .root import all_or_nothing, app, check_outputs, console, notes_after, parse_vector, write_json
 
 
 STILL_SUFFIXES = (".png", ".exr")
@@ -63,6 +63,7 @@ def parse_normal(text: str) -> tuple[float, ...]:
 @mo.takes_mesh_options
 @m.takes_material
 def render(
+    ctx: typer.Context,
     mesh_path: Annotated[Path, typer.Argument(metavar="MESH", help="Stone mesh: STL, OBJ, PLY, OFF, GLB/GLTF, 3MF.")],
     output: Annotated[Path, typer.Option("--output", "-o", "--out", help="File to write (required): .png (tonemapped) or .exr (linear HDR); with --animate .webp or .gif.")],
     normal: Annotated[str, typer.Option("--normal", "-n", help="Lamella normal X,Y,Z in the mesh frame (axial; +Z face-up, -Y front), or a recommend-orientation --json file.")] = "0,0,1",
@@ -100,7 +101,6 @@ def render(
     Simulates only what the request needs: RGB unless --mode spectral/mono, polarized
     only with --polarizer, direct lighting for convex stones, a path tracer for carvings.
     """
-    from labcut.fileio import check_output_path
     from labcut.commands import render_checked
     from labcut.scene import normalize_normal
     from labcut.rendering import LOBES, Motion, RenderRequest
@@ -121,9 +121,7 @@ def render(
             raise ParameterError("--time-budget chooses the samples per pixel of one image: give --spp for an animation")
     elif output.suffix.lower() in ANIMATION_SUFFIXES:
         raise ParameterError(f"{output.name!r} is an animation file: add --animate rock or --animate turntable")
-    check_output_path(output, ANIMATION_SUFFIXES if animate else IMAGE_SUFFIXES)
-    if json_path not in (None, "-"):
-        check_output_path(json_path, (".json",))
+    check_outputs({"--output": (output, ANIMATION_SUFFIXES if animate else IMAGE_SUFFIXES), "--json": (json_path, (".json",))}, ctx)
     lamella = normalize_normal(parse_normal(normal))
     zoning_spec = m.build_zoning(zoning, material)
     view_spec: str | tuple[float, float] = view

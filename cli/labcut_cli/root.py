@@ -67,6 +67,42 @@ def normal_or_angles(vector: str | None, tilt: float | None, azimuth: float | No
         raise exc.renamed({"tilt": t_opt, "azimuth": a_opt, "lamella normal": v_opt}) from None
 
 
+#: Options whose values are files the command reads (besides its positional arguments).
+INPUT_OPTIONS = ("--material", "--lighting", "--zoning", "--cut", "--outline")
+
+
+def input_files(ctx: Any) -> dict[str, Path]:
+    """The files a command reads, ``{argument or option and its value: path}``: every positional
+    argument and every :data:`INPUT_OPTIONS` value of its typer context ``ctx`` that names an
+    existing file (a spec such as ``cab:oval,16x12`` or ``slab:40x30x8`` is no file; of
+    ``FILE@SIZE`` the file counts)."""
+    found: dict[str, Path] = {}
+    if ctx is None:
+        return found
+    for param in ctx.command.params:
+        if not (param.param_type_name == "argument" or set(param.opts) & set(INPUT_OPTIONS)):
+            continue
+        values = ctx.params.get(param.name)
+        for value in values if isinstance(values, (list, tuple)) else [values]:
+            if value is None:
+                continue
+            for text in (str(value), str(value).rsplit("@", 1)[0]):
+                if text and Path(text).is_file():
+                    label = (getattr(param, "metavar", None) or param.name.upper()).rstrip(".") if not param.opts[0].startswith("-") else param.opts[0]
+                    found.setdefault(f"{label} {text}", Path(text))
+                    break
+    return found
+
+
+def check_outputs(outputs: dict[str, tuple[Any, tuple[str, ...] | None]], ctx: Any = None) -> None:
+    """Check every output of a command before its work (:func:`labcut.fileio.check_outputs`):
+    writable, named once, and (given the command's typer context ``ctx``) none of them a file the
+    command reads (:func:`input_files`)."""
+    from labcut.fileio import check_outputs as check
+
+    check(outputs, inputs=input_files(ctx))
+
+
 @contextlib.contextmanager
 def all_or_nothing() -> Iterator[list[Path]]:
     """Collect the output files a command writes; if it fails half-way, remove them again,
@@ -78,6 +114,20 @@ def all_or_nothing() -> Iterator[list[Path]]:
         for p in written:
             with contextlib.suppress(OSError):
                 p.unlink()
+        raise
+
+
+@contextlib.contextmanager
+def figure_after_answer(answer_path: Any, figure: Any, what: str) -> Iterator[None]:
+    """Write an optional figure after the answer: if it fails (or Ctrl-C), say on stderr that the
+    answer already written (``answer_path``: its JSON file, ``"-"`` or None for the table alone)
+    stands and which figure was not written, then let the error end the command as usual."""
+    try:
+        yield
+    except BaseException:
+        kept = f" in {answer_path}" if answer_path not in (None, "-") else ""
+        err_console.print(f"note: the answer above stands{kept}; the {what} {figure} was not written",
+                          highlight=False, soft_wrap=True)
         raise
 
 

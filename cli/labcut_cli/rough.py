@@ -7,7 +7,6 @@ are written once the plan is made, each atomically, all or none.
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 from typing import Annotated, Any, Optional
 
@@ -15,7 +14,7 @@ import typer
 from rich.table import Table
 
 from . import materials as m
-from .root import all_or_nothing, app, console, err_console, normal_or_angles, write_json
+from .root import app, check_outputs, console, err_console, figure_after_answer, normal_or_angles, write_json
 
 #: what a library parameter is called on this command line, for its one-line errors
 _OPTION_NAMES = {"lamella normal": "--lamella", "count": "--count", "margin": "--margin", "rank": "--rank",
@@ -42,6 +41,7 @@ def stones_table(plan: Any) -> Table:
 @app.command("rough")
 @m.takes_material
 def rough(
+    ctx: typer.Context,
     rough_spec: Annotated[str, typer.Argument(metavar="ROUGH", help="The rough: a mesh file (STL, PLY, OBJ, OFF, GLB/GLTF, 3MF; "
                                               "its own frame, +Z its top) or slab:LxWxT in mm.")],
     lamella: Annotated[Optional[str], typer.Option("--lamella", help="The lamella normal X,Y,Z in the rough's frame.")] = None,
@@ -69,16 +69,10 @@ def rough(
     from labcut import plan_rough
     from labcut.rough import check_request
     from labcut.errors import ParameterError
-    from labcut.fileio import check_output_path
 
     from .progress import progress_bar
 
-    if json_path not in (None, "-"):
-        check_output_path(json_path, (".json",))
-    if html_path is not None:
-        check_output_path(html_path, (".html", ".htm"))
-    if png_path is not None:
-        check_output_path(png_path, (".png",))
+    check_outputs({"--json": (json_path, (".json",)), "--html": (html_path, (".html", ".htm")), "--png": (png_path, (".png",))}, ctx)
     normal = normal_or_angles(lamella, flash_tilt, flash_azimuth, ("--lamella", "--flash-tilt", "--flash-azimuth"))
     try:
         check_request(rough_spec, normal, count, margin, quality, time_budget, rank, min_flash, units, up_axis,
@@ -90,19 +84,11 @@ def rough(
                               progress=lambda stage, fraction: update(int(round(100 * fraction)), 100))
     except ParameterError as exc:
         raise exc.renamed(_OPTION_NAMES) from None
-    with all_or_nothing() as written:
-        if html_path is not None:
-            with err_console.status("writing the report (renders and figures)"):
-                plan.save_html(html_path)
-            written.append(Path(html_path))
-        if png_path is not None:
-            plan.save_png(png_path)
-            written.append(Path(png_path))
-        if json_path not in (None, "-"):
-            write_json(json_path, plan.to_dict())
-            written.append(Path(json_path))
+    # the answer first (JSON, tables); the figure and the report after it, so a failing figure leaves the answer
+    if json_path is not None:
+        write_json(json_path, plan.to_dict())
     if json_path == "-":
-        typer.echo(json.dumps(plan.to_dict(), indent=2, allow_nan=False))
+        _figures(plan, json_path, png_path, html_path)
         return
     console.print(stones_table(plan))
     for s in plan.stones:
@@ -114,6 +100,19 @@ def rough(
     c = plan.checks
     console.print(f"checked with manifold3d: inside {'yes' if c['inside'] else 'NO'}, apart {'yes' if c['apart'] else 'NO'}; "
                   f"planned in {plan.seconds:.1f} s at {plan.settings['quality']} quality", highlight=False)
-    for label, path in (("report", html_path), ("figure", png_path), ("JSON", json_path)):
+    if json_path is not None:
+        console.print(f"JSON written to {json_path}")
+    _figures(plan, json_path, png_path, html_path)
+    for label, path in (("figure", png_path), ("report", html_path)):
         if path is not None:
             console.print(f"{label} written to {path}")
+
+
+def _figures(plan: Any, json_path: str | None, png_path: Path | None, html_path: Path | None) -> None:
+    """The plan's optional figure and report, after its answer (:func:`figure_after_answer`)."""
+    if png_path is not None:
+        with figure_after_answer(json_path, png_path, "figure"):
+            plan.save_png(png_path)
+    if html_path is not None:
+        with figure_after_answer(json_path, html_path, "report"), err_console.status("writing the report (renders and figures)"):
+            plan.save_html(html_path)

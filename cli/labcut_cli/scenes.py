@@ -8,7 +8,7 @@ from typing import Annotated, Optional
 import typer
 from rich.table import Table
 
-from .root import app, console, write_json
+from .root import app, check_outputs, console, write_json
 
 
 @app.command("scenarios")
@@ -17,13 +17,9 @@ def scenarios(
     studio_map: Annotated[Optional[Path], typer.Option("--studio-map", help="Write the procedural studio environment map (.exr).")] = None,
 ) -> None:
     """List the wear scenarios, lighting and viewing presets every command accepts."""
-    from labcut.fileio import check_output_path
     from labcut.scene import LIGHTING, SCENARIOS, VIEWING
 
-    if json_path not in (None, "-"):
-        check_output_path(json_path, (".json",))
-    if studio_map is not None:
-        check_output_path(studio_map, (".exr",))
+    check_outputs({"--json": (json_path, (".json",)), "--studio-map": (studio_map, (".exr",))})
     data = {
         kind: [{"name": e.name, "summary": e.summary} for e in registry.entries()]
         for kind, registry in (("scenarios", SCENARIOS), ("lighting", LIGHTING), ("viewing", VIEWING))

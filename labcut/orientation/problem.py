@@ -439,6 +439,8 @@ def build_problem(
              for k, st in enumerate(settings)]
     pv_parts, pp_parts, pw_parts, vw_parts, offsets = [], [], [], [], []
     pair_offset = view_offset = 0
+    area_per_point = float(mesh.area) / count  # the samples are uniform over the surface
+    view_area = [visible_areas(st.views.directions, pose, n_geo, area_per_point) for st, pose in zip(settings, poses)]
     for k, (st, pose) in enumerate(zip(settings, poses)):
         pv_parts.append(pose.pv + view_offset)
         pp_parts.append(pose.pi)
@@ -512,7 +514,7 @@ def build_problem(
         convex=convex,
         n_points=count,
         kernels=kernels,
-        info={"l_ref": l_ref, "pairs": int(pair_offset), "triples": int(c.size), "poses": len(settings),
+        info={"view_area_mm2": np.concatenate(view_area), "l_ref": l_ref, "pairs": int(pair_offset), "triples": int(c.size), "poses": len(settings),
               "pair_point": pair_point.astype(np.int32)},
     )
     if kernel is not None and whole and kernel.last_device is not None:
@@ -666,6 +668,15 @@ def view_pairs(V: np.ndarray, points: np.ndarray, n_geo: np.ndarray, n_sh: np.nd
     proj = cos_v[pi, pv]
     per_view = np.bincount(pv, weights=proj, minlength=len(V))
     return pi, pv, proj / np.where(per_view[pv] > 0, per_view[pv], 1.0)
+
+
+def visible_areas(V: np.ndarray, pose: Any, n_geo: np.ndarray, area_per_point: float) -> np.ndarray:
+    """Each view's visible projected area of the stone (mm²): Σ over the view's pairs (the points
+    it sees, :func:`view_pairs`) of cos(normal, view) x the surface area each point stands for.
+    The denominator of the view's flash area, in mm² (a Monte Carlo estimate of the area of the
+    stone's outline from that direction)."""
+    cos = np.einsum("ij,ij->i", n_geo[pose.pi], np.asarray(V, dtype=np.float64)[pose.pv])
+    return np.bincount(pose.pv, weights=cos, minlength=len(V)) * area_per_point
 
 
 def _setting_pairs(L, E, V, points, n_geo, n_sh, mesh, convex) -> _PosePairs:

@@ -51,6 +51,11 @@ METRIC_DEFINITIONS = {
     "energy_below_threshold": "the energy of the faint schiller below tau x L_ref",
     "coverage": "weight of the views whose flash_area exceeds 0.05",
     "balanced": "sqrt(flash_area x flash_intensity) of the aggregates",
+    "visible_area_mm2": "the stone's projected area (mm²) as the views see it (outline area from each view, sampled); "
+                        "mean over views. The flash metrics are scale-free (geometric optics: the same cut twice the "
+                        "size flashes over the same share); this is the size",
+    "flash_area_mm2": "the flashing part's projected area, mm²: sum over views of weight x flash_area x visible area "
+                      "of that view. A bigger stone of the same cut has a bigger flash_area_mm2 and the same flash_area",
 }
 
 
@@ -251,7 +256,8 @@ class Recommendation:
         try:
             metrics_in = data["metrics"]
             metrics = FlashMetrics(**{k: metrics_in[k] for k in
-                                      ("flash_area", "flash_intensity", "flash_energy", "coverage", "balanced", "per_view")})
+                                      ("flash_area", "flash_intensity", "flash_energy", "coverage", "balanced", "per_view")},
+                                   **{k: metrics_in.get(k) for k in ("visible_area_mm2", "flash_area_mm2")})
             grid = data["map"]
             tilt = np.radians(np.asarray(grid["tilt_deg"], dtype=np.float64))
             az = np.radians(np.asarray(grid["azimuth_deg"], dtype=np.float64))

@@ -480,18 +480,32 @@ class FlashMetrics:
     coverage: float
     balanced: float
     per_view: dict[str, list[float]]
+    #: the stone's visible projected area (mm²) as the viewers see it, view-weighted mean; None
+    #: where the estimator does not know it. Flash area and energy are scale-free (geometric optics:
+    #: a stone twice the size flashes over the same share); this is the size that the share is of
+    visible_area_mm2: float | None = None
+    #: the flashing part's projected area (mm²): Σ_v weight_v x flash area_v x visible area_v
+    flash_area_mm2: float | None = None
 
     @classmethod
-    def from_views(cls, area_v: Any, intensity_v: Any, energy_v: Any, weights: Any) -> FlashMetrics:
+    def from_views(cls, area_v: Any, intensity_v: Any, energy_v: Any, weights: Any,
+                   view_area_mm2: Any = None) -> FlashMetrics:
         """Aggregate per-view flash area, intensity and energy with view weights (summing to 1):
         the view-weighted means, coverage = weight of views whose area exceeds 5 %, and
-        balanced = sqrt(area x intensity) (DESIGN.md §4). One constructor for both estimators."""
+        balanced = sqrt(area x intensity) (DESIGN.md §4). One constructor for both estimators.
+        ``view_area_mm2``: each view's visible projected area of the stone (mm²), when known: then
+        :attr:`visible_area_mm2` and :attr:`flash_area_mm2` are filled in."""
         a, i, e, w = (np.asarray(x, dtype=np.float64) for x in (area_v, intensity_v, energy_v, weights))
         area, intensity, energy = float(w @ a), float(w @ i), float(w @ e)
+        visible = flash_mm2 = None
+        if view_area_mm2 is not None and len(view_area_mm2) == len(w):
+            s = np.asarray(view_area_mm2, dtype=np.float64)
+            visible, flash_mm2 = float(w @ s), float(w @ (a * s))
         return cls(
             flash_area=area, flash_intensity=intensity, flash_energy=energy,
             coverage=float(w @ (a > COVERAGE_AREA)), balanced=math.sqrt(max(area * intensity, 0.0)),
             per_view={"flash_area": a.tolist(), "flash_intensity": i.tolist(), "flash_energy": e.tolist(), "weight": w.tolist()},
+            visible_area_mm2=visible, flash_area_mm2=flash_mm2,
         )
 
     def score(self, objective: str) -> float:
@@ -779,7 +793,7 @@ class Scorer:
         energy_v = np.bincount(p.pair_view, weights=p.pair_weight * radiance, minlength=V)
         inflash_v = np.bincount(p.pair_view, weights=p.pair_weight * radiance * flash, minlength=V)
         intensity_v = np.where(area_v > 1e-12, inflash_v / np.maximum(area_v, 1e-12), 0.0)
-        return FlashMetrics.from_views(area_v, intensity_v, energy_v, p.view_weight)
+        return FlashMetrics.from_views(area_v, intensity_v, energy_v, p.view_weight, p.info.get("view_area_mm2"))
 
     def _energy_many(self, m: Any) -> Any:
         """Energy at each of the normals ``m`` (Array3f of width k): Σ_b A_b q(h_b·m).

@@ -7,6 +7,7 @@ JSON/CSV tables (docs/compare.md).
 
 from .compare import Comparison, compare_cuts, naming_scenario, plan_comparison, run_comparison
 from .cuts import Cut, parse_cab_spec, resolve_cuts
+from .html import rank_label
 
-__all__ = ["Comparison", "Cut", "compare_cuts", "naming_scenario", "parse_cab_spec", "plan_comparison", "resolve_cuts",
-           "run_comparison"]
+__all__ = ["Comparison", "Cut", "compare_cuts", "naming_scenario", "parse_cab_spec", "plan_comparison", "rank_label",
+           "resolve_cuts", "run_comparison"]

@@ -59,6 +59,8 @@ class ScenarioResult:
     compromise_metrics: Any = None
     compromise_relative: float = 1.0
     rank: int = 0
+    #: whether another cut shares :attr:`rank` under this scenario (energies within their error bars)
+    tied: bool = False
     normalised: dict[str, float | None] = field(default_factory=dict)
     seconds: float = 0.0
 
@@ -66,6 +68,18 @@ class ScenarioResult:
     def energy(self) -> float:
         """Flash energy at the best orientation (L_ref units): the ranking metric."""
         return float(self.recommendation.metrics.flash_energy)
+
+    @property
+    def energy_error(self) -> float:
+        """The error bar of :attr:`energy` (L_ref units): the energy times the recommendation's
+        relative score error bar (``uncertainty.score_rel``, about 95 %; 0 where it has none)."""
+        u = self.recommendation.uncertainty
+        return float(self.energy * u.score_rel) if u is not None else 0.0
+
+    @property
+    def flashes(self) -> bool:
+        """Whether any part of the stone reaches the flash threshold at its best orientation."""
+        return float(self.recommendation.metrics.flash_area) > 0.0
 
     def value(self, key: str) -> float:
         """A normalised quantity (:data:`NORMALISED`) at the best orientation."""
@@ -87,15 +101,42 @@ class CutResult:
     compromise_workshop: dict[str, Any]
     overall_score: float = 0.0
     rank: int = 0
+    #: the error bar of :attr:`overall_score` (:func:`overall_error`)
+    overall_error: float = 0.0
+    #: whether another cut shares :attr:`rank` (their overall scores lie within their error bars)
+    tied: bool = False
 
     @property
     def name(self) -> str:
         return self.cut.name
 
 
-def competition_ranks(values: Sequence[float]) -> list[int]:
-    """Ranks, largest value first; equal values share a rank ("1, 2, 2, 4")."""
-    return [1 + sum(1 for w in values if w > v) for v in values]
+def competition_ranks(values: Sequence[float], errors: Sequence[float] | None = None) -> list[int]:
+    """Ranks, largest value first; values that do not differ share a rank ("1, 2, 2, 4").
+
+    With ``errors`` (each value's error bar, same units; about 95 %), two values differ only when
+    they lie further apart than their error bars combined in quadrature (:func:`differ`): a cut's
+    rank is one plus the number of cuts that are better beyond their error bars, so cuts within
+    each other's bars share a rank, a tie."""
+    errs = [0.0] * len(values) if errors is None else list(errors)
+    return [1 + sum(1 for j, w in enumerate(values) if differ(w, errs[j], v, errs[i])) for i, v in enumerate(values)]
+
+
+def differ(a: float, a_err: float, b: float, b_err: float) -> bool:
+    """Whether ``a`` is larger than ``b`` beyond their error bars: ``a - b`` exceeds
+    sqrt(a_err² + b_err²), the bar of a difference of two independent estimates (same coverage)."""
+    return a - b > math.hypot(a_err, b_err)
+
+
+def shared(ranks: Sequence[int]) -> list[bool]:
+    """For each rank, whether another entry holds it too (a tie)."""
+    return [list(ranks).count(r) > 1 for r in ranks]
+
+
+def _and(names: Sequence[str]) -> str:
+    """``a``, ``a and b``, ``a, b and c``."""
+    names = list(names)
+    return names[0] if len(names) == 1 else f"{', '.join(names[:-1])} and {names[-1]}"
 
 
 def _ratio(a: float, b: float) -> float | None:
@@ -181,6 +222,49 @@ class Comparison:
         """The cuts by overall rank (ties in the order given)."""
         return sorted(self.cuts, key=lambda c: (c.rank, self.cuts.index(c)))
 
+    # ------------------------------------------------------------------ verdicts
+    def flashes(self, scenario: str) -> bool:
+        """Whether any cut, at its best orientation, reaches the flash threshold under ``scenario``."""
+        return any(c.scenarios[scenario].flashes for c in self.cuts)
+
+    def scenario_verdict(self, scenario: str) -> str:
+        """One sentence on ``scenario``: which cut flashes most (or which tie: energies within their
+        error bars), or, where no cut reaches the flash threshold, that none shows flash, the best
+        achievable, and what to try."""
+        rs = sorted((c.scenarios[scenario] for c in self.cuts), key=lambda r: -r.energy)
+        if not self.flashes(scenario):
+            return (f"under {scenario} no cut shows flash: none reaches the flash threshold at its best orientation; the best "
+                    f"achievable is the faint schiller of {rs[0].cut} (flash energy {rs[0].energy:.4f}); try a directed "
+                    "light (--scenario bench, or --lighting spot) to see which cut flashes")
+        leaders = [r.cut for r in rs if r.rank == 1]
+        if len(leaders) > 1:
+            return (f"under {scenario} {_and(leaders)} tie for the most flash: their flash energies lie within their "
+                    "error bars")
+        return f"under {scenario} {leaders[0]} flashes most"
+
+    @property
+    def verdict(self) -> str:
+        """The comparison in one or two sentences: the leader over all scenarios, or the cuts tied for
+        the lead (overall scores within their error bars), or that no cut shows flash at all; and
+        each scenario under which no cut flashes."""
+        names = self.scenario_names
+        dark = [n for n in names if not self.flashes(n)]
+        if len(dark) == len(names):
+            best = self.ranked()[0]
+            return (f"No cut shows flash under {_and(names)}: none reaches the flash threshold at its best orientation; "
+                    f"the best achievable is the faint schiller of {best.name} (overall score {best.overall_score:.2f}); "
+                    "try a directed light (--scenario bench, or --lighting spot) to see which cut flashes.")
+        leaders = [c.name for c in self.ranked() if c.rank == 1]
+        over = f"over {_and(names)}" + (" (each cut at one orientation for all)" if len(names) > 1 else "")
+        if len(leaders) > 1:
+            text = (f"{_and(leaders)} tie for the most flash {over}: their overall scores lie within their error bars, "
+                    "so this comparison cannot tell them apart.")
+        else:
+            text = f"{leaders[0]} flashes most {over}."
+        if dark:
+            text += f" Under {_and(dark)} no cut reaches the flash threshold: faint schiller only."
+        return text
+
     # ------------------------------------------------------------------ notebooks
     def __repr__(self) -> str:
         best = self.ranked()[0].name if self.cuts else "-"
@@ -219,6 +303,8 @@ class Comparison:
                 rec.pop("mesh", None)
                 scen[name] = {
                     "rank": r.rank,
+                    "tied": r.tied,
+                    "flash_energy_error": r.energy_error,
                     "best": rec,
                     "normalised": r.normalised,
                     "tilt_curve": r.tilt.to_dict(),
@@ -243,7 +329,9 @@ class Comparison:
                 "volume_mm3": c.summary.volume_mm3,
                 "dimensions_mm": [c.summary.length_mm, c.summary.width_mm, c.summary.height_mm],
                 "rank": c.rank,
+                "tied": c.tied,
                 "overall_score": c.overall_score,
+                "overall_score_error": c.overall_error,
                 "compromise": {
                     "normal": cp.normal.tolist(), "tilt_deg": _tilt(cp.normal)[0], "azimuth_deg": _tilt(cp.normal)[1],
                     "description": c.compromise_description, "workshop": c.compromise_workshop,
@@ -264,6 +352,9 @@ class Comparison:
             "scenarios": [s.to_dict() for s in self.scenarios],
             "render": self.render,
             "exposures": self.exposures,
+            "verdict": self.verdict,
+            "scenario_verdicts": {n: {"any_flash": self.flashes(n), "verdict": self.scenario_verdict(n)}
+                                  for n in self.scenario_names},
             "summary": self.summary_rows(),
             "compromise_sides": self.sides_note,
             "cuts": cuts,
@@ -278,11 +369,13 @@ class Comparison:
         score, and per scenario the rank, flash energy, energy / reference, tolerance."""
         rows = []
         for c in self.ranked():
-            row: dict[str, Any] = {"rank": c.rank, "cut": c.name, "weight_ct": c.summary.weight_ct,
-                                   "overall_score": c.overall_score, "compromise": c.compromise_description,
+            row: dict[str, Any] = {"rank": c.rank, "tied": c.tied, "cut": c.name, "weight_ct": c.summary.weight_ct,
+                                   "overall_score": c.overall_score, "overall_score_error": c.overall_error,
+                                   "compromise": c.compromise_description,
                                    "compromise_tolerance_deg": c.compromise.tolerance_deg, "scenarios": {}}
             for name, r in c.scenarios.items():
-                row["scenarios"][name] = {"rank": r.rank, "flash_energy": r.energy,
+                row["scenarios"][name] = {"rank": r.rank, "tied": r.tied, "flash_energy": r.energy,
+                                          "flash_energy_error": r.energy_error,
                                           "flash_energy_normalised": r.normalised.get("flash_energy"),
                                           "tolerance_deg": r.recommendation.tolerance_deg,
                                           "description": r.recommendation.description}
@@ -366,7 +459,9 @@ def csv_rows(data: dict[str, Any]) -> list[dict[str, Any]]:
     for c in data["cuts"]:
         n = c["name"]
         add(n, "", "", "rank", c["rank"])
+        add(n, "", "", "tied", int(c["tied"]), "0/1")
         add(n, "", "", "overall_score", c["overall_score"], "ratio")
+        add(n, "", "", "overall_score_error", c["overall_score_error"], "ratio")
         add(n, "", "", "weight_ct", c["weight_ct"], "ct")
         for lo_hi, v in zip(("weight_ct_min", "weight_ct_max"), c["weight_ct_range"]):
             add(n, "", "", lo_hi, v, "ct")
@@ -381,6 +476,8 @@ def csv_rows(data: dict[str, Any]) -> list[dict[str, Any]]:
         for scen, r in c["scenarios"].items():
             best = r["best"]
             add(n, scen, "best", "rank", r["rank"])
+            add(n, scen, "best", "tied", int(r["tied"]), "0/1")
+            add(n, scen, "best", "flash_energy_error", r["flash_energy_error"], "L_ref")
             _orientation_rows(add, n, scen, "best", best)
             add(n, scen, "best", "score", best["score"], "L_ref")
             for k, v in best["metrics"].items():
@@ -617,17 +714,32 @@ def rank_and_normalise(cuts: Sequence[CutResult], scenarios: Sequence[Any], refe
     for sc in scenarios:
         rs = [c.scenarios[sc.name] for c in cuts]
         base = refc.scenarios[sc.name]
-        for r, rank in zip(rs, competition_ranks([r.energy for r in rs])):
-            r.rank = rank
+        ranks = competition_ranks([r.energy for r in rs], [r.energy_error for r in rs])
+        for r, rank, tie in zip(rs, ranks, shared(ranks)):
+            r.rank, r.tied = rank, tie
             r.normalised = {k: _ratio(r.value(k), base.value(k)) for k in NORMALISED}
     for c in cuts:
         ratios = [_ratio(c.scenarios[s.name].compromise_metrics.flash_energy,
                          refc.scenarios[s.name].compromise_metrics.flash_energy) for s in scenarios]
-        found = [r for r in ratios if r is not None]
-        c.overall_score = float(np.mean(found)) if found else 0.0
-    for c, rank in zip(cuts, competition_ranks([c.overall_score for c in cuts])):
-        c.rank = rank
+        c.overall_score, c.overall_error = overall_score(ratios, [c.scenarios[s.name].recommendation.uncertainty
+                                                                  for s in scenarios])
+    ranks = competition_ranks([c.overall_score for c in cuts], [c.overall_error for c in cuts])
+    for c, rank, tie in zip(cuts, ranks, shared(ranks)):
+        c.rank, c.tied = rank, tie
     return exposures
+
+
+def overall_score(ratios: Sequence[float | None], bars: Sequence[Any]) -> tuple[float, float]:
+    """A cut's overall score and its error bar: the mean of its per-scenario ratios (energy at its
+    compromise orientation / the reference cut's; None where the reference has none, left out),
+    and the bar of that mean, each ratio's error (the ratio times its recommendation's
+    ``score_rel``; none where it has no error bars) added in quadrature over the count. The
+    reference's own error divides every cut alike, so it cannot change their order and is left out."""
+    pairs = [(r, b) for r, b in zip(ratios, bars) if r is not None]
+    if not pairs:
+        return 0.0, 0.0
+    errors = [r * (b.score_rel if b is not None else 0.0) for r, b in pairs]
+    return float(np.mean([r for r, _ in pairs])), float(math.sqrt(sum(e * e for e in errors)) / len(pairs))
 
 
 def run_comparison(plan: ComparisonPlan, progress: Callable[[int, int], None] | None = None) -> Comparison:

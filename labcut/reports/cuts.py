@@ -4,6 +4,10 @@ A *cut* is given as
 
 * a mesh path (STL, OBJ, PLY, OFF, GLB/GLTF, 3MF), read with :func:`labcut.load_mesh`
   (``units``, ``up_axis`` as there); its name is the file name;
+* a GemCad design (``.asc``, ``.gem``), cut into its stone at ``size`` (its girdle width, mm),
+  or at its own size written ``DESIGN@SIZE`` (``SRB.asc@8``, named so): the same design at
+  two sizes is two cuts. Flash shares are scale-free (geometric optics), so two sizes of one
+  design tie on every share; their weights and flash areas in mm² differ;
 * a ``trimesh.Trimesh`` (mm, +Z face-up), checked with
   :func:`labcut.geometry.meshio.validate_mesh`; its name is ``metadata["name"]`` or ``mesh N``;
 * a cabochon spec, built with :func:`labcut.cabochon` so that dome heights and outlines can
@@ -32,6 +36,7 @@ message names it (``cut 2 ('cab:ovl,16x12'): unknown outline ...``).
 
 from __future__ import annotations
 
+import math
 import os
 import warnings
 from collections.abc import Iterable, Mapping
@@ -42,6 +47,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import LabcutError, LabcutWarning, ParameterError
+from ..geometry.gemcad import DEFAULT_SIZE_MM
 from ..geometry.stone import Stone
 from ..validation import check_number, name_or_mm
 
@@ -67,7 +73,8 @@ class Cut:
     ``source``) or ``"mesh"`` (a ``trimesh.Trimesh`` given in Python, ``source`` None).
     ``design``: the cut's design parameters in mm: ``length_mm``, ``width_mm`` (bounding box
     along X and Y), ``height_mm`` (along Z; the dome plus any girdle for a flat-based
-    cabochon), and for cabochon specs ``outline``, ``dome_mm``, ``profile``, ``girdle_mm``.
+    cabochon), for cabochon specs ``outline``, ``dome_mm``, ``profile``, ``girdle_mm``, and for
+    GemCad designs ``girdle_width_mm`` (the size it was cut at).
     ``warnings``: what loading the file warned about (a turned mesh, units)."""
 
     name: str
@@ -193,17 +200,41 @@ def _resolve_one(item: Any, position: int, units: Any, up_axis: str, size: float
         extra = {k: stone.shape.get(k) for k in ("outline", "dome_mm", "profile", "girdle_mm")}
         return Cut(item, stone.mesh, "cabochon", item, _design(stone.mesh, extra))
     if isinstance(item, str | os.PathLike):
-        path = Path(item)
+        path, own_size = split_size(item)
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always", LabcutWarning)
             design = path.suffix.lower() in DESIGN_SUFFIXES
-            mesh = load_mesh(path, units=units, up_axis=up_axis, size=size if design else None)
+            given = own_size if own_size is not None else size
+            mesh = load_mesh(path, units=units, up_axis=up_axis, size=given if design else None)
         notes = [str(w.message) for w in caught if issubclass(w.category, LabcutWarning)]
-        return Cut(path.name, mesh, "file", str(item), _design(mesh), notes)
+        name = path.name if own_size is None else f"{path.name}@{own_size:g}"
+        extra = {"girdle_width_mm": given if given is not None else DEFAULT_SIZE_MM} if design else None
+        return Cut(name, mesh, "file", str(item), _design(mesh, extra), notes)
     raise ParameterError(
         f"a cut must be a mesh path, a cabochon spec like 'cab:oval,16x12,low', a trimesh.Trimesh or a (name, cut) pair, "
         f"got {type(item).__name__}"
     )
+
+
+def split_size(item: str | os.PathLike[str]) -> tuple[Path, float | None]:
+    """A cut file and its own size: ``SRB.asc@8`` is the design SRB.asc cut 8 mm across its girdle
+    (its ``size``, beside --size for all); a path that exists as written is that file (no size).
+    Only GemCad designs (.asc, .gem) take a size: a mesh has its own, in its units."""
+    text = os.fspath(item)
+    base, at, tail = str(text).rpartition("@")
+    if not at or Path(text).exists() or not base:
+        return Path(text), None
+    path = Path(base)
+    if path.suffix.lower() not in DESIGN_SUFFIXES:
+        raise ParameterError(f"{text!r}: @SIZE is the girdle width (mm) of a GemCad design (.asc, .gem); "
+                             f"{path.name} is a mesh, which keeps its own size (give its unit with --units)")
+    try:
+        value = float(tail.strip().lower().removesuffix("mm"))
+    except ValueError:
+        raise ParameterError(f"{text!r}: @SIZE must be a girdle width in mm, e.g. {path.name}@8, got {tail!r}") from None
+    if not (math.isfinite(value) and value > 0):
+        raise ParameterError(f"{text!r}: @SIZE must be a positive girdle width in mm, got {tail!r}")
+    return path, value
 
 
 def unique_names(names: Iterable[str]) -> list[str]:
@@ -250,9 +281,11 @@ def resolve_cuts(cuts: Any, units: str | float = "auto", up_axis: str = "auto", 
         items = list(cuts)
     if not items:
         raise ParameterError("give at least one cut to compare")
-    if size is not None and not any(isinstance(x[1] if isinstance(x, tuple) and len(x) == 2 else x, str | os.PathLike)
-                                    and Path(x[1] if isinstance(x, tuple) and len(x) == 2 else x).suffix.lower()
-                                    in DESIGN_SUFFIXES for x in items):
+    def design_file(x: Any) -> bool:
+        x = x[1] if isinstance(x, tuple) and len(x) == 2 else x
+        return isinstance(x, str | os.PathLike) and Path(os.fspath(x).rpartition("@")[0] or x).suffix.lower() in DESIGN_SUFFIXES
+
+    if size is not None and not any(design_file(x) for x in items):
         raise ParameterError("--size (size=) is the girdle width of a GemCad design (.asc, .gem); no cut is one")
     resolved: list[Cut] = []
     fresh: list[bool] = []  # read or built here (not a Cut given again): its warnings are new
@@ -280,4 +313,4 @@ def resolve_cuts(cuts: Any, units: str | float = "auto", up_axis: str = "auto", 
     return resolved
 
 
-__all__ = ["CAB_PREFIX", "Cut", "parse_cab_spec", "resolve_cuts", "unique_names"]
+__all__ = ["CAB_PREFIX", "Cut", "parse_cab_spec", "resolve_cuts", "split_size", "unique_names"]

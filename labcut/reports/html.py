@@ -30,8 +30,15 @@ COMPARE_DEFINITIONS = {
                      "(±Y) or the sides (±X) of the stone",
     "normalised": "a cut's value divided by the reference cut's under the same scenario, each at its own best "
                   "orientation (1 = as good as the reference; empty where the reference's value is 0)",
-    "rank": "per scenario: order by flash energy at each cut's own best orientation (1 = most; equal values share a "
-            "rank). Overall: order by overall_score",
+    "rank": "per scenario: order by flash energy at each cut's own best orientation (1 = most); overall: order by "
+            "overall_score. A cut's rank is 1 + the number of cuts better than it beyond the error bars (the difference "
+            "larger than the two bars added in quadrature): cuts within each other's error bars share a rank, a tie "
+            "(tied: true; '=1' in tables)",
+    "error_bars": "every ± beside a score is its error bar: with about 95 % confidence the score converged at high "
+                  "sampling lies that close (flash_energy_error, overall_score_error; the recommendation's "
+                  "uncertainty.score_rel relative). Two scores closer than their bars are not told apart: a tie",
+    "verdict": "the comparison in words: the cut that flashes most, the cuts tied for it, or that no cut shows flash "
+               "(none reaches tau x L_ref at its best orientation) and what to try; scenario_verdicts per scenario",
     "overall_score": "mean over the scenarios of a cut's flash energy at its compromise orientation divided by the "
                      "reference cut's at its own compromise orientation",
     "compromise": "one lamella orientation per cut for all chosen scenarios: the normal maximising the mean over "
@@ -72,6 +79,11 @@ def _num(v: float | None, fmt: str = ".3f") -> str:
     return "–" if v is None else format(v, fmt)
 
 
+def rank_label(rank: int, tied: bool) -> str:
+    """A rank for a table: ``2``, or ``=2`` when another cut shares it (a tie within the error bars)."""
+    return f"={rank}" if tied else str(rank)
+
+
 def _times(v: float | None) -> str:
     return "–" if v is None else f"×{v:.2f}"
 
@@ -83,13 +95,13 @@ def _scenario_rows(cmp: Any, name: str) -> list[dict[str, Any]]:
         rec, m, nz = r.recommendation, r.recommendation.metrics, r.normalised
         st = r.colour.stats if r.colour is not None else {}
         rows.append({
-            "rank": r.rank, "name": c.name, "reference": c is cmp.reference_cut,
+            "rank": rank_label(r.rank, r.tied), "name": c.name, "reference": c is cmp.reference_cut,
             "description": rec.description, "workshop": rec.workshop.get("text", ""),
             "angles": f"{rec.tilt_deg:.1f}° / {rec.azimuth_deg:.0f}°",
             "tolerance": f"±{rec.tolerance_deg:.1f}°", "tolerance_x": _times(nz.get("tolerance_deg")),
             "front_back": f"±{rec.tolerance_by_axis['front_back_deg']:.1f}°",
             "left_right": f"±{rec.tolerance_by_axis['left_right_deg']:.1f}°",
-            "energy": f"{m.flash_energy:.4f}", "energy_x": _times(nz.get("flash_energy")),
+            "energy": f"{m.flash_energy:.4f} ± {r.energy_error:.4f}", "energy_x": _times(nz.get("flash_energy")),
             "area": _pct(m.flash_area), "area_x": _times(nz.get("flash_area")),
             "intensity": f"{m.flash_intensity:.3f}", "intensity_x": _times(nz.get("flash_intensity")),
             "coverage": _pct(m.coverage), "coverage_x": _times(nz.get("coverage")),
@@ -111,10 +123,12 @@ def context(cmp: Any) -> dict[str, Any]:
     summary = []
     for c in cmp.ranked():
         summary.append({
-            "rank": c.rank, "name": c.name, "reference": c is cmp.reference_cut, "weight": f"{c.summary.weight_ct:.2f}",
-            "overall": f"{c.overall_score:.2f}", "compromise": c.compromise_description,
+            "rank": rank_label(c.rank, c.tied), "name": c.name, "reference": c is cmp.reference_cut,
+            "weight": f"{c.summary.weight_ct:.2f}",
+            "overall": f"{c.overall_score:.2f} ± {c.overall_error:.2f}", "compromise": c.compromise_description,
             "compromise_tolerance": f"±{c.compromise.tolerance_deg:.1f}°",
-            "scenarios": [{"rank": c.scenarios[n].rank, "energy": f"{c.scenarios[n].energy:.4f}",
+            "scenarios": [{"rank": rank_label(c.scenarios[n].rank, c.scenarios[n].tied),
+                           "energy": f"{c.scenarios[n].energy:.4f} ± {c.scenarios[n].energy_error:.4f}",
                            "energy_x": _times(c.scenarios[n].normalised.get("flash_energy")),
                            "tolerance": f"±{c.scenarios[n].recommendation.tolerance_deg:.1f}°"} for n in names],
         })
@@ -125,7 +139,8 @@ def context(cmp: Any) -> dict[str, Any]:
         scenarios.append({
             "name": n, "description": sc.description, "lighting": sc.lights.name, "viewing": sc.views.name,
             "rock": sc.rock_deg, "sway": sc.sway_deg, "poses": len(sc.poses()), "exposure": f"{exposure:.3g}",
-            "rows": _scenario_rows(cmp, n),
+            "plus_y": "its top, the bail end, as this scenario wears it upright" if sc.worn_upright else "its back",
+            "rows": _scenario_rows(cmp, n), "verdict": cmp.scenario_verdict(n), "any_flash": cmp.flashes(n),
             "renders": [{"name": c.name, "rank": c.scenarios[n].rank, "note": c.scenarios[n].recommendation.metrics.flash_area == 0.0,
                          "rest_area": _pct(c.scenarios[n].tilt.at_rest("flash_area")),
                          "src": data_uri(fg.render_png(c.scenarios[n].renders.main, exposure))} for c in cmp.cuts],
@@ -161,7 +176,8 @@ def context(cmp: Any) -> dict[str, Any]:
     return {
         "title": f"Cut comparison: {len(cmp.cuts)} cut{'s' if len(cmp.cuts) != 1 else ''} × "
                  f"{len(names)} scenario{'s' if len(names) != 1 else ''}",
-        "names": names, "summary": summary, "scenarios": scenarios, "compromise": compromise,
+        "names": names, "summary": summary, "verdict": cmp.verdict, "ties": any(c.tied for c in cmp.cuts)
+        or any(c.scenarios[n].tied for c in cmp.cuts for n in names), "scenarios": scenarios, "compromise": compromise,
         "many_scenarios": len(names) > 1, "sides_note": cmp.sides_note, "cuts": cuts, "reference": cmp.reference_cut.name,
         "material": {"name": lab.name or "default", "peak": f"{lab.peak_wavelength():.0f}",
                      "swatch": lab.flash_colour().hex, "params": lab.to_dict()},
