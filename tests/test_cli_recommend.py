@@ -35,7 +35,16 @@ def test_evaluate_orientation(cli):
     proc = cli("evaluate-orientation", OVAL, "--normal", "0,0,1", "--quality", "draft", "--json", "-")
     assert proc.returncode == 0, proc.stderr
     data = json.loads(proc.stdout)
-    assert 0.0 < data["flash_area"] <= 1.0 and data["flash_energy"] > 0
+    assert 0.0 < data["metrics"]["flash_area"] <= 1.0 and data["metrics"]["flash_energy"] > 0
+    assert data["tilt_deg"] == 0.0 and "flash_energy" not in data  # recommend-orientation's layout
+
+
+def test_evaluate_and_recommend_put_their_metrics_in_one_place(cli):
+    ev = json.loads(cli("evaluate-orientation", OVAL, "--quality", "draft", "--json", "-").stdout)
+    rec = json.loads(cli("recommend-orientation", OVAL, "--quality", "draft", "--json", "-").stdout)
+    shared = {"normal", "tilt_deg", "azimuth_deg", "metrics", "metric_definitions", "mesh", "estimator", "plan", "frame"}
+    assert shared <= set(ev) and shared <= set(rec)
+    assert set(ev["metrics"]) == set(rec["metrics"])
 
 
 @pytest.mark.parametrize(("args", "start"), [
@@ -129,7 +138,8 @@ def test_evaluate_by_tilt_and_azimuth_matches_the_normal(cli):
     by_normal = json.loads(cli("evaluate-orientation", OVAL, "--normal", ",".join(map(repr, n)), "--quality", "draft",
                                "--json", "-").stdout)
     assert by_angles["normal"] == pytest.approx(n, abs=1e-12)
-    assert by_angles["flash_energy"] == pytest.approx(by_normal["flash_energy"], rel=1e-9)
+    assert by_angles["metrics"]["flash_energy"] == pytest.approx(by_normal["metrics"]["flash_energy"], rel=1e-9)
+    assert by_angles["tilt_deg"] == pytest.approx(t) and by_angles["azimuth_deg"] == pytest.approx(a)
     for args, words in ((["--tilt", "5"], "--tilt and --azimuth together"),
                         (["--normal", "0,0,1", "--tilt", "5", "--azimuth", "0"], "not both"),
                         (["--tilt", "95", "--azimuth", "0"], "--tilt must lie in [0, 90]")):

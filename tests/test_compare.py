@@ -17,11 +17,10 @@ import pytest
 import labcut
 from labcut.errors import LabcutWarning, MeshError, OutputError, ParameterError
 from labcut.reports import compare as cmpmod
+from labcut.orientation.misorientation import MISS_DIRECTIONS, ring
 from labcut.reports.analysis import (
-    MISS_DIRECTIONS,
     compromise,
     per_view_flash,
-    ring,
     scorer_for,
     tilt_axes,
 )

@@ -291,7 +291,7 @@ def test_every_scenario_works_on_every_command(cli, tmp_path, scenario):
     proc = cli("evaluate-orientation", str(OVAL), "--scenario", scenario, "--quality", "draft", "--json", "-")
     assert proc.returncode == 0, proc.stderr
     data = json.loads(proc.stdout)
-    assert data["scenario"]["name"] == scenario and data["flash_energy"] > 0
+    assert data["scenario"]["name"] == scenario and data["metrics"]["flash_energy"] > 0
 
 
 def test_recommended_render_is_the_scenarios_main_view(cli, tmp_path):

@@ -10,6 +10,7 @@ import json
 from pathlib import Path
 from typing import Annotated, Any, Optional
 
+import numpy as np
 import typer
 from rich.table import Table
 
@@ -47,6 +48,33 @@ def _metrics_table(title: str, metrics) -> Table:
     ]
     for r in rows:
         table.add_row(*r)
+    return table
+
+
+#: the misses (degrees) the recommendation's table shows the flash kept at
+MISSES_SHOWN = (1.0, 2.0, 5.0, 10.0)
+
+
+def _misorientation_table(rec) -> Table | None:
+    """Flash energy kept when the cut misses the recommended normal by 1-10°: on average, at worst
+    and leaning further towards each side (named as the scenario wears the stone)."""
+    from labcut.orientation import UPRIGHT_NAMES
+
+    curve = rec.misorientation
+    if curve is None:
+        return None
+    upright = bool(getattr(rec.scenario, "worn_upright", False))
+    sides = [s for s in ("front", "back", "left", "right") if s in curve.by_side]
+    table = Table(title="If the cut misses: flash energy kept", caption="each column: the lamella normal off the recommended "
+                  "one by the degrees on the left, in any direction (mean, worst) or leaning further towards that side")
+    table.add_column("off by", justify="right")
+    for col in ("mean", "worst", *[(UPRIGHT_NAMES[s] if upright else s) for s in sides]):
+        table.add_column(col, justify="right")
+    for miss in MISSES_SHOWN:
+        if miss > curve.miss_deg[-1]:
+            break
+        worst = float(np.interp(miss, curve.miss_deg, curve.worst))
+        table.add_row(f"{miss:g}°", f"{curve.kept_at(miss):.0%}", f"{worst:.0%}", *(f"{curve.kept_at(miss, s):.0%}" for s in sides))
     return table
 
 
@@ -238,6 +266,9 @@ def recommend_orientation(
         console.print(f"[bold]Recommendation for {mesh_path.name}[/] ({_scene_label(scene)}): {rec.description}.")
         console.print(_answer_table(rec, mesh_path.name, scene))
         console.print(_metrics_table("Flash at the recommended orientation", rec.metrics))
+        misses = _misorientation_table(rec)
+        if misses is not None:
+            console.print(misses)
         if rec.metrics.flash_area == 0.0:
             console.print(
                 f"No part of the stone reaches the flash threshold ({rec.settings['tau']:g} x a face-on flash under one lamp "
@@ -333,8 +364,13 @@ def evaluate_orientation(
             return
     metrics = labcut.evaluate_orientation(mesh, m_vec, setup=setup, plan=the_plan)  # planned once, above
     provenance = {**labcut.Stone.of(mesh).provenance_dict(), "path": str(mesh_path)}
-    data = {"normal": m_vec.tolist(), "frame": FRAME, "scenario": scene.to_dict(), "material": material.to_dict(),
-            "mesh": provenance, **metrics_dict(metrics), "metric_definitions": METRIC_DEFINITIONS,
+    from labcut.scene import tilt_azimuth
+
+    # the layout of recommend-orientation's JSON: the normal and its angles, then "metrics"
+    tilt_deg, azimuth_deg = tilt_azimuth(m_vec)
+    data = {"normal": m_vec.tolist(), "tilt_deg": tilt_deg, "azimuth_deg": azimuth_deg, "frame": FRAME,
+            "scenario": scene.to_dict(), "material": material.to_dict(), "mesh": provenance,
+            "metrics": metrics_dict(metrics), "metric_definitions": METRIC_DEFINITIONS,
             "estimator": the_plan.estimator, "plan": the_plan.to_dict()}
     if json_path == "-":
         typer.echo(json.dumps(data, indent=2, allow_nan=False))

@@ -26,6 +26,9 @@ _EXPORTS = {
     "ESTIMATORS": ".estimators:ESTIMATORS",
     "estimator_for": ".estimators:estimator_for",
     "FlashMetrics": ".scoring:FlashMetrics",
+    "MisorientationCurve": ".misorientation:MisorientationCurve",
+    "misorientation_curve": ".misorientation:misorientation_curve",
+    "UPRIGHT_NAMES": ".misorientation:UPRIGHT_NAMES",
 }
 
 __getattr__, __dir__, __all__ = lazy_exports(__name__, _EXPORTS)

@@ -23,6 +23,7 @@ from .problem import build_problem
 from .scoring import FlashMetrics, Scorer
 from .estimators import estimator_for
 from .question import FlashQuestion
+from .misorientation import MisorientationCurve, misorientation_curve
 from .uncertainty import Uncertainty, uncertainty_for
 
 #: the presets' map spacing (degrees), read from :class:`~labcut.scene.quality.Quality`
@@ -51,6 +52,9 @@ METRIC_DEFINITIONS = {
     "energy_below_threshold": "the energy of the faint schiller below tau x L_ref",
     "coverage": "weight of the views whose flash_area exceeds 0.05",
     "balanced": "sqrt(flash_area x flash_intensity) of the aggregates",
+    "misorientation": "flash energy kept (÷ the optimum's) when the lamella normal misses the recommended one by "
+                      "miss_deg: mean_relative and worst_relative over 16 directions around it; by_side: leaning "
+                      "further towards the stone's front (-Y), back (+Y; its top worn upright), left (-X), right (+X)",
     "visible_area_mm2": "the stone's projected area (mm²) as the views see it (outline area from each view, sampled); "
                         "mean over views. The flash metrics are scale-free (geometric optics: the same cut twice the "
                         "size flashes over the same share); this is the size",
@@ -172,6 +176,9 @@ class Recommendation:
     #: error bars (:mod:`labcut.orientation.uncertainty`): the normal's angular error (degrees) and
     #: the score's relative error against the converged answer; None when not estimated
     uncertainty: Uncertainty | None = None
+    #: flash energy kept when the cut misses this normal, against degrees off, on average, at
+    #: worst and towards each side (:mod:`labcut.orientation.misorientation`); None: not computed
+    misorientation: MisorientationCurve | None = None
 
     @property
     def angle_error_deg(self) -> float | None:
@@ -206,6 +213,7 @@ class Recommendation:
             "mesh": self.mesh,
             "tolerance_deg": self.tolerance_deg,
             "tolerance_by_axis": self.tolerance_by_axis,
+            "misorientation": None if self.misorientation is None else self.misorientation.to_dict(),
             "runners_up": self.runners_up,
             "optimizer": self.optimizer,
             "evaluations": self.evaluations,
@@ -279,6 +287,7 @@ class Recommendation:
                 plan=dict(data.get("plan", {})), estimator=str(data.get("estimator", "samples")),
                 render=dict(data.get("render_estimator", {})),
                 uncertainty=Uncertainty.from_dict(data.get("uncertainty")),
+                misorientation=MisorientationCurve.from_dict(data.get("misorientation")),
             )
         except KeyError as exc:
             raise ParameterError(f"{source}: not a labcut recommendation (missing {exc.args[0]!r})") from None
@@ -421,7 +430,7 @@ def answer_recommendation(mesh: Any, ask: FlashQuestion, scorer: Scorer, plan: A
         optimizer=optimizer, evaluations=scorer.evaluations - evaluations, seconds=time.perf_counter() - start,
         parallel_within_deg=parallel, workshop=workshop(normal, mesh, scene, parallel=parallel is not None),
         mesh=Stone.of(mesh).provenance_dict(), plan=plan.to_dict(), estimator=plan.estimator or "samples", render=render_stats,
-        uncertainty=bars,
+        uncertainty=bars, misorientation=misorientation_curve(scorer.energy_map, normal, float(tol), quality),
         settings={
             **ask.to_dict(),
             "convex": scorer.problem.convex, "surface_samples": scorer.problem.n_points,

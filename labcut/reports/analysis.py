@@ -9,13 +9,14 @@ in degrees. Flash values in units of ``L_ref`` (DESIGN.md §4).
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
 from ..errors import ParameterError
+from ..orientation.misorientation import ring
 from ..orientation.optimize import Constraint, hemisphere_grid, tolerance_deg
 from ..orientation.problem import build_problem
 from ..orientation.recommend import KEEP
@@ -29,8 +30,6 @@ from ..scene.directions import axial_upper, rotation
 TILT_RANGE_DEG = 30.0
 #: the presets' ``tilt_points`` (read from :class:`~labcut.scene.quality.Quality`)
 TILT_POINTS = {name: q.tilt_points for name, q in Quality.PRESETS.items()}
-#: misorientation curve: rings of directions around the optimum, every ``miss_step_deg`` up to the range
-MISS_DIRECTIONS = 16
 #: a compromise reads "parallel to the base" only when tilts up to at least this many degrees
 #: from the base keep 90 % of its score (a base barely at 90 % is no instruction)
 PARALLEL_MIN_DEG = 1.0
@@ -39,51 +38,6 @@ PARALLEL_MIN_DEG = 1.0
 def _unit(v: Any) -> np.ndarray:
     v = np.asarray(v, dtype=np.float64)
     return v / np.linalg.norm(v)
-
-
-def ring(centre: np.ndarray, angle_deg: float, count: int = MISS_DIRECTIONS) -> np.ndarray:
-    """``count`` unit normals at ``angle_deg`` from ``centre`` (evenly around it), folded to z >= 0."""
-    c = _unit(centre)
-    helper = np.array([1.0, 0.0, 0.0]) if abs(c[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
-    e1 = _unit(np.cross(c, helper))
-    e2 = np.cross(c, e1)
-    t = math.radians(angle_deg)
-    phi = np.linspace(0.0, 2.0 * math.pi, count, endpoint=False)
-    pts = c[None, :] * math.cos(t) + math.sin(t) * (np.cos(phi)[:, None] * e1 + np.sin(phi)[:, None] * e2)
-    return np.where(pts[:, 2:3] < 0, -pts, pts)
-
-
-# ---------------------------------------------------------------------- misorientation
-@dataclass
-class MisorientationCurve:
-    """Flash energy when the lamella normal misses the optimum by ``miss_deg`` (degrees) in any
-    direction, relative to the optimum's: ``mean`` over a ring of :data:`MISS_DIRECTIONS`
-    directions and ``worst`` (the ring's minimum). ``tolerance_deg``: the recommendation's."""
-
-    miss_deg: np.ndarray
-    mean: np.ndarray
-    worst: np.ndarray
-    tolerance_deg: float
-
-    def to_dict(self) -> dict[str, Any]:
-        return {"miss_deg": self.miss_deg.tolist(), "mean_relative": self.mean.tolist(),
-                "worst_relative": self.worst.tolist(), "tolerance_deg": self.tolerance_deg,
-                "directions": MISS_DIRECTIONS}
-
-
-def misorientation_curve(scores: Callable[[np.ndarray], np.ndarray], best: np.ndarray, tolerance: float,
-                         quality: Quality | str = "standard") -> MisorientationCurve:
-    """Energy around ``best`` (mesh frame) relative to its own, ring by ring, out to
-    ``max(15°, 3 x tolerance)``; ``scores(normals) -> energies`` (e.g. ``Scorer.energy_map``)."""
-    step = Quality.coerce(quality).miss_step_deg
-    top = max(15.0, 3.0 * float(tolerance))
-    miss = np.arange(0.0, top + 0.5 * step, step)
-    rings = np.concatenate([ring(best, a) for a in miss])
-    values = np.asarray(scores(rings), dtype=np.float64).reshape(len(miss), MISS_DIRECTIONS)
-    if not values[0, 0] > 0:
-        raise ParameterError("the optimum's energy is not positive: no misorientation curve")
-    values = values / values[0, 0]  # the first ring is the optimum itself
-    return MisorientationCurve(miss, values.mean(axis=1), values.min(axis=1), float(tolerance))
 
 
 # ---------------------------------------------------------------------- tilt performance

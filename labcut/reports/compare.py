@@ -301,6 +301,7 @@ class Comparison:
                 rec.pop("metric_definitions", None)
                 rec.pop("frame", None)
                 rec.pop("mesh", None)
+                rec.pop("misorientation", None)  # the scenario's own "misorientation", below
                 scen[name] = {
                     "rank": r.rank,
                     "tied": r.tied,
@@ -503,6 +504,9 @@ def csv_rows(data: dict[str, Any]) -> list[dict[str, Any]]:
             for key in ("mean_relative", "worst_relative"):
                 for a, v in zip(mc["miss_deg"], mc[key]):
                     add(n, scen, "best", f"misorientation_{key}", v, "ratio", a, "deg")
+            for side, values in mc.get("by_side", {}).items():
+                for a, v in zip(mc["miss_deg"], values):
+                    add(n, scen, "best", f"misorientation_towards_{side}", v, "ratio", a, "deg")
             mp = best["map"]
             for t, az, v in zip(mp["tilt_deg"], mp["azimuth_deg"], mp["score"]):
                 add(n, scen, "", "score_map_flash_energy", v, "L_ref", t, "deg tilt", az, "deg azimuth")
@@ -751,7 +755,6 @@ def run_comparison(plan: ComparisonPlan, progress: Callable[[int, int], None] | 
     from ..rendering.scene import RENDER_IRRADIANCE
     from .analysis import (
         compromise,
-        misorientation_curve,
         tilt_axes,
         tilt_curve,
     )
@@ -783,7 +786,7 @@ def run_comparison(plan: ComparisonPlan, progress: Callable[[int, int], None] | 
             rec = study.recommend()
             scorer = study.scorer
             scorers.append(scorer)
-            mis = misorientation_curve(scorer.energy_map, rec.normal, rec.tolerance_deg, quality)
+            mis = rec.misorientation  # the recommendation's own curve, from the same scorer
             tilt = tilt_curve(cut.mesh, lab, rec.normal, sc, quality, tau, seed)
             renders = render_cut(cut.mesh, lab, rec.normal, sc, tilt_axes(sc)["front_back"], res, n_spp, strip_angles,
                                  seed, strip_spp=strip_spp)

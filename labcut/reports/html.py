@@ -49,8 +49,6 @@ COMPARE_DEFINITIONS = {
                   "orientation, is tilted from its rest pose by the angle on the x axis, lights and viewer fixed: "
                   "front_back about the horizontal axis across the line of sight (+: the far or top edge comes towards "
                   "the viewer), side_to_side about the picture's vertical (+: the right edge turns away)",
-    "misorientation": "flash energy, relative to the optimum's, when the lamella normal misses the optimum by the "
-                      "angle on the x axis: mean and worst over 16 directions around it",
     "score_map": "flash energy at lamella normals over the hemisphere (tilt from +Z, azimuth from +X towards +Y), "
                  "divided by the best",
     "dominant_wavelength_nm": "dominant wavelength (CIE 15) of the flash as the main viewer sees it, from a render of the "
