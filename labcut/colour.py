@@ -13,14 +13,16 @@ come from Mitsuba (``mitsuba.scalar_rgb``: tabulated once, 1 nm steps over
   the unscaled, unclipped value.
 * Dominant wavelength (CIE 15): the spectral-locus wavelength hit by the ray from
   the white point (the illuminant's chromaticity) through the colour; a colour on
-  the purple side gets the negative complementary wavelength. Excitation purity
-  is the distance to white over the distance of the boundary point to white.
+  the purple side gets the negative complementary wavelength (:attr:`FlashColour.hue`
+  says which kind a colour is; :func:`dominant_text` writes it for people). Excitation
+  purity is the distance to white over the distance of the boundary point to white.
 """
 
 from __future__ import annotations
 
 import functools
 import json
+import math
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
@@ -154,6 +156,44 @@ class FlashColour:
 
     def to_dict(self) -> dict[str, Any]:
         return asdict(self)
+
+    @property
+    def hue(self) -> str | None:
+        """What ``dominant_wavelength_nm`` is: :func:`hue_of`."""
+        return hue_of(self.dominant_wavelength_nm)
+
+    @property
+    def complementary_wavelength_nm(self) -> float:
+        """A purple's complementary wavelength in nm (``-dominant_wavelength_nm``); NaN for a
+        spectral or grey colour, which have none worth reporting."""
+        return -self.dominant_wavelength_nm if self.hue == "purple" else float("nan")
+
+
+def hue_of(dominant_nm: float) -> str | None:
+    """The kind of colour a CIE dominant wavelength (:func:`dominant_wavelength`) describes.
+
+    ``"spectral"`` (positive: the colour is a whitened spectral colour of that wavelength),
+    ``"purple"`` (negative: a mix of red and violet that no single wavelength matches; the
+    value is minus its complementary wavelength, the spectral hue opposite it across the white
+    point) or None (NaN: white or grey, no hue).
+    """
+    if dominant_nm is None or math.isnan(dominant_nm):
+        return None
+    return "purple" if dominant_nm < 0 else "spectral"
+
+
+def dominant_text(dominant_nm: float, spec: str = ".1f") -> str:
+    """A dominant wavelength for people: ``"636.8 nm"``, a purple as ``"c 498.7 nm"`` (its
+    complementary wavelength, marked ``c`` rather than written negative), ``"—"`` without a hue."""
+    hue = hue_of(dominant_nm)
+    if hue is None:
+        return "—"
+    return f"c {-dominant_nm:{spec}} nm" if hue == "purple" else f"{dominant_nm:{spec}} nm"
+
+
+#: a caption that explains :func:`dominant_text`'s ``c`` where a table shows one
+PURPLE_CAPTION = ("c: a purple (red + violet) flash, which no single wavelength matches; the number is its "
+                  "complementary wavelength, the hue opposite it across white (CIE)")
 
 
 def colour_of_spectrum(reflectance: np.ndarray, illuminant: str = "D65") -> FlashColour:

@@ -187,3 +187,90 @@ def test_bundled_catalogues_are_valid(name, rows):
     refuses a row whose file is missing), with the rows they are documented to have, each once."""
     cat = read_catalog(ROOT / "examples" / name, Defaults(quality="draft"))
     assert len(cat.rows) == rows and len({r.key for r in cat.rows}) == rows
+
+
+# ---------------------------------------------------------------------- malformed CSV, every bad row
+@pytest.mark.parametrize("text, line", [
+    ('name,cut\n"a,m/cube.ply\nb,m/step.ply\n', 2),  # csv read it as a name running to the end, and no cut
+    ('cut,name\nm/cube.ply,a\n# a comment\nm/step.ply,"b\nm/cube.ply,c\n', 4),
+    ('cut,name\nm/cube.ply,"two\nlines"\nm/step.ply,"say ""hi""\nm/cube.ply,c\n', 4),  # "" is a quote
+])
+def test_an_unclosed_quote_is_malformed_csv_at_the_line_it_opens(folder, text, line):
+    with pytest.raises(CatalogError) as info:
+        read_catalog(write(folder / "bad.csv", text))
+    message = str(info.value)
+    assert message.startswith(f"catalogue {str(folder / 'bad.csv')!r}, line {line}: is malformed CSV"), message
+    assert "quote" in message and "\n" not in message and "column 'cut'" not in message
+
+
+def test_rows_spanning_lines_keep_their_line_numbers(folder):
+    """A quoted cell may hold a line break; the rows after it are still named by their own lines."""
+    text = 'cut,name\nm/cube.ply,"two\nlines"\nm/step.ply,x\nm/cube.ply,y,extra\n'
+    with pytest.raises(CatalogError, match=r"line 5: has 3 cells"):
+        read_catalog(write(folder / "bad.csv", text))
+    cat = read_catalog(write(folder / "good.csv", 'cut,name\nm/cube.ply,"two\nlines"\nm/step.ply,x\n'))
+    assert [r.name for r in cat.rows] == ["two\nlines", "x"]
+
+
+def test_every_bad_row_is_reported_at_once(folder):
+    text = ("cut,quality,seed\nm/cube.ply,draft,0\nm/cube.ply,fast,0\nm/missing.ply,draft,1\n"
+            "m/cube.ply,draft,-1\nm/cube.ply,draft,0\nm/step.ply,draft,0,9\nm/step.ply,draft,0\n")
+    with pytest.raises(CatalogError) as info:
+        read_catalog(write(folder / "bad.csv", text))
+    label = f"catalogue {str(folder / 'bad.csv')!r}"
+    lines = str(info.value).splitlines()
+    assert lines == [f"{label} has 5 bad rows:",
+                     "  line 3, column 'quality': must be one of draft, standard, high, got 'fast'",
+                     lines[2], "  line 5, column 'seed': must be an integer >= 0, got '-1'",
+                     "  line 6: repeats line 2 (same cut and settings); each row runs once",
+                     "  line 7: has 4 cells but the header names 3 columns"]
+    assert lines[2].startswith("  line 4, column 'cut': mesh file 'm/missing.ply' does not exist")
+    assert [p.startswith(f"{label}, line ") for p in info.value.problems] == [True] * 5
+    assert isinstance(info.value, LabcutError)
+
+
+def test_the_bad_rows_listed_stop_at_twenty(folder):
+    from labcut.batch.catalog import MAX_REPORTED_ROWS
+
+    text = "cut,seed\n" + "".join(f"m/cube.ply,{-k}\n" for k in range(1, 26))
+    with pytest.raises(CatalogError) as info:
+        read_catalog(write(folder / "bad.csv", text))
+    lines = str(info.value).splitlines()
+    assert MAX_REPORTED_ROWS == 20 and len(lines) == 1 + 20 + 1 and len(info.value.problems) == 25
+    assert lines[0].endswith("has 25 bad rows:") and lines[1].startswith("  line 2, column 'seed'")
+    assert lines[20].startswith("  line 21, column 'seed'") and lines[-1] == "  ... and 5 more bad rows"
+
+
+def test_every_bad_yaml_row_and_python_row_is_reported(folder):
+    text = "rows:\n  - {cut: m/cube.ply, colour: red}\n  - {cut: m/cube.ply}\n  - {cut: m/cube.ply, seed: -2}\n"
+    with pytest.raises(CatalogError) as info:
+        read_catalog(write(folder / "bad.yaml", text))
+    assert [line.split(":")[0] for line in str(info.value).splitlines()[1:]] == ["  row 1", "  row 3, column 'seed'"]
+    with pytest.raises(CatalogError) as info:
+        read_catalog([{"cut": "m/nope.ply"}, "not a row", {"cut": "m/cube.ply"}], base=folder)
+    assert len(info.value.problems) == 2 and "row 2: must be a mapping" in str(info.value)
+
+
+def test_a_material_cell_outside_the_visible_warns_once_naming_its_rows(folder):
+    from labcut.errors import LabcutWarning
+
+    text = "cut,material,seed\nm/cube.ply,2000,0\nm/cube.ply,2000,1\nm/step.ply,blue,0\n"
+    with pytest.warns(LabcutWarning) as caught:
+        cat = read_catalog(write(folder / "ir.csv", text))
+    assert len(cat) == 3
+    notes = [str(w.message) for w in caught if issubclass(w.category, LabcutWarning)]
+    assert len(notes) == 1 and notes[0].startswith(f"catalogue {str(folder / 'ir.csv')!r}, line 2, line 3, column 'material': ")
+    assert "outside the visible range" in notes[0]
+
+
+def test_cli_reports_every_bad_row_and_exits_2_before_any_work(folder, cli):
+    bad = write(folder / "bad.csv", "cut,quality\nm/cube.ply,superb\nm/step.ply,draft\nm/nope.ply,draft\n")
+    out = folder / "out.parquet"
+    proc = cli("batch", str(bad), "--out", str(out))
+    assert proc.returncode == 2 and "Traceback" not in proc.stderr, proc.stderr
+    lines = proc.stderr.strip().splitlines()
+    assert lines[0] == f"error: catalogue {str(bad)!r} has 2 bad rows:"
+    assert lines[1].startswith("  line 2, column 'quality'") and lines[2].startswith("  line 4, column 'cut'") and len(lines) == 3
+    proc = cli("batch", str(write(folder / "q.csv", 'name,cut\n"a,m/cube.ply\nb,m/step.ply\n')), "--out", str(out))
+    assert proc.returncode == 2 and "line 2: is malformed CSV" in proc.stderr and len(proc.stderr.strip().splitlines()) == 1
+    assert not out.exists()

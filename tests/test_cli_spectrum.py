@@ -94,3 +94,65 @@ def test_outputs_get_the_usual_permissions(cli, tmp_path):
     os.umask(umask)
     for name in ("s.png", "s.json"):
         assert stat.S_IMODE((tmp_path / name).stat().st_mode) == 0o666 & ~umask
+
+
+# ---------------------------------------------------------------------- a flash outside the visible
+@pytest.mark.parametrize("args", [
+    ["--peak", "2000"],
+    ["--an", "61"],
+    ["--d-a", "600", "--d-b", "600"],
+    ["--peak", "470", "--d-a", "600", "--d-b", "600"],
+    ["--material", "FILE"],
+])
+def test_a_flash_outside_the_visible_is_accepted_with_one_warning(cli, tmp_path, args):
+    """Every way of giving a material sets its period, and each gets the material's one
+    warning line (stderr) and the same sentence in the JSON's warnings; exit status 0."""
+    if args == ["--material", "FILE"]:
+        (tmp_path / "dark.json").write_text(json.dumps({"material": {"d_a": 600.0, "d_b": 600.0}}))
+        args = ["--material", str(tmp_path / "dark.json")]
+    proc = cli("spectrum", *args, "--json", str(tmp_path / "s.json"))
+    assert proc.returncode == 0, proc.stderr
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("warning: ") and "Traceback" not in proc.stderr, proc.stderr
+    assert "outside the visible range (380-780 nm)" in lines[0] and "infrared" in lines[0]
+    assert json.loads((tmp_path / "s.json").read_text())["warnings"] == [lines[0][len("warning: "):]]
+
+
+def test_a_visible_flash_has_no_warning(cli, tmp_path):
+    """A base outside the visible that --d-a/--d-b bring back in does not warn either."""
+    for args in (["--preset", "blue"], ["--peak", "2000", "--d-a", "80", "--d-b", "80"]):
+        proc = cli("spectrum", *args, "--json", "-")
+        assert proc.returncode == 0 and proc.stderr == "", proc.stderr
+        assert json.loads(proc.stdout)["warnings"] == []
+
+
+def test_a_purple_dominant_wavelength_is_explained(cli):
+    """--peak 2000 shows a purple face-on (higher orders at 667 and 400 nm): its dominant λ is
+    the complementary wavelength, marked c and explained, never a bare negative number."""
+    proc = cli("spectrum", "--peak", "2000")
+    assert proc.returncode == 0, proc.stderr
+    assert "c 498.7 nm" in proc.stdout and "-498.7" not in proc.stdout
+    assert "c: a purple" in proc.stdout and "complementary wavelength" in proc.stdout
+    assert "c: a purple" not in cli("spectrum", "--preset", "green").stdout  # the caption only when needed
+    row = json.loads(cli("spectrum", "--peak", "2000", "--json", "-").stdout)["angles"][0]
+    assert row["hue"] == "purple" and row["complementary_nm"] == pytest.approx(498.7, abs=0.05)
+    assert row["dominant_nm"] == pytest.approx(-row["complementary_nm"])  # the CIE number, kept
+    row = json.loads(cli("spectrum", "--preset", "green", "--json", "-").stdout)["angles"][0]
+    assert row["hue"] == "spectral" and row["complementary_nm"] is None
+
+
+def test_the_table_is_readable_at_80_columns(tmp_path):
+    """No column cut to an ellipsis in an 80-column terminal: the hex codes and every number whole."""
+    import os
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    exe = Path(sys.executable).with_name("labcut")
+    cmd = [str(exe)] if exe.exists() else [sys.executable, "-m", "labcut_cli.app"]
+    env = {**os.environ, "COLUMNS": "80", "NO_COLOR": "1"}
+    proc = subprocess.run([*cmd, "spectrum", "--peak", "2000"], capture_output=True, text=True, env=env, timeout=300)
+    assert proc.returncode == 0, proc.stderr
+    assert "…" not in proc.stdout and max(len(line) for line in proc.stdout.splitlines()) <= 80
+    for text in ("#ff1c93", "#ff0047", "#ffd200", "#006aff", "2000.0 nm", "1412.8 nm", "c 498.7 nm", "0.989", "0.62"):
+        assert text in proc.stdout, proc.stdout

@@ -8,7 +8,9 @@ import pytest
 from labcut import Labradorite, ParameterError
 from labcut.colour import (
     colour_of_spectrum,
+    dominant_text,
     dominant_wavelength,
+    hue_of,
     reflectance_rgb,
     reflectance_to_xyz,
     tables,
@@ -45,6 +47,21 @@ def test_purple_gets_negative_complementary_wavelength():
     spectrum = np.exp(-0.5 * ((wl - 440) / 10) ** 2) + np.exp(-0.5 * ((wl - 650) / 10) ** 2)
     dom, purity = dominant_wavelength(reflectance_to_xyz(spectrum))
     assert 490.0 < -dom < 575.0 and 0.0 < purity <= 1.0
+
+
+def test_a_purple_is_named_with_its_complementary_wavelength():
+    """A negative dominant wavelength is CIE shorthand for a purple; say so, and give the
+    complementary wavelength as a positive number."""
+    wl = tables().wavelengths
+    purple = colour_of_spectrum(np.exp(-0.5 * ((wl - 440) / 10) ** 2) + np.exp(-0.5 * ((wl - 650) / 10) ** 2))
+    assert purple.hue == "purple" and purple.complementary_wavelength_nm == -purple.dominant_wavelength_nm > 0
+    assert dominant_text(purple.dominant_wavelength_nm) == f"c {purple.complementary_wavelength_nm:.1f} nm"
+    green = colour_of_spectrum(np.exp(-0.5 * ((wl - 530) / 10) ** 2))
+    assert green.hue == "spectral" and np.isnan(green.complementary_wavelength_nm)
+    assert dominant_text(green.dominant_wavelength_nm) == f"{green.dominant_wavelength_nm:.1f} nm"
+    grey = colour_of_spectrum(0.5 * np.ones_like(wl))
+    assert grey.hue is None and hue_of(float("nan")) is None and dominant_text(float("nan")) == "—"
+    assert "hue" not in purple.to_dict()  # the stored fields are unchanged
 
 
 def test_preset_colours_have_the_expected_hue():

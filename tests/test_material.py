@@ -3,13 +3,14 @@
 from __future__ import annotations
 
 import math
+import warnings
 
 import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from labcut import Labradorite, LabcutError, ParameterError
+from labcut import Labradorite, LabcutError, LabcutWarning, ParameterError
 
 
 @pytest.mark.parametrize(
@@ -46,6 +47,7 @@ def test_anorthite_outside_boggild_range(an):
         Labradorite.from_anorthite(an)
 
 
+@pytest.mark.filterwarnings("ignore::labcut.LabcutWarning")  # An61 peaks at 786 nm
 def test_anorthite_ends_map_to_visible_period_range():
     assert Labradorite.from_anorthite(44.0).period_nm == pytest.approx(128.0)
     assert Labradorite.from_anorthite(61.0).period_nm == pytest.approx(252.0)
@@ -82,6 +84,7 @@ def test_replace_validates():
     assert Labradorite().replace(pairs=10).pairs == 10
 
 
+@pytest.mark.filterwarnings("ignore::labcut.LabcutWarning")  # thin lamellae peak in the ultraviolet
 @settings(max_examples=60)
 @given(st.one_of(st.floats(allow_nan=True, allow_infinity=True), st.integers(-10, 10)))
 def test_any_thickness_is_accepted_or_rejected_cleanly(d):
@@ -104,3 +107,56 @@ def test_booleans_are_not_numbers(key):
     """{"pairs": true} in a material file is a mistake, not 1 pair."""
     with pytest.raises(ParameterError, match="must be a number"):
         Labradorite(**{key: True})
+
+
+# ---------------------------------------------------------------------- a flash outside the visible
+@pytest.fixture
+def fresh_notes(monkeypatch):
+    """Forget which stacks this process has warned about (each warns once per process)."""
+    from labcut.physics import material
+
+    monkeypatch.setattr(material, "_NOTED_STACKS", set(), raising=False)
+
+
+@pytest.mark.parametrize("make, words", [
+    (lambda: Labradorite.from_peak_wavelength(2000.0), ["2000 nm", "infrared", "over 67°", "higher orders"]),
+    (lambda: Labradorite.from_anorthite(61.0), ["An61: ", "786 nm", "infrared", "over 7°"]),
+    (lambda: Labradorite(d_a=40.0, d_b=40.0), ["ultraviolet", "at any angle"]),
+    (lambda: Labradorite.from_dict({"d_a": 600.0, "d_b": 600.0}), ["infrared"]),
+])
+def test_a_flash_outside_the_visible_is_accepted_with_a_warning_that_says_what_shows(fresh_notes, make, words):
+    """A dark labradorite that schillers in the infrared is a real stone: no error, but one
+    LabcutWarning that the face-on peak is not visible and what a viewer sees instead, the same
+    sentence :meth:`visibility_note` gives front ends, whatever way the period is set."""
+    with pytest.warns(LabcutWarning, match="outside the visible range \\(380-780 nm\\)") as caught:
+        lab = make()
+    assert len(caught) == 1
+    note = str(caught[0].message)
+    assert note == lab.visibility_note() and "\n" not in note
+    for word in words:
+        assert word in note, note
+
+
+def test_a_visible_flash_gives_no_warning(fresh_notes):
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", LabcutWarning)
+        for lab in (Labradorite(), Labradorite.preset("blue"), Labradorite.from_anorthite(44.0),
+                    Labradorite.from_anorthite(60.0), Labradorite.from_peak_wavelength(385.0),
+                    Labradorite.from_peak_wavelength(779.0)):
+            assert lab.visibility_note() is None
+    with pytest.warns(LabcutWarning, match="peak, 780.3 nm, lies"):  # the peak's edge, not its Bragg estimate's (779.8 nm)
+        Labradorite.from_peak_wavelength(780.3)
+
+
+def test_each_stack_warns_once_per_process(fresh_notes):
+    """labcut re-creates materials from their parameters (the renderer's plugin): the same stack,
+    named or not, does not warn again; its note is still there to ask for."""
+    with pytest.warns(LabcutWarning):
+        lab = Labradorite.from_peak_wavelength(1500.0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", LabcutWarning)
+        again = Labradorite(**{k: v for k, v in lab.to_dict().items() if k != "name"})
+        lab.replace(name="dark")
+    assert again.visibility_note() == lab.visibility_note() is not None
+    with pytest.warns(LabcutWarning):
+        lab.replace(sigma_a=17.0)  # another stack

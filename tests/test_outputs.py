@@ -87,6 +87,8 @@ def test_compare_to_an_unwritable_report_fails_before_comparing(capsys, monkeypa
     ["compare", "{mesh}", "{mesh}@14", "--csv", "{mesh}"],
     ["rough", "{mesh}", "--lamella", "0,0,1", "--png", "{mesh}"],
     ["cabochon", "--outline", "{outline}", "--output", "{outline}"],
+    ["spectrum", "--material", "{mat}", "--json", "{mat}"],
+    ["batch", "{outline}", "--out", "{mesh}.parquet", "--json", "{outline}"],
 ])
 def test_no_command_overwrites_what_it_reads(argv, tmp_path, capsys):
     mesh, mat, outline = tmp_path / "stone.ply", tmp_path / "mat.json", tmp_path / "outline.csv"

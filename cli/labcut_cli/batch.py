@@ -17,7 +17,7 @@ from rich.table import Table
 from labcut.scene import SCENARIOS
 
 from . import materials as m
-from .root import app, console, err_console
+from .root import app, check_outputs, console, err_console
 
 
 def _short(value: float | None, fmt: str) -> str:
@@ -70,6 +70,7 @@ def summary_table(result: Any) -> Table:
 
 @app.command("batch")
 def batch(
+    ctx: typer.Context,
     catalog: Annotated[Path, typer.Argument(metavar="CATALOG", help="CSV or YAML catalogue: one cut per row (docs/batch.md).", show_default=False)],
     out: Annotated[Path, typer.Option("--out", "-o", help="Results: a folder of Parquet parts (e.g. results.parquet); rows already there are skipped.", show_default=False)],
     html_path: Annotated[Optional[Path], typer.Option("--html", help="Write the comparison report (as labcut compare) over the rows that succeeded.")] = None,
@@ -94,21 +95,20 @@ def batch(
     from labcut.batch import connect, run
     from labcut.batch import ResultStore
     from labcut.errors import ParameterError
-    from labcut.fileio import check_output_path
 
+    from .meshes import print_warning
     from .progress import progress_bar
     from .root import write_json
 
     # every input is checked before a cluster starts
     if scheduler is not None and workers is not None:
         raise ParameterError("--workers sizes the embedded cluster; with --scheduler the cluster's own workers run the rows")
-    if html_path is not None:
-        check_output_path(html_path, (".html", ".htm"))
-    if json_path not in (None, "-"):
-        check_output_path(json_path, (".json",))
+    check_outputs({"--html": (html_path, (".html", ".htm")), "--json": (json_path, (".json",))}, ctx)
     ResultStore(out)
     material = m.build_material(preset, peak, None, material_file) if (preset, peak, material_file) != (None, None, None) else None
-    cat = read_catalog(catalog, Defaults(material, scenario, quality, objective, seed))
+    cat, notes = m.holding_warnings(lambda: read_catalog(catalog, Defaults(material, scenario, quality, objective, seed)))
+    for note in notes:  # a material cell that peaks outside the visible: its rows, once per material
+        print_warning(note)
     quiet = json_path == "-"
 
     def started(info: dict[str, Any]) -> None:

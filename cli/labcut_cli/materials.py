@@ -77,7 +77,24 @@ def build_material(
     material_file: Path | None = None,
     **overrides: Any,
 ) -> Any:
-    """The material the options describe; conflicting bases are a ParameterError."""
+    """The material the options describe; conflicting bases are a ParameterError.
+
+    A material whose flash peaks outside the visible range is valid; its
+    :meth:`~labcut.Labradorite.visibility_note` is printed once as a ``warning:`` line on
+    stderr. The material's own warnings are held back while it is built: a base that
+    ``--d-a``/``--d-b`` then change may warn of a peak the final material does not have."""
+    from .meshes import print_warning
+
+    material, _ = holding_warnings(lambda: _build_material(preset, peak, an, material_file, **overrides))
+    note = material.visibility_note()
+    if note is not None:
+        print_warning(note)
+    return material
+
+
+def _build_material(preset: str | None, peak: float | None, an: float | None, material_file: Path | None,
+                    **overrides: Any) -> Any:
+    """:func:`build_material` without its warning."""
     from labcut import Labradorite
 
     given = [name for name, v in (("--preset", preset), ("--peak", peak), ("--an", an), ("--material", material_file)) if v is not None]
@@ -116,5 +133,29 @@ def build_zoning(text: str | None, material: Any) -> Any:
     if text.strip().lower() in PRESETS:
         return Zoning.preset(text, material)
     if text.lower().endswith(".json") or Path(text).exists():
-        return Zoning.load(text, material)
+        from .meshes import print_warning
+
+        zoning, notes = holding_warnings(lambda: Zoning.load(text, material))
+        for note in dict.fromkeys(notes):  # a zoning set that peaks outside the visible, once per text
+            print_warning(note)
+        return zoning
     raise ParameterError(f"--zoning must be {', '.join(PRESETS)} or a zoning .json file, got {text!r}")
+
+
+def holding_warnings(make: Any) -> tuple[Any, list[str]]:
+    """``(make(), the texts of the labcut warnings it issued)``: those are held back for the caller
+    to print as ``warning:`` lines, other warnings go on as usual."""
+    import warnings
+
+    from labcut.errors import LabcutWarning
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", LabcutWarning)
+        value = make()
+    held = []
+    for w in caught:
+        if issubclass(w.category, LabcutWarning):
+            held.append(str(w.message))
+        else:
+            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+    return value, held

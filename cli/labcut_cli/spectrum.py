@@ -10,16 +10,22 @@ import typer
 from rich.table import Table
 
 from . import materials as m
-from .root import all_or_nothing, app, console, write_json
+from .root import app, check_outputs, console, figure_after_answer, write_json
 
 
-def _fmt(x: float, spec: str) -> str:
-    return "—" if x is None or (isinstance(x, float) and math.isnan(x)) else format(x, spec)
+#: width of the colour swatch before the hex code in the table
+_SWATCH = 4
+
+
+def _fmt(x: float, spec: str, unit: str = "") -> str:
+    """``x`` formatted with ``unit`` appended, or a dash (no unit) for a missing value."""
+    return "—" if x is None or (isinstance(x, float) and math.isnan(x)) else format(x, spec) + unit
 
 
 @app.command()
 @m.takes_material(without=("spread",))
 def spectrum(
+    ctx: typer.Context,
     material: Any = None,  # the material options (materials.takes_material)
     angles: Annotated[str, typer.Option(help="Internal angles to the lamella normal, degrees, comma-separated.")] = "0,15,30,45",
     plot: Annotated[Optional[Path], typer.Option("--plot", "-o", help="Write the reflectance plot to this PNG (none unless asked).")] = None,
@@ -29,13 +35,15 @@ def spectrum(
     """Peak wavelength, peak reflectance and flash colour of a material at several angles.
 
     Angles are inside the stone, between the ray and the lamella normal: 0° is the
-    face-on flash, tilting moves the peak to shorter wavelengths (Bragg's law). Writes
-    files only when asked: --plot/-o FILE.png, --json FILE.
+    face-on flash, tilting moves the peak to shorter wavelengths (Bragg's law). A purple
+    flash's dominant λ is its complementary wavelength, marked c. A material whose
+    face-on peak lies outside the visible (380-780 nm) gets a warning. Writes files only
+    when asked: --plot/-o FILE.png, --json FILE.
     """
     import json
 
+    from labcut import colour
     from labcut.errors import ParameterError
-    from labcut.fileio import check_output_path
     from labcut.physics import check_angles, spectrum_summary
 
     try:
@@ -43,40 +51,41 @@ def spectrum(
     except ValueError:
         raise ParameterError(f"--angles must be comma-separated numbers, got {angles!r}") from None
     check_angles(angle_list)
-    if plot is not None and not no_plot:
-        check_output_path(plot, (".png",))
-    if json_path not in (None, "-"):
-        check_output_path(json_path, (".json",))
+    check_outputs({"--plot": (None if no_plot else plot, (".png",)), "--json": (json_path, (".json",))}, ctx)
     rows = spectrum_summary(material, angle_list)
-    result = {"material": material.to_dict(), "angles": rows}
+    note = material.visibility_note()  # printed as a warning: line when the material was built
+    result = {"material": material.to_dict(), "angles": rows, "warnings": [note] if note else []}
 
     if json_path == "-":
-        typer.echo(json.dumps(result, indent=2, default=lambda x: None))
+        typer.echo(json.dumps(_finite(result), indent=2))
     else:
-        table = Table(title=f"Flash of {material.name or 'labradorite'} (period {material.period_nm:.1f} nm, {material.pairs} pairs)")
+        purple = any(r["hue"] == "purple" for r in rows)
+        table = Table(title=f"Flash of {material.name or 'labradorite'} (period {material.period_nm:.1f} nm, {material.pairs} pairs)",
+                      caption=colour.PURPLE_CAPTION if purple else None, caption_justify="left")
+        # every column readable at 80 columns: the numbers and the hex code never wrap or cut;
+        # a value too wide for its column (a peak past 10 µm) folds onto a second line
         for col, just in (("angle", "right"), ("peak λ", "right"), ("Bragg λ", "right"), ("peak R", "right"),
-                          ("dominant λ", "right"), ("purity", "right"), ("colour", "left")):
-            table.add_column(col, justify=just)
+                          ("dominant λ", "right"), ("purity", "right")):
+            table.add_column(col, justify=just, overflow="fold")  # type: ignore[arg-type]
+        table.add_column("colour", justify="left", no_wrap=True, min_width=len(" #rrggbb") + _SWATCH)
         for r in rows:
             table.add_row(
                 f"{r['angle_deg']:g}°",
-                _fmt(r["peak_nm"], ".1f") + " nm",
+                _fmt(r["peak_nm"], ".1f", " nm"),
                 f"{r['bragg_nm']:.1f} nm",
                 _fmt(r["peak_reflectance"], ".3f"),
-                _fmt(r["dominant_nm"], ".1f") + " nm",
+                colour.dominant_text(r["dominant_nm"]),
                 _fmt(r["purity"], ".2f"),
-                f"[on {r['hex']}]      [/] {r['hex']}",
+                f"[on {r['hex']}]{' ' * _SWATCH}[/] {r['hex']}",
             )
         console.print(table)
-    with all_or_nothing() as written:
-        if json_path not in (None, "-"):
-            write_json(json_path, _finite(result))
-            written.append(Path(json_path))
-        if plot is not None and not no_plot:
+    if json_path not in (None, "-"):
+        write_json(json_path, _finite(result))
+    if plot is not None and not no_plot:  # the figure after the answer: a failing plot leaves the table and JSON
+        with figure_after_answer(json_path, plot, "plot"):
             from labcut.plots import plot_spectrum
 
             plot_spectrum(material, angle_list, plot)
-            written.append(Path(plot))
     if json_path not in (None, "-"):
         console.print(f"table written to {json_path}")
     if plot is not None and not no_plot and json_path != "-":

@@ -24,8 +24,12 @@ whose every combination is a row: ``{cut: [a.ply, b.ply], scenario: [bench, ring
 
 :func:`read_catalog` checks the whole catalogue before any work: an unknown column, a missing
 file, a bad value or a row repeated is a :class:`CatalogError` whose one line names the file,
-the row and the column. What only running can tell (a mesh that cannot be read, a cabochon
-that cannot be built) is a failed row of the results, not a catalogue error.
+the row and the column; every bad row is reported (the first :data:`MAX_REPORTED_ROWS` in the
+message, one line each), not only the first. A CSV file whose quoted cell is never closed is
+malformed, named with the line where the quote opens. What only running can tell (a mesh that
+cannot be read, a cabochon that cannot be built) is a failed row of the results, not a
+catalogue error. A material cell that peaks outside the visible range is a
+:class:`~labcut.errors.LabcutWarning` naming its rows, not an error.
 
 Every row gets a *key*: a hash of its resolved inputs (the mesh file's bytes, the cabochon
 spec's parameters, the material's parameters, the scenario's name or file bytes, quality,
@@ -38,17 +42,17 @@ from __future__ import annotations
 
 import csv
 import hashlib
-import io
 import itertools
 import json
 import math
 import os
+import warnings
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from ..errors import LabcutError, ParameterError
+from ..errors import LabcutError, LabcutWarning, ParameterError
 from ..geometry.stone import Stone
 from ..scene.quality import QUALITIES
 
@@ -57,11 +61,23 @@ DESIGN_SUFFIXES = (".asc", ".gem")
 CATALOG_SUFFIXES = (".csv", ".yaml", ".yml")
 #: how many characters of the SHA-256 a row key keeps (80 bits: no collision in any catalogue)
 KEY_CHARS = 20
+#: bad rows a :class:`CatalogError` message lists (its ``problems`` holds them all)
+MAX_REPORTED_ROWS = 20
+#: rows a material warning names before it counts the rest
+_NAMED_ROWS = 5
 
 
 class CatalogError(ParameterError):
     """A catalogue cannot be run: unreadable, an unknown column, a missing file, a bad value.
-    The one-line message names the catalogue, the row and the column."""
+
+    The message names the catalogue, the row and the column: one line for one problem; for
+    several bad rows, a line that counts them, then one indented line per bad row (the first
+    :data:`MAX_REPORTED_ROWS`, then how many more). ``problems``: every problem as its own
+    one-line message, each starting with the catalogue's name."""
+
+    def __init__(self, message: str, *, problems: Iterable[str] = ()) -> None:
+        super().__init__(message)
+        self.problems: tuple[str, ...] = tuple(problems) or (message,)
 
 
 @dataclass(frozen=True)
@@ -147,29 +163,86 @@ def _fail(where: str, message: str) -> CatalogError:
     return CatalogError(" ".join(f"{where}: {message}".split()))
 
 
-def _read_csv(path: Path, text: str) -> list[tuple[str, dict[str, Any]]]:
+#: a row as a reader hands it on: where it is (``line 3``, ``row 2``) and its cells, or why it
+#: cannot be read (checked with the others, so that every bad row is reported)
+RawRow = tuple[str, dict[str, Any] | CatalogError]
+
+
+def _unclosed_quote(lines: list[tuple[int, str]]) -> int | None:
+    """The number of the line where a quoted cell opens that no quote closes, or None.
+
+    The csv module's own rules: a quote opens a quoted cell only as the cell's first
+    character; inside one, ``""`` is a literal quote, a lone ``"`` closes it, and a line end
+    belongs to the cell. csv itself reads an unclosed cell to the end of the file, taking
+    every later row into it, and says nothing."""
+    opened: int | None = None
+    quoted = False
+    for number, line in lines:
+        at_start, i = not quoted, 0
+        while i < len(line):
+            char = line[i]
+            if quoted:
+                if char == '"':
+                    if line[i + 1:i + 2] == '"':
+                        i += 1  # "" inside a quoted cell: a literal quote
+                    else:
+                        quoted = False
+            elif char == ",":
+                at_start = True
+                i += 1
+                continue
+            elif char == '"' and at_start:
+                quoted, opened = True, number
+            at_start = False
+            i += 1
+    return opened if quoted else None
+
+
+def _read_csv(path: Path, text: str) -> list[RawRow]:
+    where = f"catalogue {str(path)!r}"
     lines = [(n, line) for n, line in enumerate(text.splitlines(), start=1)
              if line.strip() and not line.lstrip().startswith("#")]
     if not lines:
-        raise _fail(f"catalogue {str(path)!r}", "is empty; it needs a header row (e.g. cut,material,scenario) and one row per cut")
-    reader = csv.reader(io.StringIO("\n".join(line for _, line in lines)))
+        raise _fail(where, "is empty; it needs a header row (e.g. cut,material,scenario) and one row per cut")
+    opened = _unclosed_quote(lines)
+    if opened is not None:
+        raise _fail(f"{where}, line {opened}", 'is malformed CSV: a quoted cell opens here and no " closes it, so '
+                    'every line after it would be read into that cell; close the quote, or remove it')
+    consumed = 0  # lines handed to the reader so far: a record that spans lines is numbered by its first
+
+    def feed() -> Iterable[str]:
+        nonlocal consumed
+        for _, line in lines:
+            consumed += 1
+            yield line + "\n"
+
+    reader = csv.reader(feed())
+    records: list[tuple[int, list[str]]] = []
     try:
-        table = list(reader)
+        while consumed < len(lines):
+            first = lines[consumed][0]
+            cells = next(reader, None)
+            if cells is None:
+                break
+            records.append((first, cells))
     except csv.Error as exc:
-        raise _fail(f"catalogue {str(path)!r}", f"is not readable CSV ({exc})") from None
-    header = [h.strip().lower() for h in table[0]]
-    _check_columns(header, f"catalogue {str(path)!r}, header (line {lines[0][0]})")
+        raise _fail(f"{where}, line {lines[max(consumed - 1, 0)][0]}", f"is not readable CSV ({exc})") from None
+    header_line, header_cells = records[0]
+    header = [h.strip().lower() for h in header_cells]
+    _check_columns(header, f"{where}, header (line {header_line})")
     if "cut" not in header:
-        raise _fail(f"catalogue {str(path)!r}, header (line {lines[0][0]})",
+        raise _fail(f"{where}, header (line {header_line})",
                     "has no 'cut' column (a mesh file, a GemCad design or a cab: spec per row)")
-    rows = []
-    for (lineno, _), cells in zip(lines[1:], table[1:]):
+    rows: list[RawRow] = []
+    for lineno, cells in records[1:]:
         if len(cells) > len(header):
-            raise _fail(f"catalogue {str(path)!r}, line {lineno}", f"has {len(cells)} cells but the header names {len(header)} columns")
+            rows.append((f"line {lineno}", _fail(f"{where}, line {lineno}",
+                                                 f"has {len(cells)} cells but the header names {len(header)} columns")))
+            continue
         values = {h: c.strip() for h, c in zip(header, cells) if c.strip() != ""}
         rows.append((f"line {lineno}", values))
     if not rows:
-        raise _fail(f"catalogue {str(path)!r}", "has a header but no rows")
+        raise _fail(where, "has a header but no rows")
     return rows
 
 
@@ -191,7 +264,15 @@ def _mapping(item: Any, where: str) -> dict[str, Any]:
     return {str(k).strip().lower(): v for k, v in item.items() if v is not None and str(v).strip() != ""}
 
 
-def _read_yaml(path: Path, text: str) -> list[tuple[str, dict[str, Any]]]:
+def _listed_row(item: Any, where: str, defaults: Mapping[str, Any] | None = None) -> dict[str, Any] | CatalogError:
+    """A listed row's cells over ``defaults``, or the :class:`CatalogError` that says why it is not a row."""
+    try:
+        return {**(defaults or {}), **_mapping(item, where)}
+    except CatalogError as exc:
+        return exc
+
+
+def _read_yaml(path: Path, text: str) -> list[RawRow]:
     import yaml
 
     try:
@@ -217,7 +298,7 @@ def _read_yaml(path: Path, text: str) -> list[tuple[str, dict[str, Any]]]:
             raise _fail(where, "'grid' must map columns to lists of values")
     else:
         raise _fail(where, "must hold a list of rows or a mapping with defaults, rows and/or grid")
-    rows = [(f"row {k}", {**defaults, **_mapping(item, f"{where}, row {k}")}) for k, item in enumerate(listed, start=1)]
+    rows: list[RawRow] = [(f"row {k}", _listed_row(item, f"{where}, row {k}", defaults)) for k, item in enumerate(listed, start=1)]
     if grid:
         _check_columns(grid.keys(), f"{where}, grid")
         columns = [str(k).strip().lower() for k in grid]
@@ -428,8 +509,13 @@ def read_catalog(catalog: Any, defaults: Defaults | None = None, base: str | os.
 
     ``catalog``: a CSV or YAML file, a :class:`Catalog` (returned as is), or rows given in
     Python (a list of mappings column -> value; relative paths are taken from ``base``,
-    default the current folder). ``defaults``: what empty cells mean. Raises a one-line
-    :class:`CatalogError` naming the catalogue, the row and the column of the first problem.
+    default the current folder). ``defaults``: what empty cells mean. Raises a
+    :class:`CatalogError` naming the catalogue, the row and the column of every bad row (one
+    line for one, a line per row for several: the first :data:`MAX_REPORTED_ROWS`; all in its
+    ``problems``); a file that cannot be read as a whole (not CSV or YAML, an unknown column
+    in the header, a quote never closed) is one line. A material cell whose flash peaks
+    outside the visible range gives one :class:`~labcut.errors.LabcutWarning` per material,
+    naming its rows.
     """
     defaults = defaults or Defaults()
     if isinstance(catalog, Catalog):
@@ -448,7 +534,7 @@ def read_catalog(catalog: Any, defaults: Defaults | None = None, base: str | os.
         folder, label = path.resolve().parent, f"catalogue {str(path)!r}"
     elif isinstance(catalog, Iterable) and not isinstance(catalog, Mapping):
         items = list(catalog)
-        raw = [(f"row {k}", _mapping(item, f"catalogue, row {k}")) for k, item in enumerate(items, start=1)]
+        raw = [(f"row {k}", _listed_row(item, f"catalogue, row {k}")) for k, item in enumerate(items, start=1)]
         if not raw:
             raise CatalogError("the catalogue has no rows")
         path, folder, label = None, Path(base or ".").resolve(), "catalogue"
@@ -457,13 +543,54 @@ def read_catalog(catalog: Any, defaults: Defaults | None = None, base: str | os.
     digests: dict[str, str] = {}
     rows: list[Row] = []
     first: dict[str, str] = {}
+    problems: list[str] = []
+    invisible: dict[str, list[str]] = {}  # a material's visibility note -> the rows whose cell gives it
     for index, (where, values) in enumerate(raw, start=1):
-        row = check_row(values, index, f"{label}, {where}", folder, defaults, digests)
+        if isinstance(values, CatalogError):
+            problems.append(str(values))
+            continue
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always", LabcutWarning)
+            try:
+                row: Row | None = check_row(values, index, f"{label}, {where}", folder, defaults, digests)
+            except CatalogError as exc:
+                row, problem = None, str(exc)
+        # the material's own warning of a flash outside the visible is given once below, naming
+        # every row with that material; other warnings go on
+        note = None if row is None else row.material.visibility_note()
+        for w in caught:
+            if not (issubclass(w.category, LabcutWarning) and str(w.message) == note):
+                warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+        if row is None:
+            problems.append(problem)
+            continue
         if row.key in first:
-            raise _fail(f"{label}, {where}", f"repeats {first[row.key]} (same cut and settings); each row runs once")
+            problems.append(str(_fail(f"{label}, {where}", f"repeats {first[row.key]} (same cut and settings); each row runs once")))
+            continue
         first[row.key] = where
         rows.append(row)
+        if note is not None and values.get("material") is not None:  # not the batch's default: its caller's
+            invisible.setdefault(note, []).append(where)
+    if problems:
+        raise _bad_rows(label, problems)
+    for text, wheres in invisible.items():
+        named = ", ".join(wheres[:_NAMED_ROWS]) + (f" and {len(wheres) - _NAMED_ROWS} more" if len(wheres) > _NAMED_ROWS else "")
+        warnings.warn(f"{label}, {named}, column 'material': {text}", LabcutWarning, stacklevel=2)
     return Catalog(path, rows)
 
 
-__all__ = ["COLUMNS", "Catalog", "CatalogError", "Defaults", "Row", "check_row", "read_catalog"]
+def _bad_rows(label: str, problems: list[str]) -> CatalogError:
+    """One :class:`CatalogError` for every bad row of a catalogue: the problem itself when there
+    is one; else a line that counts them and one indented line per row, without the catalogue's
+    name each repeats, the first :data:`MAX_REPORTED_ROWS` of them."""
+    if len(problems) == 1:
+        return CatalogError(problems[0])
+    prefix = f"{label}, "
+    lines = [f"{label} has {len(problems)} bad rows:"]
+    lines += ["  " + (p[len(prefix):] if p.startswith(prefix) else p) for p in problems[:MAX_REPORTED_ROWS]]
+    if len(problems) > MAX_REPORTED_ROWS:
+        lines.append(f"  ... and {len(problems) - MAX_REPORTED_ROWS} more bad rows")
+    return CatalogError("\n".join(lines), problems=problems)
+
+
+__all__ = ["COLUMNS", "MAX_REPORTED_ROWS", "Catalog", "CatalogError", "Defaults", "Row", "check_row", "read_catalog"]

@@ -9,12 +9,14 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import sys
+import warnings
 from dataclasses import dataclass
 from typing import Any, ClassVar
 
 import numpy as np
 
-from ..errors import ParameterError
+from ..errors import LabcutWarning, ParameterError
 from ..validation import check_number
 from . import lamella
 from .search import golden_section_max
@@ -28,7 +30,23 @@ AN_RANGE = (44.0, 61.0)
 #: Soc. Japan 5:3: visible schiller needs a period of ~128-252 nm).
 PERIOD_RANGE_NM = (128.0, 252.0)
 
+#: Wavelengths (nm) a person sees: the range of the CIE 1931 observer's tables (CIE 15). A material
+#: whose first-order flash peaks outside it face-on gets a :class:`~labcut.errors.LabcutWarning`
+#: (:meth:`Labradorite.visibility_note`); it is still a valid material.
+VISIBLE_RANGE_NM = (380.0, 780.0)
+
 _DEFAULT_PERIOD_NM = 155.0  # blue-green flash near 483 nm at normal incidence
+#: the lamella stacks whose :meth:`Labradorite.visibility_note` this process has issued as a
+#: warning. Each is issued once, as Python's "once" action would (front ends that record
+#: warnings turn every one on): labcut re-creates materials from their parameters (the
+#: renderer's plugin does), and that must not repeat the warning
+_NOTED_STACKS: set[lamella.Stack] = set()
+#: face-on Bragg estimates (nm) between which the true peak (1-2.5 nm above the estimate at
+#: sigma 16 nm, more at larger sigma) is surely visible, so that no peak search is needed
+_SURELY_VISIBLE_BRAGG_NM = (420.0, 740.0)
+#: face-on Bragg estimates (nm) outside which the estimate itself is quoted (the peak search's
+#: 0.5 nm grid would be long, or shorter than one step)
+_PEAK_SEARCH_BRAGG_NM = (100.0, 5000.0)
 
 
 def _check_number(name: str, value: Any, low: float, high: float = math.inf, *, low_open: bool = False) -> float:
@@ -85,6 +103,14 @@ class Labradorite:
     }
 
     def __post_init__(self) -> None:
+        self._validate()
+        note = self.visibility_note()
+        if note is not None and self.stack not in _NOTED_STACKS:
+            _NOTED_STACKS.add(self.stack)
+            warnings.warn(note, LabcutWarning, stacklevel=_maker_stacklevel())
+
+    def _validate(self) -> None:
+        """Check and normalise every parameter; a bad one is a :class:`ParameterError`."""
         for key in ("n_a", "n_b", "n_surface"):
             value = _check_number(key, getattr(self, key), 1.0, 4.0, low_open=True)
             object.__setattr__(self, key, value)
@@ -121,14 +147,15 @@ class Labradorite:
         target = _check_number("peak wavelength (nm)", nm, 250.0, 2500.0)
         base = cls(**params)
         period = target / (base.n_a + base.n_b)  # λ = 2 (n_a + n_b) d with d = period / 2
-        lab = base
+        fitted = period
+        # the fit iterates on bare stacks: a trial period is no material, and warns of nothing
         for _ in range(6):
-            lab = dataclasses.replace(base, d_a=period / 2.0, d_b=period / 2.0)
-            peak = lab.peak_wavelength(1.0)
+            fitted = period
+            peak = _first_order_peak(base.stack._replace(d_a=period / 2.0, d_b=period / 2.0), 1.0)
             if abs(peak - target) < 0.01:
                 break
             period *= target / peak
-        return lab
+        return dataclasses.replace(base, d_a=fitted / 2.0, d_b=fitted / 2.0)
 
     @classmethod
     def from_anorthite(cls, an_percent: float, **params: Any) -> Labradorite:
@@ -264,14 +291,55 @@ class Labradorite:
         c = float(np.abs(self._coerce(1.0, cos_theta)[1]))
         if c < 1e-6:
             raise ParameterError("cos_theta must be > 0: at grazing incidence there is no peak")
-        centre = self.bragg_wavelength(c)
-        grid = np.arange(0.7 * centre, 1.45 * centre, 0.5)
-        i = int(np.argmax(self.intensity(grid, c)))
-        if i == 0 or i == grid.size - 1:
-            return math.nan
-        lo, hi = grid[max(i - 1, 0)], grid[min(i + 1, grid.size - 1)]
-        # R is monotone in I: same peak, and no saturation plateau to confuse the search
-        return float(golden_section_max(lambda x: float(self.intensity(x, c)), lo, hi, 1e-4))
+        return _first_order_peak(self.stack, c)
+
+    def visibility_note(self) -> str | None:
+        """Why this material shows no first-order flash in the visible face-on, or None.
+
+        The face-on (normal incidence) first-order peak is checked against
+        :data:`VISIBLE_RANGE_NM`. Outside it the material is valid (a dark labradorite can
+        schiller in the infrared) but a viewer does not see what the number suggests, so
+        the answer is one sentence saying what they see instead: for an infrared peak,
+        face-on at most a dim colour from the band's edge and weaker higher orders, and the
+        first-order peak only at internal angles steep enough for Bragg's law
+        (λ ∝ cos θ) to bring it below 780 nm; for an ultraviolet peak, no first-order
+        peak in the visible at any angle, since tilting moves it shorter still. The peak
+        is the true one (:meth:`peak_wavelength`), not the Bragg estimate, where that can
+        matter (near the edges). Making such a material issues this note as a
+        :class:`~labcut.errors.LabcutWarning`, once per process for each lamella stack (labcut
+        re-creates materials from their parameters); front ends that must show or record it
+        every time ask this method (the CLI's material options, the JSON of ``labcut spectrum``).
+
+        Examples
+        --------
+        >>> import labcut
+        >>> labcut.Labradorite.preset("blue").visibility_note() is None
+        True
+        """
+        lo, hi = VISIBLE_RANGE_NM
+        peak = self.bragg_wavelength(1.0)
+        if _SURELY_VISIBLE_BRAGG_NM[0] <= peak <= _SURELY_VISIBLE_BRAGG_NM[1]:
+            return None
+        if _PEAK_SEARCH_BRAGG_NM[0] <= peak <= _PEAK_SEARCH_BRAGG_NM[1]:
+            found = _first_order_peak(self.stack, 1.0)
+            peak = peak if math.isnan(found) else found  # no first-order maximum: the Bragg estimate
+        if lo <= peak <= hi:
+            return None
+        head = f"{self.name}: " if self.name else ""
+        shown = f"{peak:.0f}" if round(peak) not in (lo, hi) else f"{peak:.1f}"  # never "780 nm lies outside 380-780"
+        where = f"the face-on flash peak, {shown} nm, lies outside the visible range ({lo:g}-{hi:g} nm)"
+        if peak < lo:
+            return (f"{head}{where}, in the ultraviolet: this stone shows no first-order flash peak in the "
+                    f"visible at any angle, since tilting moves the peak to still shorter wavelengths; at most the "
+                    f"band's long-wavelength edge gives it a faint bluish tint")
+        steep = math.degrees(math.acos(hi / peak))
+        critical = math.degrees(math.asin(1.0 / self.n_surface))
+        reach = (f" (more than the {critical:.0f}° that light reaches through a face parallel to the lamellae)"
+                 if steep > critical else "")
+        return (f"{head}{where}, in the infrared: face-on this stone shows at most a dim colour from the band's "
+                f"short-wavelength edge and weaker higher orders; the first-order peak enters the visible only at "
+                f"internal angles over {steep:.0f}° from the lamella normal{reach}, where Bragg's law moves it "
+                f"below {hi:g} nm")
 
     def peak_reflectance(self, cos_theta: float = 1.0) -> float:
         """Reflectance at the first-order peak, at ``cos_theta`` (NaN when there is none)."""
@@ -290,7 +358,8 @@ class Labradorite:
         return self.flash_colour(cos_theta).srgb
 
     def dominant_wavelength(self, cos_theta: float = 1.0) -> float:
-        """CIE dominant wavelength (nm) of the flash; negative = complementary (purples)."""
+        """CIE dominant wavelength (nm) of the flash; negative for a purple: minus its complementary
+        wavelength (:attr:`labcut.colour.FlashColour.hue`)."""
         return self.flash_colour(cos_theta).dominant_wavelength_nm
 
     # ------------------------------------------------------------------ I/O
@@ -324,3 +393,40 @@ class Labradorite:
         if np.any(np.abs(c) > 1.0):
             raise ParameterError(f"cos_theta must lie in [-1, 1], got {float(np.max(np.abs(c))):g}")
         return wl, c
+
+
+def _maker_stacklevel() -> int:
+    """``stacklevel`` for a warning issued in :meth:`Labradorite.__post_init__` that names the code
+    which made the material: the first caller outside this module, ``dataclasses`` (``replace``)
+    and generated code (the dataclass ``__init__``)."""
+    internal = (__file__, dataclasses.__file__)
+    frame, level = sys._getframe(1), 1  # level 1: __post_init__, which calls warnings.warn
+    while frame.f_back is not None and (frame.f_code.co_filename in internal or frame.f_code.co_filename.startswith("<")):
+        frame, level = frame.f_back, level + 1
+    return level
+
+
+def _first_order_peak(stack: lamella.Stack, c: float) -> float:
+    """Wavelength (nm) of the first-order maximum of ``stack``'s intensity at ``cos θ = c`` (> 0).
+
+    Searched in [0.7, 1.45] x the Bragg estimate on a 0.5 nm grid, then refined by
+    golden-section search to 1e-4 nm; NaN when the window has no maximum. The search of
+    :meth:`Labradorite.peak_wavelength`, on a bare stack so that
+    :meth:`Labradorite.from_peak_wavelength` tries periods without making materials.
+    """
+    n_a, n_b, d_a, d_b, sigma_a, sigma_b, pairs, n_surface = stack
+
+    def intensity(wavelength_nm: Any) -> Any:
+        return lamella.lamella_intensity(np.asarray(wavelength_nm, dtype=np.float64), np.asarray(c, dtype=np.float64),
+                                         n_a, n_b, d_a, d_b, sigma_a, sigma_b, pairs=pairs, n_surface=n_surface)
+
+    centre = float(lamella.bragg_wavelength(c, n_a, n_b, d_a, d_b))
+    grid = np.arange(0.7 * centre, 1.45 * centre, 0.5)
+    if grid.size < 3:
+        return math.nan
+    i = int(np.argmax(intensity(grid)))
+    if i == 0 or i == grid.size - 1:
+        return math.nan
+    lo, hi = grid[max(i - 1, 0)], grid[min(i + 1, grid.size - 1)]
+    # R is monotone in I: same peak, and no saturation plateau to confuse the search
+    return float(golden_section_max(lambda x: float(intensity(x)), lo, hi, 1e-4))

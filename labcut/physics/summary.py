@@ -28,8 +28,11 @@ def spectrum_summary(material: Labradorite, angles_deg: Any = (0.0, 15.0, 30.0, 
     """One row per internal angle (degrees from the lamella normal, inside the stone).
 
     Keys: ``angle_deg``, ``cos_theta``, ``peak_nm`` (NaN: no first-order peak),
-    ``bragg_nm``, ``peak_reflectance``, ``dominant_nm`` (negative: purple),
-    ``purity``, ``luminance`` (Y under D65, white = 1), ``srgb`` (display swatch), ``hex``.
+    ``bragg_nm``, ``peak_reflectance``, ``dominant_nm`` (CIE dominant wavelength; negative:
+    a purple, minus its complementary wavelength), ``hue`` (``"spectral"``, ``"purple"`` or
+    None for a grey: :func:`labcut.colour.hue_of`), ``complementary_nm`` (a purple's
+    complementary wavelength, else NaN), ``purity``, ``luminance`` (Y under D65, white = 1),
+    ``srgb`` (display swatch), ``hex``.
     """
     rows = []
     for angle in check_angles(angles_deg):
@@ -44,6 +47,8 @@ def spectrum_summary(material: Labradorite, angles_deg: Any = (0.0, 15.0, 30.0, 
                 "bragg_nm": material.bragg_wavelength(c),
                 "peak_reflectance": material.peak_reflectance(c),
                 "dominant_nm": colour.dominant_wavelength_nm,
+                "hue": colour.hue,
+                "complementary_nm": colour.complementary_wavelength_nm,
                 "purity": colour.purity,
                 "luminance": colour.luminance,
                 "srgb": list(colour.srgb),

@@ -25,8 +25,9 @@ def _describe(material: Labradorite) -> str:
 def plot_spectrum(material: Labradorite, angles_deg: Any, path: str | os.PathLike[str]) -> None:
     """Write a PNG of R(λ) over 360-830 nm at each internal angle, with flash swatches.
 
-    Each curve is drawn in the flash colour at that angle; a strip of swatches
-    along the bottom shows the colours side by side.
+    Each curve is drawn in the flash colour at that angle and labelled with its hex code and
+    dominant wavelength (a purple's complementary wavelength, named as such); a strip of
+    swatches along the bottom shows the colours side by side.
     """
     import matplotlib
 
@@ -43,7 +44,9 @@ def plot_spectrum(material: Labradorite, angles_deg: Any, path: str | os.PathLik
         r = material.reflectance(wl, c)
         colour = material.flash_colour(c)
         shade = np.asarray(colour.srgb) * 0.85  # a little darker so light hues read on white
-        ax.plot(wl, r, color=shade, lw=2.0, label=f"{angle:g}°  ({colour.hex}, λd {colour.dominant_wavelength_nm:.0f} nm)")
+        hue = (f"purple, complementary λc {colour.complementary_wavelength_nm:.0f} nm" if colour.hue == "purple"
+               else f"λd {colour.dominant_wavelength_nm:.0f} nm" if colour.hue else "grey")
+        ax.plot(wl, r, color=shade, lw=2.0, label=f"{angle:g}°  ({colour.hex}, {hue})")
         strip.add_patch(plt.Rectangle((i, 0), 0.92, 1, color=colour.srgb))
         strip.text(i + 0.46, -0.25, f"{angle:g}°", ha="center", va="top", fontsize=9)
     ax.set_xlim(wl[0], wl[-1])
