@@ -57,7 +57,7 @@ from .errors import ParameterError
 from .geometry.stone import Stone, mesh_of
 from .scene.effects import ESTIMATORS, check_effects
 
-__all__ = ["COMMANDS", "Decision", "EffectPlan", "measured_interreflection", "pilot_scene", "plan_effects", "plan_question"]
+__all__ = ["COMMANDS", "PILOT_BUDGET_SHARE", "Decision", "EffectPlan", "measured_interreflection", "pilot_scene", "plan_effects", "plan_question"]
 
 COMMANDS = ("render", "recommend", "evaluate", "compare")
 #: the stated tolerance of the planner's "off" decisions: an effect whose measured or bounded
@@ -279,9 +279,30 @@ PILOT_FACES = 200_000
 PILOT_QUALITY = "standard"
 PILOT_CELLS = 256
 _PILOT_CACHE: dict[str, float] = {}
+#: seconds per pose of a stone's pilot renders, predicted before this machine has made any (the
+#: bundled biplane's first pilots took 0.32-0.44 s a pose on 2 cores); after, the running mean of
+#: its own (:func:`pilot_seconds_predicted`), kept in the pilot cache under :data:`PILOT_TIMING_KEY`
+PILOT_SECONDS_PER_POSE = 0.4
+#: the share of a time budget a never-seen stone's pilot renders may take (``pilot_seconds_max``):
+#: predicted to take longer, they are skipped and the plan says so (the budget's rungs need the rest)
+PILOT_BUDGET_SHARE = 0.25
+PILOT_TIMING_KEY = "seconds per pose"
 
 
-def measured_interreflection(mesh: Any, material: Any, scene: Any, timing: dict[str, float] | None = None) -> float:
+def pilot_seconds_predicted(poses: int) -> float:
+    """Seconds this machine's pilot renders of ``poses`` poses (at most :data:`PILOT_POSES`) are
+    predicted to take: its running mean seconds per pose (:data:`PILOT_SECONDS_PER_POSE` before any)."""
+    from .fileio import read_cache
+
+    try:
+        per_pose = float((read_cache(_pilot_cache_path()) or {}).get(PILOT_TIMING_KEY, PILOT_SECONDS_PER_POSE))
+    except (TypeError, ValueError):
+        per_pose = PILOT_SECONDS_PER_POSE
+    return min(int(poses), PILOT_POSES) * per_pose
+
+
+def measured_interreflection(mesh: Any, material: Any, scene: Any, timing: dict[str, float] | None = None,
+                             max_seconds: float | None = None) -> float | None:
     """The share of the best flash energy that light between the parts of ``mesh`` adds under
     ``scene`` (:func:`labcut.orientation.render_objective.interreflection_share` with pilot renders
     of :data:`PILOT_RESOLUTION`² px at :data:`PILOT_SPP` spp, seed 0, at most :data:`PILOT_POSES`
@@ -290,7 +311,10 @@ def measured_interreflection(mesh: Any, material: Any, scene: Any, timing: dict[
     scene's lights, views and poses), so a second plan of the same stone costs nothing. A stone of
     more than :data:`PILOT_FACES` triangles (a scan) is rendered as its clustered copy
     (:func:`pilot_mesh`): a 64-pixel pilot sees the same shape, at a fraction of the cost.
-    ``timing``: a dict that gets ``"pilot_seconds"``, the seconds the renders took (0 when cached)."""
+    ``timing``: a dict that gets ``"pilot_seconds"``, the seconds the renders took (0 when cached).
+    ``max_seconds``: the most the renders may take (a time budget's share): when they are not
+    cached and :func:`pilot_seconds_predicted` exceeds it, nothing is rendered and the answer is
+    None (not measured)."""
     import hashlib
     import json
 
@@ -310,6 +334,9 @@ def measured_interreflection(mesh: Any, material: Any, scene: Any, timing: dict[
     # what is rendered: the mesh itself (the key as before the copies), or its copy of PILOT_CELLS cells
     on_copy = f" copy {PILOT_CELLS} v2" if pilots_on_copy(mesh) else " v1"
     h.update(f"pilot {PILOT_RESOLUTION} {PILOT_SPP} {PILOT_POSES}{on_copy}".encode())
+    from . import __version__
+
+    h.update(f"labcut {__version__}".encode())  # a new release may render (or decide) otherwise
     key = h.hexdigest()[:32]
     if key in _PILOT_CACHE:
         return _PILOT_CACHE[key]
@@ -323,13 +350,20 @@ def measured_interreflection(mesh: Any, material: Any, scene: Any, timing: dict[
     if key in stored:
         _PILOT_CACHE[key] = stored[key]
         return stored[key]
+    if max_seconds is not None and pilot_seconds_predicted(len(settings)) > max_seconds:
+        return None
     t0 = time.perf_counter()
     value = interreflection_share(pilot_mesh(mesh), material, settings, resolution=PILOT_RESOLUTION, spp=PILOT_SPP)
+    took = time.perf_counter() - t0
     if timing is not None:
-        timing["pilot_seconds"] = time.perf_counter() - t0
+        timing["pilot_seconds"] = took
     _PILOT_CACHE[key] = value
+    per_pose = took / len(settings)
+    seen = stored.pop(PILOT_TIMING_KEY, None)
     stored[key] = value
-    write_cache(path, dict(list(stored.items())[-512:]))  # the latest 512 stones and scenes
+    stored = dict(list(stored.items())[-512:])  # the latest 512 stones and scenes
+    stored[PILOT_TIMING_KEY] = per_pose if seen is None else 0.5 * (seen + per_pose)
+    write_cache(path, stored)
     return value
 
 
@@ -370,14 +404,16 @@ def _pilot_cache_path() -> Any:
     return cache_path("planner-pilot.json")
 
 
-def plan_question(mesh: Any, setup: Any, command: str = "recommend", *, predict: bool = True) -> EffectPlan:
+def plan_question(mesh: Any, setup: Any, command: str = "recommend", *, predict: bool = True,
+                  pilot_seconds_max: float | None = None) -> EffectPlan:
     """The effect plan of a flash question (a :class:`~labcut.orientation.question.FlashQuestion`) about
     ``mesh``: :func:`plan_effects` given every part of it (material, scene, quality, estimator,
     effect overrides, zoning) and the pilots' scene (:func:`pilot_scene`). ``predict``: also
-    predict each estimator's seconds (on by default, as ``plan_effects``)."""
+    predict each estimator's seconds (on by default, as ``plan_effects``); ``pilot_seconds_max``:
+    as ``plan_effects``."""
     return plan_effects(mesh, setup.material, command=command, scenario=setup.scenario, quality=setup.quality,
                         estimator=setup.estimator, effects=setup.effect_overrides, zoning=setup.zoning,
-                        predict=predict, pilot_scene=pilot_scene(setup))
+                        predict=predict, pilot_scene=pilot_scene(setup), pilot_seconds_max=pilot_seconds_max)
 
 
 def pilot_scene(setup: Any) -> Any:
@@ -410,6 +446,7 @@ def plan_effects(
     views: int = 1,
     look: str = "diagram",
     pilot_scene: Any = None,
+    pilot_seconds_max: float | None = None,
 ) -> EffectPlan:
     """Decide which effects ``command`` simulates for a stone in a scene (module docstring).
 
@@ -426,7 +463,9 @@ def plan_effects(
     measure under (:func:`measured_interreflection`); default: ``scenario``, ``lighting`` and
     ``viewing`` drawn at :data:`PILOT_QUALITY` (a scene given as a :class:`~labcut.Scenario` object
     keeps its own directions: pass :func:`pilot_scene` of the question to pilot the question's scene at
-    that quality).
+    that quality). ``pilot_seconds_max``: the most those pilot renders may take (a time budget's
+    share): predicted to take longer (and not cached), they are not rendered, inter-reflection stays
+    off and its decision says why (None: no limit).
 
     Raises :class:`~labcut.errors.ParameterError` for combinations the scene cannot have (a
     polariser with mono colour, inter-reflection in a convex stone, an unknown effect ...).
@@ -526,11 +565,16 @@ def plan_effects(
             timing: dict[str, float] = {}
             if pilot_scene is None:  # drawn here, where pilots are needed: a plan without them never resolves it
                 pilot_scene = resolve_scene(scenario, lighting, viewing, PILOT_QUALITY)
-            measured = measured_interreflection(mesh, material, pilot_scene, timing=timing)
+            measured = measured_interreflection(mesh, material, pilot_scene, timing=timing, max_seconds=pilot_seconds_max)
             pilot_seconds = timing.get("pilot_seconds", 0.0)
-            facts["interreflection_measured"] = round(measured, 5)
+            if measured is None:  # the time budget has no room for the pilots: not measured, left off
+                skipped = pilot_seconds_predicted(min(len(pilot_scene.settings()), PILOT_POSES))
+                facts["interreflection_pilots_skipped_seconds"] = round(skipped, 3)
+            else:
+                facts["interreflection_measured"] = round(measured, 5)
         size = bound if measured is None else measured
         ir_on = forced.get("inter_reflection", size > INTERREFLECTION_TOLERANCE)
+        skipped = facts.get("interreflection_pilots_skipped_seconds")
         if measured is None:
             evidence = f"{share}: at most {bound:.1%} of the flash energy"
         else:
@@ -540,6 +584,10 @@ def plan_effects(
                         f"5 normals{on_copy}) differ by {measured:.1%} of the best flash ({share}: a bound of {bound:.1%})")
         if "inter_reflection" in forced:
             why = f"switched {'on' if ir_on else 'off'} ({evidence})"
+        elif skipped is not None:  # the time budget has no room to measure it: the surface samples answer
+            ir_on = False
+            why = (f"not measured: the time budget leaves {pilot_seconds_max:.2g} s for pilot renders predicted to take "
+                   f"{skipped:.2g} s, so the surface samples answer ({evidence}; a larger budget, or none, measures it)")
         elif ir_on:
             why = f"{evidence}, above the {INTERREFLECTION_TOLERANCE:.0%} the answer can miss"
         else:

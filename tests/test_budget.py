@@ -235,7 +235,7 @@ def test_a_first_plans_pilots_are_counted_and_kept_out_of_the_correction(monkeyp
     monkeypatch.setattr(planner, "_PILOT_CACHE", {})
     slow = {"n": 0}
 
-    def pilots(mesh, material, scene, timing=None):
+    def pilots(mesh, material, scene, timing=None, max_seconds=None):
         slow["n"] += 1
         time.sleep(0.4)
         if timing is not None:

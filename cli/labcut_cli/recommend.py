@@ -7,6 +7,7 @@ before an optional render starts, so a failing or interrupted render leaves the 
 from __future__ import annotations
 
 import json
+import time
 from pathlib import Path
 from typing import Annotated, Any, Optional
 
@@ -76,6 +77,13 @@ def _misorientation_table(rec) -> Table | None:
         worst = float(np.interp(miss, curve.miss_deg, curve.worst))
         table.add_row(f"{miss:g}°", f"{curve.kept_at(miss):.0%}", f"{worst:.0%}", *(f"{curve.kept_at(miss, s):.0%}" for s in sides))
     return table
+
+
+#: seconds of a time budget kept for writing the answer (JSON, tables) after the recommendation
+ANSWER_SECONDS = 0.1
+#: the least a time budget leaves the recommendation, however long the loading took (its cheapest
+#: rung then runs, with a note)
+MIN_BUDGET_SECONDS = 0.05
 
 
 def _scene_label(scene) -> str:
@@ -187,8 +195,9 @@ def recommend_orientation(
     seed: Annotated[int, typer.Option(help="Seed of the surface sampling.", min=0)] = 0,
     time_budget: Annotated[Optional[float], typer.Option(
         "--time-budget", metavar="SECONDS",
-        help="Seconds the recommendation may take: the most accurate quality predicted to fit on this machine replaces "
-             "--quality (docs/accuracy.md); below the cheapest setting's prediction that one runs, with a note.")] = None,
+        help="Seconds the whole call may take (loading the mesh, planning, the recommendation, its error bars and its "
+             "answer; --render comes after, on its own): the most accurate quality predicted to fit on this machine "
+             "replaces --quality (docs/accuracy.md); below the cheapest setting's prediction that one runs, with a note.")] = None,
     json_path: Annotated[Optional[str], typer.Option("--json", help="Write the result as JSON ('-' for stdout).")] = None,
     render_path: Annotated[Optional[Path], typer.Option("--render", help="Render the stone at the recommended orientation (.png/.exr), after the answer is written.")] = None,
     map_path: Annotated[Optional[Path], typer.Option("--map", help="Write a polar map of the score over the hemisphere (.png).")] = None,
@@ -205,6 +214,7 @@ def recommend_orientation(
     Angles: tilt from the face-up axis (+Z); azimuth from +X (the stone's right) towards +Y
     (its back): 0° right, 90° back, 180° left, 270° front (-Y).
     """
+    call_start = time.perf_counter()  # a time budget is the whole call's, from here
     estimator, effect, plan, plan_only = plan_options.estimator, plan_options.effect, plan_options.plan, plan_options.plan_only
     import labcut
     from labcut.errors import ParameterError
@@ -235,23 +245,28 @@ def recommend_orientation(
         from labcut.validation import check_budget
 
         check_budget(time_budget)
-    from labcut.planner import plan_question
+    from labcut.planner import PILOT_BUDGET_SHARE, plan_question
 
     mesh = mesh_options.load(mesh_path)
     the_plan = None
+    pilots_max = None if time_budget is None else PILOT_BUDGET_SHARE * time_budget
     if plan or plan_only or setup.effects or estimator != "auto" or zone is not None:  # a bad combination fails before the work
-        the_plan = plan_question(mesh, setup, "recommend")
+        the_plan = plan_question(mesh, setup, "recommend", pilot_seconds_max=pilots_max)
     if plan or plan_only:
         po.show(the_plan, mesh_path.name, to_stderr=json_path == "-")
         if plan_only:
             po.finish_plan_only(the_plan, json_path)
             return
 
+    before = time.perf_counter() - call_start  # loading and checking: spent of a time budget
+    remaining = None if time_budget is None else max(time_budget - before - ANSWER_SECONDS, MIN_BUDGET_SECONDS)
     with notes_after(), progress_bar("recommending", "%") as update:
         rec = labcut.recommend_orientation(
             mesh, setup=setup, optimizer=optimizer, progress=lambda stage, fraction: update(int(round(100 * fraction)), 100),
-            time_budget=time_budget, plan=None if time_budget is not None else the_plan,  # planned once
+            time_budget=remaining, plan=None if time_budget is not None else the_plan,  # planned once
         )
+    if time_budget is not None:  # the call's budget, and what went before the recommendation's share of it
+        rec.settings["time_budget"].update(call_budget_seconds=time_budget, before_seconds=before)
     data = rec.to_dict()
     data["mesh"]["path"] = str(mesh_path)
     if render_path is not None:
@@ -285,9 +300,10 @@ def recommend_orientation(
                       f"{rec.settings['triples']} (point, light, view) triples")
         if rec.settings.get("time_budget"):
             b = rec.settings["time_budget"]
-            console.print(f"time budget {b['budget_seconds']:g} s: quality {b['quality']} (predicted {b['predicted_seconds']:.2f} s, "
-                          f"took {rec.seconds:.2f} s; its error bars ±{rec.uncertainty.angle_deg:.1f}°, "
-                          f"±{rec.uncertainty.score_rel:.0%})", highlight=False)
+            console.print(f"time budget {b['call_budget_seconds']:g} s for the call ({b['before_seconds']:.2f} s loading, "
+                          f"{b['budget_seconds']:.2f} s left for the recommendation): quality {b['quality']} "
+                          f"(predicted {b['predicted_seconds']:.2f} s, took {rec.seconds:.2f} s; its error bars "
+                          f"±{rec.uncertainty.angle_deg:.1f}°, ±{rec.uncertainty.score_rel:.0%})", highlight=False)
         if rec.estimator == "render":
             r = rec.render
             console.print(f"render estimator ({r['integrator']}, depth {r['max_depth']}, {r['resolution']}² px, {r['spp']} spp): "

@@ -23,24 +23,26 @@ from ..orientation.recommend import Recommendation, answer_recommendation, build
 from ..orientation.scoring import FlashMetrics, Scorer
 from ..orientation.question import FlashQuestion
 from ..physics.material import Labradorite
-from ..planner import EffectPlan, occlusion_on, plan_question
+from ..planner import PILOT_BUDGET_SHARE, EffectPlan, occlusion_on, plan_question
 from ..scene import Lights, Scenario, Views
 from ..scene.directions import lamella_normal
 from ..scene.quality import Quality
-from ..validation import is_default
+from ..validation import check_budget, is_default
 
 
-def planned_scorer(mesh: Any, setup: FlashQuestion, command: str = "recommend", plan: Any = None) -> tuple[Scorer, Any]:
+def planned_scorer(mesh: Any, setup: FlashQuestion, command: str = "recommend", plan: Any = None, *,
+                   pilot_seconds_max: float | None = None) -> tuple[Scorer, Any]:
     """Plan the effects of ``setup`` on ``mesh`` (:func:`labcut.planner.plan_effects`; ``plan``: one
-    already made for them, used as it is) and build the sample estimator's problem as planned
-    (:func:`build_scorer`): ``(scorer, plan)``."""
+    already made for them, used as it is; ``pilot_seconds_max``: as there) and build the sample
+    estimator's problem as planned (:func:`build_scorer`): ``(scorer, plan)``."""
     validate_mesh(mesh)
     if plan is not None:
         if not isinstance(plan, EffectPlan) or plan.command not in ((command, "compare") if command == "recommend" else (command,)):
             raise ParameterError(f"plan must be the labcut.planner.plan_effects(..., command={command!r}) of this mesh "
                                  f"and question, got {plan!r:.80}")
     else:
-        plan = plan_question(mesh, setup, command, predict=command == "recommend")  # a recommendation's JSON holds its predicted seconds
+        plan = plan_question(mesh, setup, command, predict=command == "recommend",  # a recommendation's JSON holds its predicted seconds
+                             pilot_seconds_max=pilot_seconds_max)
     return build_scorer(mesh, setup, plan), plan
 
 
@@ -126,12 +128,13 @@ def recommend_orientation(
     ask = question(setup, material=material, scenario=scenario, lighting=lighting, viewing=viewing, objective=objective,
                    quality=quality, max_tilt=max_tilt, tilt_axis=tilt_axis, tau=tau, seed=seed, estimator=estimator,
                    effects=effects, zoning=zoning)
-    budget = None
+    budget = pilots_max = None
     if time_budget is not None:
         if plan is not None:
             raise ParameterError("give plan or time_budget, not both (the budget plans at the quality it chooses)")
         ask, budget = within_budget(mesh, ask, time_budget, quality_given=not is_default(quality, "standard"))
-    scorer, plan = planned_scorer(mesh, ask, "recommend", plan)
+        pilots_max = PILOT_BUDGET_SHARE * budget.budget_seconds
+    scorer, plan = planned_scorer(mesh, ask, "recommend", plan, pilot_seconds_max=pilots_max)
     rec = answer_recommendation(mesh, ask, scorer, plan, optimizer=optimizer, progress=report, budget=budget, start=start)
     if budget is not None:  # the calibration learns from this run (commands/budget.py)
         # what the calibration predicts: the recommendation, not the plans' pilot renders; the
@@ -150,7 +153,7 @@ def within_budget(mesh: Any, ask: FlashQuestion, time_budget: Any, *, quality_gi
     # a stone's first plan makes its pilot renders (at the pilot quality, whatever the rung: the rung's
     # plan finds them cached): their seconds are the budget's (the calibration's recommendations,
     # which the rungs are predicted from, include a plan but not its pilots)
-    plan = plan_question(mesh, ask, "recommend", predict=False)
+    plan = plan_question(mesh, ask, "recommend", predict=False, pilot_seconds_max=PILOT_BUDGET_SHARE * check_budget(time_budget))
     choice = choose(time_budget, ask.scene_spec, occlusion_on(Stone.of(mesh).convex, ask.effect_overrides), plan=plan)
     if choice.note:
         warnings.warn(choice.note, LabcutWarning, stacklevel=3)
