@@ -141,3 +141,8 @@ def test_the_table_keeps_long_cut_names_whole_at_80_columns(cli):
             if cells:
                 cells[-1] += fields[2].strip()
     assert cells == names  # folded, never cut
+
+
+def test_the_csv_gives_the_areas_in_mm2(two_sizes):
+    rows = [r for r in two_sizes.rows() if r["quantity"] in ("flash_area_mm2", "visible_area_mm2")]
+    assert rows and all(r["unit"] == "mm2" for r in rows)

@@ -303,7 +303,7 @@ def recommend_orientation(
             console.print(f"time budget {b['call_budget_seconds']:g} s for the call ({b['before_seconds']:.2f} s loading, "
                           f"{b['budget_seconds']:.2f} s left for the recommendation): quality {b['quality']} "
                           f"(predicted {b['predicted_seconds']:.2f} s, took {rec.seconds:.2f} s; its error bars "
-                          f"±{rec.uncertainty.angle_deg:.1f}°, ±{rec.uncertainty.score_rel:.0%})", highlight=False)
+                          f"±{rec.uncertainty.angle_deg:.1f}°, ±{rec.uncertainty.score_rel:.0%}, about 95 %)", highlight=False)
         if rec.estimator == "render":
             r = rec.render
             console.print(f"render estimator ({r['integrator']}, depth {r['max_depth']}, {r['resolution']}² px, {r['spp']} spp): "

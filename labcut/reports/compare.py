@@ -454,7 +454,8 @@ def csv_rows(data: dict[str, Any]) -> list[dict[str, Any]]:
                      "x": x, "x_unit": x_unit if x is not None else "", "y": y, "y_unit": y_unit if y is not None else ""})
 
     metric_units = {"flash_area": "fraction", "flash_intensity": "L_ref", "flash_energy": "L_ref", "coverage": "fraction",
-                    "balanced": "", "energy_in_flash": "L_ref", "energy_below_threshold": "L_ref"}
+                    "balanced": "", "energy_in_flash": "L_ref", "energy_below_threshold": "L_ref",
+                    "visible_area_mm2": "mm2", "flash_area_mm2": "mm2"}
     for s in data["scenarios"]:
         add("", s["name"], "", "exposure", data["exposures"].get(s["name"]), "multiplier")
     for c in data["cuts"]:
