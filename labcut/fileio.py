@@ -15,9 +15,9 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
-from .errors import LabcutError, OutputError, ParameterError
+from .errors import LabcutError, LabcutWarning, OutputError, ParameterError
 
-__all__ = ["atomic_output", "cache_path", "cached_array", "cached_arrays", "distinct_outputs", "calibration", "check_output_path", "check_outputs", "code_hash", "read_cache", "read_json", "write_cache"]
+__all__ = ["atomic_output", "cache_path", "cached_array", "cache_problem", "cached_arrays", "distinct_outputs", "calibration", "check_output_path", "check_outputs", "code_hash", "read_cache", "read_json", "write_cache"]
 
 
 def check_output_path(path: str | os.PathLike[str], suffixes: tuple[str, ...] | None = None, *, probe: bool = True) -> Path:
@@ -136,24 +136,57 @@ def cache_path(name: str) -> Path:
     return Path(user_cache_dir("labcut")) / name
 
 
+#: the cache problems this process has warned of (:func:`cache_problem`): each once
+_CACHE_WARNED: set[str] = set()
+
+
+def cache_problem(path: str | os.PathLike[str], detail: str, *, unwritable: bool = False) -> None:
+    """Warn, once per process for each file (each folder, ``unwritable``), that labcut's user cache
+    is damaged or cannot be written: the cache is only ever a saving, so the work goes on (what the
+    file held is computed again; what could not be written is computed again next run), and one
+    :class:`~labcut.errors.LabcutWarning` says so."""
+    import warnings
+
+    where = Path(path).parent if unwritable else Path(path)
+    if str(where) in _CACHE_WARNED:
+        return
+    _CACHE_WARNED.add(str(where))
+    detail = " ".join(str(detail).split())
+    if unwritable:
+        text = (f"labcut's cache folder {where} cannot be written ({detail}): nothing is kept for the next run, "
+                "which computes it again")
+    else:
+        text = f"labcut's cache file {where} is damaged ({detail}): ignored, and what it held is computed again"
+    warnings.warn(text, LabcutWarning, stacklevel=3)
+
+
 def read_cache(path: str | os.PathLike[str]) -> dict[str, Any] | None:
-    """The JSON object a cache file holds, or None when it is missing or unreadable (then the
-    caller measures again)."""
-    try:
-        data = json.loads(Path(path).read_text())
-    except (OSError, ValueError):
+    """The JSON object a cache file holds, or None when it is missing (then the caller measures
+    again); a file that cannot be read or holds no JSON object is None too, with one warning
+    (:func:`cache_problem`)."""
+    p = Path(path)
+    if not p.exists():
         return None
-    return data if isinstance(data, dict) else None
+    try:
+        data = json.loads(p.read_text())
+    except (OSError, ValueError) as exc:
+        cache_problem(p, exc.strerror if isinstance(exc, OSError) and exc.strerror else "not JSON")
+        return None
+    if not isinstance(data, dict):
+        cache_problem(p, "not a JSON object")
+        return None
+    return data
 
 
 def write_cache(path: str | os.PathLike[str], data: dict[str, Any]) -> None:
-    """Write a cache file atomically; a read-only cache folder is no error (measured again next time)."""
+    """Write a cache file atomically; a cache folder that cannot be written is no error (measured
+    again next time), with one warning (:func:`cache_problem`)."""
     try:
         Path(path).parent.mkdir(parents=True, exist_ok=True)
         with atomic_output(path, (".json",)) as tmp:
             tmp.write_text(json.dumps(data, indent=1) + "\n")
-    except (OSError, LabcutError):
-        pass
+    except (OSError, LabcutError) as exc:
+        cache_problem(path, getattr(exc, "strerror", None) or str(exc), unwritable=True)
 
 
 #: calibrations measured or read in this process: ``(file name, key) -> value``
@@ -213,12 +246,14 @@ def cached_array(name: str, key: str, build: Any, *, shape: tuple[int, ...], dty
     digest = hashlib.blake2b(key.encode(), digest_size=12).hexdigest()
     path = cache_path("tables") / f"{name}-{digest}.npy"
     want = np.dtype(dtype)
-    try:
-        value = np.load(path, allow_pickle=False)
-        if value.shape == tuple(shape) and value.dtype == want:
-            return value
-    except (OSError, ValueError, EOFError):
-        pass
+    if path.exists():
+        try:
+            value = np.load(path, allow_pickle=False)
+            if value.shape == tuple(shape) and value.dtype == want:
+                return value
+            cache_problem(path, f"holds {value.dtype}{value.shape}, not {want}{tuple(shape)}")
+        except (OSError, ValueError, EOFError) as exc:
+            cache_problem(path, getattr(exc, "strerror", None) or "not a NumPy array")
     value = np.asarray(build())
     if value.shape != tuple(shape) or value.dtype != want:
         raise ValueError(f"cached_array {name!r}: built {value.dtype}{value.shape}, expected {want}{tuple(shape)}")
@@ -226,8 +261,8 @@ def cached_array(name: str, key: str, build: Any, *, shape: tuple[int, ...], dty
         path.parent.mkdir(parents=True, exist_ok=True)
         with atomic_output(path, (".npy",)) as tmp:
             np.save(tmp, value, allow_pickle=False)
-    except (OSError, LabcutError):
-        pass
+    except (OSError, LabcutError) as exc:
+        cache_problem(path, getattr(exc, "strerror", None) or str(exc), unwritable=True)
     return value
 
 
@@ -245,23 +280,27 @@ def cached_arrays(name: str, key: str, build: Any) -> dict[str, Any]:
 
     digest = hashlib.blake2b(key.encode(), digest_size=16).hexdigest()
     path = cache_path("tables") / f"{name}-{digest}.npz"
-    try:
-        with np.load(path, allow_pickle=False) as held:
-            stored = {k: held[k] for k in held.files}
-        held_key = stored.pop("__key__", None)
-        if held_key is not None and str(held_key) == key and "__names__" in stored:
-            names = [str(n) for n in stored.pop("__names__")]
-            if sorted(names) == sorted(stored):
-                return stored
-    except (OSError, ValueError, EOFError, KeyError, zipfile.BadZipFile):
-        pass
+    if path.exists():
+        try:
+            with np.load(path, allow_pickle=False) as held:
+                stored = {k: held[k] for k in held.files}
+            held_key = stored.pop("__key__", None)
+            if held_key is not None and str(held_key) == key and "__names__" in stored:
+                names = [str(n) for n in stored.pop("__names__")]
+                if sorted(names) == sorted(stored):
+                    return stored
+            if held_key is None or "__names__" not in stored:
+                cache_problem(path, "not labcut's arrays")
+            # another key in the same file (a hash collision) or other names: built again, quietly
+        except (OSError, ValueError, EOFError, KeyError, zipfile.BadZipFile) as exc:
+            cache_problem(path, getattr(exc, "strerror", None) or "not a NumPy archive")
     value = {k: np.asarray(v) for k, v in build().items()}
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
         with atomic_output(path, (".npz",)) as tmp, open(tmp, "wb") as out:
             np.savez(out, __key__=np.array(key), __names__=np.array(sorted(value)), **value)
-    except (OSError, LabcutError):
-        pass
+    except (OSError, LabcutError) as exc:
+        cache_problem(path, getattr(exc, "strerror", None) or str(exc), unwritable=True)
     return value
 
 

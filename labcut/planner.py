@@ -340,12 +340,13 @@ def measured_interreflection(mesh: Any, material: Any, scene: Any, timing: dict[
     key = h.hexdigest()[:32]
     if key in _PILOT_CACHE:
         return _PILOT_CACHE[key]
-    from .fileio import read_cache, write_cache
+    from .fileio import cache_problem, read_cache, write_cache
 
     path = _pilot_cache_path()
     try:
         stored = {str(k): float(v) for k, v in (read_cache(path) or {}).items()}
     except (TypeError, ValueError):
+        cache_problem(path, "a value is not a number")
         stored = {}
     if key in stored:
         _PILOT_CACHE[key] = stored[key]

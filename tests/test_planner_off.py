@@ -114,20 +114,14 @@ def test_the_pendant_turns_inter_reflection_on_for_the_biplane():
 def test_an_environment_map_past_a_carvings_parts_needs_the_render_estimator():
     """The office ceiling (a map, ring scenario) seen past the biplane's wings: the sample
     estimator sees it through 32 directions at draft quality, each blocked or not for every point,
-    and its answer loses more than the tolerance of the flash that renders of the whole map find
-    (and sits degrees away); so the planner picks the render estimator, whose answer it is."""
+    so the planner picks the render estimator. That its answer is right (the samples' answer loses
+    more than the tolerance of the flash the renders find, and sits degrees away) is a study of
+    77 s of 2 cores: ``benchmarks/planner_off_check.py --only-environment`` (docs/planner.md)."""
     biplane = mesh("carving-biplane.ply")
     plan = plan_effects(biplane, scenario="ring", quality="draft", predict=False)
     assert plan.on("occlusion") and plan.on("environment") and not plan.on("inter_reflection")
     assert plan.estimator == "render" and "environment map" in plan.estimator_why
     assert plan.facts["map_directions"] == 32
-    samples = labcut.recommend_orientation(biplane, scenario="ring", quality="draft", estimator="samples")
-    renders = labcut.recommend_orientation(biplane, scenario="ring", quality="draft")
-    assert renders.estimator == "render" and renders.render["max_depth"] == 2
-    at_samples = labcut.evaluate_orientation(biplane, samples.normal, scenario="ring", quality="draft").flash_energy
-    loss = 1.0 - at_samples / renders.score
-    assert loss > TOL, loss
-    assert angle_deg(samples.normal, renders.normal) > 2.0
     # occlusion switched off (the user's choice): the samples answer, and say nothing is missing
     free = plan_effects(biplane, scenario="ring", quality="draft", predict=False, effects={"occlusion": False})
     assert free.estimator == "samples"

@@ -9,6 +9,8 @@ counts and that a damaged file is rebuilt, never read.
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pytest
 
@@ -171,3 +173,70 @@ def test_the_smooth_split_is_read_back_the_same_and_follows_the_mesh(cache):
     moved.vertices[0] += 1e-9
     smooth_split(moved, 30.0)
     assert len(list(cache.glob("smooth-split-*.npz"))) == 3
+
+
+# ----------------------------------------------------------------------------- damaged or unwritable: one warning
+@pytest.fixture
+def fresh_warnings(monkeypatch):
+    monkeypatch.setattr(fileio, "_CACHE_WARNED", set())
+
+
+def test_a_damaged_cache_file_is_ignored_with_one_warning(tmp_path, monkeypatch, fresh_warnings):
+    monkeypatch.setattr(fileio, "cache_path", lambda name: tmp_path / name)
+    bad = tmp_path / "c.json"
+    bad.write_text("{not json")
+    with pytest.warns(labcut.LabcutWarning, match=r"cache file .*c\.json is damaged \(not JSON\): ignored") as caught:
+        assert fileio.read_cache(bad) is None
+        assert fileio.read_cache(bad) is None  # once per file and process
+        assert fileio.calibration("c.json", "k", lambda: {"v": 1}) == {"v": 1}  # measured again, written over
+    assert len([w for w in caught if "damaged" in str(w.message)]) == 1
+    assert fileio.read_cache(bad) == {"k": {"v": 1}}
+    (tmp_path / "list.json").write_text("[1, 2]")
+    with pytest.warns(labcut.LabcutWarning, match="not a JSON object"):
+        assert fileio.read_cache(tmp_path / "list.json") is None
+    assert fileio.read_cache(tmp_path / "missing.json") is None  # a missing file is no damage: no warning
+
+
+def test_an_unwritable_cache_folder_warns_once(tmp_path, monkeypatch, fresh_warnings):
+    blocker = tmp_path / "file"
+    blocker.write_text("x")
+    monkeypatch.setattr(fileio, "cache_path", lambda name: blocker / name)  # a folder below a file
+    with pytest.warns(labcut.LabcutWarning, match="cannot be written") as caught:
+        for _ in range(3):
+            fileio.write_cache(blocker / "a.json", {"x": 1})
+            fileio.cached_array("t", "k", lambda: np.ones(3), shape=(3,), dtype=np.float64)
+    assert len([w for w in caught if "cannot be written" in str(w.message)]) == 2  # the folder, and tables/ below it
+
+
+def test_damaged_arrays_warn_once(cache, fresh_warnings):
+    fileio.cached_array("t", "k", lambda: np.ones(3), shape=(3,), dtype=np.float64)
+    (path,) = cache.glob("t-*.npy")
+    path.write_bytes(b"garbage")
+    with pytest.warns(labcut.LabcutWarning, match="is damaged"):
+        fileio.cached_array("t", "k", lambda: np.ones(3), shape=(3,), dtype=np.float64)
+    fileio.cached_arrays("s", "k", lambda: {"a": np.ones(2)})
+    (npz,) = cache.glob("s-*.npz")
+    npz.write_bytes(b"PK garbage")
+    with pytest.warns(labcut.LabcutWarning, match="is damaged"):
+        fileio.cached_arrays("s", "k", lambda: {"a": np.ones(2)})
+
+
+def test_damaged_pilot_and_budget_caches_are_ignored_with_a_warning(tmp_path, monkeypatch, fresh_warnings):
+    import labcut.planner as planner
+    from labcut.commands import budget
+
+    monkeypatch.setattr(planner, "_pilot_cache_path", lambda: tmp_path / "planner-pilot.json")
+    monkeypatch.setattr(planner, "_PILOT_CACHE", {})
+    (tmp_path / "planner-pilot.json").write_text('{"abc": "not a number"}')
+    mesh = labcut.load_mesh(planner.__file__.replace("labcut/planner.py", "meshes/carving-biplane.ply"))
+    from labcut.scene import resolve_scene
+
+    with pytest.warns(labcut.LabcutWarning, match="planner-pilot.json is damaged"):
+        assert planner.measured_interreflection(mesh, labcut.Labradorite(), resolve_scene("bench", None, None, "standard"),
+                                                max_seconds=0.0) is None
+    monkeypatch.setattr(budget, "corrections_path", lambda: tmp_path / "corrections.json")
+    from labcut.planner import sample_timing
+
+    (tmp_path / "corrections.json").write_text(json.dumps({"key": sample_timing().key, "plain": "fast"}))
+    with pytest.warns(labcut.LabcutWarning, match="corrections.json is damaged"):
+        assert budget.correction(False) == 1.0

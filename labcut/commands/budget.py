@@ -124,10 +124,15 @@ def _corrections() -> tuple[Any, dict[str, Any]]:
     from ..fileio import read_cache
     from ..planner import sample_timing
 
+    from ..fileio import cache_problem
+
     path = corrections_path()
     data = read_cache(path) or {}
     key = sample_timing().key
     if data.get("key") != key:
+        data = {"key": key}
+    elif not all(isinstance(v, int | float) and math.isfinite(v) for k, v in data.items() if k != "key"):
+        cache_problem(path, "a correction is not a number")
         data = {"key": key}
     return path, data
 
