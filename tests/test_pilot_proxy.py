@@ -58,6 +58,19 @@ def test_the_proxy_keeps_the_shape_within_its_cells(fine):
     assert len(np.unique(rot, axis=0)) == len(f)
 
 
+@pytest.mark.parametrize("cells", [256, 64, 7])
+def test_the_table_of_cells_and_the_sort_find_the_same_copy(fine, monkeypatch, cells):
+    """Grids of up to DENSE_CELLS cells find their occupied cells with a table, bigger ones by
+    sorting the keys: the same copy, vertex for vertex and face for face."""
+    from labcut.geometry import proxy as proxy_module
+
+    cell = float(np.linalg.norm(np.ptp(fine.bounds, axis=0))) / cells
+    table = clustered_proxy(fine, cell)
+    monkeypatch.setattr(proxy_module, "DENSE_CELLS", 0)
+    sorted_ = clustered_proxy(fine, cell)
+    assert np.array_equal(table.vertices, sorted_.vertices) and np.array_equal(table.faces, sorted_.faces)
+
+
 def test_bad_cells_are_one_line_errors(fine):
     for bad in (0.0, -1.0, float("nan"), float("inf"), "abc", None, [1.0]):
         with pytest.raises(ParameterError, match="cell_mm"):

@@ -21,6 +21,12 @@ from ..errors import MeshError, ParameterError
 from .stone import RECORD_KEY, Stone
 
 
+#: grids of at most this many cells find their occupied cells with a table over the grid (a byte
+#: and an int32 per cell: 160 MB at most) instead of sorting every vertex's cell key; the same
+#: cells and the same order either way
+DENSE_CELLS = 1 << 25
+
+
 def clustered_proxy(mesh: Any, cell_mm: float) -> Any:
     """A coarse copy of ``mesh`` (a ``trimesh.Trimesh``, mm) for renders whose pixels are several
     times ``cell_mm`` across: the vertices of each cube of a grid of side ``cell_mm`` (from the
@@ -56,7 +62,17 @@ def clustered_proxy(mesh: Any, cell_mm: float) -> Any:
     dims = grid.max(axis=0) + 1
     key = (grid[:, 0] * dims[1] + grid[:, 1]) * dims[2] + grid[:, 2]
     del grid
-    cells, inverse = np.unique(key, return_inverse=True)
+    total = int(np.prod(dims))
+    if total <= DENSE_CELLS:  # the occupied cells by a table over the grid: no sort of every vertex's key
+        present = np.zeros(total, dtype=bool)
+        present[key] = True
+        cells = np.flatnonzero(present)
+        rank = np.cumsum(present, dtype=np.int64 if total > np.iinfo(np.int32).max else np.int32) - 1
+        del present
+        inverse = rank[key].astype(np.int64)
+        del rank
+    else:
+        cells, inverse = np.unique(key, return_inverse=True)
     del key
     inverse = inverse.ravel()
     count = np.bincount(inverse, minlength=len(cells)).astype(np.float64)

@@ -439,7 +439,7 @@ def build_problem(
              for k, st in enumerate(settings)]
     pv_parts, pp_parts, pw_parts, vw_parts, offsets = [], [], [], [], []
     pair_offset = view_offset = 0
-    area_per_point = float(mesh.area) / count  # the samples are uniform over the surface
+    area_per_point = float(Stone.of(mesh).face_areas.sum()) / count  # the samples are uniform over the surface
     view_area = [visible_areas(st.views.directions, pose, n_geo, area_per_point) for st, pose in zip(settings, poses)]
     for k, (st, pose) in enumerate(zip(settings, poses)):
         pv_parts.append(pose.pv + view_offset)
