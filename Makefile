@@ -9,6 +9,8 @@ BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.labcut-installed
 OUT    ?= out/demo
 PYTEST_WORKERS ?= 2
+# more pytest options, e.g. PYTEST_ARGS=--durations=30
+PYTEST_ARGS ?=
 
 .PHONY: setup llvm chromium demo test clean help
 
@@ -49,7 +51,7 @@ demo: setup
 	@echo "demo outputs in $(OUT)/"
 
 test: setup
-	$(BIN)/python -m pytest -q -n $(PYTEST_WORKERS) tests
+	$(BIN)/python -m pytest -q -n $(PYTEST_WORKERS) $(PYTEST_ARGS) tests
 
 clean:
 	rm -rf $(VENV) out .pytest_cache .hypothesis
