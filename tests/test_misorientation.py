@@ -68,3 +68,20 @@ def test_the_table_shows_what_a_miss_keeps(cli):
     head = next(line for line in proc.stdout.splitlines() if "off by" in line)
     assert all(w in head for w in ("mean", "worst", "bottom", "top", "left", "right"))  # a pendant: worn upright
     assert any(line.split("│")[1].strip() == "5°" for line in proc.stdout.splitlines() if line.count("│") > 3)
+
+
+def test_a_parallel_instruction_says_how_it_fits_the_tilted_optimum(cli):
+    # bench on the low oval: the optimum leans a few degrees, the base keeps 90 %: "cut it parallel"
+    proc = cli("recommend-orientation", str(OVAL), "--quality", "draft")
+    assert proc.returncode == 0, proc.stderr
+    text = " ".join(proc.stdout.replace("│", " ").split())
+    assert "keep the lamella plane parallel to the base" in text
+    assert "how these fit" in text and "lamellae parallel to the base keep at least 90 %" in text
+    assert "90° back" in text and "front-to-back" in text  # lying face-up: +Y is the back
+
+
+def test_a_worn_upright_stone_names_plus_y_its_top_everywhere(cli):
+    proc = cli("recommend-orientation", str(OVAL), "--quality", "draft", "--scenario", "pendant")
+    text = " ".join(proc.stdout.replace("│", " ").split())
+    assert "90° top (+Y, the bail end, as worn)" in text and "top-to-bottom" in text
+    assert "90° back" not in text and "front-to-back" not in text

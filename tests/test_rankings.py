@@ -146,3 +146,11 @@ def test_the_table_keeps_long_cut_names_whole_at_80_columns(cli):
 def test_the_csv_gives_the_areas_in_mm2(two_sizes):
     rows = [r for r in two_sizes.rows() if r["quantity"] in ("flash_area_mm2", "visible_area_mm2")]
     assert rows and all(r["unit"] == "mm2" for r in rows)
+
+
+def test_each_scenario_of_the_report_names_plus_y_as_it_wears_the_stone():
+    from labcut.reports.html import context
+
+    cmp = labcut.compare_cuts(["cab:oval,16x12,low,res=48"], scenarios=["bench", "pendant"], **TINY)
+    plus_y = {s["name"]: s["plus_y"] for s in context(cmp)["scenarios"]}
+    assert plus_y == {"bench": "its back", "pendant": "its top, the bail end, as this scenario wears it upright"}
