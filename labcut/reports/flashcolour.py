@@ -115,7 +115,9 @@ def flash_colour_map(schiller_rgb: np.ndarray, mask: np.ndarray, threshold: floa
     rgb = np.nan_to_num(np.asarray(schiller_rgb, dtype=np.float64))
     xyz = linear_srgb_to_xyz(rgb)
     level = np.where(mask, np.clip(xyz[..., 1], 0.0, None) / float(threshold), 0.0)
-    wl = np.where(mask, dominant_wavelengths(rgb), np.nan)
+    inside = np.asarray(mask, dtype=bool)
+    wl = np.full(inside.shape, np.nan)
+    wl[inside] = dominant_wavelengths(rgb[inside])  # the stone's pixels only: the background has no flash
     return FlashColourMap(wl, level, np.asarray(mask, dtype=bool), colour_stats(rgb, wl, level, mask))
 
 
