@@ -93,6 +93,24 @@ def encode_srgb(linear: np.ndarray) -> np.ndarray:
     return np.where(x <= 0.0031308, 12.92 * x, 1.055 * np.power(x, 1.0 / 2.4) - 0.055)
 
 
+def spectral_srgb(wavelength_nm: Any) -> np.ndarray:
+    """The display colour (sRGB-encoded, in [0, 1], shape (..., 3)) of monochromatic light at each
+    wavelength (nm): its CIE 1931 XYZ in linear sRGB, brought into the gamut by adding white (the
+    hue kept, the least desaturation) and scaled so its largest channel is 1. A flash at 477 nm is
+    blue, at 560 nm yellow-green: what a figure that encodes flash colour should paint (a rainbow
+    colour map paints 477 nm green). NaN and wavelengths outside the tables give grey (0.5)."""
+    t = tables()
+    nm = np.asarray(wavelength_nm, dtype=np.float64)
+    ok = np.isfinite(nm) & (nm >= LAMBDA_MIN_NM) & (nm <= LAMBDA_MAX_NM)
+    safe = np.where(ok, nm, 550.0)
+    xyz = np.stack([np.interp(safe, t.wavelengths, t.xyz_bar[:, k]) for k in range(3)], axis=-1)
+    rgb = xyz_to_linear_srgb(xyz)
+    rgb = np.clip(rgb, 0.0, None)
+    peak = rgb.max(axis=-1, keepdims=True)
+    rgb = rgb / np.where(peak > 0, peak, 1.0)
+    return np.where(ok[..., None], encode_srgb(rgb), 0.5)
+
+
 def xy_chromaticity(xyz: np.ndarray) -> np.ndarray:
     xyz = np.asarray(xyz, dtype=np.float64)
     total = xyz.sum(axis=-1, keepdims=True)

@@ -228,15 +228,26 @@ def wavelength_range(cmp: Any) -> tuple[float, float]:
     return float(mid - half), float(mid + half)
 
 
+def spectral_colormap(lo: float, hi: float) -> Any:
+    """A matplotlib colour map over wavelengths ``lo``-``hi`` nm painting each wavelength in its own
+    colour (:func:`labcut.colour.spectral_srgb`), for the colour bars of flash-colour figures."""
+    from matplotlib.colors import ListedColormap
+
+    from ..colour import spectral_srgb
+
+    return ListedColormap(spectral_srgb(np.linspace(lo, hi, 256)), name="labcut-spectral")
+
+
 def colour_map_rgba(fm: Any, lo: float, hi: float) -> np.ndarray:
-    """The RGBA picture of a flash-colour map: flashing pixels in the wavelength colour scale,
+    """The RGBA picture of a flash-colour map: flashing pixels in the colour of their dominant
+    wavelength (:func:`labcut.colour.spectral_srgb`: a 477 nm flash is blue),
     pixels below the threshold in the same colours faded by their level, the rest of the stone
     grey, background transparent."""
-    plt = _plt()
-    cmap = plt.get_cmap("turbo")
+    from ..colour import spectral_srgb
+
     lam = fm.wavelength_nm
-    t = np.clip((np.nan_to_num(lam, nan=lo) - lo) / max(hi - lo, 1e-9), 0.0, 1.0)
-    coloured = cmap(t)
+    coloured = np.concatenate([spectral_srgb(np.clip(np.nan_to_num(lam, nan=lo), lo, hi)),
+                               np.ones(lam.shape + (1,))], axis=-1)
     grey = np.array([0.78, 0.78, 0.78, 1.0])
     alpha = np.clip(fm.level, 0.0, 1.0)[..., None] ** 0.5
     alpha = np.where(fm.level[..., None] >= 1.0, 1.0, 0.6 * alpha)
@@ -250,7 +261,7 @@ def colour_map_rgba(fm: Any, lo: float, hi: float) -> np.ndarray:
 
 def colour_maps(cmp: Any, scenario: str) -> bytes:
     """Per cut, the dominant wavelength of the flash over the stone as the main viewer sees it,
-    one wavelength scale for the whole report; faded where the schiller stays below the
+    each pixel in that wavelength's own colour, one wavelength scale for the whole report; faded where the schiller stays below the
     threshold, grey where there is none; magenta for purples."""
     plt = _plt()
     from matplotlib.cm import ScalarMappable
@@ -274,8 +285,8 @@ def colour_maps(cmp: Any, scenario: str) -> bytes:
         ax.axis("off")
     for k in range(len(cuts), rows * cols):
         axes[k // cols][k % cols].axis("off")
-    fig.colorbar(ScalarMappable(Normalize(lo, hi), plt.get_cmap("turbo")), ax=axes, shrink=0.85,
-                 label="dominant wavelength, nm")
+    fig.colorbar(ScalarMappable(Normalize(lo, hi), spectral_colormap(lo, hi)), ax=axes, shrink=0.85,
+                 label="dominant wavelength, nm (each in its own colour)")
     return png(fig)
 
 
