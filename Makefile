@@ -51,7 +51,7 @@ demo: setup
 	@echo "demo outputs in $(OUT)/"
 
 test: setup
-	$(BIN)/python -m pytest -q -n $(PYTEST_WORKERS) $(PYTEST_ARGS) tests
+	$(BIN)/python -m pytest -q -n $(PYTEST_WORKERS) --dist worksteal $(PYTEST_ARGS) tests
 
 clean:
 	rm -rf $(VENV) out .pytest_cache .hypothesis
