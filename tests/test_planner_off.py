@@ -113,7 +113,7 @@ def test_the_measured_share_decides_against_the_tolerance(scenario, monkeypatch)
     assert (MEASURED[scenario] > TOL) is (scenario == "pendant")  # the one bundled scenario that turns it on
 
 
-@pytest.mark.parametrize("scenario", ["bench", "display"])
+@pytest.mark.parametrize("scenario", ["bench"])
 def test_inter_reflection_left_off_for_the_biplane_changes_its_energy_less_than_the_tolerance(scenario):
     """Where the pilot renders leave light between the biplane's parts off, the render estimator
     with paths of depth 4 (every lobe carries light between the parts) scores the planner's
@@ -140,17 +140,22 @@ def test_an_environment_map_past_a_carvings_parts_needs_the_render_estimator():
     so the planner picks the render estimator. That its answer is right (the samples' answer loses
     more than the tolerance of the flash the renders find, and sits degrees away) is a study of
     77 s of 2 cores: ``benchmarks/planner_off_check.py --only-environment`` (docs/planner.md)."""
+    import labcut.planner as planner
+
     biplane = mesh("carving-biplane.ply")
-    plan = plan_effects(biplane, scenario="ring", quality="draft", predict=False)
+    # the ring's pilots (40 s in a fresh suite) stubbed at their measured share: this test is the map's
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(planner, "measured_interreflection", lambda *a, **k: MEASURED["ring"])
+        plan = plan_effects(biplane, scenario="ring", quality="draft", predict=False)
+        free = plan_effects(biplane, scenario="ring", quality="draft", predict=False, effects={"occlusion": False})
+        forced = plan_effects(biplane, scenario="ring", quality="draft", predict=False, estimator="samples")
+        cmp = plan_effects(biplane, scenario="ring", quality="draft", predict=False, command="compare")
     assert plan.on("occlusion") and plan.on("environment") and not plan.on("inter_reflection")
     assert plan.estimator == "render" and "environment map" in plan.estimator_why
     assert plan.facts["map_directions"] == 32
     # occlusion switched off (the user's choice): the samples answer, and say nothing is missing
-    free = plan_effects(biplane, scenario="ring", quality="draft", predict=False, effects={"occlusion": False})
     assert free.estimator == "samples"
-    forced = plan_effects(biplane, scenario="ring", quality="draft", predict=False, estimator="samples")
     assert "32 directions only" in forced.estimator_why
-    cmp = plan_effects(biplane, scenario="ring", quality="draft", predict=False, command="compare")
     assert cmp.estimator == "samples" and "environment map" in cmp.estimator_why and "left out" in cmp.estimator_why
 
 
