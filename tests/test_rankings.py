@@ -154,3 +154,11 @@ def test_each_scenario_of_the_report_names_plus_y_as_it_wears_the_stone():
     cmp = labcut.compare_cuts(["cab:oval,16x12,low,res=48"], scenarios=["bench", "pendant"], **TINY)
     plus_y = {s["name"]: s["plus_y"] for s in context(cmp)["scenarios"]}
     assert plus_y == {"bench": "its back", "pendant": "its top, the bail end, as this scenario wears it upright"}
+
+
+def test_the_report_gives_the_flash_area_in_mm2(two_sizes):
+    from labcut.reports.html import render_html
+
+    text = render_html(two_sizes)
+    for i in (0, 1):
+        assert f"{two_sizes.result(i, 'bench').recommendation.metrics.flash_area_mm2:.3g} mm²" in text

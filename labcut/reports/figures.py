@@ -286,7 +286,7 @@ def colour_maps(cmp: Any, scenario: str) -> bytes:
     for k in range(len(cuts), rows * cols):
         axes[k // cols][k % cols].axis("off")
     fig.colorbar(ScalarMappable(Normalize(lo, hi), spectral_colormap(lo, hi)), ax=axes, shrink=0.85,
-                 label="dominant wavelength, nm (each in its own colour)")
+                 label="dominant λ, nm (its own colour)")
     return png(fig)
 
 
