@@ -313,8 +313,8 @@ def measured_interreflection(mesh: Any, material: Any, scene: Any, timing: dict[
     (:func:`pilot_mesh`): a 64-pixel pilot sees the same shape, at a fraction of the cost.
     ``timing``: a dict that gets ``"pilot_seconds"``, the seconds the renders took (0 when cached).
     ``max_seconds``: the most the renders may take (a time budget's share): when they are not
-    cached and :func:`pilot_seconds_predicted` exceeds it, nothing is rendered and the answer is
-    None (not measured)."""
+    cached and :func:`pilot_seconds_predicted` exceeds it, nothing is rendered, the answer is
+    None (not measured) and ``timing`` gets ``"pilot_seconds_skipped"``, the prediction."""
     import hashlib
     import json
 
@@ -351,8 +351,12 @@ def measured_interreflection(mesh: Any, material: Any, scene: Any, timing: dict[
     if key in stored:
         _PILOT_CACHE[key] = stored[key]
         return stored[key]
-    if max_seconds is not None and pilot_seconds_predicted(len(settings)) > max_seconds:
-        return None
+    if max_seconds is not None:
+        predicted = pilot_seconds_predicted(len(settings))
+        if predicted > max_seconds:
+            if timing is not None:
+                timing["pilot_seconds_skipped"] = predicted
+            return None
     t0 = time.perf_counter()
     value = interreflection_share(pilot_mesh(mesh), material, settings, resolution=PILOT_RESOLUTION, spp=PILOT_SPP)
     took = time.perf_counter() - t0
@@ -569,8 +573,7 @@ def plan_effects(
             measured = measured_interreflection(mesh, material, pilot_scene, timing=timing, max_seconds=pilot_seconds_max)
             pilot_seconds = timing.get("pilot_seconds", 0.0)
             if measured is None:  # the time budget has no room for the pilots: not measured, left off
-                skipped = pilot_seconds_predicted(min(len(pilot_scene.settings()), PILOT_POSES))
-                facts["interreflection_pilots_skipped_seconds"] = round(skipped, 3)
+                facts["interreflection_pilots_skipped_seconds"] = round(timing["pilot_seconds_skipped"], 3)
             else:
                 facts["interreflection_measured"] = round(measured, 5)
         size = bound if measured is None else measured
