@@ -60,7 +60,10 @@ def check_outputs(outputs: dict[str, tuple[Any, tuple[str, ...] | None]],
         if _same_file_key(path) in read:
             raise ParameterError(f"{option} {path} is also the input {read[_same_file_key(path)]}: writing it would "
                                  "replace what is being read; give the output its own path")
-        check_output_path(path, suffixes)
+        try:
+            check_output_path(path, suffixes)
+        except ParameterError as exc:  # name the option: a command may write several files
+            raise ParameterError(f"{option}: {exc}") from None
 
 
 def _same_file_key(path: Any) -> Path:

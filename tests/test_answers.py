@@ -67,9 +67,10 @@ def test_render_records_its_exposure(cli, tmp_path):
     assert proc.returncode == 0, proc.stderr
     data = json.loads(js.read_text())
     meta = read_png_metadata(png)
-    assert data["exposure_mode"] == meta["exposure_mode"] == "auto"
-    assert float(meta["exposure"]) == pytest.approx(data["exposure"]) and data["exposure"] > 0
-    assert "exposure" in proc.stdout
+    assert data["exposure_mode"] == meta["exposure_mode"] == "reference"
+    assert float(meta["exposure"]) == pytest.approx(data["exposure"]) == pytest.approx(data["exposure_reference"])
+    assert data["exposure"] > 0
+    assert data["exposure_vs_reference_ev"] == 0.0 and "reference exposure" in proc.stdout
     proc = cli("render", str(OVAL), "-o", str(png), "--resolution", "16", "--spp", "1", "--exposure", "2.5", "--json", str(js))
     assert proc.returncode == 0, proc.stderr
     assert json.loads(js.read_text())["exposure"] == 2.5 and read_png_metadata(png)["exposure_mode"] == "given"
@@ -80,11 +81,11 @@ def test_render_records_its_exposure(cli, tmp_path):
 
 
 def test_a_series_shares_one_exposure_and_says_where_there_is_no_flash(oval, tmp_path):
-    result = labcut.render(oval, LAB, (0.0, 0.5, 1.0), view="orbit", spp=1, resolution=16)
+    result = labcut.render(oval, LAB, (0.0, 0.5, 1.0), view="orbit", spp=1, resolution=16, exposure="auto")
     h, w = result.image.shape[:2]
     tiles = [result.image[r:r + h // 2, c:c + w // 4] for r in (0, h // 2) for c in range(0, w, w // 4)]
     assert len(tiles) == 8 and result.exposure == pytest.approx(shared_exposure(tiles))
-    assert result.exposure_mode == "auto"
+    assert result.exposure_mode == "auto" and result.exposure_vs_reference_ev > 1.0  # the orbit's views are dim
     # the optimiser's estimator per tile: some orbit views see no flash at this orientation, and say so
     assert [f["view"] for f in result.flash] == result.views
     dark = [f["view"] for f in result.flash if f["flash"] is False]

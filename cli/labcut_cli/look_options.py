@@ -1,4 +1,5 @@
-"""``--look`` and ``--denoise/--no-denoise``: how a render looks, shared by every command that renders."""
+"""``--look``, ``--denoise/--no-denoise`` and ``--exposure``: how a render looks, shared by every
+command that renders; and the lines that tell a person how a picture was exposed and where it flashes."""
 
 from __future__ import annotations
 
@@ -32,3 +33,57 @@ def spec(look: str, seed: int = 0) -> Any:
     except ParameterError:
         raise ParameterError(f"--look must be one of {', '.join(LOOKS)}, got {look!r}") from None
     return "diagram" if studio is None else Studio(seed=seed)
+
+
+EXPOSURE_HELP = ("Exposure of the PNG: reference (default: the bench's, one for every scene, so a dimmer scene looks "
+                 "dimmer), auto (brightened to this scene; the caption says by how many stops), a multiplier > 0, "
+                 "or stops like -1.5ev; one value for every frame of an animation.")
+Exposure = Annotated[str, typer.Option("--exposure", help=EXPOSURE_HELP)]
+
+
+def parse_exposure(text: str) -> float | str:
+    """``reference`` or ``auto`` -> that mode; ``2.5`` -> that multiplier; ``-1.5ev`` -> 2**-1.5 (stops).
+    Anything else is a one-line ParameterError naming --exposure."""
+    import math
+
+    from labcut.errors import ParameterError
+
+    bad = f"--exposure must be reference, auto, a multiplier > 0 or stops like -1.5ev, got {text!r}"
+    key = text.strip().lower()
+    if key in ("reference", "auto"):
+        return key
+    try:
+        value = float(key[:-2]) if key.endswith("ev") else float(key)
+    except ValueError:
+        raise ParameterError(bad) from None
+    if key.endswith("ev"):
+        if not (math.isfinite(value) and abs(value) <= 40.0):
+            raise ParameterError(f"--exposure in stops must be finite and within ±40, got {text!r}")
+        return 2.0 ** value
+    if not (math.isfinite(value) and value > 0.0):
+        raise ParameterError(bad)
+    return value
+
+
+def exposure_line(result: Any) -> str:
+    """How a PNG (a render or an animation) was exposed, for a person: the multiplier and stops,
+    the mode against the reference, and the option that repeats it."""
+    return (f"exposure {result.exposure:.3g} = {result.exposure_ev:+.2f} EV: {result.exposure_caption}; "
+            f"--exposure {result.exposure:.6g} repeats it")
+
+
+def exposure_json(result: Any) -> dict[str, Any]:
+    """The JSON fields of a PNG's exposure (a render or an animation)."""
+    return {"exposure": result.exposure, "exposure_ev": result.exposure_ev, "exposure_mode": result.exposure_mode,
+            "exposure_reference": result.exposure_reference,
+            "exposure_vs_reference_ev": result.exposure_vs_reference_ev, "exposure_caption": result.exposure_caption}
+
+
+def flash_mask_line(result: Any, path: Any) -> str:
+    """The flash mask's share of the stone beside the estimator's flash area, view by view."""
+    parts = []
+    for f, v in zip(result.flash, result.flash_mask.to_dict()["by_view"]):
+        est = "edge-on" if f["flash_area"] is None else f"{f['flash_area']:.0%}"
+        parts.append(f"{v['share']:.0%} of the stone's pixels flash (the estimator's flash area: {est})"
+                     + ("" if len(result.flash) == 1 else f" from {v['view']}"))
+    return f"flash mask written to {path}: " + "; ".join(parts)

@@ -23,7 +23,6 @@ from . import scene_options as so
 from .root import all_or_nothing, app, check_outputs, console, figure_after_answer, normal_or_angles, notes_after, parse_vector, write_json
 
 Quality = Annotated[str, typer.Option(help="draft, standard or high.")]
-Exposure = Annotated[str, typer.Option("--exposure", help="Exposure of the PNG: auto (from the image) or a multiplier > 0.")]
 
 
 def _metrics_table(title: str, metrics) -> Table:
@@ -122,24 +121,6 @@ def _answer_table(rec, name: str, scene) -> Table:
     return table
 
 
-def parse_exposure(text: str) -> float | None:
-    """``auto`` -> None; a number -> that exposure multiplier (finite, > 0)."""
-    import math
-
-    from labcut.errors import ParameterError
-
-    key = text.strip().lower()
-    if key == "auto":
-        return None
-    try:
-        value = float(key)
-    except ValueError:
-        raise ParameterError(f"--exposure must be auto or a number > 0, got {text!r}") from None
-    if not (math.isfinite(value) and value > 0):
-        raise ParameterError(f"--exposure must be auto or a finite number > 0, got {text!r}")
-    return value
-
-
 #: what a library parameter is called on this command line, for its one-line errors
 _OPTION_NAMES = {"objective": "--objective", "quality": "--quality", "max_tilt": "--max-tilt",
                  "tilt axis": "--tilt-axis", "seed": "--seed"}
@@ -165,7 +146,7 @@ def render_summary(result: Any, path: Path | str) -> dict[str, Any]:
     """The JSON block of a render: where it went, its plan, its exposure, and whether it shows a flash."""
     return {
         "path": str(path), "plan": result.plan.to_dict(), "scenario": result.scenario, "views": result.views,
-        "spp": result.spp, "exposure": result.exposure, "exposure_mode": result.exposure_mode,
+        "spp": result.spp, **lo.exposure_json(result),
         "flash_by_view": result.flash, "notes": result.notes,
     }
 
@@ -201,9 +182,13 @@ def recommend_orientation(
     json_path: Annotated[Optional[str], typer.Option("--json", help="Write the result as JSON ('-' for stdout).")] = None,
     render_path: Annotated[Optional[Path], typer.Option("--render", help="Render the stone at the recommended orientation (.png/.exr), after the answer is written.")] = None,
     map_path: Annotated[Optional[Path], typer.Option("--map", help="Write a polar map of the score over the hemisphere (.png).")] = None,
+    flash_mask_path: Annotated[Optional[Path], typer.Option(
+        "--flash-mask", metavar="PNG",
+        help="With --render: also write its picture with the pixels that flash marked (the metrics' threshold), "
+             "their share of the stone reported beside the estimator's flash area of the view.")] = None,
     spp: Annotated[int, typer.Option(help="Samples per pixel of --render.", min=1)] = 64,
     resolution: Annotated[int, typer.Option(help="Width and height of --render in pixels.", min=8, max=8192)] = 512,
-    exposure: Exposure = "auto",
+    exposure: lo.Exposure = "reference",
     look: lo.Look = "studio",
     denoise: lo.Denoise = None,
     plan_options: Any = None,  # --estimator, --effect, --plan, --plan-only (plan_options.takes_plan_options)
@@ -225,10 +210,12 @@ def recommend_orientation(
 
     # validate everything before the work starts
     check_outputs({"--json": (json_path, (".json",)), "--render": (render_path, (".png", ".exr")),
-                   "--map": (map_path, (".png",))}, ctx)
+                   "--map": (map_path, (".png",)), "--flash-mask": (flash_mask_path, (".png",))}, ctx)
+    if flash_mask_path is not None and render_path is None:
+        raise ParameterError("--flash-mask marks the flash on the --render picture: give --render too")
     if optimizer not in OPTIMIZERS:
         raise ParameterError(f"--optimizer must be one of {', '.join(OPTIMIZERS)}, got {optimizer!r}")
-    exposure_value = parse_exposure(exposure)
+    exposure_value = lo.parse_exposure(exposure)
     quality_or_budget(quality is not None, time_budget is not None, flags=True)
     quality = quality or "standard"
     # the whole question, checked once (FlashQuestion.build); the library takes it as it is
@@ -328,16 +315,24 @@ def recommend_orientation(
             from labcut.scene import normalize_normal
 
             assert render_ask is not None
-            result = render_checked(mesh, render_ask.replace(scenario=rec.scenario), normalize_normal(rec.normal), progress=update)
+            result = render_checked(mesh, render_ask.replace(scenario=rec.scenario), normalize_normal(rec.normal), progress=update,
+                                    flash_mask=flash_mask_path is not None)
         with all_or_nothing() as written:
             result.save(render_path)
             written.append(Path(render_path))
+            if flash_mask_path is not None:
+                result.save_flash_mask(flash_mask_path)
+                written.append(Path(flash_mask_path))
             if json_path not in (None, "-"):
                 data["render"] = render_summary(result, render_path)
+                if flash_mask_path is not None:
+                    data["render"]["flash_mask"] = {"path": str(flash_mask_path), **result.flash_mask.to_dict()}
                 write_json(json_path, data)
     if not quiet:
         print_render_notes(result)
-        console.print(f"render written to {render_path} (exposure {result.exposure:.3g}, {result.exposure_mode})")
+        console.print(f"render written to {render_path} ({lo.exposure_line(result)})")
+        if flash_mask_path is not None:
+            console.print(lo.flash_mask_line(result, flash_mask_path), highlight=False)
 
 
 @app.command("evaluate-orientation")

@@ -20,28 +20,6 @@ STILL_SUFFIXES = (".png", ".exr")
 ANIMATION_SUFFIXES = (".webp", ".gif")
 
 
-def parse_exposure(text: str) -> float | None:
-    """``auto`` -> None; ``2.5`` -> that multiplier; ``-1.5ev`` -> 2**-1.5 (stops)."""
-    import math
-
-    from labcut.errors import ParameterError
-
-    key = text.strip().lower()
-    if key == "auto":
-        return None
-    try:
-        value = float(key[:-2]) if key.endswith("ev") else float(key)
-    except ValueError:
-        raise ParameterError(f"--exposure must be auto, a multiplier > 0 or stops like -1.5ev, got {text!r}") from None
-    if key.endswith("ev"):
-        if not (math.isfinite(value) and abs(value) <= 40.0):
-            raise ParameterError(f"--exposure in stops must be finite and within ±40, got {text!r}")
-        return 2.0 ** value
-    if not (math.isfinite(value) and value > 0.0):
-        raise ParameterError(f"--exposure must be auto, a multiplier > 0 or stops like -1.5ev, got {text!r}")
-    return value
-
-
 def parse_normal(text: str) -> tuple[float, ...]:
     """``X,Y,Z`` or a recommendation JSON (``labcut recommend-orientation --json``) holding ``normal``."""
     from labcut.errors import ParameterError
@@ -90,7 +68,11 @@ def render(
     rock_deg: Annotated[float, typer.Option(help="Rocking amplitude of --animate rock, degrees.")] = 30.0,
     fps: Annotated[float, typer.Option(help="Frames per second of an animation.")] = 24.0,
     seed: Annotated[int, typer.Option(help="Seed of the studio body's inclusions and of the sampler.")] = 0,
-    exposure: Annotated[str, typer.Option("--exposure", help="Exposure: auto (studio: metered from the lights; diagram: from the image), a multiplier > 0, or stops like -1.5ev; one value for every frame of an animation.")] = "auto",
+    exposure: lo.Exposure = "reference",
+    flash_mask: Annotated[Optional[Path], typer.Option(
+        "--flash-mask", metavar="PNG",
+        help="Also write the picture with the pixels that flash marked (the metrics' threshold, tau 0.1, from the same "
+             "camera); their share of the stone is reported beside the estimator's flash area of the view.")] = None,
     json_path: Annotated[Optional[str], typer.Option("--json", help="Write the render plan and timing as JSON ('-' for stdout).")] = None,
     plan: po.Plan = False,
     plan_only: po.PlanOnly = False,
@@ -119,9 +101,12 @@ def render(
             raise ParameterError("--animate renders the scenario's main view in rgb: leave out --view, --polarizer, --mode and --schiller-only")
         if time_budget is not None:
             raise ParameterError("--time-budget chooses the samples per pixel of one image: give --spp for an animation")
+        if flash_mask is not None:
+            raise ParameterError("--flash-mask marks the flash of one picture: leave it out of an animation")
     elif output.suffix.lower() in ANIMATION_SUFFIXES:
         raise ParameterError(f"{output.name!r} is an animation file: add --animate rock or --animate turntable")
-    check_outputs({"--output": (output, ANIMATION_SUFFIXES if animate else IMAGE_SUFFIXES), "--json": (json_path, (".json",))}, ctx)
+    check_outputs({"--output": (output, ANIMATION_SUFFIXES if animate else IMAGE_SUFFIXES), "--json": (json_path, (".json",)),
+                   "--flash-mask": (flash_mask, (".png",))}, ctx)
     lamella = normalize_normal(parse_normal(normal))
     zoning_spec = m.build_zoning(zoning, material)
     view_spec: str | tuple[float, float] = view
@@ -132,7 +117,7 @@ def render(
     setup = _option_error(lambda: RenderRequest.build(
         material, scene, view=view_spec, spp=spp, time_budget=time_budget, resolution=resolution, mode=mode,
         polarizer_deg=polarizer, lobes=("schiller",) if schiller_only else LOBES, seed=seed, zoning=zoning_spec,
-        exposure=parse_exposure(exposure), look=lo.spec(look, seed), denoise=denoise))
+        exposure=lo.parse_exposure(exposure), look=lo.spec(look, seed), denoise=denoise))
     mesh = mesh_options.load(mesh_path)
     if plan or plan_only:
         from labcut.planner import plan_effects
@@ -148,7 +133,7 @@ def render(
         _animate(mesh_path, mesh, lamella, setup, move, output, json_path)
         return
     with notes_after(), progress_bar("rendering", "samples/pixel") as update:
-        result = render_checked(mesh, setup, lamella, progress=update)
+        result = render_checked(mesh, setup, lamella, progress=update, flash_mask=flash_mask is not None)
     summary = {
         "output": str(output),
         "mesh": {**result.mesh, "path": str(mesh_path)},
@@ -164,34 +149,35 @@ def render(
         "views": result.views,
         "look": result.look,
         "denoised": result.plan.denoise,
-        "exposure": result.exposure if output.suffix.lower() == ".png" else None,
-        "exposure_ev": result.exposure_ev if output.suffix.lower() == ".png" else None,
-        "exposure_mode": result.exposure_mode if output.suffix.lower() == ".png" else "linear (EXR: no exposure applied)",
+        **(lo.exposure_json(result) if output.suffix.lower() == ".png" else
+           {"exposure": None, "exposure_ev": None, "exposure_mode": "linear (EXR: no exposure applied)"}),
         "exposure_metering": result.exposure_metering,
         "tonemap": result.tonemap,
         "studio": result.studio,
         "flash_by_view": result.flash,
         "notes": result.notes,
     }
-    if _write(result, output, summary, json_path, zoning_spec):
+    if flash_mask is not None:
+        summary["flash_mask"] = {"path": str(flash_mask), **result.flash_mask.to_dict()}
+    if _write(result, output, summary, json_path, zoning_spec, flash_mask):
         return
     mo.print_provenance(mesh, mesh_path.name)
     console.print(f"[bold]{output}[/]: {'; '.join(result.plan.reasons)}")
     print_render_notes(result)
-    exposure_text = (f"exposure {result.exposure:.3g} = {result.exposure_ev:+.2f} EV ({result.exposure_mode}, "
-                     f"{'metered from the lights' if result.exposure_metering == 'incident' else 'from the image'}; "
-                     f"--exposure {result.exposure:.6g} repeats it)" if output.suffix.lower() == ".png"
-                     else "linear HDR, no exposure")
+    exposure_text = lo.exposure_line(result) if output.suffix.lower() == ".png" else "linear HDR, no exposure"
     console.print(f"{result.spp} spp at {resolution}², {result.seconds:.1f} s ({result.samples_per_second / 1e6:.2f} Msamples/s); "
                   f"{exposure_text}")
+    if flash_mask is not None:
+        console.print(lo.flash_mask_line(result, flash_mask), highlight=False)
     if result.budget:
         console.print(f"time budget {result.budget['budget_seconds']:g} s: {result.spp} spp (predicted "
                       f"{result.budget['predicted_seconds']:.2f} s, took {result.seconds:.2f} s)", highlight=False)
 
 
-def _write(made: Any, output: Path, summary: dict[str, Any], json_path: Optional[str], zoning_spec: Any) -> bool:
-    """Save a render or an animation and its JSON summary, all or nothing; True when the JSON went
-    to stdout (then nothing else is printed)."""
+def _write(made: Any, output: Path, summary: dict[str, Any], json_path: Optional[str], zoning_spec: Any,
+           flash_mask: Optional[Path] = None) -> bool:
+    """Save a render or an animation (and a render's flash mask) and its JSON summary, all or
+    nothing; True when the JSON went to stdout (then nothing else is printed)."""
     import json
 
     if zoning_spec is not None:
@@ -199,6 +185,9 @@ def _write(made: Any, output: Path, summary: dict[str, Any], json_path: Optional
     with all_or_nothing() as written:
         made.save(output)
         written.append(Path(output))
+        if flash_mask is not None:
+            made.save_flash_mask(flash_mask)
+            written.append(Path(flash_mask))
         if json_path == "-":
             typer.echo(json.dumps(summary, indent=2))
             return True
@@ -246,9 +235,7 @@ def _animate(mesh_path: Path, mesh, lamella, setup, move, output: Path, json_pat
         "resolution": setup.resolution,
         "seconds": anim.seconds,
         "look": anim.look,
-        "exposure": anim.exposure,
-        "exposure_ev": anim.exposure_ev,
-        "exposure_mode": anim.exposure_mode,
+        **lo.exposure_json(anim),
         "tonemap": anim.tonemap,
         "studio": anim.studio,
         "notes": anim.notes,
@@ -257,5 +244,4 @@ def _animate(mesh_path: Path, mesh, lamella, setup, move, output: Path, json_pat
         return
     console.print(f"[bold]{output}[/]: {len(anim.frames)} frames of {motion}, {'; '.join(anim.plan.reasons)}")
     print_render_notes(anim)
-    console.print(f"{anim.spp} spp at {setup.resolution}², {anim.seconds:.1f} s; exposure {anim.exposure:.3g} = {anim.exposure_ev:+.2f} EV "
-                  f"({anim.exposure_mode}) for every frame; --exposure {anim.exposure:.6g} repeats it")
+    console.print(f"{anim.spp} spp at {setup.resolution}², {anim.seconds:.1f} s; every frame: {lo.exposure_line(anim)}")

@@ -52,10 +52,23 @@ class Animation:
     look: str
     notes: list[str] = field(default_factory=list)
     studio: dict[str, Any] = field(default_factory=dict)
+    #: the look's reference exposure (:func:`labcut.rendering.exposure.reference_exposure`)
+    exposure_reference: float = 1.0
 
     @property
     def exposure_ev(self) -> float:
         return float(math.log2(self.exposure))
+
+    @property
+    def exposure_vs_reference_ev(self) -> float:
+        """Stops the frames' exposure lies over the look's reference."""
+        return float(math.log2(self.exposure / self.exposure_reference))
+
+    @property
+    def exposure_caption(self) -> str:
+        from ..rendering.exposure import exposure_caption
+
+        return exposure_caption(self.exposure_mode, self.exposure_vs_reference_ev)
 
     def save(self, path: str | Path) -> Path:
         """Write an animated WebP (quality 90) or GIF, atomically (by suffix)."""
@@ -79,7 +92,7 @@ def posed(scenario: Scenario, motion: str, angle_deg: float) -> Scenario:
 #: :class:`Motion` they stay at these)
 _ANIMATION_DEFAULTS: dict[str, Any] = {
     "material": None, "scenario": None, "lighting": None, "viewing": None, "spp": 16, "resolution": 320,
-    "exposure": None, "look": "studio", "denoise": None, "zoning": None, "seed": 0, "frames": 36,
+    "exposure": "reference", "look": "studio", "denoise": None, "zoning": None, "seed": 0, "frames": 36,
     "amplitude_deg": 30.0, "fps": 24.0,
 }
 
@@ -98,7 +111,7 @@ def animate(
     viewing: Any = None,
     spp: int = 16,
     resolution: int = 320,
-    exposure: float | None = None,
+    exposure: float | str | None = "reference",
     look: Any = "studio",
     denoise: bool | None = None,
     zoning: Any = None,
@@ -110,7 +123,8 @@ def animate(
     """Render ``frames`` frames of ``motion`` (``rock`` | ``turntable``) under the scenario's lights
     from its main view (see the module docstring) and optionally write them to ``output``
     (.webp or .gif). ``progress(done_frames, frames)`` is called after each frame. ``exposure``:
-    a multiplier for every frame (None: the rest pose's automatic exposure, reused for all).
+    for every frame: ``"reference"`` (default: the look's, as every render), ``"auto"`` (the rest
+    pose's automatic exposure, reused for all) or a multiplier.
 
     ``motion`` may be a validated :class:`~labcut.rendering.request.Motion` (then ``frames``,
     ``amplitude_deg`` and ``fps`` are its own), and ``setup`` a validated
@@ -147,23 +161,22 @@ def animate(
     angles = move.angles_deg
     images: list[np.ndarray] = []
     plan = None
-    used = setup.exposure
-    mode = "given" if used is not None else "auto"
+    used: float | str = setup.exposure  # "reference", "auto" or a multiplier
+    mode = used if isinstance(used, str) else "given"
+    reference = 1.0
     tone, look_name, notes, studio = "agx", "studio", [], {}
     start = time.perf_counter()
     for i, angle in enumerate(angles):
         frame = setup.replace(scenario=posed(setup.scenario, move.motion, angle), exposure=used)
         result = render_checked(mesh, frame, normal, check_flash=(i == 0))
-        if used is None:
-            used = result.exposure  # the rest pose's (frame 0: angle 0) automatic exposure, for every frame
-        if i == 0:
+        if i == 0:  # the rest pose's (frame 0: angle 0) exposure, for every frame
+            used, reference = result.exposure, result.exposure_reference
             plan, tone, look_name, notes, studio = result.plan, result.tonemap, result.look, result.notes, result.studio
         images.append(result.image)
         if progress is not None:
             progress(i + 1, len(angles))
-    assert used is not None
     anim = Animation(images, move.motion, angles, float(used), mode, tone, plan, int(setup.spp), time.perf_counter() - start,
-                     float(move.fps), look_name, notes, studio)
+                     float(move.fps), look_name, notes, studio, reference)
     if output is not None:
         anim.save(output)
     return anim

@@ -21,6 +21,7 @@ from ..geometry.meshio import validate_mesh
 from ..geometry.stone import mesh_of
 from ..physics.material import Labradorite
 from ..orientation.flash_check import flash_by_view
+from ..orientation.flash_mask import flash_mask as flash_mask_of
 from ..planner import plan_effects
 from ..rendering.api import LOBES, RenderResult, plan_for, render_image, render_question
 from .render_budget import choose_spp
@@ -50,8 +51,9 @@ def render(
     output: str | Path | None = None,
     progress: Callable[[int, int], None] | None = None,
     zoning: Any = None,
-    exposure: float | None = None,
+    exposure: float | str | None = "reference",
     check_flash: bool = True,
+    flash_mask: bool = False,
     look: Any = "diagram",
     denoise: bool | None = None,
     time_budget: float | None = None,
@@ -83,15 +85,22 @@ def render(
     zoning: ``None`` | ``"smooth"`` | ``"sharp"`` | a :class:`~labcut.rendering.zoning.Zoning`:
         colour zones, lamella parameters blended through the stone by a noise field
         (paper §3.2.2; docs/zoning.md). Presets are built on ``material``.
-    exposure: the PNG exposure multiplier (> 0); None (default) picks one automatically: in the
-        diagram look from the whole image (so the tiles of an orbit share one exposure), in the
-        studio look from the lights, as an incident-light meter would (a card of 18 % grey facing
-        the camera renders at middle grey: a dull stone stays dull). Recorded on the result and
-        in the PNG (as a multiplier and in stops); pass the same value to every render of a series.
+    exposure: the PNG exposure (:mod:`labcut.rendering.exposure`): ``"reference"`` (default; None
+        too) tonemaps every render of a look with one exposure, the bench scenario's metered from
+        its lamps, so a dimmer scene looks dimmer and renders of a series compare; ``"auto"``
+        brightens to the scene (studio look: metered from its lights, as an incident-light meter
+        would; diagram look: from the whole image, the tiles of an orbit sharing it) and the
+        result says by how many stops (:attr:`RenderResult.exposure_vs_reference_ev`); a
+        multiplier > 0 is used as given. Recorded on the result and in the PNG.
     look: ``"diagram"`` (default) or ``"studio"`` / a :class:`~labcut.rendering.studio.Studio`: a
         photograph of the stone on a table under the scenario's lamps (module docstring).
     denoise: None (default: on in the studio look for rgb/spectral colour), True or False: OIDN
         demodulated by a noise-free shading guide, with the normal (:mod:`labcut.rendering.denoise`).
+    flash_mask: also render which pixels flash by the metrics' threshold (``tau`` 0.1, the lights
+        as the metrics model them, the render's cameras and framing): ``RenderResult.flash_mask``
+        (:class:`~labcut.orientation.flash_mask.FlashMask`; its share of the stone's pixels is the
+        view's flash area as a render sees it), drawn over the picture by
+        :meth:`RenderResult.save_flash_mask`.
     check_flash: estimate, per camera, whether any part of the stone flashes from there (the
         surface-sample estimator at draft quality, the material without zoning); a view with
         none gets a note (:attr:`RenderResult.notes`): an auto-exposed image of glare and body
@@ -115,14 +124,14 @@ def render(
         from ..fileio import check_output_path
 
         check_output_path(output, (".png", ".exr"))
-    result = render_checked(mesh, ask, normal, progress=progress, check_flash=check_flash)
+    result = render_checked(mesh, ask, normal, progress=progress, check_flash=check_flash, flash_mask=flash_mask)
     if output is not None:
         result.save(output)
     return result
 
 
 def render_checked(mesh: Any, ask: Any, normal: np.ndarray, *, progress: Callable[[int, int], None] | None = None,
-                 check_flash: bool = True) -> RenderResult:
+                 check_flash: bool = True, flash_mask: bool = False) -> RenderResult:
     """:func:`render` of a checked mesh, :class:`~labcut.rendering.request.RenderRequest` ``ask`` and
     unit lamella ``normal`` (checks nothing again); the result is not saved."""
     rplan = plan_for(mesh, ask)
@@ -143,4 +152,19 @@ def render_checked(mesh: Any, ask: Any, normal: np.ndarray, *, progress: Callabl
     result = render_image(mesh, ask, normal, int(spp), progress=progress, effects=effects, budget=budget)
     if check_flash:
         result.flash, result.notes = flash_by_view(mesh, ask.material, normal, ask.scenario.main_setting(), ask.cameras)
+    if flash_mask:
+        result.flash_mask = mask_of_render(mesh, ask, normal)
     return result
+
+
+def mask_of_render(mesh: Any, ask: Any, normal: np.ndarray) -> Any:
+    """The :class:`~labcut.orientation.flash_mask.FlashMask` of a render request: its cameras,
+    resolution and framing (the studio look's perspective camera, or the diagram's), the rest
+    pose's lights as the metrics model them."""
+    studio = ask.studio
+    if studio is None:
+        framing: dict[str, Any] = {"perspective": ask.perspective}
+    else:
+        framing = {"perspective": True, "fov_deg": studio.fov_deg, "margin": studio.margin, "far_radii": 200.0}
+    return flash_mask_of(mesh, ask.material, normal, ask.scenario.main_setting(), ask.cameras, ask.resolution,
+                         **framing)

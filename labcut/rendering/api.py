@@ -44,6 +44,7 @@ import numpy as np
 from ..errors import ParameterError
 from ..geometry.stone import Stone
 from ..physics.material import Labradorite
+from .exposure import choose_exposure, studio_irradiance_at_camera
 from .images import save_image
 from ..scene import Setting, resolve_scene
 from ..scene.directions import normalize_normal
@@ -58,16 +59,19 @@ class RenderResult:
     """A rendered image (linear RGB, float32, H x W x 3) and how it was made.
 
     ``exposure``: the multiplier a PNG of it is tonemapped with, one for the whole image (the
-    tiles of an orbit share it): automatic (:func:`~labcut.rendering.images.auto_exposure`) unless
-    given (``exposure_mode`` ``"auto"`` / ``"given"``). ``flash``: per view, its name, the flash
+    tiles of an orbit share it; :mod:`labcut.rendering.exposure`): by default the look's
+    reference (``exposure_mode`` ``"reference"``: the bench's, the same for every scene, so a
+    dimmer scene looks dimmer), or brightened to the scene (``"auto"``), or ``"given"``;
+    ``exposure_reference``: the look's reference exposure (:attr:`exposure_vs_reference_ev` the
+    stops over it). ``flash``: per view, its name, the flash
     area the estimator finds there (share of the visible stone at or above the flash threshold;
     None where the view sees the stone edge-on) and whether there is any. ``notes``: what a
     viewer of the image should know (e.g. "no flash from this view"). ``mesh``: the mesh's
     provenance (:meth:`labcut.Stone.provenance_dict`). ``look``: ``diagram`` or ``studio``;
-    ``tonemap``: the PNG's tone curve (``hue`` or ``agx``); ``exposure_metering``: how an automatic
-    exposure was found (``image``: from the image's bright pixels; ``incident``: from the lights,
-    as an incident-light meter would, so a dull stone stays dull); ``studio``: the studio
-    settings and lamps used."""
+    ``tonemap``: the PNG's tone curve (``hue`` or ``agx``); ``exposure_metering``: how the
+    exposure was found (``reference``: the bench's metered from its lamps; ``image``: from the
+    image's bright pixels; ``incident``: from this scene's lights, as an incident-light meter
+    would, so a dull stone stays dull; ``given``); ``studio``: the studio settings and lamps used."""
 
     image: np.ndarray
     plan: RenderPlan
@@ -76,21 +80,37 @@ class RenderResult:
     views: list[str] = field(default_factory=list)
     scenario: dict[str, Any] = field(default_factory=dict)
     exposure: float = 1.0
-    exposure_mode: str = "auto"
+    exposure_mode: str = "reference"
     flash: list[dict[str, Any]] = field(default_factory=list)
     notes: list[str] = field(default_factory=list)
     mesh: dict[str, Any] = field(default_factory=dict)
     look: str = "diagram"
     tonemap: str = "hue"
-    exposure_metering: str = "image"
+    exposure_metering: str = "reference"
     studio: dict[str, Any] = field(default_factory=dict)
     #: ``time_budget=``'s choice (:class:`labcut.commands.render_budget.SppChoice` as a dict), or empty
     budget: dict[str, Any] = field(default_factory=dict)
+    exposure_reference: float = 1.0
+    #: which pixels flash by the metrics' threshold (:class:`labcut.orientation.flash_mask.FlashMask`),
+    #: when asked for (``labcut.render(..., flash_mask=True)``), else None
+    flash_mask: Any = None
 
     @property
     def exposure_ev(self) -> float:
         """The exposure in stops (log2 of the multiplier)."""
         return float(math.log2(self.exposure))
+
+    @property
+    def exposure_vs_reference_ev(self) -> float:
+        """Stops the exposure lies over the look's reference (0: the reference; > 0 brighter)."""
+        return float(math.log2(self.exposure / self.exposure_reference))
+
+    @property
+    def exposure_caption(self) -> str:
+        """One line for a caption: the reference, or how many stops over it and why."""
+        from .exposure import exposure_caption
+
+        return exposure_caption(self.exposure_mode, self.exposure_vs_reference_ev)
 
     @property
     def samples_per_second(self) -> float:
@@ -123,10 +143,26 @@ class RenderResult:
             from .images import tonemap
 
             tonemap(np.zeros((1, 1, 3)), exposure)  # validates
-            self.exposure, self.exposure_mode = float(exposure), "given"
+            self.exposure, self.exposure_mode, self.exposure_metering = float(exposure), "given", "given"
         meta = {"views": self.views, "flash": self.flash, "plan": "; ".join(self.plan.reasons), "look": self.look,
-                "exposure_metering": self.exposure_metering}
+                "exposure_metering": self.exposure_metering, "exposure_reference": self.exposure_reference,
+                "exposure_vs_reference_ev": round(self.exposure_vs_reference_ev, 3),
+                "exposure_caption": self.exposure_caption}
         return save_image(self.image, path, self.exposure, metadata=meta, exposure_mode=self.exposure_mode, curve=self.tonemap)
+
+
+    def save_flash_mask(self, path: str | Path) -> Path:
+        """Write the flash mask over the render's PNG picture (same exposure and tone curve) as a
+        PNG, atomically: the flashing pixels marked, the rest dimmed; its text records the share
+        of the stone's pixels that flash and the threshold."""
+        from .images import save_picture, to_uint8
+
+        if self.flash_mask is None:
+            raise ParameterError("this render has no flash mask: render with flash_mask=True")
+        picture = to_uint8(np.nan_to_num(self.image), self.exposure, self.tonemap)
+        meta = {"flash_mask": self.flash_mask.to_dict(), "views": self.views, "flash": self.flash,
+                "exposure": repr(float(self.exposure)), "exposure_caption": self.exposure_caption}
+        return save_picture(self.flash_mask.overlay(picture), path, meta)
 
 
 def plan_for(mesh: Any, ask: Any) -> RenderPlan:
@@ -283,7 +319,7 @@ def _polarizer_intensity(image: np.ndarray, angle_deg: float) -> np.ndarray:
 _REQUEST_DEFAULTS: dict[str, Any] = {
     "material": None, "scenario": None, "lighting": None, "viewing": None, "view": "main", "spp": None,
     "resolution": 512, "mode": "rgb", "polarizer_deg": None, "lobes": LOBES, "max_depth": None, "perspective": False,
-    "seed": 0, "zoning": None, "exposure": None, "look": "diagram", "denoise": None, "time_budget": None,
+    "seed": 0, "zoning": None, "exposure": "reference", "look": "diagram", "denoise": None, "time_budget": None,
 }
 
 
@@ -311,8 +347,6 @@ def render_image(mesh: Any, ask: Any, normal: np.ndarray, spp: int, *,
     the render itself, as :func:`labcut.render` runs it once it has chosen ``spp`` (a time budget's
     choice, ``budget``) and recorded the effect plan (``effects``, its ``to_dict()``)."""
     import drjit as dr
-
-    from .images import auto_exposure
 
     studio = ask.studio
     scenario_used = ask.scenario
@@ -366,49 +400,42 @@ def render_image(mesh: Any, ask: Any, normal: np.ndarray, spp: int, *,
         image = np.concatenate(rows, axis=0)
     log.info("render plan: %s", "; ".join(plan.reasons))
     image = np.ascontiguousarray(image)
-    studio_info: dict[str, Any] = {}
-    if studio is None:
-        auto = auto_exposure(np.clip(np.nan_to_num(image), 0.0, None))
-    else:
-        auto, studio_info = studio_exposure(mesh, setting, studio, views)
+    studio_info: dict[str, Any] = {} if studio is None else studio_record(setting, studio, views)
+    chosen = choose_exposure(ask.exposure, studio, setting, views, image)
     plan = dataclasses.replace(plan, effects=effect_plan)
-    exposure = ask.exposure
     result = RenderResult(
         image, plan, int(spp), seconds, [v.name for v in views], scenario_used.to_dict(),
-        exposure=float(exposure) if exposure is not None else auto,
-        exposure_mode="given" if exposure is not None else "auto",
+        exposure=chosen.value,
+        exposure_mode=chosen.mode,
         mesh=Stone.of(mesh).provenance_dict(),
         look=plan.look,
         tonemap="hue" if studio is None else "agx",
-        exposure_metering="image" if studio is None else "incident",
+        exposure_metering=chosen.metering,
         studio=studio_info,
         budget={} if budget is None else budget.to_dict(),
+        exposure_reference=chosen.reference,
     )
     return result
 
 
-def studio_exposure(mesh: Any, setting: Setting, look: Any, views: Sequence[CameraView]) -> tuple[float, dict[str, Any]]:
-    """The incident-light exposure of a studio render (:func:`labcut.rendering.tonemap.metered_exposure`)
-    metered towards the first camera, and a record of the studio settings and lamps (mesh frame)."""
+def studio_record(setting: Setting, look: Any, views: Sequence[CameraView]) -> dict[str, Any]:
+    """A record of a studio render's settings and lamps (mesh frame), with the irradiance on a card
+    facing its first camera (render units)."""
     from .studio import lamps_of, resolve_look, studio_environment
-    from .tonemap import metered_exposure
-    from .studio import irradiance_at_camera
 
     studio = resolve_look(look)
     if studio is None:
-        raise ParameterError("studio_exposure needs the studio look")
+        raise ParameterError("studio_record needs the studio look")
     scale = RENDER_IRRADIANCE / float(np.sum(setting.lights.weights))
     lamps = lamps_of(setting.lights, studio.point_lamp_deg)
     env = studio_environment(setting, studio, scale)
-    e = irradiance_at_camera(lamps, env, views[0].direction, scale)
-    info = {
+    return {
         **studio.to_dict(),
         "lamps": [{"direction": list(lamp.direction), "radius_deg": lamp.radius_deg, "point_lamp": lamp.point,
                    "irradiance": lamp.irradiance * scale} for lamp in lamps],
         "environment": env.name,
-        "irradiance_at_camera": e,
+        "irradiance_at_camera": studio_irradiance_at_camera(setting, studio, views[0].direction),
     }
-    return metered_exposure(e), info
 
 
 @contextlib.contextmanager

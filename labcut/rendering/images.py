@@ -87,8 +87,6 @@ def save_image(image: np.ndarray, path: str | os.PathLike[str], exposure: float 
     (a caller that computed the automatic exposure itself passes ``"auto"``). An EXR is linear:
     no exposure is applied. ``curve``: the tone curve (:func:`tonemap`), recorded as
     ``labcut:tonemap`` with ``labcut:exposure_ev`` (log2 of the exposure)."""
-    import json
-
     import mitsuba as mi
 
     out = Path(path)
@@ -99,19 +97,39 @@ def save_image(image: np.ndarray, path: str | os.PathLike[str], exposure: float 
         if suffix == ".exr":
             mi.Bitmap(np.ascontiguousarray(image, dtype=np.float32), mi.Bitmap.PixelFormat.RGB).write(str(tmp))
         else:
-            from PIL import Image, PngImagePlugin
+            from PIL import Image
 
             x = np.clip(np.nan_to_num(np.asarray(image, dtype=np.float64)), 0.0, None)
             mode = exposure_mode or ("auto" if exposure is None else "given")
             used = auto_exposure(x) if exposure is None else exposure
-            ldr = to_uint8(x, used, curve)
-            info = PngImagePlugin.PngInfo()
-            info.add_text("Software", "labcut")
-            info.add_text("labcut:exposure", repr(float(used)))
-            info.add_text("labcut:exposure_ev", repr(float(np.log2(used))))
-            info.add_text("labcut:exposure_mode", mode)
-            info.add_text("labcut:tonemap", curve)
-            for key, value in (metadata or {}).items():
-                info.add_text(f"labcut:{key}", value if isinstance(value, str) else json.dumps(value, allow_nan=False))
-            Image.fromarray(ldr, "RGB").save(tmp, format="PNG", pnginfo=info)
+            fields = {"exposure": repr(float(used)), "exposure_ev": repr(float(np.log2(used))), "exposure_mode": mode,
+                      "tonemap": curve, **(metadata or {})}
+            Image.fromarray(to_uint8(x, used, curve), "RGB").save(tmp, format="PNG", pnginfo=_png_text(fields))
+    return out
+
+
+def _png_text(metadata: dict[str, object]) -> object:
+    """PNG text chunks: ``Software`` = labcut and each ``labcut:<key>`` (non-strings as JSON)."""
+    import json
+
+    from PIL import PngImagePlugin
+
+    info = PngImagePlugin.PngInfo()
+    info.add_text("Software", "labcut")
+    for key, value in metadata.items():
+        info.add_text(f"labcut:{key}", value if isinstance(value, str) else json.dumps(value, allow_nan=False))
+    return info
+
+
+def save_picture(picture: np.ndarray, path: str | os.PathLike[str], metadata: dict[str, object] | None = None) -> Path:
+    """Write a display picture (H x W x 3 uint8, sRGB) as a PNG, atomically, with ``metadata`` as
+    ``labcut:<key>`` text (non-strings as JSON)."""
+    from PIL import Image
+
+    out = Path(path)
+    if out.suffix.lower() != ".png":
+        raise ParameterError(f"picture file {out.name!r} must end in .png")
+    with atomic_output(out, (".png",)) as tmp:
+        Image.fromarray(np.ascontiguousarray(picture, dtype=np.uint8), "RGB").save(tmp, format="PNG",
+                                                                                  pnginfo=_png_text(metadata or {}))
     return out

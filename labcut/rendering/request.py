@@ -4,7 +4,7 @@ Everything but the stone and the lamella normal that decides a :func:`labcut.ren
 material, the scenario (its rest pose's lights and main viewer, mesh frame), the cameras, the
 samples per pixel or a time budget, resolution (px), colour mode, polarizer angle (degrees),
 lobes, path depth, look (:class:`~labcut.rendering.studio.Studio` or the diagram look),
-denoising, colour zoning, exposure (a multiplier, or None for automatic) and the sampler seed.
+denoising, colour zoning, exposure (``reference``, ``auto`` or a multiplier) and the sampler seed.
 :meth:`RenderRequest.build` is the one place these are checked: the CLI builds a setup once, before
 the mesh is read, and hands it to :func:`labcut.render` / :func:`labcut.commands.animate.animate`,
 which do not check again. :class:`Motion` does the same for an animation's motion.
@@ -50,8 +50,9 @@ class RenderRequest:
     seed: int = 0
     #: colour zones (a :class:`~labcut.rendering.zoning.Zoning`), or None for a uniform material
     zoning: Any = None
-    #: the PNG exposure multiplier, or None: automatic
-    exposure: float | None = None
+    #: the PNG exposure: ``"reference"`` (the bench's, one for every scene), ``"auto"`` (brightened to
+    #: the scene) or a multiplier (:mod:`labcut.rendering.exposure`)
+    exposure: float | str = "reference"
     #: a :class:`~labcut.rendering.studio.Studio`, or None: the diagram look
     studio: Any = None
     denoise: bool | None = None
@@ -79,7 +80,7 @@ class RenderRequest:
         perspective: bool = False,
         seed: int = 0,
         zoning: Any = None,
-        exposure: float | None = None,
+        exposure: float | str | None = "reference",
         look: Any = "diagram",
         denoise: bool | None = None,
     ) -> RenderRequest:
@@ -120,10 +121,9 @@ class RenderRequest:
         if max_depth is not None:
             max_depth = check_number(max_depth, "max_depth", 1, 64, integer=True)
         seed_v = check_number(seed, "seed", 0, 2**31 - 1, integer=True)
-        if exposure is not None:
-            from .tonemap import check_exposure
+        from .exposure import check_mode
 
-            exposure = check_exposure(exposure)
+        exposure = check_mode(exposure)
         studio = resolve_look(look)
         if denoise is not None and not isinstance(denoise, bool):
             raise ParameterError(f"denoise must be True, False or None, got {denoise!r}")

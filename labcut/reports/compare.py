@@ -5,7 +5,7 @@ Every cut gets, under every chosen scenario, its own best lamella orientation
 (:func:`labcut.reports.analysis.compromise`). For each (cut, scenario) the comparison holds the
 answer in a cutter's words, its tolerance (overall and per axis), the flash metrics and the same
 normalised to a reference cut, the carat weight and a rank; a tilt-performance curve, a
-misorientation curve, renders (one exposure per scenario, shared by every cut), a rocking strip,
+misorientation curve, renders (one reference exposure for every cut and scenario), a rocking strip,
 the score map and a flash-colour map. :meth:`Comparison.save_html` writes the report page,
 :meth:`Comparison.to_dict` / :meth:`Comparison.save_json` / :meth:`Comparison.save_csv` every
 number in it (docs/compare.md).
@@ -705,16 +705,13 @@ def rank_and_normalise(cuts: Sequence[CutResult], scenarios: Sequence[Any], refe
     """Finish a comparison of ``cuts`` (each with its per-scenario results): per scenario the ranks
     by flash energy and every value of :data:`NORMALISED` over the ``reference`` cut's, each cut's
     overall score (the mean over scenarios of its energy at the compromise orientation over the
-    reference's) and its overall rank. Returns one exposure per scenario, shared by every cut's
-    renders and rocking strip."""
-    from ..rendering.images import shared_exposure
+    reference's) and its overall rank. Returns the exposure of each scenario's renders and rocking
+    strips: the diagram look's reference (:func:`labcut.rendering.exposure.reference_exposure`),
+    one for every cut and scenario, so a scenario whose light reaches the viewer less looks
+    dimmer, as it is."""
+    from ..rendering.exposure import reference_exposure
 
-    exposures = {}
-    for sc in scenarios:
-        images = []
-        for c in cuts:
-            images += [c.scenarios[sc.name].renders.main, *c.scenarios[sc.name].renders.strip]
-        exposures[sc.name] = shared_exposure(images)
+    exposures = {sc.name: reference_exposure(None) for sc in scenarios}
     refc = cuts[reference]
     for sc in scenarios:
         rs = [c.scenarios[sc.name] for c in cuts]

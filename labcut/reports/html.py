@@ -57,8 +57,8 @@ COMPARE_DEFINITIONS = {
                               "values are purples' complementary wavelengths",
     "flash_fraction": "share of the stone's pixels in the schiller-only render at or above tau x L_ref: the main view's "
                       "flash area as the render sees it (noisier than the estimator's under environment light)",
-    "exposure": "the multiplier every render and rocking-strip frame of a scenario is tonemapped with: one for all cuts, "
-                "so brightness differences between their pictures are real",
+    "exposure": "the multiplier every render and rocking-strip frame is tonemapped with: the bench reference, one for "
+                "all cuts and all scenarios, so brightness differences between their pictures are real",
 }
 
 TEMPLATE = "compare.html.j2"
