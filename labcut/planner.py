@@ -831,15 +831,17 @@ def predict_evaluate_seconds(settings: Sequence[Any], surface_points: int, occlu
 
 
 #: the two image sizes (px, spp) a render's calibration times
-_RENDER_CAL = ((64, 4), (192, 32))
+_RENDER_CAL = ((96, 4), (256, 4), (256, 32))
 
 
 def render_command_timing(mode: str, polarised: bool, integrator: str, look: str = "diagram",
-                          refresh: bool = False) -> tuple[float, float]:
-    """``(fixed, per_sample)`` seconds of :func:`labcut.render` on this machine for one colour
-    ``mode``, with or without a polariser, with the ``direct`` or the ``path`` integrator: two
-    timed renders of a 10 mm sphere (the scenario ``bench``, the ``look``, :data:`_RENDER_CAL`
-    sizes; the ``path`` integrator to depth 4, the carvings' default), each after one warm-up.
+                          refresh: bool = False) -> tuple[float, float, float]:
+    """``(fixed, per_sample, per_pixel)`` seconds of :func:`labcut.render` on this machine for one
+    colour ``mode``, with or without a polariser, with the ``direct`` or the ``path`` integrator:
+    three timed renders of a 10 mm sphere (the scenario ``bench``, the ``look``, :data:`_RENDER_CAL`
+    sizes; the ``path`` integrator to depth 4, the carvings' default), each after one warm-up. The
+    per-pixel term is what does not grow with the samples: the studio look's denoiser (its guide
+    and normal passes, OIDN) and the image's own handling.
     Measured once per key (a second or two) and kept in the user cache (``planner-render-timing.json``),
     again when Mitsuba's or labcut's version or the CPU count differ."""
     import os
@@ -850,7 +852,7 @@ def render_command_timing(mode: str, polarised: bool, integrator: str, look: str
     from . import __version__
     from .fileio import calibration
 
-    key = f"{mode} {'polarised' if polarised else 'plain'} {integrator} {look} | mitsuba {mi.__version__} labcut {__version__} cpus {os.cpu_count()} v2"
+    key = f"{mode} {'polarised' if polarised else 'plain'} {integrator} {look} | mitsuba {mi.__version__} labcut {__version__} cpus {os.cpu_count()} v3"
 
     def measure() -> dict[str, float]:
         import trimesh
@@ -872,12 +874,12 @@ def render_command_timing(mode: str, polarised: bool, integrator: str, look: str
                 render_once(sphere, mat, normal, res, n, kw)  # warm: kernels
                 t = time.perf_counter()
                 render_once(sphere, mat, normal, res, n, kw)
-                rows.append((res * res * n, time.perf_counter() - t))
-        return linear_fit(rows)
+                rows.append((res * res, n, time.perf_counter() - t))
+        return pixel_sample_fit(rows)
 
     value = calibration("planner-render-timing.json", key, measure, refresh=refresh,
-                        check=lambda v: (float(v["fixed"]), float(v["per_sample"])))
-    return float(value["fixed"]), float(value["per_sample"])
+                        check=lambda v: (float(v["fixed"]), float(v["per_sample"]), float(v["per_pixel"])))
+    return float(value["fixed"]), float(value["per_sample"]), float(value["per_pixel"])
 
 
 def render_once(mesh: Any, material: Any, normal: Any, resolution: int, spp: int, request: dict[str, Any]) -> Any:
@@ -900,10 +902,20 @@ def linear_fit(rows: Sequence[tuple[float, float]]) -> dict[str, float]:
     return {"fixed": max(s0 - per_sample * n0, 0.0), "per_sample": per_sample}
 
 
+def pixel_sample_fit(rows: Sequence[tuple[float, float, float]]) -> dict[str, float]:
+    """``{"fixed", "per_sample", "per_pixel"}`` seconds through three timed runs ``(pixels, spp,
+    seconds)``: the first two at one spp and two sizes, the last at the second size and more spp
+    (none below zero): ``seconds = fixed + per_pixel x pixels + per_sample x pixels x spp``."""
+    (p0, n0, s0), (p1, n1, s1), (p2, n2, s2) = rows
+    per_sample = max((s2 - s1) / (p1 * (n2 - n1)), 0.0) if n2 != n1 else 0.0
+    per_pixel = max((s1 - s0 - per_sample * (p1 * n1 - p0 * n0)) / (p1 - p0), 0.0) if p1 != p0 else 0.0
+    fixed = max(s0 - per_sample * p0 * n0 - per_pixel * p0, 0.0)
+    return {"fixed": fixed, "per_sample": per_sample, "per_pixel": per_pixel}
+
+
 def _predicted_render_seconds(mode: str, polarised: bool, integrator: str, resolution: int, spp: int,
                               views: int, look: str = "diagram") -> dict[str, float]:
-    """Predicted seconds of a render (:func:`render_command_timing`): ``views`` x (fixed +
-    per sample x resolution² x spp)."""
+    """Predicted seconds of a render (:func:`render_seconds`)."""
     from .orientation.timing import calibrating
 
     if calibrating():
@@ -914,6 +926,7 @@ def _predicted_render_seconds(mode: str, polarised: bool, integrator: str, resol
 def render_seconds(mode: str, polarised: bool, integrator: str, resolution: int, spp: int, views: int,
                    look: str = "diagram") -> float:
     """Predicted wall seconds of :func:`labcut.render` on this machine: ``views`` x (fixed + per
-    sample x resolution² x spp), from :func:`render_command_timing`."""
-    fixed, per_sample = render_command_timing(mode, polarised, integrator, look)
-    return float(views * (fixed + per_sample * resolution * resolution * spp))
+    pixel x resolution² + per sample x resolution² x spp), from :func:`render_command_timing`."""
+    fixed, per_sample, per_pixel = render_command_timing(mode, polarised, integrator, look)
+    pixels = resolution * resolution
+    return float(views * (fixed + per_pixel * pixels + per_sample * pixels * spp))

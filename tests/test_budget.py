@@ -109,7 +109,7 @@ def test_render_budget_picks_the_most_samples_that_fit(monkeypatch):
     from labcut.commands.render_budget import MAX_SPP, choose_spp
 
     # 0.1 s fixed + 1e-7 s per sample: at 100² px one spp costs 1 ms
-    monkeypatch.setattr("labcut.planner.render_command_timing", lambda mode, polarised, integrator, look="diagram": (0.1, 1e-7))
+    monkeypatch.setattr("labcut.planner.render_command_timing", lambda mode, polarised, integrator, look="diagram": (0.1, 1e-7, 0.0))
     c = choose_spp(0.5, mode="rgb", polarised=False, integrator="direct", resolution=100, views=1)
     assert c.spp == 256 and c.predicted_seconds <= 0.5 and c.note is None  # 512 spp would be 0.61 s
     assert choose_spp(0.5, mode="rgb", polarised=False, integrator="direct", resolution=100, views=2).spp == 128
@@ -121,7 +121,7 @@ def test_render_budget_picks_the_most_samples_that_fit(monkeypatch):
 
 
 def test_render_with_a_budget(monkeypatch, cli, tmp_path):
-    monkeypatch.setattr("labcut.planner.render_command_timing", lambda mode, polarised, integrator, look="diagram": (0.0, 1e-6))
+    monkeypatch.setattr("labcut.planner.render_command_timing", lambda mode, polarised, integrator, look="diagram": (0.0, 1e-6, 0.0))
     mesh = labcut.load_mesh("meshes/oval-16x12-low.ply")
     r = labcut.render(mesh, labcut.Labradorite.preset("blue"), (0, 0, 1), resolution=32, time_budget=0.02, check_flash=False)
     assert r.spp == 16 and r.budget["spp"] == 16  # 32² px x 16 spp x 1e-6 s = 0.016 s

@@ -20,7 +20,8 @@ from . import meshes as mo
 from . import plan_options as po
 from . import look_options as lo
 from . import scene_options as so
-from .root import all_or_nothing, app, check_outputs, console, figure_after_answer, normal_or_angles, notes_after, parse_vector, write_json
+from .preflight import Yes, check_cost
+from .root import all_or_nothing, app, check_outputs, console, figure_after_answer, interruptibly, normal_or_angles, notes_after, parse_vector, write_json
 
 Quality = Annotated[str, typer.Option(help="draft, standard or high.")]
 
@@ -186,9 +187,10 @@ def recommend_orientation(
         "--flash-mask", metavar="PNG",
         help="With --render: also write its picture with the pixels that flash marked (the metrics' threshold), "
              "their share of the stone reported beside the estimator's flash area of the view.")] = None,
-    spp: Annotated[int, typer.Option(help="Samples per pixel of --render.", min=1)] = 64,
+    spp: Annotated[Optional[int], typer.Option(help="Samples per pixel of --render (default 16 denoised, as the studio look is; 64 otherwise).", min=1)] = None,
     resolution: Annotated[int, typer.Option(help="Width and height of --render in pixels.", min=8, max=8192)] = 512,
     exposure: lo.Exposure = "reference",
+    yes: Annotated[bool, Yes] = False,
     look: lo.Look = "studio",
     denoise: lo.Denoise = None,
     plan_options: Any = None,  # --estimator, --effect, --plan, --plan-only (plan_options.takes_plan_options)
@@ -235,6 +237,8 @@ def recommend_orientation(
     from labcut.planner import PILOT_BUDGET_SHARE, plan_question
 
     mesh = mesh_options.load(mesh_path)
+    if render_ask is not None:  # what the render will cost, before the recommendation's work
+        interruptibly(check_cost, mesh, render_ask, yes, quiet=json_path == "-", budget=False)
     the_plan = None
     pilots_max = None if time_budget is None else PILOT_BUDGET_SHARE * time_budget
     if plan or plan_only or setup.effects or estimator != "auto" or zone is not None:  # a bad combination fails before the work
@@ -315,8 +319,8 @@ def recommend_orientation(
             from labcut.scene import normalize_normal
 
             assert render_ask is not None
-            result = render_checked(mesh, render_ask.replace(scenario=rec.scenario), normalize_normal(rec.normal), progress=update,
-                                    flash_mask=flash_mask_path is not None)
+            result = interruptibly(render_checked, mesh, render_ask.replace(scenario=rec.scenario),
+                                   normalize_normal(rec.normal), progress=update, flash_mask=flash_mask_path is not None)
         with all_or_nothing() as written:
             result.save(render_path)
             written.append(Path(render_path))

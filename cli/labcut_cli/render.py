@@ -13,10 +13,14 @@ from . import meshes as mo
 from . import plan_options as po
 from . import scene_options as so
 from .recommend import print_render_notes
-from .root import all_or_nothing, app, check_outputs, console, notes_after, parse_vector, write_json
+from .preflight import Yes, before_rendering
+from .root import all_or_nothing, app, check_outputs, console, interruptibly, notes_after, parse_vector, write_json
 
 
 STILL_SUFFIXES = (".png", ".exr")
+#: the default size of a still and of an animation's frames (px)
+STILL_RESOLUTION = 512
+ANIMATION_RESOLUTION = 320
 ANIMATION_SUFFIXES = (".webp", ".gif")
 
 
@@ -51,12 +55,12 @@ def render(
     lighting: so.Lighting = None,
     viewing: so.Viewing = None,
     view: Annotated[str, typer.Option(help="Camera: main (the scenario's main viewer), face-up, orbit, or TILT,AZIMUTH in degrees from the face.")] = "main",
-    spp: Annotated[Optional[int], typer.Option(help="Samples per pixel (default 64); not with --time-budget.", min=1)] = None,
+    spp: Annotated[Optional[int], typer.Option(help="Samples per pixel (default 16 denoised, as the studio look is; 64 otherwise); not with --time-budget.", min=1)] = None,
     time_budget: Annotated[Optional[float], typer.Option(
         "--time-budget", metavar="SECONDS",
         help="Seconds the render may take: the most samples per pixel (a power of two) predicted to fit on this machine "
              "replace --spp; below 1 spp's prediction 1 spp runs, with a note.")] = None,
-    resolution: Annotated[int, typer.Option(help="Image width and height in pixels.", min=8, max=8192)] = 512,
+    resolution: Annotated[Optional[int], typer.Option(help="Image width and height in pixels (default 512; 320 for --animate).", min=8, max=8192)] = None,
     mode: Annotated[str, typer.Option(help="Colour transport: rgb, spectral or mono.")] = "rgb",
     polarizer: Annotated[Optional[float], typer.Option(help="Look through a linear polarizer at this angle (degrees).")] = None,
     zoning: Annotated[Optional[str], typer.Option(help="Colour zones: smooth, sharp, or a zoning .json file (docs/zoning.md).")] = None,
@@ -74,6 +78,7 @@ def render(
         help="Also write the picture with the pixels that flash marked (the metrics' threshold, tau 0.1, from the same "
              "camera); their share of the stone is reported beside the estimator's flash area of the view.")] = None,
     json_path: Annotated[Optional[str], typer.Option("--json", help="Write the render plan and timing as JSON ('-' for stdout).")] = None,
+    yes: Annotated[bool, Yes] = False,
     plan: po.Plan = False,
     plan_only: po.PlanOnly = False,
 ) -> None:
@@ -105,6 +110,7 @@ def render(
             raise ParameterError("--flash-mask marks the flash of one picture: leave it out of an animation")
     elif output.suffix.lower() in ANIMATION_SUFFIXES:
         raise ParameterError(f"{output.name!r} is an animation file: add --animate rock or --animate turntable")
+    resolution = resolution or (ANIMATION_RESOLUTION if animate else STILL_RESOLUTION)
     check_outputs({"--output": (output, ANIMATION_SUFFIXES if animate else IMAGE_SUFFIXES), "--json": (json_path, (".json",)),
                    "--flash-mask": (flash_mask, (".png",))}, ctx)
     lamella = normalize_normal(parse_normal(normal))
@@ -129,11 +135,13 @@ def render(
         if plan_only:
             po.finish_plan_only(the_plan, json_path)
             return
+    preview = interruptibly(before_rendering, mesh, setup, lamella, move, yes, quiet=json_path == "-")
     if move is not None:
         _animate(mesh_path, mesh, lamella, setup, move, output, json_path)
         return
     with notes_after(), progress_bar("rendering", "samples/pixel") as update:
-        result = render_checked(mesh, setup, lamella, progress=update, flash_mask=flash_mask is not None)
+        result = interruptibly(render_checked, mesh, setup, lamella, progress=update, flash_mask=flash_mask is not None,
+                               flash=preview)
     summary = {
         "output": str(output),
         "mesh": {**result.mesh, "path": str(mesh_path)},
@@ -221,7 +229,7 @@ def _animate(mesh_path: Path, mesh, lamella, setup, move, output: Path, json_pat
     from .progress import progress_bar
 
     with progress_bar(f"{move.motion} animation", "frames") as update:
-        anim = animate(mesh, lamella_normal=lamella, motion=move, setup=setup, progress=update)
+        anim = interruptibly(animate, mesh, lamella_normal=lamella, motion=move, setup=setup, progress=update)
     motion = move.motion
     summary = {
         "output": str(output),

@@ -173,3 +173,45 @@ def _root(
     version: bool = typer.Option(False, "--version", help="Print the version and exit.", callback=_version, is_eager=True),
 ) -> None:
     """Plan labradorite cuts: lamella physics, stone geometry, rendering and orientation."""
+
+
+#: how often the waiting main thread looks up from a long computation (seconds)
+_POLL_SECONDS = 0.1
+
+
+def interruptibly(work: Any, *args: Any, **kwargs: Any) -> Any:
+    """Run ``work(*args, **kwargs)`` so that Ctrl-C ends the command at once (exit 130).
+
+    A render's kernels run inside Mitsuba for seconds to minutes at a time, where Python cannot
+    stop them; so the work runs in a worker thread while the main thread waits, and a Ctrl-C
+    there ends the process at once, with the one-line message and status 130 of any interrupted
+    command. Nothing is left behind: the commands write their files only after the work returns
+    (each atomically), and the process ends before that. Errors of the work come back here as
+    they were raised."""
+    import os
+    import sys
+    import threading
+
+    box: dict[str, Any] = {}
+
+    def run() -> None:
+        try:
+            box["result"] = work(*args, **kwargs)
+        except BaseException as exc:  # noqa: BLE001  (handed to the main thread)
+            box["error"] = exc
+
+    worker = threading.Thread(target=run, name="labcut-work", daemon=True)
+    worker.start()
+    try:
+        while worker.is_alive():
+            worker.join(_POLL_SECONDS)
+    except KeyboardInterrupt:
+        for c in (console, err_console):
+            c.show_cursor(True)  # a progress bar hid it
+        err_console.print("[bold red]error:[/] interrupted", highlight=False)
+        sys.stdout.flush()
+        sys.stderr.flush()
+        os._exit(130)  # the worker is inside a kernel: end the process, not the thread
+    if "error" in box:
+        raise box["error"]
+    return box.get("result")

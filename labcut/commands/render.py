@@ -20,7 +20,7 @@ from ..errors import LabcutWarning
 from ..geometry.meshio import validate_mesh
 from ..geometry.stone import mesh_of
 from ..physics.material import Labradorite
-from ..orientation.flash_check import flash_by_view
+from ..orientation.flash_check import flash_by_view, flash_notes
 from ..orientation.flash_mask import flash_mask as flash_mask_of
 from ..planner import plan_effects
 from ..rendering.api import LOBES, RenderResult, plan_for, render_image, render_question
@@ -73,7 +73,7 @@ def render(
         :data:`labcut.scene.VIEWING`, files, an .exr/.hdr map, ``Lights``/``Views``).
     view: the camera: ``main`` (the scenario's main viewer) | ``face-up`` | ``orbit`` (8 views tiled
         4 x 2) | (tilt°, azimuth°) in the mesh frame.
-    spp: samples per pixel (>= 1; default 64); rendered in passes so ``progress(done, total)`` can report.
+    spp: samples per pixel (>= 1; default 16 for a denoised render, the studio look's default, else 64); rendered in passes so ``progress(done, total)`` can report.
     time_budget: seconds the render may take: the most samples per pixel (a power of two) predicted
         to fit on this machine replace ``spp`` (:mod:`labcut.commands.render_budget`; below 1 spp's
         prediction 1 spp runs with a one-line :class:`~labcut.errors.LabcutWarning`); the choice
@@ -131,9 +131,12 @@ def render(
 
 
 def render_checked(mesh: Any, ask: Any, normal: np.ndarray, *, progress: Callable[[int, int], None] | None = None,
-                 check_flash: bool = True, flash_mask: bool = False) -> RenderResult:
+                 check_flash: bool = True, flash_mask: bool = False,
+                 flash: list[dict[str, Any]] | None = None) -> RenderResult:
     """:func:`render` of a checked mesh, :class:`~labcut.rendering.request.RenderRequest` ``ask`` and
-    unit lamella ``normal`` (checks nothing again); the result is not saved."""
+    unit lamella ``normal`` (checks nothing again); the result is not saved. ``flash``: each
+    camera's flash as :func:`~labcut.orientation.flash_check.flash_by_view` gives it, when the
+    caller already estimated it (before rendering), so it is not estimated again."""
     rplan = plan_for(mesh, ask)
     spp = ask.spp
     budget = None
@@ -150,7 +153,9 @@ def render_checked(mesh: Any, ask: Any, normal: np.ndarray, *, progress: Callabl
                            views=views, look=rplan.look,
                            predict=False).to_dict()  # what the render did; --plan predicts beforehand
     result = render_image(mesh, ask, normal, int(spp), progress=progress, effects=effects, budget=budget)
-    if check_flash:
+    if flash is not None:
+        result.flash, result.notes = list(flash), flash_notes(flash)
+    elif check_flash:
         result.flash, result.notes = flash_by_view(mesh, ask.material, normal, ask.scenario.main_setting(), ask.cameras)
     if flash_mask:
         result.flash_mask = mask_of_render(mesh, ask, normal)

@@ -4,7 +4,7 @@ The render's resolution, colour mode, polariser, integrator, look and views are 
 the budget picks the samples per pixel, a power of two from 1 to :data:`MAX_SPP`, from this
 machine's calibration of :func:`labcut.render` (:func:`labcut.planner.render_command_timing`:
 two timed renders per mode, integrator and look, measured once and kept in the user cache):
-``seconds = views x (fixed + per_sample x resolution² x spp)``. Below the cheapest (1 spp)
+``seconds = views x (fixed + resolution² x (per_pixel + per_sample x spp))``. Below the cheapest (1 spp)
 prediction 1 spp runs, with a one-line note; a budget that is not a positive number of seconds
 is a :class:`~labcut.errors.ParameterError`.
 """

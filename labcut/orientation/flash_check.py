@@ -1,7 +1,7 @@
 """Does a render's stone flash from each of its cameras? (:func:`flash_by_view`)
 
-A render that shows no flash from a camera is surface glare and the grey body brightened by the
-image's automatic exposure; :func:`labcut.render` says so in its notes. The answer is the surface-
+A render that shows no flash from a camera is surface glare and the grey body; :func:`labcut.render`
+says so in its notes. The answer is the surface-
 sample estimator's at draft quality, under the render's lights and from its cameras (mesh frame).
 """
 
@@ -41,12 +41,15 @@ def flash_by_view(mesh: Any, material: Labradorite, lamella_normal: Any, setting
         for i, a in zip(usable, per_view):
             areas[int(i)] = float(a)
     flash = [{"view": c.name, "flash_area": a, "flash": None if a is None else a > 0.0} for c, a in zip(cameras, areas)]
+    return flash, flash_notes(flash)
+
+
+def flash_notes(flash: Sequence[dict[str, Any]]) -> list[str]:
+    """The notes a render shows for its cameras' flash (:func:`flash_by_view`'s list): which views
+    show none."""
     dark = [f["view"] for f in flash if f["flash"] is False]
-    notes = []
-    if dark:
-        where = "this view" if len(cameras) == 1 else f"{len(dark)} of {len(cameras)} views ({', '.join(dark)})"
-        notes.append(
-            f"the stone shows no flash from {where}: no part of it reaches the flash threshold there, so what the "
-            "image shows is surface glare and the grey body (a PNG's automatic exposure brightens them)"
-        )
-    return flash, notes
+    if not dark:
+        return []
+    where = "this view" if len(flash) == 1 else f"{len(dark)} of {len(flash)} views ({', '.join(dark)})"
+    return [f"the stone shows no flash from {where}: no part of it reaches the flash threshold there, so what the "
+            "image shows is surface glare and the grey body"]

@@ -39,8 +39,11 @@ AOVS = "albedo:albedo,nn:sh_normal"
 NORMAL_AOV = "nn:sh_normal"
 #: samples per pixel of the normal pass (first hits only, low-discrepancy; a power of 4)
 AUX_SPP = 64
-#: samples per pixel of the guide pass (a power of 4: the low-discrepancy sampler's counts)
+#: samples per pixel of the guide pass up to 256² (a power of 4: the low-discrepancy sampler's
+#: counts; :func:`guide_samples` lowers it for larger images)
 GUIDE_SPP = 64
+#: the fewest samples per pixel of the guide pass, however large the image
+GUIDE_SPP_MIN = 16
 #: fixed points per lamp (area emitter) in the guide's quadrature
 LAMP_NODES = 2
 #: fixed directions of the environment in the guide (diffuse components only)
@@ -199,6 +202,17 @@ def _per_pass(spp: int) -> int:
     return per
 
 
+def guide_samples(pixels: int) -> int:
+    """Samples per pixel of the guide for an image of ``pixels``: :data:`GUIDE_SPP` up to 256², then
+    as many samples in all as 256² x :data:`GUIDE_SPP` (smaller pixels need fewer each), at least
+    :data:`GUIDE_SPP_MIN`; a power of 4."""
+    want = GUIDE_SPP * (256 * 256) / max(int(pixels), 1)
+    spp = GUIDE_SPP_MIN
+    while spp * 4 <= min(want, GUIDE_SPP):
+        spp *= 4
+    return spp
+
+
 def _trace_aovs(scene: Any, aovs: str, spp: int, seed: int) -> np.ndarray:
     """The ``aovs`` (Mitsuba's ``aov`` integrator list) of ``scene``'s camera at ``spp`` samples per
     pixel (rounded up to a power of 4; low-discrepancy samples for a perspective camera), box-averaged."""
@@ -228,12 +242,19 @@ def trace_guide(scene: Any, spp: int = GUIDE_SPP, seed: int = 0, *, lamp_nodes: 
     return np.clip(np.nan_to_num(img[..., :3]), 0.0, None).astype(np.float32)
 
 
-def trace_aux(scene: Any, spp: int = AUX_SPP, seed: int = 0, *, guide_spp: int = GUIDE_SPP) -> np.ndarray:
-    """(H, W, 6) float32: the guide (:func:`trace_guide`, ``guide_spp`` samples) and the shading
-    normal (``spp`` samples) of ``scene``'s camera, what :func:`denoise` takes as ``guide`` and
-    ``normal``."""
+def trace_aux(scene: Any, spp: int = AUX_SPP, seed: int = 0, *, guide_spp: int | None = None) -> np.ndarray:
+    """(H, W, 6) float32: the guide (:func:`trace_guide`, ``guide_spp`` samples; None: as
+    :func:`guide_samples` chooses for the image's size) and the shading normal (``spp`` samples) of
+    ``scene``'s camera, what :func:`denoise` takes as ``guide`` and ``normal``."""
     normal = _trace_aovs(scene, NORMAL_AOV, spp, seed)[..., :3]  # the normal alone: no BSDF evaluated
-    return np.concatenate([trace_guide(scene, guide_spp, seed), normal], axis=-1)
+    g_spp = guide_samples(_pixels(scene)) if guide_spp is None else int(guide_spp)
+    return np.concatenate([trace_guide(scene, g_spp, seed), normal], axis=-1)
+
+
+def _pixels(scene: Any) -> int:
+    """Pixels of ``scene``'s first camera's film."""
+    w, h = scene.sensors()[0].film().crop_size()
+    return int(w) * int(h)
 
 
 def _unit(normal: np.ndarray) -> np.ndarray:
