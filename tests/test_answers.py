@@ -141,7 +141,7 @@ def test_ctrl_c_during_the_render_leaves_the_answer(tmp_path):
     exe = Path(sys.executable).with_name("labcut")
     env = {**os.environ, "NO_COLOR": "1"}
     proc = subprocess.Popen([str(exe), "recommend-orientation", str(OVAL), "--quality", "draft", "--json", str(js),
-                             "--render", str(png), "--spp", "100000", "--resolution", "256"],
+                             "--render", str(png), "--spp", "100000", "--resolution", "256", "--yes"],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env,
                             # a user's Ctrl-C: the child handles SIGINT as a terminal's process would, even
                             # where the test runner (xdist workers, CI shells) starts children with it ignored

@@ -17,6 +17,8 @@ from labcut.colour import dominant_wavelength, tables
 from labcut.rendering.noise import equalise, fbm
 from labcut.rendering.zoning import ZONED_KEYS, Zoning
 
+ROOT = Path(__file__).resolve().parents[1]
+
 MESHES = Path(__file__).resolve().parents[1] / "meshes"
 BOX = [[-10.0, -10.0, 0.0], [10.0, 10.0, 3.0]]
 BLUE, GOLD = Labradorite.preset("blue"), Labradorite.preset("gold")
@@ -253,3 +255,55 @@ def test_bad_zoning_arguments(slab, tmp_path, cli):
         assert proc.returncode == 2, proc.stderr
         assert proc.stderr.strip().splitlines()[-1].startswith("error:") and "Traceback" not in proc.stderr
     assert not out.exists()
+
+
+# ----------------------------------------------------------------------------- the natural default
+def test_the_natural_preset_is_built_on_the_materials_own_colour():
+    from labcut.rendering.zoning import NATURAL_DOMAINS, Zoning
+
+    for preset in ("blue", "gold"):
+        base = labcut.Labradorite.preset(preset)
+        z = Zoning.preset("natural", base, seed=3)
+        assert z.seed == 3 and z.name == "natural" and len(z.materials) == len(NATURAL_DOMAINS) == 4
+        for m, (label, shift, share) in zip(z.materials, NATURAL_DOMAINS):
+            assert m.name == label and m.peak_wavelength() == pytest.approx(base.peak_wavelength() + shift, abs=0.5)
+            assert m.pairs == pytest.approx(base.pairs * share, rel=1e-6)
+            assert (m.n_a, m.spread_deg, m.body_albedo) == (base.n_a, base.spread_deg, base.body_albedo)
+
+
+def test_presentation_renders_show_natural_zones_by_default():
+    from labcut.rendering.request import RenderRequest
+
+    studio = RenderRequest.build("gold", look="studio", seed=5)
+    assert studio.zoning.name == "natural" and studio.zoning.seed == 5
+    assert studio.zoning.materials[2].peak_wavelength() == pytest.approx(580.0, abs=0.5)
+    assert RenderRequest.build("gold").zoning is None  # the diagram look: the clean model
+    assert RenderRequest.build("gold", look="studio", zoning="none").zoning is None
+    assert RenderRequest.build("gold", look="studio", zoning=None).zoning is None
+    assert RenderRequest.build("gold", look="studio", mode="mono").zoning is None
+    assert RenderRequest.build("gold", look="studio", zoning="sharp").zoning.name == "sharp"
+
+
+def test_natural_zones_vary_the_flash_colour_where_the_clean_model_is_one_colour():
+    import colorsys
+
+    mesh = labcut.load_mesh(ROOT / "meshes" / "oval-16x12-low.ply")
+    spread = {}
+    for zoning in ("none", "auto"):
+        r = labcut.render(mesh, "blue", (0, 0, 1), look="studio", resolution=96, spp=4, zoning=zoning, flash_mask=True)
+        from labcut.rendering.images import to_uint8
+
+        pic = to_uint8(r.image, r.exposure, r.tonemap).astype(float) / 255.0
+        hue = np.array([colorsys.rgb_to_hsv(*p)[0] for p in pic[r.flash_mask.mask]])
+        spread[zoning] = float(np.percentile(hue, 90) - np.percentile(hue, 10))
+    assert spread["auto"] > 2.0 * spread["none"], spread
+
+
+def test_cli_zoning_none_renders_the_clean_model(cli, tmp_path):
+    js = tmp_path / "r.json"
+    for arg, name in ((["--zoning", "none"], None), ([], "natural")):
+        proc = cli("render", str(ROOT / "meshes" / "oval-16x12-low.ply"), "-o", str(tmp_path / "r.png"), "--resolution", "16",
+                   "--spp", "1", "--json", str(js), *arg)
+        assert proc.returncode == 0, proc.stderr
+        data = json.loads(js.read_text())
+        assert (data.get("zoning") or {}).get("name") == name

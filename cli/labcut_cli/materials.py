@@ -120,12 +120,12 @@ def _build_material(preset: str | None, peak: float | None, an: float | None, ma
     return base.replace(**on_top) if on_top else base
 
 
-ZoningOpt = Annotated[Optional[str], typer.Option("--zoning", help="Colour zones: smooth, sharp, or a zoning .json file (docs/zoning.md).", rich_help_panel="Material")]
+ZoningOpt = Annotated[Optional[str], typer.Option("--zoning", help="Colour zones: natural, smooth, sharp, none, or a zoning .json file (docs/zoning.md); a studio --render shows natural zones unless told none.", rich_help_panel="Material")]
 
 
 def build_zoning(text: str | None, material: Any) -> Any:
     """The :class:`labcut.rendering.zoning.Zoning` of ``--zoning`` (a preset name or a JSON file), or None."""
-    if text is None:
+    if text is None or text.strip().lower() == "none":
         return None
     from labcut.errors import ParameterError
     from labcut.rendering import ZONING_PRESETS as PRESETS, Zoning
@@ -139,7 +139,7 @@ def build_zoning(text: str | None, material: Any) -> Any:
         for note in dict.fromkeys(notes):  # a zoning set that peaks outside the visible, once per text
             print_warning(note)
         return zoning
-    raise ParameterError(f"--zoning must be {', '.join(PRESETS)} or a zoning .json file, got {text!r}")
+    raise ParameterError(f"--zoning must be {', '.join(PRESETS)}, none or a zoning .json file, got {text!r}")
 
 
 def holding_warnings(make: Any) -> tuple[Any, list[str]]:

@@ -18,13 +18,13 @@ def before_rendering(mesh: Any, setup: Any, lamella: Any, move: Any, yes: bool, 
     cannot fit in memory, print the predicted time, and stop (exit 2) one predicted over a minute,
     or an orbit or animation with no flash in any view or frame, unless ``--yes``. Returns the
     flash of each view (:func:`labcut.render`'s ``flash=``) when it was estimated here, else None."""
-    from labcut.commands import render_forecast as rf
+    from labcut.commands import flash_preview
     from labcut.errors import ParameterError
 
     check_cost(mesh, setup, yes, quiet, frames=move.frames if move is not None else 1)
     if move is None and len(setup.cameras) == 1:
         return None
-    preview = rf.flash_preview(mesh, setup, lamella, move)
+    preview = flash_preview(mesh, setup, lamella, move)
     if not preview.any_flash:
         what = "frames" if move is not None else "views"
         if not yes:
@@ -39,12 +39,12 @@ def check_cost(mesh: Any, setup: Any, yes: bool, quiet: bool, frames: int = 1, b
     """Refuse a render that cannot fit in memory, print its predicted time and memory (stderr when
     ``quiet``: the JSON goes to stdout), and stop one predicted over a minute unless ``yes``
     (``budget``: the command's ``--time-budget`` is the render's)."""
-    from labcut.commands import render_forecast as rf
+    from labcut.commands import check_memory, confirmation_message, forecast, needs_confirmation
     from labcut.errors import ParameterError
-    from labcut.rendering.api import plan_for
+    from labcut.rendering import plan_for
 
-    fc = rf.forecast(setup, plan_for(mesh, setup).integrator, frames=frames)
-    rf.check_memory(fc, setup.resolution, setup.plan_denoise)
+    fc = forecast(setup, plan_for(mesh, setup).integrator, frames=frames)
+    check_memory(fc, setup.resolution, setup.plan_denoise)
     (err_console if quiet else console).print(f"render: {fc.summary()}", highlight=False)
-    if not yes and rf.needs_confirmation(fc, setup.time_budget):
-        raise ParameterError(rf.confirmation_message(fc, budget=budget))
+    if not yes and needs_confirmation(fc, setup.time_budget):
+        raise ParameterError(confirmation_message(fc, budget=budget))

@@ -228,7 +228,8 @@ def recommend_orientation(
     if render_path is not None:  # the render's request, checked once too, before the long work
         from labcut.rendering import RenderRequest
 
-        render_ask = RenderRequest.build(setup.material, scene, spp=spp, resolution=resolution, zoning=zone,
+        render_ask = RenderRequest.build(setup.material, scene, spp=spp, resolution=resolution,
+                                       zoning="auto" if zoning is None else zone,
                                        exposure=exposure_value, look=lo.spec(look), denoise=denoise)
     if time_budget is not None:
         from labcut.validation import check_budget

@@ -63,7 +63,7 @@ def render(
     resolution: Annotated[Optional[int], typer.Option(help="Image width and height in pixels (default 512; 320 for --animate).", min=8, max=8192)] = None,
     mode: Annotated[str, typer.Option(help="Colour transport: rgb, spectral or mono.")] = "rgb",
     polarizer: Annotated[Optional[float], typer.Option(help="Look through a linear polarizer at this angle (degrees).")] = None,
-    zoning: Annotated[Optional[str], typer.Option(help="Colour zones: smooth, sharp, or a zoning .json file (docs/zoning.md).")] = None,
+    zoning: Annotated[Optional[str], typer.Option(help="Colour zones: natural (the studio look's default: a real stone's zones), none (the clean model), smooth, sharp, or a zoning .json file (docs/zoning.md).")] = None,
     schiller_only: Annotated[bool, typer.Option("--schiller-only", help="Render only the schiller flash (no glare, no body).")] = False,
     look: lo.Look = "studio",
     denoise: lo.Denoise = None,
@@ -114,7 +114,7 @@ def render(
     check_outputs({"--output": (output, ANIMATION_SUFFIXES if animate else IMAGE_SUFFIXES), "--json": (json_path, (".json",)),
                    "--flash-mask": (flash_mask, (".png",))}, ctx)
     lamella = normalize_normal(parse_normal(normal))
-    zoning_spec = m.build_zoning(zoning, material)
+    zoning_spec = "auto" if zoning is None else m.build_zoning(zoning, material)
     view_spec: str | tuple[float, float] = view
     if "," in view:
         view_spec = parse_vector(view, "--view", length=2)  # type: ignore[assignment]
@@ -129,7 +129,7 @@ def render(
         from labcut.planner import plan_effects
 
         the_plan = plan_effects(mesh, material, command="render", scenario=scene, mode=None if mode == "rgb" else mode,
-                                polarizer_deg=polarizer, zoning=zoning_spec, resolution=resolution, spp=setup.spp,
+                                polarizer_deg=polarizer, zoning=setup.zoning, resolution=resolution, spp=setup.spp,
                                 views=len(setup.cameras), look=setup.look)
         po.show(the_plan, mesh_path.name, to_stderr=json_path == "-")
         if plan_only:
@@ -167,7 +167,7 @@ def render(
     }
     if flash_mask is not None:
         summary["flash_mask"] = {"path": str(flash_mask), **result.flash_mask.to_dict()}
-    if _write(result, output, summary, json_path, zoning_spec, flash_mask):
+    if _write(result, output, summary, json_path, setup.zoning, flash_mask):
         return
     mo.print_provenance(mesh, mesh_path.name)
     console.print(f"[bold]{output}[/]: {'; '.join(result.plan.reasons)}")

@@ -19,6 +19,13 @@ _EXPORTS = {
     "ANIMATION_SUFFIXES": ".animate:ANIMATION_SUFFIXES",
     "quality_or_budget": ".budget:quality_or_budget",
     "choose_spp": ".render_budget:choose_spp",
+    "RenderForecast": ".render_forecast:RenderForecast",
+    "FlashPreview": ".render_forecast:FlashPreview",
+    "forecast": ".render_forecast:forecast",
+    "check_memory": ".render_forecast:check_memory",
+    "flash_preview": ".render_forecast:flash_preview",
+    "needs_confirmation": ".render_forecast:needs_confirmation",
+    "confirmation_message": ".render_forecast:confirmation_message",
 }
 
 __getattr__, __dir__, __all__ = lazy_exports(__name__, _EXPORTS)

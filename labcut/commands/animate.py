@@ -92,7 +92,7 @@ def posed(scenario: Scenario, motion: str, angle_deg: float) -> Scenario:
 #: :class:`Motion` they stay at these)
 _ANIMATION_DEFAULTS: dict[str, Any] = {
     "material": None, "scenario": None, "lighting": None, "viewing": None, "spp": 16, "resolution": 320,
-    "exposure": "reference", "look": "studio", "denoise": None, "zoning": None, "seed": 0, "frames": 36,
+    "exposure": "reference", "look": "studio", "denoise": None, "zoning": "auto", "seed": 0, "frames": 36,
     "amplitude_deg": 30.0, "fps": 24.0,
 }
 
@@ -114,7 +114,7 @@ def animate(
     exposure: float | str | None = "reference",
     look: Any = "studio",
     denoise: bool | None = None,
-    zoning: Any = None,
+    zoning: Any = "auto",
     fps: float = 24.0,
     seed: int = 0,
     output: str | Path | None = None,

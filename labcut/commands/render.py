@@ -50,7 +50,7 @@ def render(
     seed: int = 0,
     output: str | Path | None = None,
     progress: Callable[[int, int], None] | None = None,
-    zoning: Any = None,
+    zoning: Any = "auto",
     exposure: float | str | None = "reference",
     check_flash: bool = True,
     flash_mask: bool = False,
@@ -82,9 +82,11 @@ def render(
         intensity through an ideal linear polarizer at that angle (0° = transmission axis along
         the image's horizontal).
     output: optional .png / .exr path written atomically.
-    zoning: ``None`` | ``"smooth"`` | ``"sharp"`` | a :class:`~labcut.rendering.zoning.Zoning`:
-        colour zones, lamella parameters blended through the stone by a noise field
-        (paper §3.2.2; docs/zoning.md). Presets are built on ``material``.
+    zoning: ``"auto"`` (default: the ``natural`` preset in the studio look, seeded by ``seed``, as a
+        real stone shows zones of colour and brightness; none in the diagram look) | ``None`` or
+        ``"none"`` (the clean model) | ``"smooth"`` | ``"sharp"`` | ``"natural"`` | a
+        :class:`~labcut.rendering.zoning.Zoning`: colour zones, lamella parameters blended through
+        the stone by a noise field (paper §3.2.2; docs/zoning.md). Presets are built on ``material``.
     exposure: the PNG exposure (:mod:`labcut.rendering.exposure`): ``"reference"`` (default; None
         too) tonemaps every render of a look with one exposure, the bench scenario's metered from
         its lamps, so a dimmer scene looks dimmer and renders of a series compare; ``"auto"``

@@ -10,6 +10,7 @@ from .._exports import lazy_exports
 _EXPORTS = {
     "RenderPlan": ".plan:RenderPlan",
     "plan_render": ".plan:plan_render",
+    "plan_for": ".api:plan_for",
     "LOBES": ".plan:LOBES",
     "RenderResult": ".api:RenderResult",
     "build_scene": ".api:build_scene",

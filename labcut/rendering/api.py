@@ -319,7 +319,7 @@ def _polarizer_intensity(image: np.ndarray, angle_deg: float) -> np.ndarray:
 _REQUEST_DEFAULTS: dict[str, Any] = {
     "material": None, "scenario": None, "lighting": None, "viewing": None, "view": "main", "spp": None,
     "resolution": 512, "mode": "rgb", "polarizer_deg": None, "lobes": LOBES, "max_depth": None, "perspective": False,
-    "seed": 0, "zoning": None, "exposure": "reference", "look": "diagram", "denoise": None, "time_budget": None,
+    "seed": 0, "zoning": "auto", "exposure": "reference", "look": "diagram", "denoise": None, "time_budget": None,
 }
 
 

@@ -27,6 +27,7 @@ from ..scene import Scenario, resolve_scene
 from ..validation import check_number
 from .plan import LOBES
 from .scene import CameraView, camera_views
+from .zoning import Zoning
 
 MODES = ("rgb", "spectral", "mono")
 #: the samples per pixel when neither ``spp`` nor a time budget is given
@@ -82,7 +83,7 @@ class RenderRequest:
         max_depth: int | None = None,
         perspective: bool = False,
         seed: int = 0,
-        zoning: Any = None,
+        zoning: Any = "auto",
         exposure: float | str | None = "reference",
         look: Any = "diagram",
         denoise: bool | None = None,
@@ -140,11 +141,13 @@ class RenderRequest:
             spp_v = DENOISED_SPP if denoised else DEFAULT_SPP
         scene = resolve_scene(scenario, lighting, viewing)
         cameras = tuple(camera_views(view, scene.main_setting()))
-        zone = None
-        if zoning is not None:
-            from .zoning import resolve as resolve_zoning
+        from .zoning import resolve as resolve_zoning
 
-            zone = resolve_zoning(zoning, material)
+        if isinstance(zoning, str) and zoning.strip().lower() == "auto":
+            # presentation renders show a real stone's zoning; the diagram look the clean model
+            natural = studio is not None and polarizer_deg is None and mode != "mono"
+            zoning = Zoning.preset("natural", material, seed=int(seed_v)) if natural else None
+        zone = resolve_zoning(zoning, material)
         return cls(material, scene, cameras, int(spp_v), int(res), mode, polarizer_deg, lobes_t, max_depth,
                    bool(perspective), int(seed_v), zone, exposure, studio, denoise, time_budget, view)
 

@@ -52,7 +52,7 @@ ZONED_KEYS = ("d_a", "d_b", "sigma_a", "sigma_b", "pairs")
 #: Parameters every set of one zoning must share (one BSDF has one surface, one lobe width).
 SHARED_KEYS = ("n_a", "n_b", "spread_deg", "body_albedo", "n_surface")
 MODES = ("smooth", "sharp")
-PRESETS = ("smooth", "sharp")
+PRESETS = ("smooth", "sharp", "natural")
 #: Values of x at which the parameter path is tabulated for the kernel.
 PATH_SIZE = 128
 #: Entries over cos θ of the RGB / mono reflectance table.
@@ -213,11 +213,14 @@ class Zoning:
     # ------------------------------------------------------------------ presets and I/O
     @classmethod
     def preset(cls, name: str, base: Labradorite | None = None, **changes: Any) -> Zoning:
-        """``smooth`` (paper Fig. 9: blue, green and gold zones, soft blends, few octaves) or
-        ``sharp`` (Fig. 10: the same colours with hard edges and ragged, many-octave noise).
+        """``smooth`` (paper Fig. 9: blue, green and gold zones, soft blends, few octaves),
+        ``sharp`` (Fig. 10: the same colours with hard edges and ragged, many-octave noise) or
+        ``natural`` (:func:`_natural`: the material's own colour in domains of neighbouring colours
+        and of fainter flash, the presentation renders' default).
 
-        The sets are ``base`` (default :class:`~labcut.Labradorite`) with the lamella period set
-        for first-order peaks at 470, 530 and 580 nm; every other parameter is ``base``'s.
+        The sets of ``smooth`` and ``sharp`` are ``base`` (default :class:`~labcut.Labradorite`)
+        with the lamella period set for first-order peaks at 470, 530 and 580 nm; every other
+        parameter is ``base``'s.
         ``changes`` override fields (e.g. ``seed=3``).
         """
         key = str(name).strip().lower()
@@ -227,6 +230,8 @@ class Zoning:
             base = Labradorite()
         if not isinstance(base, Labradorite):
             raise ParameterError(f"zoning base material must be a labcut.Labradorite, got {type(base).__name__}")
+        if key == "natural":
+            return cls(**{**_natural(base), "seed": 0, "name": key, **changes})
         sets = tuple(
             Labradorite.from_peak_wavelength(nm, **{**_inherited(base), "name": label})
             for label, nm in (("blue", 470.0), ("green", 530.0), ("gold", 580.0))
@@ -346,6 +351,28 @@ class Zoning:
         return _bake(self, tuple(map(tuple, np.asarray(bounds, dtype=np.float64).reshape(2, 3).tolist())))
 
 
+#: the natural preset's domains: (label, shift of the first-order peak in nm, share of the
+#: lamella pairs), in the order of the noise's ranges
+NATURAL_DOMAINS = (("faint", 0.0, 0.2), ("shorter", -30.0, 0.8), ("main", 0.0, 1.0), ("longer", 35.0, 0.6))
+#: the natural preset's LUT: a few faint patches, a band of the shorter colour, mostly the
+#: material's own, some of the longer; blended over short gaps (domain walls)
+NATURAL_RANGES = ((0.0, 0.14, 0), (0.2, 0.3, 1), (0.36, 0.76, 2), (0.86, 1.0, 3))
+
+
+def _natural(base: Labradorite) -> dict[str, Any]:
+    """The ``natural`` preset's fields on ``base``: domains of the material's own flash colour,
+    of colours 30 nm shorter and 35 nm longer (the neighbouring composition of a real stone's
+    zoning, paper §3.2.2) and faint patches with a fifth of the lamella pairs (a stone's dull
+    spots), in 4 mm zones with ragged (4-octave) edges and short blends."""
+    peak = base.peak_wavelength()
+    sets = []
+    for label, shift, share in NATURAL_DOMAINS:
+        nm = min(max(peak + shift, 380.0), 780.0)
+        made = Labradorite.from_peak_wavelength(nm, **{**_inherited(base), "name": label})
+        sets.append(dataclasses.replace(made, pairs=max(1.0, base.pairs * share)))
+    return dict(materials=tuple(sets), ranges=NATURAL_RANGES, scale_mm=4.0, octaves=4, mode="smooth")
+
+
 def _material_entry(entry: Any, base: Labradorite, index: int) -> Labradorite:
     inherited = _inherited(base)
     if isinstance(entry, str):
@@ -393,11 +420,12 @@ def _bake(zoning: Zoning, bounds: tuple[tuple[float, ...], ...]) -> BakedZoning:
 def resolve(spec: Any, material: Labradorite) -> Zoning | None:
     """The :class:`Zoning` a ``zoning=`` argument names, for stones of ``material``.
 
-    ``None`` (no zoning), ``"smooth"`` / ``"sharp"`` (presets built on ``material``), a dict
+    ``None`` or ``"none"`` (no zoning), ``"smooth"`` / ``"sharp"`` / ``"natural"`` (presets built on
+    ``material``), a dict
     (:meth:`Zoning.from_dict`) or a :class:`Zoning` whose sets share ``material``'s indices,
     spread and body albedo.
     """
-    if spec is None:
+    if spec is None or (isinstance(spec, str) and spec.strip().lower() == "none"):
         return None
     if isinstance(spec, str):
         return Zoning.preset(spec, material)
