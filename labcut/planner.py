@@ -654,7 +654,9 @@ def plan_effects(
         label = zoning if isinstance(zoning, str) else (getattr(zoning, "name", None) or "custom")
         decisions.append(Decision("zoning", True, "lamella parameters blended by a baked noise field" +
                                   ("" if rendering else ": the render estimator weighs each zone's flash as the viewers see it"),
-                                  f"colour zones asked for ({label})"))
+                                  "a studio picture shows a real stone's zones by default (natural; --zoning none "
+                                  "for the clean model)" if label == "natural" and rendering and look == "studio"
+                                  else f"colour zones asked for ({label})"))
     else:
         decisions.append(Decision("zoning", False, "", "a uniform material" + ("" if command == "compare" else
                                   " (--zoning asks for colour zones)")))

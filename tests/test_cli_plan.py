@@ -107,7 +107,7 @@ def test_plans_show_the_predicted_seconds_of_evaluate_render_and_compare(tmp_pat
     res = run("render", OVAL, "-o", str(tmp_path / "x.png"), "--plan-only", "--json", str(rj))
     assert res.exit_code == 0, res.output
     text = " ".join(res.output.split())
-    assert "predicted render ~" in text and "512² px, 64 spp, 1 view" in text
+    assert "predicted render ~" in text and "512² px, 16 spp, 1 view" in text
     assert json.loads(rj.read_text())["plan"]["predicted_seconds"]["render"] > 0
     cj = tmp_path / "c.json"
     res = run("compare", OVAL, BIPLANE, "--quality", "draft", "--plan-only", "--json", str(cj))
