@@ -531,3 +531,19 @@ def test_a_comparison_answers_as_recommend_orientation_and_builds_each_problem_o
     rec = labcut.recommend_orientation(mesh, scenario="pendant", quality="draft")
     got = cmp.cuts[0].scenarios["pendant"].recommendation
     assert np.array_equal(got.normal, rec.normal) and got.score == rec.score
+
+
+def test_the_flash_colour_maps_flash_is_the_estimators(comparison):
+    # the map's flashing pixels are the flash mask's (lights summed exactly from the render's
+    # camera): their share is the main view's flash area the estimator finds at rest
+    cmp, _ = comparison
+    for c in cmp.cuts:
+        for s in SCENARIOS:
+            r = c.scenarios[s]
+            st = r.colour.stats
+            assert st["estimator_flash_area"] == pytest.approx(float(r.tilt.flash_area["front_back"][
+                int(np.argmin(np.abs(r.tilt.angles_deg)))]))
+            assert st["flash_fraction"] == pytest.approx(st["estimator_flash_area"], abs=0.04), (c.name, s)
+            h, w = r.renders.schiller.shape[:2]
+            flashing = r.renders.mask & (r.renders.flash.ratio_at(h, w) >= cmp.tau)
+            assert st["flash_pixels"] == int(flashing.sum())

@@ -117,6 +117,14 @@ class FlashMask:
         view: its flash area as the render sees it)."""
         return _share(self.ratio, self.coverage, self.tau)
 
+    def ratio_at(self, height: int, width: int) -> np.ndarray:
+        """``ratio`` on a picture of ``height`` x ``width`` px framed like the mask (each picture
+        pixel takes its nearest mask pixel's value)."""
+        mh, mw = self.ratio.shape
+        if height * mw != width * mh or height < mh:
+            raise ParameterError(f"a picture of {width}x{height} px does not frame like the mask ({mw}x{mh} px)")
+        return self.ratio[np.ix_(np.arange(height) * mh // height, np.arange(width) * mw // width)]
+
     def overlay(self, picture: np.ndarray) -> np.ndarray:
         """A display picture (H x W x 3 uint8, the render's PNG) with the flash mask drawn on it:
         flashing pixels in :data:`OVERLAY_COLOUR` mixed by their coverage, the rest dimmed, so the

@@ -493,7 +493,7 @@ def csv_rows(data: dict[str, Any]) -> list[dict[str, Any]]:
             fc = r["flash_colour"] or {}
             colour_units = {"flash_fraction": "fraction", "dominant_wavelength_nm": "nm", "p10_nm": "nm", "p90_nm": "nm",
                             "purple_fraction": "fraction", "mean_dominant_wavelength_nm": "nm", "mean_purity": "fraction",
-                            "peak_level": "tau L_ref"}
+                            "peak_level": "tau L_ref", "estimator_flash_area": "fraction"}
             for k, unit in colour_units.items():
                 add(n, scen, "best", f"colour_{k}", fc.get(k), unit)
             tc = r["tilt_curve"]
@@ -701,6 +701,15 @@ def compare_cuts(
     return run_comparison(plan, progress)
 
 
+def rest_flash_area(tilt: Any) -> float | None:
+    """The estimator's flash area of the main view at rest (the tilt curve at 0°), or None."""
+    i = np.flatnonzero(np.abs(np.asarray(tilt.angles_deg)) < 1e-9)
+    if not len(i):
+        return None
+    a = float(tilt.flash_area["front_back"][int(i[0])])
+    return a if math.isfinite(a) else None
+
+
 def rank_and_normalise(cuts: Sequence[CutResult], scenarios: Sequence[Any], reference: int) -> dict[str, float]:
     """Finish a comparison of ``cuts`` (each with its per-scenario results): per scenario the ranks
     by flash energy and every value of :data:`NORMALISED` over the ``reference`` cut's, each cut's
@@ -787,9 +796,11 @@ def run_comparison(plan: ComparisonPlan, progress: Callable[[int, int], None] | 
             mis = rec.misorientation  # the recommendation's own curve, from the same scorer
             tilt = tilt_curve(cut.mesh, lab, rec.normal, sc, quality, tau, seed)
             renders = render_cut(cut.mesh, lab, rec.normal, sc, tilt_axes(sc)["front_back"], res, n_spp, strip_angles,
-                                 seed, strip_spp=strip_spp)
+                                 seed, strip_spp=strip_spp, tau=tau)
             mark_warm(renders.plan["integrator"])
-            colour = flash_colour_map(renders.schiller, renders.mask, threshold)
+            h, w = renders.schiller.shape[:2]
+            colour = flash_colour_map(renders.schiller, renders.mask, threshold, renders.flash.ratio_at(h, w), tau)
+            colour.stats["estimator_flash_area"] = rest_flash_area(tilt)
             per[sc.name] = ScenarioResult(cut.name, sc, rec, tilt, mis, renders, colour, seconds=time.perf_counter() - t0)
             done += 1
             report(done, total)

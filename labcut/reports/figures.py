@@ -280,7 +280,9 @@ def colour_maps(cmp: Any, scenario: str) -> bytes:
         nm = st.get("dominant_wavelength_nm")
 
         text = "no hue" if nm is None else f"{nm:.0f} nm ({nm_range(st['p10_nm'], st['p90_nm'])})"
-        what = f"flash {st['flash_fraction']:.0%}" if st["basis"] == "flash" else "no flash: faint schiller"
+        est = st.get("estimator_flash_area")
+        said = "" if est is None else f" (est. {est:.0%})"
+        what = f"flash {st['flash_fraction']:.0%}{said}" if st["basis"] == "flash" else f"no flash: faint schiller{said}"
         ax.set_title(f"{short(c.name)}\n{text}, {what}", fontsize=7.5)
         ax.axis("off")
     for k in range(len(cuts), rows * cols):

@@ -109,12 +109,21 @@ class FlashColourMap:
     stats: dict[str, Any]
 
 
-def flash_colour_map(schiller_rgb: np.ndarray, mask: np.ndarray, threshold: float) -> FlashColourMap:
+def flash_colour_map(schiller_rgb: np.ndarray, mask: np.ndarray, threshold: float,
+                     ratio: np.ndarray | None = None, tau: float = 0.1) -> FlashColourMap:
     """:class:`FlashColourMap` of a schiller-only render (linear sRGB, H x W x 3) with the stone's
-    ``mask`` and the flash ``threshold`` ``τ L_ref`` in the render's units (luminance)."""
+    ``mask`` and the flash ``threshold`` ``τ L_ref`` in the render's units (luminance).
+
+    ``ratio`` (H x W, ``L_s / L_ref``: a :class:`~labcut.orientation.flash_mask.FlashMask`'s, the
+    lights summed exactly) decides which pixels flash and how much instead of the render's
+    sampled luminance (``tau`` the threshold): the colours stay the render's, the flash is the
+    one the metrics count."""
     rgb = np.nan_to_num(np.asarray(schiller_rgb, dtype=np.float64))
     xyz = linear_srgb_to_xyz(rgb)
-    level = np.where(mask, np.clip(xyz[..., 1], 0.0, None) / float(threshold), 0.0)
+    if ratio is None:
+        level = np.where(mask, np.clip(xyz[..., 1], 0.0, None) / float(threshold), 0.0)
+    else:
+        level = np.where(mask, np.clip(np.asarray(ratio, dtype=np.float64), 0.0, None) / float(tau), 0.0)
     inside = np.asarray(mask, dtype=bool)
     wl = np.full(inside.shape, np.nan)
     wl[inside] = dominant_wavelengths(rgb[inside])  # the stone's pixels only: the background has no flash

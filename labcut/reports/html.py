@@ -55,8 +55,10 @@ COMPARE_DEFINITIONS = {
                               "schiller alone: the luminance-weighted median over the pixels that flash (or, where none "
                               "does, over the faint schiller); p10_nm / p90_nm the 10th / 90th percentiles; negative "
                               "values are purples' complementary wavelengths",
-    "flash_fraction": "share of the stone's pixels in the schiller-only render at or above tau x L_ref: the main view's "
-                      "flash area as the render sees it (noisier than the estimator's under environment light)",
+    "flash_fraction": "share of the stone's pixels whose schiller radiance reaches tau x L_ref (the lights summed exactly "
+                      "from the render's camera: the flash mask): the main view's flash area as the picture shows it, "
+                      "beside the estimator's (est.) for the same view at rest",
+    "estimator_flash_area": "the surface-sample estimator's flash area of the main view at rest (the tilt curve at 0°)",
     "exposure": "the multiplier every render and rocking-strip frame is tonemapped with: the bench reference, one for "
                 "all cuts and all scenarios, so brightness differences between their pictures are real",
 }

@@ -22,7 +22,9 @@ from typing import Any
 
 import numpy as np
 
+from ..orientation.flash_mask import flash_mask
 from ..rendering.api import build_scene
+from ..rendering.scene import camera_views
 from ..scene.directions import normalize_normal
 from ..scene import Scenario
 from ..scene.directions import rotation
@@ -49,6 +51,7 @@ class StoneRenders:
     spp: int
     view: str
     plan: dict[str, Any]
+    flash: Any = None
 
 
 class StoneScene:
@@ -121,11 +124,11 @@ class StoneScene:
 
 def render_cut(mesh: Any, material: Any, normal: Any, scenario: Scenario, tilt_axis: np.ndarray,
                resolution: int, spp: int, strip_angles: Sequence[float], seed: int = 0,
-               strip_spp: int | None = None) -> StoneRenders:
+               strip_spp: int | None = None, tau: float = 0.1) -> StoneRenders:
     """:class:`StoneRenders` of a cut at lamella ``normal`` (mesh frame) under ``scenario``: the
     main render (``spp`` samples per pixel), the rocking strip about the world ``tilt_axis``
-    (``strip_spp``, default ``spp``; its 0° frame is the main render), the schiller-only render
-    and the stone's mask (both at rest)."""
+    (``strip_spp``, default ``spp``; its 0° frame is the main render), the schiller-only render,
+    the stone's mask and the flash mask at threshold ``tau`` (all at rest)."""
     full = StoneScene(mesh, material, normal, scenario, resolution)
     main = full.render(spp, seed)
     strip = []
@@ -139,5 +142,7 @@ def render_cut(mesh: Any, material: Any, normal: Any, scenario: Scenario, tilt_a
     flash = StoneScene(mesh, material, normal, scenario, resolution, lobes=("schiller",))
     schiller = flash.render(spp, seed)
     mask = flash.mask()
+    setting = scenario.main_setting()
+    which = flash_mask(mesh, material, normal, setting, camera_views("main", setting), int(resolution), tau=tau)
     return StoneRenders(main, strip, tuple(float(a) for a in strip_angles), schiller, mask, int(resolution), int(spp),
-                        full.view_name, full.plan.to_dict())
+                        full.view_name, full.plan.to_dict(), which)
