@@ -369,7 +369,7 @@ def _natural(base: Labradorite) -> dict[str, Any]:
     for label, shift, share in NATURAL_DOMAINS:
         nm = min(max(peak + shift, 380.0), 780.0)
         made = Labradorite.from_peak_wavelength(nm, **{**_inherited(base), "name": label})
-        sets.append(dataclasses.replace(made, pairs=max(1.0, base.pairs * share)))
+        sets.append(dataclasses.replace(made, pairs=max(1, round(base.pairs * share))))
     return dict(materials=tuple(sets), ranges=NATURAL_RANGES, scale_mm=4.0, octaves=4, mode="smooth")
 
 
