@@ -283,7 +283,7 @@ def colour_maps(cmp: Any, scenario: str) -> bytes:
         est = st.get("estimator_flash_area")
         said = "" if est is None else f" (est. {est:.0%})"
         what = f"flash {st['flash_fraction']:.0%}{said}" if st["basis"] == "flash" else f"no flash: faint schiller{said}"
-        ax.set_title(f"{short(c.name)}\n{text}, {what}", fontsize=7.5)
+        ax.set_title(f"{short(c.name)}\n{text}\n{what}", fontsize=7.5)
         ax.axis("off")
     for k in range(len(cuts), rows * cols):
         axes[k // cols][k % cols].axis("off")
