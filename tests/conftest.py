@@ -74,3 +74,15 @@ def fresh_pilot_cache(tmp_path_factory):
     mp.setattr(planner, "_PILOT_CACHE", {})
     yield
     mp.undo()
+
+
+@pytest.fixture(autouse=True, scope="module")
+def _let_go_of_the_modules_scenes():
+    """Collect what a test module left behind when it ends: every live Mitsuba shape and BSDF (a
+    mesh's cached ray scene, a fixture's render objective) is traced into each later
+    differentiable render's calls, so a worker that kept a module's meshes alive ran the render
+    estimator's tests 10-20x slower for the rest of its run (docs/performance.md)."""
+    yield
+    import gc
+
+    gc.collect()

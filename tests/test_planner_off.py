@@ -34,6 +34,19 @@ def _pilots_measured_here(fresh_pilot_cache):
 _MESH_CACHE: dict[str, object] = {}
 
 
+@pytest.fixture(autouse=True, scope="module")
+def _meshes_let_go():
+    """The module's meshes, and the Mitsuba ray scenes each keeps (its occlusion scene), are let go
+    when the module ends: every live Mitsuba shape and BSDF is traced into each later
+    differentiable render's calls, and twelve kept meshes made the render estimator's tests 10-20x
+    slower for the rest of the worker's run (docs/performance.md)."""
+    yield
+    _MESH_CACHE.clear()
+    import gc
+
+    gc.collect()
+
+
 def mesh(name: str):
     if name not in _MESH_CACHE:
         _MESH_CACHE[name] = labcut.load_mesh(MESHES / name)
