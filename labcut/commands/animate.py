@@ -14,7 +14,6 @@ is written atomically once every frame is done: Ctrl-C leaves no partial file.
 
 from __future__ import annotations
 
-import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -28,13 +27,14 @@ from ..geometry.stone import mesh_of
 from ..scene import Scenario
 from ..scene.directions import rotation
 
+from ..rendering.exposure import Exposed
 from ..rendering.request import FRAME_LIMITS, MOTIONS, Motion, RenderRequest  # noqa: F401  (re-exported)
 
 ANIMATION_SUFFIXES = (".webp", ".gif")
 
 
 @dataclass
-class Animation:
+class Animation(Exposed):
     """Frames of an animation (linear RGB, float32) and how they were made: the motion, the
     angle of each frame (degrees), the one exposure they are tonemapped with, the tone curve,
     render plan and timing."""
@@ -54,21 +54,6 @@ class Animation:
     studio: dict[str, Any] = field(default_factory=dict)
     #: the look's reference exposure (:func:`labcut.rendering.exposure.reference_exposure`)
     exposure_reference: float = 1.0
-
-    @property
-    def exposure_ev(self) -> float:
-        return float(math.log2(self.exposure))
-
-    @property
-    def exposure_vs_reference_ev(self) -> float:
-        """Stops the frames' exposure lies over the look's reference."""
-        return float(math.log2(self.exposure / self.exposure_reference))
-
-    @property
-    def exposure_caption(self) -> str:
-        from ..rendering.exposure import exposure_caption
-
-        return exposure_caption(self.exposure_mode, self.exposure_vs_reference_ev)
 
     def save(self, path: str | Path) -> Path:
         """Write an animated WebP (quality 90) or GIF, atomically (by suffix)."""

@@ -44,7 +44,7 @@ import numpy as np
 from ..errors import ParameterError
 from ..geometry.stone import Stone
 from ..physics.material import Labradorite
-from .exposure import choose_exposure, studio_irradiance_at_camera
+from .exposure import Exposed, choose_exposure, studio_irradiance_at_camera
 from .images import save_image
 from ..scene import Setting, resolve_scene
 from ..scene.directions import normalize_normal
@@ -55,7 +55,7 @@ from .scene import RENDER_IRRADIANCE, CameraView, camera, camera_views, emitters
 log = logging.getLogger("labcut.render")
 
 @dataclass
-class RenderResult:
+class RenderResult(Exposed):
     """A rendered image (linear RGB, float32, H x W x 3) and how it was made.
 
     ``exposure``: the multiplier a PNG of it is tonemapped with, one for the whole image (the
@@ -94,23 +94,6 @@ class RenderResult:
     #: which pixels flash by the metrics' threshold (:class:`labcut.orientation.flash_mask.FlashMask`),
     #: when asked for (``labcut.render(..., flash_mask=True)``), else None
     flash_mask: Any = None
-
-    @property
-    def exposure_ev(self) -> float:
-        """The exposure in stops (log2 of the multiplier)."""
-        return float(math.log2(self.exposure))
-
-    @property
-    def exposure_vs_reference_ev(self) -> float:
-        """Stops the exposure lies over the look's reference (0: the reference; > 0 brighter)."""
-        return float(math.log2(self.exposure / self.exposure_reference))
-
-    @property
-    def exposure_caption(self) -> str:
-        """One line for a caption: the reference, or how many stops over it and why."""
-        from .exposure import exposure_caption
-
-        return exposure_caption(self.exposure_mode, self.exposure_vs_reference_ev)
 
     @property
     def samples_per_second(self) -> float:

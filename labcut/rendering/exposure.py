@@ -120,24 +120,34 @@ class ExposureChoice:
     reference: float
     metering: str
 
+
+class Exposed:
+    """What a picture made under an exposure says of it (a render, an animation): mixed into a class
+    with ``exposure`` (the multiplier), ``exposure_mode`` and ``exposure_reference`` (the look's
+    reference exposure)."""
+
+    exposure: float
+    exposure_mode: str
+    exposure_reference: float
+
     @property
-    def ev(self) -> float:
+    def exposure_ev(self) -> float:
         """The exposure in stops (log2 of the multiplier)."""
-        return float(math.log2(self.value))
+        return float(math.log2(self.exposure))
 
     @property
-    def ev_vs_reference(self) -> float:
-        """Stops over the reference exposure (0 for the reference itself; > 0 brighter)."""
-        return float(math.log2(self.value / self.reference))
+    def exposure_vs_reference_ev(self) -> float:
+        """Stops the exposure lies over the look's reference (0: the reference; > 0 brighter)."""
+        return float(math.log2(self.exposure / self.exposure_reference))
 
-    def caption(self) -> str:
-        """One line for a person: ``bench reference exposure`` or ``+1.6 EV over the bench reference
-        (auto: brightened to this scene)``."""
-        return exposure_caption(self.mode, self.ev_vs_reference)
+    @property
+    def exposure_caption(self) -> str:
+        """One line for a caption: the reference, or how many stops over it and why."""
+        return exposure_caption(self.exposure_mode, self.exposure_vs_reference_ev)
 
 
 def exposure_caption(mode: str, ev_vs_reference: float) -> str:
-    """The caption of an exposure (:meth:`ExposureChoice.caption`), from its mode and its stops
+    """The caption of an exposure (:attr:`Exposed.exposure_caption`), from its mode and its stops
     over the reference."""
     if mode == "reference":
         return f"{REFERENCE_SCENARIO} reference exposure (one for every scene: a dimmer scene looks dimmer)"
