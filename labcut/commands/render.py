@@ -23,7 +23,7 @@ from ..physics.material import Labradorite
 from ..orientation.flash_check import flash_by_view, flash_notes
 from ..orientation.flash_mask import flash_mask as flash_mask_of
 from ..planner import plan_effects
-from ..rendering.api import LOBES, RenderResult, plan_for, render_image, render_question
+from ..rendering.api import LOBES, RenderResult, camera_framing, plan_for, render_image, render_question
 from .render_budget import choose_spp
 from ..rendering.scene import CameraView
 from ..scene import Scenario
@@ -168,10 +168,5 @@ def mask_of_render(mesh: Any, ask: Any, normal: np.ndarray) -> Any:
     """The :class:`~labcut.orientation.flash_mask.FlashMask` of a render request: its cameras,
     resolution and framing (the studio look's perspective camera, or the diagram's), the rest
     pose's lights as the metrics model them."""
-    studio = ask.studio
-    if studio is None:
-        framing: dict[str, Any] = {"perspective": ask.perspective}
-    else:
-        framing = {"perspective": True, "fov_deg": studio.fov_deg, "margin": studio.margin, "far_radii": 200.0}
     return flash_mask_of(mesh, ask.material, normal, ask.scenario.main_setting(), ask.cameras, ask.resolution,
-                         **framing)
+                         **camera_framing(ask))

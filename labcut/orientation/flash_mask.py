@@ -28,6 +28,7 @@ import numpy as np
 
 from ..errors import ParameterError
 from ..physics.material import Labradorite
+from ..rendering.api import bsdf_dict, tile_views
 from ..rendering.scene import CameraView, camera, to_mitsuba_mesh
 from ..scene import Setting
 from ..scene.directions import normalize_normal
@@ -120,22 +121,22 @@ class FlashMask:
     def ratio_at(self, height: int, width: int) -> np.ndarray:
         """``ratio`` on a picture of ``height`` x ``width`` px framed like the mask (each picture
         pixel takes its nearest mask pixel's value)."""
+        return self.ratio[self._nearest(height, width)]
+
+    def _nearest(self, height: int, width: int) -> Any:
+        """The mask pixel nearest each pixel of a picture of ``height`` x ``width`` px framed like
+        the mask (an index for ``array[...]``); a picture framed otherwise is a ParameterError."""
         mh, mw = self.ratio.shape
         if height * mw != width * mh or height < mh:
             raise ParameterError(f"a picture of {width}x{height} px does not frame like the mask ({mw}x{mh} px)")
-        return self.ratio[np.ix_(np.arange(height) * mh // height, np.arange(width) * mw // width)]
+        return np.ix_(np.arange(height) * mh // height, np.arange(width) * mw // width)
 
     def overlay(self, picture: np.ndarray) -> np.ndarray:
         """A display picture (H x W x 3 uint8, the render's PNG) with the flash mask drawn on it:
         flashing pixels in :data:`OVERLAY_COLOUR` mixed by their coverage, the rest dimmed, so the
         flash the numbers count is what the eye sees marked."""
         pic = np.asarray(picture, dtype=np.float64)
-        h, w = pic.shape[:2]
-        mh, mw = self.ratio.shape
-        if h * mw != w * mh or h < mh:
-            raise ParameterError(f"a picture of {w}x{h} px does not frame like the mask ({mw}x{mh} px)")
-        rows, cols = np.arange(h) * mh // h, np.arange(w) * mw // w  # nearest mask pixel
-        flash = (self.mask * self.coverage)[np.ix_(rows, cols)][..., None]
+        flash = (self.mask * self.coverage)[self._nearest(*pic.shape[:2])][..., None]
         out = pic * OVERLAY_DIM * (1.0 - flash) + flash * (0.5 * pic + 0.5 * np.asarray(OVERLAY_COLOUR, dtype=np.float64))
         return np.clip(np.round(out), 0, 255).astype(np.uint8)
 
@@ -167,7 +168,6 @@ def flash_mask(mesh: Any, material: Labradorite, lamella_normal: Any, setting: S
 
     from ..backend import set_variant
     from ..rendering import bsdf as _bsdf  # noqa: F401  (registers the plugin)
-    from ..rendering.api import bsdf_dict
 
     m = normalize_normal(lamella_normal)
     set_variant("mono")
@@ -185,12 +185,4 @@ def flash_mask(mesh: Any, material: Labradorite, lamella_normal: Any, setting: S
         ratios.append(ratio)
         covers.append(cover)
         shares.append(_share(ratio, cover, tau))
-    return FlashMask(_tile(ratios), _tile(covers), float(tau), tuple(c.name for c in cameras), tuple(shares))
-
-
-def _tile(images: list[np.ndarray]) -> np.ndarray:
-    """Images side by side, 4 to a row (a render's orbit tiling)."""
-    if len(images) == 1:
-        return images[0]
-    rows = [np.concatenate(images[i : i + 4], axis=1) for i in range(0, len(images), 4)]
-    return np.concatenate(rows, axis=0)
+    return FlashMask(tile_views(ratios), tile_views(covers), float(tau), tuple(c.name for c in cameras), tuple(shares))

@@ -44,7 +44,7 @@ import numpy as np
 from ..errors import ParameterError
 from ..geometry.stone import Stone
 from ..physics.material import Labradorite
-from .exposure import Exposed, choose_exposure, studio_irradiance_at_camera
+from .exposure import Exposed, choose_exposure
 from .images import save_image
 from ..scene import Setting, resolve_scene
 from ..scene.directions import normalize_normal
@@ -224,12 +224,15 @@ def build_scene(
 @dataclass(frozen=True)
 class _SceneParts:
     """What every camera of one render shares: the plan, the BSDF's plugin dictionary (zoning baked
-    and the studio body grid in it), the integrator's and the lights' dictionaries."""
+    and the studio body grid in it), the integrator's and the lights' dictionaries; in the studio
+    look also its lamps and environment (what the exposure meter and the render's record read)."""
 
     plan: RenderPlan
     bsdf: dict[str, Any]
     integrator: dict[str, Any]
     lights: dict[str, Any]
+    lamps: list[Any] = field(default_factory=list)
+    environment: Any = None
 
 
 def _scene_parts(mesh: Any, ask: Any, normal: np.ndarray, setting: Setting, integrator: str | None = None) -> _SceneParts:
@@ -256,12 +259,11 @@ def _scene_parts(mesh: Any, ask: Any, normal: np.ndarray, setting: Setting, inte
     if plan.polarizer_deg is not None:
         integ = {"type": "stokes", "nested": integ}
     if studio is None:
-        lights = emitters(setting.lights)
-    else:
-        from .studio import studio_emitters
+        return _SceneParts(plan, d, integ, emitters(setting.lights))
+    from .studio import studio_emitters
 
-        lights, _, _ = studio_emitters(mesh, setting, studio)
-    return _SceneParts(plan, d, integ, lights)
+    lights, lamps, env = studio_emitters(mesh, setting, studio)
+    return _SceneParts(plan, d, integ, lights, lamps, env)
 
 
 def _scene(mesh: Any, ask: Any, normal: np.ndarray, setting: Setting, cam: CameraView,
@@ -273,11 +275,8 @@ def _scene(mesh: Any, ask: Any, normal: np.ndarray, setting: Setting, cam: Camer
 
     parts = parts or _scene_parts(mesh, ask, normal, setting, integrator)
     studio = ask.studio
-    if studio is None:
-        sensor = camera(mesh, cam, ask.resolution, ask.perspective)
-    else:
-        sensor = camera(mesh, cam, ask.resolution, True, studio.fov_deg, margin=studio.margin, far_radii=200.0,
-                        rfilter="box" if parts.plan.denoise else "gaussian")
+    rfilter = "box" if studio is not None and parts.plan.denoise else "gaussian"
+    sensor = camera(mesh, cam, ask.resolution, **camera_framing(ask), rfilter=rfilter)
     scene_dict: dict[str, Any] = {
         "type": "scene",
         "integrator": parts.integrator,
@@ -286,6 +285,16 @@ def _scene(mesh: Any, ask: Any, normal: np.ndarray, setting: Setting, cam: Camer
         **parts.lights,
     }
     return mi.load_dict(scene_dict), parts.plan
+
+
+def camera_framing(ask: Any) -> dict[str, Any]:
+    """How a render request's cameras frame the stone (:func:`~labcut.rendering.scene.camera`'s
+    ``perspective``, ``fov_deg``, ``margin``, ``far_radii``): the diagram look's orthographic (or
+    asked-for perspective) view, or the studio look's perspective camera with room for the table."""
+    studio = ask.studio
+    if studio is None:
+        return {"perspective": bool(ask.perspective)}
+    return {"perspective": True, "fov_deg": studio.fov_deg, "margin": studio.margin, "far_radii": 200.0}
 
 
 def _polarizer_intensity(image: np.ndarray, angle_deg: float) -> np.ndarray:
@@ -376,15 +385,11 @@ def render_image(mesh: Any, ask: Any, normal: np.ndarray, spp: int, *,
             dr.flush_malloc_cache()
     seconds = time.perf_counter() - start
     assert plan is not None
-    if len(tiles) == 1:
-        image = tiles[0]
-    else:
-        rows = [np.concatenate(tiles[i : i + 4], axis=1) for i in range(0, len(tiles), 4)]
-        image = np.concatenate(rows, axis=0)
+    image = tile_views(tiles)
     log.info("render plan: %s", "; ".join(plan.reasons))
     image = np.ascontiguousarray(image)
-    studio_info: dict[str, Any] = {} if studio is None else studio_record(setting, studio, views)
-    chosen = choose_exposure(ask.exposure, studio, setting, views, image)
+    studio_info: dict[str, Any] = {} if studio is None else studio_record(setting, studio, views, parts)
+    chosen = choose_exposure(ask.exposure, studio, setting, views, image, studio_info.get("irradiance_at_camera"))
     plan = dataclasses.replace(plan, effects=effect_plan)
     result = RenderResult(
         image, plan, int(spp), seconds, [v.name for v in views], scenario_used.to_dict(),
@@ -401,23 +406,30 @@ def render_image(mesh: Any, ask: Any, normal: np.ndarray, spp: int, *,
     return result
 
 
-def studio_record(setting: Setting, look: Any, views: Sequence[CameraView]) -> dict[str, Any]:
-    """A record of a studio render's settings and lamps (mesh frame), with the irradiance on a card
-    facing its first camera (render units)."""
-    from .studio import lamps_of, resolve_look, studio_environment
+#: views side by side in a row of a multi-view render (an orbit's 8: 4 x 2)
+VIEWS_PER_ROW = 4
 
-    studio = resolve_look(look)
-    if studio is None:
-        raise ParameterError("studio_record needs the studio look")
+
+def tile_views(images: Sequence[np.ndarray]) -> np.ndarray:
+    """One image per camera, tiled as a multi-view render shows them: :data:`VIEWS_PER_ROW` to a row."""
+    if len(images) == 1:
+        return images[0]
+    rows = [np.concatenate(images[i : i + VIEWS_PER_ROW], axis=1) for i in range(0, len(images), VIEWS_PER_ROW)]
+    return np.concatenate(rows, axis=0)
+
+
+def studio_record(setting: Setting, studio: Any, views: Sequence[CameraView], parts: _SceneParts) -> dict[str, Any]:
+    """A record of a studio render's settings and lamps (mesh frame, as ``parts`` built them), with
+    the irradiance on a card facing its first camera (render units)."""
+    from .studio import irradiance_at_camera
+
     scale = RENDER_IRRADIANCE / float(np.sum(setting.lights.weights))
-    lamps = lamps_of(setting.lights, studio.point_lamp_deg)
-    env = studio_environment(setting, studio, scale)
     return {
         **studio.to_dict(),
         "lamps": [{"direction": list(lamp.direction), "radius_deg": lamp.radius_deg, "point_lamp": lamp.point,
-                   "irradiance": lamp.irradiance * scale} for lamp in lamps],
-        "environment": env.name,
-        "irradiance_at_camera": studio_irradiance_at_camera(setting, studio, views[0].direction),
+                   "irradiance": lamp.irradiance * scale} for lamp in parts.lamps],
+        "environment": parts.environment.name,
+        "irradiance_at_camera": irradiance_at_camera(parts.lamps, parts.environment, views[0].direction, scale),
     }
 
 

@@ -33,6 +33,8 @@ import numpy as np
 from ..errors import ParameterError
 from ..scene import Setting, resolve_scene
 from .scene import RENDER_IRRADIANCE, ROOM_AMBIENT, CameraView
+from .images import auto_exposure
+from .studio import irradiance_at_camera, irradiance_towards, lamps_of, studio_environment
 from .tonemap import STUDIO_EV, check_exposure, metered_exposure
 
 #: the scenario whose rest pose meters the reference exposure
@@ -74,8 +76,6 @@ def diagram_irradiance_at_camera(setting: Setting, camera_direction: Any) -> flo
     env = lights.environment
     if env is None:
         return e + math.pi * ROOM_AMBIENT
-    from .studio import irradiance_towards
-
     return e + float(irradiance_towards(env.scaled(scale), v))
 
 
@@ -90,8 +90,6 @@ def metered(setting: Setting, studio: Any, camera_direction: Any) -> float:
 def studio_irradiance_at_camera(setting: Setting, studio: Any, camera_direction: Any) -> float:
     """Irradiance (render units) on a card facing the camera in the studio look: its lamps and
     its environment (the scenario's map, if any, and the light tent)."""
-    from .studio import irradiance_at_camera, lamps_of, studio_environment
-
     scale = RENDER_IRRADIANCE / float(np.sum(setting.lights.weights))
     lamps = lamps_of(setting.lights, studio.point_lamp_deg)
     env = studio_environment(setting, studio, scale)
@@ -158,17 +156,18 @@ def exposure_caption(mode: str, ev_vs_reference: float) -> str:
 
 
 def choose_exposure(asked: float | str, studio: Any, setting: Setting, views: Sequence[CameraView],
-                    image: np.ndarray) -> ExposureChoice:
+                    image: np.ndarray, irradiance: float | None = None) -> ExposureChoice:
     """The exposure of a render (module docstring): ``asked`` as :func:`check_mode` returns it,
-    the look (``studio`` or None), the rest pose's ``setting`` and cameras (mesh frame), and the
-    linear image (for the diagram look's ``auto``)."""
-    from .images import auto_exposure
-
+    the look (``studio`` or None), the rest pose's ``setting`` and cameras (mesh frame), the
+    linear image (for the diagram look's ``auto``) and, when the caller has it, the studio's
+    irradiance on a card facing the first camera (else it is metered here)."""
     ref = reference_exposure(studio)
     if asked == "reference":
         return ExposureChoice(ref, "reference", ref, "reference")
     if asked == "auto":
         if studio is None:
             return ExposureChoice(auto_exposure(np.clip(np.nan_to_num(image), 0.0, None)), "auto", ref, "image")
-        return ExposureChoice(metered(setting, studio, views[0].direction), "auto", ref, "incident")
+        if irradiance is None:
+            irradiance = studio_irradiance_at_camera(setting, studio, views[0].direction)
+        return ExposureChoice(metered_exposure(irradiance, STUDIO_EV), "auto", ref, "incident")
     return ExposureChoice(check_exposure(asked), "given", ref, "given")

@@ -37,6 +37,12 @@ DEFAULT_SPP = 64
 DENOISED_SPP = 16
 
 
+def presentation(studio: Any, polarizer_deg: float | None, mode: str) -> bool:
+    """Whether a render is a picture to show, not a measurement: the studio look, in colour, without
+    a polarizer. Such a render is denoised and shows the natural colour zones by default."""
+    return studio is not None and polarizer_deg is None and mode != "mono"
+
+
 @dataclass(frozen=True)
 class RenderRequest:
     """A validated render request (module docstring); build it with :meth:`build`."""
@@ -136,7 +142,8 @@ class RenderRequest:
         lobes_t = tuple(lobes) if not isinstance(lobes, str) else (lobes,)
         plan_render(True, None, mode, polarizer_deg, lobes_t, max_depth, look=studio or "diagram",
                     denoise=denoise)  # mode, polarizer, lobes, look and denoise together
-        denoised = denoise if denoise is not None else (studio is not None and polarizer_deg is None and mode != "mono")
+        shown = presentation(studio, polarizer_deg, mode)
+        denoised = denoise if denoise is not None else shown
         if spp is None:
             spp_v = DENOISED_SPP if denoised else DEFAULT_SPP
         scene = resolve_scene(scenario, lighting, viewing)
@@ -145,8 +152,7 @@ class RenderRequest:
 
         if isinstance(zoning, str) and zoning.strip().lower() == "auto":
             # presentation renders show a real stone's zoning; the diagram look the clean model
-            natural = studio is not None and polarizer_deg is None and mode != "mono"
-            zoning = Zoning.preset("natural", material, seed=int(seed_v)) if natural else None
+            zoning = Zoning.preset("natural", material, seed=int(seed_v)) if shown else None
         zone = resolve_zoning(zoning, material)
         return cls(material, scene, cameras, int(spp_v), int(res), mode, polarizer_deg, lobes_t, max_depth,
                    bool(perspective), int(seed_v), zone, exposure, studio, denoise, time_budget, view)
@@ -166,7 +172,7 @@ class RenderRequest:
         """Whether the render is denoised (the default: in the studio look, for rgb/spectral colour)."""
         if self.denoise is not None:
             return self.denoise
-        return self.studio is not None and self.polarizer_deg is None and self.mode != "mono"
+        return presentation(self.studio, self.polarizer_deg, self.mode)
 
     def replace(self, **changes: Any) -> RenderRequest:
         """The same setup with fields changed, for callers that already hold valid values (a
