@@ -42,27 +42,21 @@ Exposure = Annotated[str, typer.Option("--exposure", help=EXPOSURE_HELP)]
 
 
 def parse_exposure(text: str) -> float | str:
-    """``reference`` or ``auto`` -> that mode; ``2.5`` -> that multiplier; ``-1.5ev`` -> 2**-1.5 (stops).
+    """``reference`` or ``auto`` -> that mode; ``2.5`` -> that multiplier; ``-1.5ev`` -> 2**-1.5 (stops),
+    checked by the library (``labcut.rendering.check_exposure_mode``, ``from_ev``).
     Anything else is a one-line ParameterError naming --exposure."""
-    import math
-
     from labcut.errors import ParameterError
+    from labcut.rendering import EXPOSURE_MODES, check_exposure_mode, from_ev
 
-    bad = f"--exposure must be reference, auto, a multiplier > 0 or stops like -1.5ev, got {text!r}"
     key = text.strip().lower()
-    if key in ("reference", "auto"):
-        return key
     try:
-        value = float(key[:-2]) if key.endswith("ev") else float(key)
+        if key in EXPOSURE_MODES:
+            return check_exposure_mode(key)
+        return from_ev(float(key[:-2])) if key.endswith("ev") else check_exposure_mode(float(key))
+    except ParameterError as exc:  # (a ValueError too: first)
+        raise exc.renamed({"exposure": "--exposure"}) from None
     except ValueError:
-        raise ParameterError(bad) from None
-    if key.endswith("ev"):
-        if not (math.isfinite(value) and abs(value) <= 40.0):
-            raise ParameterError(f"--exposure in stops must be finite and within ±40, got {text!r}")
-        return 2.0 ** value
-    if not (math.isfinite(value) and value > 0.0):
-        raise ParameterError(bad)
-    return value
+        raise ParameterError(f"--exposure must be reference, auto, a multiplier > 0 or stops like -1.5ev, got {text!r}") from None
 
 
 def exposure_line(result: Any) -> str:

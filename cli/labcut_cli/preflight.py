@@ -32,7 +32,7 @@ def before_rendering(mesh: Any, setup: Any, lamella: Any, move: Any, yes: bool, 
         (err_console if quiet else console).print(f"note: {preview.note(what)}", highlight=False)
     if move is not None:
         return None
-    return [{"view": v, "flash_area": a, "flash": None if a is None else a > 0.0} for v, a in zip(preview.labels, preview.areas)]
+    return list(preview.flash)
 
 
 def check_cost(mesh: Any, setup: Any, yes: bool, quiet: bool, frames: int = 1, budget: bool = True) -> None:

@@ -134,18 +134,27 @@ def check_memory(fc: RenderForecast, resolution: int, denoised: bool) -> None:
 @dataclass(frozen=True)
 class FlashPreview:
     """Whether a render's views (or an animation's frames) flash, by the surface-sample estimator
-    at draft quality: per checked view or frame its ``label`` and flash ``area`` (None: edge-on)."""
+    at draft quality: ``flash``, per checked view or frame, what
+    :func:`~labcut.orientation.flash_check.flash_by_view` says of a camera (``view``: its label,
+    ``flash_area``: None when edge-on, ``flash``), so a render can take it as its own."""
 
-    labels: tuple[str, ...]
-    areas: tuple[float | None, ...]
+    flash: tuple[dict[str, Any], ...]
+
+    @property
+    def labels(self) -> tuple[str, ...]:
+        return tuple(f["view"] for f in self.flash)
+
+    @property
+    def areas(self) -> tuple[float | None, ...]:
+        return tuple(f["flash_area"] for f in self.flash)
 
     @property
     def any_flash(self) -> bool:
-        return any(a is not None and a > 0.0 for a in self.areas)
+        return any(f["flash"] for f in self.flash)
 
     def note(self, what: str) -> str:
         """Why a render would show no flash, for a person (``what``: ``views`` or ``frames``)."""
-        return (f"no part of the stone reaches the flash threshold in any of the {len(self.labels)} {what} checked "
+        return (f"no part of the stone reaches the flash threshold in any of the {len(self.flash)} {what} checked "
                 "at this lamella orientation: the render would show surface glare and the body only")
 
 
@@ -154,16 +163,15 @@ def flash_preview(mesh: Any, ask: RenderRequest, normal: Any, motion: Motion | N
     or, for an animation, up to :data:`PREVIEW_FRAMES` of its frames spread over the motion."""
     if motion is None:
         flash, _ = flash_by_view(mesh, ask.material, normal, ask.scenario.main_setting(), ask.cameras)
-        return FlashPreview(tuple(f["view"] for f in flash), tuple(f["flash_area"] for f in flash))
+        return FlashPreview(tuple(flash))
     angles = motion.angles_deg
     picks = sorted(set(np.linspace(0, len(angles) - 1, min(PREVIEW_FRAMES, len(angles))).round().astype(int).tolist()))
-    labels, areas = [], []
+    frames = []
     for i in picks:
         scenario: Scenario = posed(ask.scenario, motion.motion, angles[i])
         flash, _ = flash_by_view(mesh, ask.material, normal, scenario.main_setting(), ask.cameras[:1])
-        labels.append(f"frame {i + 1} ({angles[i]:+.0f}°)")
-        areas.append(flash[0]["flash_area"])
-    return FlashPreview(tuple(labels), tuple(areas))
+        frames.append({**flash[0], "view": f"frame {i + 1} ({angles[i]:+.0f}°)"})
+    return FlashPreview(tuple(frames))
 
 
 def needs_confirmation(fc: RenderForecast, time_budget: float | None) -> bool:
