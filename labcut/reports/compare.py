@@ -701,15 +701,6 @@ def compare_cuts(
     return run_comparison(plan, progress)
 
 
-def rest_flash_area(tilt: Any) -> float | None:
-    """The estimator's flash area of the main view at rest (the tilt curve at 0°), or None."""
-    i = np.flatnonzero(np.abs(np.asarray(tilt.angles_deg)) < 1e-9)
-    if not len(i):
-        return None
-    a = float(tilt.flash_area["front_back"][int(i[0])])
-    return a if math.isfinite(a) else None
-
-
 def rank_and_normalise(cuts: Sequence[CutResult], scenarios: Sequence[Any], reference: int) -> dict[str, float]:
     """Finish a comparison of ``cuts`` (each with its per-scenario results): per scenario the ranks
     by flash energy and every value of :data:`NORMALISED` over the ``reference`` cut's, each cut's
@@ -800,7 +791,8 @@ def run_comparison(plan: ComparisonPlan, progress: Callable[[int, int], None] | 
             mark_warm(renders.plan["integrator"])
             h, w = renders.schiller.shape[:2]
             colour = flash_colour_map(renders.schiller, renders.mask, threshold, renders.flash.ratio_at(h, w), tau)
-            colour.stats["estimator_flash_area"] = rest_flash_area(tilt)
+            rest = tilt.at_rest("flash_area")  # the estimator's, the same view at rest (NaN: edge-on)
+            colour.stats["estimator_flash_area"] = rest if math.isfinite(rest) else None
             per[sc.name] = ScenarioResult(cut.name, sc, rec, tilt, mis, renders, colour, seconds=time.perf_counter() - t0)
             done += 1
             report(done, total)
