@@ -64,6 +64,8 @@ _LAZY = {
     "EffectPlan": "labcut.planner:EffectPlan",
     "plan_rough": "labcut.rough.plan:plan_rough",
     "RoughPlan": "labcut.rough.plan:RoughPlan",
+    "explore": "labcut.explorer:explore",
+    "Explorer": "labcut.explorer:Explorer",
 }
 
 

@@ -11,7 +11,7 @@ import contextlib
 import json
 import os
 import tempfile
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -207,31 +207,52 @@ def calibration(name: str, key: str, measure: Any, *, check: Any = None, refresh
     the value depends on (versions, CPU count, the layout): a changed key measures again. ``check``:
     optional ``check(value)`` raising KeyError/TypeError/ValueError for a stored value of an older
     layout (then it is measured again). ``refresh`` measures again whatever is kept."""
-    memo = (name, key)
-    if memo in _CALIBRATIONS and not refresh:
-        return _CALIBRATIONS[memo]
+    return calibrations(name, [key], lambda missing: [measure()], check=check, refresh=refresh, keep=keep)[0]
+
+
+def calibrations(name: str, keys: Sequence[str], measure: Any, *, check: Any = None, refresh: bool = False,
+                 keep: int = 64) -> list[dict[str, Any]]:
+    """:func:`calibration` of several keys of one file at once: the values of ``keys`` (in order),
+    those kept in this process or in the file as they are, the others from one call
+    ``measure(missing_keys)`` (a list of JSON-able dicts, one per missing key, in order), stored with
+    one write of the file. A plan asks one value per pose of its scene: measured together they
+    share the work, and the file is written once, not once per pose."""
     path = cache_path(name)
     stored = _STORES.get(str(path))
     if stored is None:  # a file of many keys (a plan asks one per pose) is read once per process
         stored = _STORES[str(path)] = read_cache(path) or {}
-    value = None if refresh else stored.get(key)
-    if isinstance(value, dict):
-        try:
-            if check is not None:
-                check(value)
-        except (KeyError, TypeError, ValueError, IndexError):
+    values: dict[str, dict[str, Any]] = {}
+    for key in keys:
+        memo = (name, key)
+        if memo in _CALIBRATIONS and not refresh:
+            values[key] = _CALIBRATIONS[memo]
+            continue
+        value = None if refresh else stored.get(key)
+        if isinstance(value, dict):
+            try:
+                if check is not None:
+                    check(value)
+            except (KeyError, TypeError, ValueError, IndexError):
+                value = None
+        else:
             value = None
-    else:
-        value = None
-    if value is None:
-        value = dict(measure())
+        if value is not None:
+            values[key] = value
+    missing = list(dict.fromkeys(k for k in keys if k not in values))
+    if missing:
+        measured = [dict(v) for v in measure(missing)]
+        if len(measured) != len(missing):
+            raise ValueError(f"measure gave {len(measured)} values for {len(missing)} keys of {name}")
         stored = read_cache(path) or {}  # what other processes wrote since, kept
-        stored.pop(key, None)
-        stored[key] = value
+        for key, value in zip(missing, measured):
+            stored.pop(key, None)
+            stored[key] = value
+            values[key] = value
         stored = _STORES[str(path)] = dict(list(stored.items())[-keep:])
         write_cache(path, stored)
-    _CALIBRATIONS[memo] = value
-    return value
+    for key in keys:
+        _CALIBRATIONS[(name, key)] = values[key]
+    return [values[key] for key in keys]
 
 
 def cached_array(name: str, key: str, build: Any, *, shape: tuple[int, ...], dtype: Any) -> Any:

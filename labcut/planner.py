@@ -202,22 +202,37 @@ def polarisation_bias(material: Any, lights: Any, views: Any) -> float:
     ``planner-polarisation.json`` (:func:`labcut.fileio.calibration`), keyed by every material
     parameter, a hash of the directions and weights, labcut's, numpy's and Mitsuba's versions and
     a hash of the code that computes it (this module, the colour and physics modules)."""
+    return polarisation_biases(material, [(lights, views)])[0]
+
+
+def polarisation_biases(material: Any, pairs: Sequence[tuple[Any, Any]]) -> list[float]:
+    """:func:`polarisation_bias` of each ``(lights, views)`` of ``pairs`` (a scene's poses): those
+    not kept computed together (one s and one p spectrum of the stack for all of them) and kept
+    with one write of the cache file."""
     import hashlib
 
     from .colour import material_key
-    from .fileio import calibration
+    from .fileio import calibrations
 
-    L = np.asarray(lights.directions, dtype=np.float64)
-    V = np.asarray(views.directions, dtype=np.float64)
-    wl, wv = np.asarray(lights.weights, dtype=np.float64), np.asarray(views.weights, dtype=np.float64)
-    arrays = hashlib.blake2b(digest_size=16)
-    for a in (L, wl, V, wv):
-        arrays.update(str(a.shape).encode())
-        arrays.update(np.ascontiguousarray(a).tobytes())
-    key = f"planner {_planner_code()} directions {arrays.hexdigest()} {material_key(material)}"
-    value = calibration("planner-polarisation.json", key, lambda: {"bias": _polarisation_bias(material, L, wl, V, wv)},
-                        check=lambda v: float(v["bias"]), keep=POLARISATION_KEEP)
-    return float(value["bias"])
+    arrays, keys = [], []
+    for lights, views in pairs:
+        L = np.asarray(lights.directions, dtype=np.float64)
+        V = np.asarray(views.directions, dtype=np.float64)
+        wl, wv = np.asarray(lights.weights, dtype=np.float64), np.asarray(views.weights, dtype=np.float64)
+        digest = hashlib.blake2b(digest_size=16)
+        for x in (L, wl, V, wv):
+            digest.update(str(x.shape).encode())
+            digest.update(np.ascontiguousarray(x).tobytes())
+        arrays.append((L, wl, V, wv))
+        keys.append(f"planner {_planner_code()} directions {digest.hexdigest()} {material_key(material)}")
+    by_key = dict(zip(keys, arrays))
+
+    def measure(missing: list[str]) -> list[dict[str, float]]:
+        return [{"bias": b} for b in _polarisation_bias(material, [by_key[k] for k in missing])]
+
+    values = calibrations("planner-polarisation.json", keys, measure, check=lambda v: float(v["bias"]),
+                          keep=POLARISATION_KEEP)
+    return [float(v["bias"]) for v in values]
 
 
 @functools.lru_cache(maxsize=1)
@@ -230,16 +245,13 @@ def _planner_code() -> str:
     return code_hash(Path(__file__))
 
 
-def _polarisation_bias(material: Any, L: np.ndarray, wl: np.ndarray, V: np.ndarray, wv: np.ndarray) -> float:
-    """:func:`polarisation_bias` of light directions ``L`` (n, 3) with weights ``wl`` and view
-    directions ``V`` (m, 3) with weights ``wv``, computed."""
+def _polarisation_bias(material: Any, sets: Sequence[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]]) -> list[float]:
+    """:func:`polarisation_bias` of each ``(L, wl, V, wv)`` of ``sets``: light directions ``L``
+    (n, 3) with weights ``wl`` and view directions ``V`` (m, 3) with weights ``wv``, computed; the
+    stack's s and p reflectances of every set's half-vector cosines in one call each."""
     from .colour import reflectance_luminance
 
     eta = float(material.n_surface)
-    cl, cv = L[:, 2][:, None], V[:, 2][None, :]
-    ok = (cl > 1e-3) & (cv > 1e-3)
-    if not np.any(ok):
-        return 0.0
 
     def internal(d: np.ndarray) -> np.ndarray:  # refracted into the stone, pointing out of it
         c = np.clip(d[:, 2], 1e-6, 1.0)
@@ -248,19 +260,34 @@ def _polarisation_bias(material: Any, L: np.ndarray, wl: np.ndarray, V: np.ndarr
         t[:, 2] = np.sqrt(np.maximum(1.0 - (1.0 - c * c) / (eta * eta), 0.0))
         return t / np.linalg.norm(t, axis=1, keepdims=True)
 
-    a, b = internal(L), internal(V)
-    h = a[:, None, :] + b[None, :, :]
-    cos_half = np.clip(np.einsum("ijk,ijk->ij", a[:, None, :].repeat(len(V), 1), h) / np.maximum(np.linalg.norm(h, axis=2), 1e-12), 0.0, 1.0)
-    ts_l, tp_l = _fresnel_sp(np.clip(cl, 0, 1), eta)
-    ts_v, tp_v = _fresnel_sp(np.clip(cv, 0, 1), eta)
-    rs = reflectance_luminance(material, cos_half, polarization="s")
-    rp = reflectance_luminance(material, cos_half, polarization="p")
-    exact = 0.5 * (ts_l * rs * ts_v + tp_l * rp * tp_v)
-    approx = (0.5 * (ts_l + tp_l)) * (0.5 * (rs + rp)) * (0.5 * (ts_v + tp_v))
-    w = np.where(ok, wl[:, None] * wv[None, :], 0.0)
-    # the bias of the flash energy: weighted by the flash each pair carries
-    total = float(np.sum(w * exact))
-    return float(abs(np.sum(w * (approx - exact))) / total) if total > 0 else 0.0
+    parts = []
+    for L, wl, V, wv in sets:
+        cl, cv = L[:, 2][:, None], V[:, 2][None, :]
+        a, b = internal(L), internal(V)
+        h = a[:, None, :] + b[None, :, :]
+        cos_half = np.clip(np.einsum("ijk,ijk->ij", a[:, None, :].repeat(len(V), 1), h) / np.maximum(np.linalg.norm(h, axis=2), 1e-12), 0.0, 1.0)
+        parts.append((cl, cv, wl, wv, cos_half))
+    flat = np.concatenate([p[4].ravel() for p in parts]) if parts else np.zeros(0)
+    rs_all = reflectance_luminance(material, flat, polarization="s") if flat.size else flat
+    rp_all = reflectance_luminance(material, flat, polarization="p") if flat.size else flat
+    out, start = [], 0
+    for cl, cv, wl, wv, cos_half in parts:
+        n = cos_half.size
+        rs, rp = rs_all[start:start + n].reshape(cos_half.shape), rp_all[start:start + n].reshape(cos_half.shape)
+        start += n
+        ok = (cl > 1e-3) & (cv > 1e-3)
+        if not np.any(ok):
+            out.append(0.0)
+            continue
+        ts_l, tp_l = _fresnel_sp(np.clip(cl, 0, 1), eta)
+        ts_v, tp_v = _fresnel_sp(np.clip(cv, 0, 1), eta)
+        exact = 0.5 * (ts_l * rs * ts_v + tp_l * rp * tp_v)
+        approx = (0.5 * (ts_l + tp_l)) * (0.5 * (rs + rp)) * (0.5 * (ts_v + tp_v))
+        w = np.where(ok, wl[:, None] * wv[None, :], 0.0)
+        # the bias of the flash energy: weighted by the flash each pair carries
+        total = float(np.sum(w * exact))
+        out.append(float(abs(np.sum(w * (approx - exact))) / total) if total > 0 else 0.0)
+    return out
 
 
 # ---------------------------------------------------------------------- the planner
@@ -625,7 +652,7 @@ def plan_effects(
         else:
             decisions.append(Decision("polarisation", False, "", "no polariser: the eye and the camera see unpolarised light"))
     else:
-        bias = max(polarisation_bias(material, st.lights, st.views) for st in scene.settings())
+        bias = max(polarisation_biases(material, [(st.lights, st.views) for st in scene.settings()]))
         facts["polarisation_bias"] = round(bias, 5)
         decisions.append(Decision(
             "polarisation", False, "",

@@ -34,13 +34,13 @@ LAYERS: list[tuple[str, ...]] = [
     ("labcut.commands",),
     ("labcut.study",),
     ("labcut.reports", "labcut.rough"),
-    ("labcut.batch",),
+    ("labcut.batch", "labcut.explorer"),
 ]
 
 
 #: a short name for each layer (docs/architecture.md and its figure)
 LAYER_NAMES = ["errors · validation", "backend · fileio", "physics · colour", "geometry · scene",
-               "orientation · rendering · plots", "planner", "commands · budgets", "study", "reports · rough", "batch"]
+               "orientation · rendering · plots", "planner", "commands · budgets", "study", "reports · rough", "batch · explorer"]
 
 
 def layer_of(module: str) -> int | None:

@@ -25,6 +25,7 @@ from . import scenes  # noqa: F401  (registers scenarios)
 from . import compare  # noqa: F401  (registers compare)
 from . import batch  # noqa: F401  (registers batch)
 from . import rough  # noqa: F401  (registers rough)
+from . import explore  # noqa: F401  (registers explore)
 from .root import app, err_console
 
 

@@ -222,7 +222,8 @@ VALUES_BLOCK_BYTES = 32 << 20
 
 def objective_values(problem: FlashProblem, radiance: np.ndarray, point_weights: np.ndarray, objective: str) -> np.ndarray:
     """The objective at each stencil normal for each set of surface-point weights (R, n_points):
-    (R, K). Weights 1 give the problem's own estimator (DESIGN.md §4's metrics).
+    (R, K). Weights 1 give the problem's own estimator (DESIGN.md §4's metrics). ``objective``
+    ``"all"``: energy, area and intensity at once, (3, R, K).
 
     The views' sums a group at a time: a pair is one (point, view), so the pairs' values laid out by
     point and view, ``X[point, view, column]`` (zero where the point does not face the view), give
@@ -271,6 +272,8 @@ def objective_values(problem: FlashProblem, radiance: np.ndarray, point_weights:
     intensity = np.einsum("rvk,v->rk", np.where(ar_v > 1e-12, in_v / np.maximum(ar_v, 1e-12), 0.0), wv)
     if objective == "intensity":
         return intensity
+    if objective == "all":
+        return np.stack([energy, area, intensity])
     return np.sqrt(np.maximum(area * intensity, 0.0))
 
 
@@ -405,3 +408,27 @@ def uncertainty_for(mesh: Any, setup: Any, problem: FlashProblem, normal: Any, *
     fine = build(finer_poses(setup.quality)) if rocks else None
     return estimate_uncertainty(problem, normal, setup.objective, coarse=coarse, fine=fine, tolerance_deg=tolerance_deg,
                                 seed=setup.seed)
+
+
+#: the metrics :func:`sampling_error` gives a bar for
+SAMPLED_METRICS = ("flash_energy", "flash_area", "flash_intensity")
+
+
+def sampling_error(problem: FlashProblem, normal: Any, *, replicates: int = BOOTSTRAP, seed: int = 0) -> dict[str, float]:
+    """The surface-sampling error of the flash metrics at one lamella normal (unit, mesh frame):
+    ``{metric: error}`` for :data:`SAMPLED_METRICS`, each :data:`COVER` standard deviations of the
+    metric over a Poisson bootstrap of the surface points (the sampling part of
+    :func:`estimate_uncertainty`'s score bar, at a given normal instead of at a fitted peak; in the
+    metric's own units). What it leaves out: the error of the finite light and view directions,
+    which only a recommendation's bars hold. A live view (``labcut explore``) shows it beside the
+    metrics of the normal the user set."""
+    m = np.asarray(normal, dtype=np.float64)
+    if m.shape != (3,) or not np.all(np.isfinite(m)) or not np.linalg.norm(m) > 0:
+        raise ParameterError(f"normal must be three finite numbers, not all zero, got {normal!r}")
+    if not isinstance(replicates, int) or replicates < 4:
+        raise ParameterError(f"replicates must be a whole number >= 4, got {replicates!r}")
+    m = (m / np.linalg.norm(m))[None, :]
+    radiance = problem.pair_radiance(m, _reach(problem.kappa, m))
+    weights = bootstrap_weights(seed, _point_count(problem), replicates)[1:]
+    values = objective_values(problem, radiance, weights, "all")[:, :, 0]  # energy, area, intensity
+    return {name: float(COVER * np.std(v, ddof=1)) for name, v in zip(SAMPLED_METRICS, values)}
