@@ -47,11 +47,13 @@ def surface_offset(mesh: Any) -> float:
     return stone.cached("ray_surface_offset", build)
 
 
-#: the colour mode of the variant the ray queries run in: a shadow ray's answer is the triangles'
-#: alone, the same in every mode, and the flash estimators' renders (the planner's pilots, the
-#: render estimator) run in mono too, so a carving's recommendation never switches variant (each
-#: switch reloads Mitsuba's Python modules: 0.06-0.1 s, five of them in a carving's first plan
-#: when the rays ran in rgb) and builds its ray scene once
+#: the colour mode of the variant the ray queries run in when no JIT variant of this machine's
+#: backend is active: a shadow ray's answer is the triangles' alone, the same in every mode, and
+#: the flash estimators' renders (the planner's pilots, the render estimator) run in mono too, so a
+#: carving's recommendation never switches variant (each switch reloads Mitsuba's Python modules:
+#: 0.06-0.1 s, five of them in a carving's first plan when the rays ran in rgb) and builds its ray
+#: scene once. Where such a variant is active already (an rgb render came first: the explorer, a
+#: recommendation with its render) the rays run in it: no switch (:func:`ray_variant`)
 RAY_MODE = "mono"
 
 #: Mitsuba variants whose ray scene is an instance of a shape group (:func:`occlusion_scene`)
@@ -94,17 +96,30 @@ def _build_occlusion_scene(mesh: Any, instanced: bool | None = None) -> Any:
                          "stone": {"type": "instance", "shapegroup": {"type": "ref", "id": "group"}}})
 
 
+def ray_variant() -> str:
+    """The variant shadow rays run in, selected: the active one when it is a JIT variant of this
+    machine's backend (any colour mode: the answers are the triangles'), else :data:`RAY_MODE`'s.
+    A switch of variant costs 0.06-0.1 s (Mitsuba reloads its Python modules), so a ray query
+    never switches away from a JIT variant in use."""
+    import mitsuba as mi
+
+    from ..backend import device, set_variant
+
+    current = mi.variant()
+    if current is not None and current.startswith(f"{device()}_ad_"):
+        return current
+    return set_variant(RAY_MODE)
+
+
 def escapes_paired(mesh: Any, origins: np.ndarray, dirs: np.ndarray) -> np.ndarray:
     """(M,) bool: ray ``i`` from ``origins[i]`` along ``dirs[i]`` (mesh frame) meets no part of
     the mesh. The origins are used as given (offset them off the surface first)."""
     import drjit as dr
     import mitsuba as mi
 
-    from ..backend import set_variant
-
     o = np.asarray(origins, dtype=np.float64).reshape(-1, 3)
     w = np.asarray(dirs, dtype=np.float64).reshape(-1, 3)
-    set_variant(RAY_MODE)
+    ray_variant()
     scene = occlusion_scene(mesh)  # the bare triangles, built once per mesh
     ray = mi.Ray3f(mi.Point3f(o[:, 0], o[:, 1], o[:, 2]), mi.Vector3f(w[:, 0], w[:, 1], w[:, 2]))
     hit = scene.ray_test(ray)
