@@ -323,3 +323,11 @@ def luminance_table(material: Any) -> tuple[np.ndarray, np.ndarray]:
 def reflectance_luminance(material: Any, cos_theta: Any, illuminant: str = "D65", polarization: str | None = None) -> np.ndarray:
     """Luminance Y (...) of ``material``'s reflectance (unpolarised, or ``'s'`` / ``'p'``): the mono variants' table."""
     return stack_table(material.stack, cos_theta, "mono", illuminant, polarization)[..., 0]
+
+
+def reflectance_luminance_sp(material: Any, cos_theta: Any, illuminant: str = "D65") -> tuple[np.ndarray, np.ndarray]:
+    """``(Y_s, Y_p)``: :func:`reflectance_luminance` of the ``'s'`` and of the ``'p'`` polarisation
+    from one evaluation of the stack's spectra (the planner's polarisation bias asks both)."""
+    c = np.asarray(cos_theta, dtype=np.float64)
+    r_s, r_p = material.stack.reflectance_sp(tables().wavelengths, c[..., None])
+    return (reflectance_to_xyz(np.asarray(r_s), illuminant)[..., 1], reflectance_to_xyz(np.asarray(r_p), illuminant)[..., 1])

@@ -249,7 +249,7 @@ def _polarisation_bias(material: Any, sets: Sequence[tuple[np.ndarray, np.ndarra
     """:func:`polarisation_bias` of each ``(L, wl, V, wv)`` of ``sets``: light directions ``L``
     (n, 3) with weights ``wl`` and view directions ``V`` (m, 3) with weights ``wv``, computed; the
     stack's s and p reflectances of every set's half-vector cosines in one call each."""
-    from .colour import reflectance_luminance
+    from .colour import reflectance_luminance_sp
 
     eta = float(material.n_surface)
 
@@ -268,8 +268,7 @@ def _polarisation_bias(material: Any, sets: Sequence[tuple[np.ndarray, np.ndarra
         cos_half = np.clip(np.einsum("ijk,ijk->ij", a[:, None, :].repeat(len(V), 1), h) / np.maximum(np.linalg.norm(h, axis=2), 1e-12), 0.0, 1.0)
         parts.append((cl, cv, wl, wv, cos_half))
     flat = np.concatenate([p[4].ravel() for p in parts]) if parts else np.zeros(0)
-    rs_all = reflectance_luminance(material, flat, polarization="s") if flat.size else flat
-    rp_all = reflectance_luminance(material, flat, polarization="p") if flat.size else flat
+    rs_all, rp_all = reflectance_luminance_sp(material, flat) if flat.size else (flat, flat)
     out, start = [], 0
     for cl, cv, wl, wv, cos_half in parts:
         n = cos_half.size

@@ -82,3 +82,17 @@ def test_rgb_table_matches_per_angle_colour():
 def test_unknown_illuminant():
     with pytest.raises(ParameterError):
         Labradorite().flash_colour(illuminant="A")
+
+
+def test_the_s_and_p_luminances_from_one_evaluation_are_each_polarisations_own():
+    import numpy as np
+
+    import labcut
+    from labcut.colour import reflectance_luminance, reflectance_luminance_sp
+
+    m = labcut.Labradorite.preset("gold")
+    c = np.linspace(0.05, 1.0, 37).reshape(37, 1)
+    y_s, y_p = reflectance_luminance_sp(m, c)
+    assert np.array_equal(y_s, reflectance_luminance(m, c, polarization="s"))
+    assert np.array_equal(y_p, reflectance_luminance(m, c, polarization="p"))
+    assert not np.allclose(y_s, y_p)  # away from normal incidence the two differ

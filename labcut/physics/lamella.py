@@ -74,6 +74,12 @@ class Stack(NamedTuple):
         are given, :func:`labcut.colour.stack_table`)."""
         return stack_reflectance(wavelength_nm, cos_theta, self, polarization)
 
+    def reflectance_sp(self, wavelength_nm: Any, cos_theta: Any) -> tuple[Any, Any]:
+        """``(R_s, R_p)`` of this stack from one evaluation (:func:`stack_reflectance_sp`): both
+        polarisations for the price of one."""
+        r_s, r_p, _ = stack_reflectance_sp(wavelength_nm, cos_theta, self)
+        return r_s, r_p
+
 
 def _one_minus_exp(ops: Any, x: Any) -> Any:
     """1 - exp(-x) without cancellation for small x >= 0."""
