@@ -372,3 +372,11 @@ def test_the_command_refuses_bad_input_in_one_line(cli, tmp_path):
         assert r.returncode == 2, (args, r.stderr)
         assert words in r.stderr and "Traceback" not in r.stderr and len(r.stderr.strip().splitlines()) <= 3, r.stderr
     taken.close()
+
+
+def test_what_the_page_is_sent_is_strict_json():
+    from labcut.explorer.server import _plain
+
+    sent = _plain({"a": np.float32(0.5), "b": [float("nan"), np.int64(3)], "c": (float("inf"), "x")})
+    assert sent == {"a": 0.5, "b": [None, 3], "c": [None, "x"]}
+    json.dumps(sent, allow_nan=False)

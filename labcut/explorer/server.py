@@ -210,6 +210,24 @@ class Worker(threading.Thread):
                       "png": "data:image/png;base64," + base64.b64encode(png).decode("ascii")})
 
 
+def _plain(value: Any) -> Any:
+    """``value`` as strict JSON takes it: numpy numbers as Python's, a number that is not finite
+    as None (the page shows a dash), containers walked."""
+    import math
+
+    import numpy as np
+
+    if isinstance(value, dict):
+        return {str(k): _plain(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_plain(v) for v in value]
+    if isinstance(value, (np.floating, np.integer)):
+        value = value.item()
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    return value
+
+
 def spec() -> dict[str, Any]:
     """The controls the page builds: choices and ranges (the session checks them again)."""
     return {"choices": {k: list(v) for k, v in CHOICES.items()}, "ranges": {k: list(v) for k, v in RANGES.items()},
@@ -304,7 +322,7 @@ def make_app(worker: Worker, host: str, port_of: Callable[[], int]) -> Any:
             worker.submit(_Job(op, changes if op == "set" else None, ids=[ident]))
 
     def broadcast(message: dict[str, Any]) -> None:
-        text = json.dumps(message, allow_nan=False, default=float)
+        text = json.dumps(_plain(message), allow_nan=False)
         for s in list(sockets):
             with contextlib.suppress(tornado.websocket.WebSocketClosedError):
                 s.write_message(text)
