@@ -239,6 +239,10 @@ def test_the_preview_and_the_refinement(session):
         if k == 1:
             break
     assert Image.open(io.BytesIO(steps[-1])).size == (384, 384)
+    # the passes are averaged: the refined picture is as bright as the preview (one exposure)
+    preview = np.asarray(Image.open(io.BytesIO(session.preview())).convert("RGB"), dtype=np.float64).mean()
+    refined = np.asarray(Image.open(io.BytesIO(steps[-1])).convert("RGB"), dtype=np.float64).mean()
+    assert refined == pytest.approx(preview, rel=0.15)
     assert json.loads(Image.open(io.BytesIO(steps[-1])).text["labcut:explore"])["stage"] == "refined, 8 spp"
     from labcut.explorer.session import Superseded
 
