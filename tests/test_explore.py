@@ -361,26 +361,26 @@ def test_a_bad_port_or_host_is_a_parameter_error():
 
 
 # ---------------------------------------------------------------------- the command line
-def test_the_command_refuses_bad_input_in_one_line(cli, tmp_path):
+def test_the_command_refuses_bad_input_in_one_line(capsys):
+    """In process (labcut_cli.app.main, as the console script runs it): each bad input one line on
+    stderr and exit 2, before any server starts."""
     import socket
+
+    from labcut_cli.app import main
 
     taken = socket.socket()
     taken.bind(("127.0.0.1", 0))
     taken.listen()
     busy = str(taken.getsockname()[1])
-    for args, words in ((["missing.ply"], "missing.ply"), ([OVAL, "--port", "70000"], "--port"),
-                        ([OVAL, "--port", busy, "--no-browser"], f"cannot listen on 127.0.0.1:{busy}"),
-                        ([OVAL, "--scenario", "moon", "--no-browser"], "scenario"),
-                        ([OVAL, "--peak", "-3", "--no-browser"], "peak")):
-        r = cli("explore", *args)
-        assert r.returncode == 2, (args, r.stderr)
-        assert words in r.stderr and "Traceback" not in r.stderr and len(r.stderr.strip().splitlines()) <= 3, r.stderr
-    taken.close()
-
-
-def test_what_the_page_is_sent_is_strict_json():
-    from labcut.explorer.server import _plain
-
-    sent = _plain({"a": np.float32(0.5), "b": [float("nan"), np.int64(3)], "c": (float("inf"), "x")})
-    assert sent == {"a": 0.5, "b": [None, 3], "c": [None, "x"]}
-    json.dumps(sent, allow_nan=False)
+    try:
+        for args, words in ((["missing.ply"], "missing.ply"), ([OVAL, "--port", "70000"], "--port"),
+                            ([OVAL, "--port", busy, "--no-browser"], f"cannot listen on 127.0.0.1:{busy}"),
+                            ([OVAL, "--scenario", "moon", "--no-browser"], "scenario"),
+                            ([OVAL, "--peak", "-3", "--no-browser"], "peak")):
+            with pytest.raises(SystemExit) as info:
+                main(["explore", *args])
+            err = capsys.readouterr().err
+            assert info.value.code == 2, (args, err)
+            assert words in err and "Traceback" not in err and len(err.strip().splitlines()) <= 3, err
+    finally:
+        taken.close()

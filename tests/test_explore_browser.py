@@ -56,7 +56,7 @@ def enter(page, testid: str, value: str) -> None:
 def test_explore_in_the_browser(cli):
     from playwright.sync_api import sync_playwright
 
-    proc, url = start_explore(OVAL)
+    proc, url = start_explore(OVAL, "--quality", "draft")
     try:
         with sync_playwright() as p:
             browser = launch(p)
@@ -91,7 +91,7 @@ def test_explore_in_the_browser(cli):
             page.click("[data-testid=recommend]")
             until(lambda: page.query_selector("#recommendation p"), 120, "the recommendation")
             tilt = float(page.get_attribute("[data-testid=tilt-out]", "data-value"))
-            ref = cli("recommend-orientation", OVAL, "--scenario", "bench", "--json", "-")
+            ref = cli("recommend-orientation", OVAL, "--scenario", "bench", "--quality", "draft", "--json", "-")
             assert ref.returncode == 0, ref.stderr
             assert tilt == pytest.approx(json.loads(ref.stdout)["tilt_deg"], abs=0.5)
 
