@@ -280,7 +280,8 @@ def test_custom_scenario_file_round_trip(oval, tmp_path):
 
 # ---------------------------------------------------------------------- every scenario on every command
 @pytest.mark.parametrize("scenario", list(SCENARIOS.names()))
-def test_every_scenario_works_on_every_command(cli, tmp_path, scenario):
+def test_every_scenario_works_on_every_command(cli_main, tmp_path, scenario):
+    cli = cli_main  # in process: 18 calls, each a new interpreter's start-up saved (conftest's cli_main)
     png, js = tmp_path / "r.png", tmp_path / "r.json"
     proc = cli("render", str(OVAL), "--scenario", scenario, "--spp", "1", "--resolution", "16", "-o", str(png), "--json", str(js))
     assert proc.returncode == 0, proc.stderr
