@@ -47,6 +47,9 @@ STATIC = {
 }
 #: how long an export may take (seconds): a report runs a recommendation and renders
 EXPORT_SECONDS = 600.0
+#: controls whose change takes more than a moment (a new stone, scenario or quality): the page shows
+#: that the answer is coming
+SLOW_CONTROLS = frozenset({"quality", "outline", "dome", "scenario"})
 
 
 def _static(name: str) -> bytes:
@@ -117,6 +120,8 @@ class Worker(threading.Thread):
 
     def _answer(self, jobs: list[_Job]) -> None:
         changed_ids: list[Any] = []
+        if any(j.op == "reset" or (j.op == "set" and SLOW_CONTROLS & set(j.payload or {})) for j in jobs):
+            self.publish({"type": "busy", "what": "answering"})  # seconds, not milliseconds: the page says so
         for job in jobs:
             try:
                 if job.op == "set":
