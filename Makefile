@@ -12,7 +12,7 @@ PYTEST_WORKERS ?= 2
 # more pytest options, e.g. PYTEST_ARGS=--durations=30
 PYTEST_ARGS ?=
 
-.PHONY: setup llvm chromium demo test clean help
+.PHONY: setup llvm chromium demo test mutation clean help
 
 help:
 	@echo "make demo   set up, then run the main job on a bundled stone"
@@ -52,6 +52,13 @@ demo: setup
 
 test: setup
 	$(BIN)/python -m pytest -q -n $(PYTEST_WORKERS) --dist worksteal $(PYTEST_ARGS) tests
+
+# Mutation testing of one module against its own tests (issue 37; not part of `make test`):
+# make mutation MODULE=labcut/physics/lamella.py   (docs/testing.md)
+MODULE ?=
+mutation: setup
+	$(BIN)/python -m pip install --quiet -e '.[test,mutation]'
+	$(BIN)/python tools/mutation.py $(MODULE)
 
 clean:
 	rm -rf $(VENV) out .pytest_cache .hypothesis

@@ -161,3 +161,139 @@ def test_drjit_gradient_is_finite_at_the_limits():
     dr.enable_grad(c)
     dr.backward(dr.sum(lab.reflectance(ADFloat(483.135), c)))
     assert np.all(np.isfinite(np.array(dr.grad(c))))
+
+
+# ---------------------------------------------------------------------- pinned by mutation testing (docs/testing.md)
+def _random_medium_reference(x: float) -> float:
+    """``1 - e^{-x/4} / √(1 + 1.5 x + 0.2325 x² + 0.02848 x³)`` without cancellation (expm1 and
+    log1p in double precision: about 1e-16 relative at every x), the law saturate_random states."""
+    p = x * (1.5 + x * (0.2325 + 0.02848 * x))
+    return -math.expm1(-x / 4.0 - 0.5 * math.log1p(p))
+
+
+@pytest.mark.parametrize("x", [1e-7, 1e-5, 3e-4, 2e-3, 5e-3, 9.9e-3, 0.0101, 0.05, 0.5, 3.0, 30.0, 300.0])
+def test_the_random_medium_law_holds_in_both_branches(x):
+    """Below SERIES_BELOW its Taylor series (truncation ~x⁴, 1.2e-6 relative at the switch), above
+    the closed form: each is the stated law to its documented accuracy, in numpy and in Dr.Jit."""
+    from labcut.physics.lamella import SERIES_BELOW, saturate_random
+
+    ref = _random_medium_reference(x)
+    tol = 2e-6 if x < SERIES_BELOW else 1e-9 + 1e-11 / x
+    assert float(saturate_random(np.float64(x))) == pytest.approx(ref, rel=tol)
+    assert float(np.array(saturate_random(Float([x])))[0]) == pytest.approx(ref, rel=2e-5)
+
+
+@pytest.mark.parametrize("slot", range(9))
+def test_a_drjit_value_in_any_argument_takes_the_drjit_path(slot):
+    """lamella_intensity(wavelength, cos θ, n_a, n_b, d_a, d_b, σ_a, σ_b, pairs=): whichever one
+    argument is a Dr.Jit array (the BSDF's cosines, a zoning's thicknesses, a fitted index), the
+    answer is a Dr.Jit array and the float64 numpy value to float32 rounding."""
+    from labcut.physics.ops import is_drjit
+
+    args = [470.0, 0.9, 1.555, 1.562, 77.5, 77.5, 16.0, 16.0, 6000.0]
+    expected = float(lamella_intensity(*args[:8], pairs=args[8]))
+    mixed = list(args)
+    mixed[slot] = Float([float(args[slot])])
+    got = lamella_intensity(*mixed[:8], pairs=mixed[8])
+    assert is_drjit(got)
+    assert float(np.array(got)[0]) == pytest.approx(expected, rel=2e-4)
+
+
+@pytest.mark.parametrize("slot", ["wavelength", "cos"])
+def test_the_stacks_reflectance_takes_the_drjit_path_from_either_input(slot):
+    from labcut.physics.lamella import stack_reflectance_sp
+    from labcut.physics.ops import is_drjit
+
+    stack = Labradorite.preset("blue").stack
+    wl, c = 480.0, 0.8
+    r_s, r_p, _ = stack_reflectance_sp(wl, c, stack)
+    got = stack_reflectance_sp(Float([wl]) if slot == "wavelength" else wl, Float([c]) if slot == "cos" else c, stack)
+    assert is_drjit(got[0]) and is_drjit(got[1])
+    assert float(np.array(got[0])[0]) == pytest.approx(float(r_s), rel=2e-4)
+    assert float(np.array(got[1])[0]) == pytest.approx(float(r_p), rel=2e-4)
+
+
+def test_one_interface_reflects_the_hand_computed_share():
+    from labcut.physics.lamella import interface_amplitudes, interface_reflectance
+
+    expected = ((1.562 - 1.555) / (1.555 + 1.562)) ** 2  # 5.04e-6: the docstring's 5.0e-6
+    assert interface_reflectance(1.555, 1.562) == pytest.approx(expected, rel=1e-12)
+    assert interface_reflectance(1.562, 1.555) == pytest.approx(expected, rel=1e-12)
+    r_s, r_p = interface_amplitudes(1.555, 1.562, 1.555, 1.562)  # normal incidence: q_x = n_x
+    assert r_s * r_s == pytest.approx(expected, rel=1e-12) and r_p == pytest.approx(-r_s, rel=1e-12)
+
+
+def test_bragg_wavelength_by_hand_and_by_order():
+    from labcut.physics.lamella import bragg_wavelength
+
+    first = 2.0 * 0.8 * (1.555 * 75.0 + 1.562 * 80.0)
+    assert bragg_wavelength(0.8, 1.555, 1.562, 75.0, 80.0) == pytest.approx(first, rel=1e-12)
+    assert bragg_wavelength(-0.8, 1.555, 1.562, 75.0, 80.0, order=2) == pytest.approx(first / 2.0, rel=1e-12)
+    assert bragg_wavelength(0.8, 1.555, 1.562, 75.0, 80.0, order=3) == pytest.approx(first / 3.0, rel=1e-12)
+
+
+@pytest.mark.parametrize("slot", range(5))
+def test_bragg_wavelength_takes_the_drjit_path_from_any_input(slot):
+    from labcut.physics.lamella import bragg_wavelength
+    from labcut.physics.ops import is_drjit
+
+    args = [0.8, 1.555, 1.562, 75.0, 80.0]
+    mixed = list(args)
+    mixed[slot] = Float([args[slot]])
+    got = bragg_wavelength(*mixed)
+    assert is_drjit(got) and float(np.array(got)[0]) == pytest.approx(bragg_wavelength(*args), rel=1e-6)
+
+
+@pytest.mark.parametrize("slot", range(4))
+def test_phase_wavenumbers_take_the_drjit_path_from_any_input(slot):
+    from labcut.physics.lamella import phase_wavenumbers
+    from labcut.physics.ops import is_drjit
+
+    args = [0.6, 1.555, 1.562, 1.56]
+    expected = phase_wavenumbers(*args)
+    mixed = list(args)
+    mixed[slot] = Float([args[slot]])
+    got = phase_wavenumbers(*mixed)
+    assert all(is_drjit(q) for q in got)
+    assert [float(np.array(q)[0]) for q in got] == pytest.approx([float(q) for q in expected], rel=1e-6)
+    # Snell in each phase by hand: the tangential invariant kept
+    kappa2 = 1.56 ** 2 * (1.0 - 0.6 ** 2)
+    assert [float(q) for q in expected] == pytest.approx([math.sqrt(1.555 ** 2 - kappa2), math.sqrt(1.562 ** 2 - kappa2)], rel=1e-12)
+
+
+def test_lamella_intensity_refracts_into_the_phases_when_given_the_stones_index():
+    from labcut.physics.lamella import _intensity_q, phase_wavenumbers
+    from labcut.physics.ops import NUMPY
+
+    args = (480.0, 0.5, 1.555, 1.562, 77.5, 77.5, 16.0, 16.0)
+    refracted = float(lamella_intensity(*args, pairs=6000.0, n_surface=1.56))
+    q_a, q_b = phase_wavenumbers(0.5, 1.555, 1.562, 1.56)
+    by_hand = float(_intensity_q(NUMPY, 480.0, q_a, q_b, 77.5, 77.5, 16.0, 16.0, 6000.0)[0])
+    assert refracted == pytest.approx(by_hand, rel=1e-12)
+    assert abs(refracted / float(lamella_intensity(*args, pairs=6000.0)) - 1.0) > 1e-3  # one angle in both: another value
+
+
+def test_the_handedness_sign_is_minus_one_below_the_phases_brewster_angle_and_plus_one_beyond():
+    from labcut.physics.lamella import stack_reflectance_sp
+
+    stack = Labradorite.preset("blue").stack
+    c = np.array([1.0, 0.95, 0.8, 0.3, 0.1])  # the phases' Brewster angle lies near 45° (cos 0.71)
+    r_s, r_p, sign = stack_reflectance_sp(480.0, c, stack)
+    assert sign.tolist() == [-1.0, -1.0, -1.0, 1.0, 1.0]
+    d = Float(c.tolist())
+    assert np.array(stack_reflectance_sp(480.0, d, stack)[2]).tolist() == [-1.0, -1.0, -1.0, 1.0, 1.0]
+
+
+def test_the_stacks_methods_are_the_functions():
+    from labcut.physics.lamella import stack_reflectance, stack_reflectance_sp
+
+    stack = Labradorite.preset("gold").stack
+    wl, c = np.array([[450.0], [580.0], [650.0]]), np.array([0.3, 0.7, 1.0])
+    r_s, r_p, _ = stack_reflectance_sp(wl, c, stack)
+    got_s, got_p = stack.reflectance_sp(wl, c)
+    assert np.array_equal(got_s, r_s) and np.array_equal(got_p, r_p)
+    for pol, want in ((None, 0.5 * (r_s + r_p)), ("s", r_s), ("p", r_p)):
+        assert np.array_equal(stack.reflectance(wl, c, pol), want)
+        assert np.array_equal(stack_reflectance(wl, c, stack, pol), want)
+    with pytest.raises(ValueError, match="polarization must be None, 's' or 'p', got 'x'"):
+        stack_reflectance(wl, c, stack, "x")

@@ -1,0 +1,113 @@
+"""Mutation testing of one module against its own test files (issue 37), reproducible in one command.
+
+    .venv/bin/python tools/mutation.py labcut/physics/lamella.py [--tests tests/test_x.py ...] [--jobs 2]
+    make mutation MODULE=labcut/physics/lamella.py
+
+The tool is mutmut 3 (``pip install -e '.[mutation]'``): it keeps one Python process warm and
+forks a child per mutant (labcut's import, Mitsuba and Dr.Jit load once, not per mutant), and it
+runs for each mutant only the selected tests that call the mutated function (it records which
+test reaches which function first): hundreds of mutants of a module take minutes on two cores.
+cosmic-ray would start a fresh interpreter and run the whole test command per mutant, about 2 s of
+imports each before any test.
+
+The run happens in a fresh clone of this checkout's HEAD in a temporary folder (mutmut writes
+its ``mutants/`` copy and ``setup.cfg`` there, never in the working tree), with the module's own
+test files (:data:`MODULE_TESTS`, or ``--tests``). It prints one markdown row of counts (the
+table of docs/testing.md) and writes every mutant's status, with the diff of each survivor, to
+``benchmarks/data/mutation/<module>.json``; which survivors are equivalent (no test can tell
+them apart: the code means the same) is a reviewer's call, recorded with the reason in
+docs/testing.md.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import re
+import subprocess
+import sys
+import tempfile
+import time
+from collections import Counter
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+
+#: each module of issue 37's list and its own test files
+MODULE_TESTS: dict[str, list[str]] = {
+    "labcut/physics/lamella.py": ["tests/test_physics_bragg.py", "tests/test_physics_hardcases.py",
+                                  "tests/test_physics_montecarlo.py", "tests/test_physics_tmm.py",
+                                  "tests/test_tmm_reference.py", "tests/test_material.py"],
+    "labcut/physics/schiller.py": ["tests/test_physics_montecarlo.py", "tests/test_physics_hardcases.py",
+                                   "tests/test_bsdf.py"],
+    "labcut/physics/material.py": ["tests/test_material.py", "tests/test_physics_bragg.py"],
+    "labcut/explorer/hemisphere.py": ["tests/test_explore.py"],
+    "labcut/explorer/state.py": ["tests/test_explore.py"],
+}
+#: what the copy of the checkout needs besides the package for the tests to run
+ALSO_COPY = ["cli/", "meshes/", "tests/", "examples/", "benchmarks/"]
+
+
+def config(module: str, tests: list[str]) -> str:
+    lines = ["[mutmut]", "source_paths=labcut/", f"only_mutate={module}",
+             "pytest_add_cli_args_test_selection=" + "\n    ".join(tests),
+             "pytest_add_cli_args=-p no:cacheprovider -q",
+             "also_copy=" + "\n    ".join(ALSO_COPY)]
+    return "\n".join(lines) + "\n"
+
+
+def run(module: str, tests: list[str], jobs: int) -> dict:
+    mutmut = Path(sys.executable).with_name("mutmut")
+    if not mutmut.exists():
+        raise SystemExit("mutmut is not installed: .venv/bin/python -m pip install -e '.[mutation]'")
+    with tempfile.TemporaryDirectory(prefix="labcut-mutation-") as tmp:
+        copy = Path(tmp) / "labcut"
+        subprocess.run(["git", "clone", "-q", str(ROOT), str(copy)], check=True)
+        (copy / "setup.cfg").write_text(config(module, tests))
+        start = time.perf_counter()
+        subprocess.run([str(mutmut), "run", "--max-children", str(jobs)], cwd=copy, check=False,
+                       stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        seconds = time.perf_counter() - start
+        listing = subprocess.run([str(mutmut), "results", "--all", "true"], cwd=copy, capture_output=True, text=True).stdout
+        status = {}
+        for line in listing.splitlines():
+            found = re.match(r"\s*(\S+): (.+)$", line)
+            if found:
+                status[found.group(1)] = found.group(2).strip()
+        survivors = {}
+        for name, state in status.items():
+            if state == "survived":
+                shown = subprocess.run([str(mutmut), "show", name], cwd=copy, capture_output=True, text=True).stdout
+                survivors[name] = [ln for ln in shown.splitlines() if ln.startswith(("-", "+")) and not ln.startswith(("---", "+++"))]
+    counts = Counter(status.values())
+    return {"module": module, "tests": tests, "seconds": round(seconds, 1), "mutants": len(status),
+            "counts": dict(counts), "survivors": survivors, "status": status}
+
+
+def row(result: dict) -> str:
+    c = result["counts"]
+    return (f"| `{result['module']}` | {result['mutants']} | {c.get('killed', 0)} | {c.get('survived', 0)} | "
+            f"{c.get('timeout', 0)} | {c.get('no tests', 0)} | {result['seconds']:.0f} s |")
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("module", help="the module to mutate, e.g. labcut/physics/lamella.py")
+    parser.add_argument("--tests", nargs="+", help="its test files (default: MODULE_TESTS)")
+    parser.add_argument("--jobs", type=int, default=2, help="mutants run at once")
+    args = parser.parse_args()
+    tests = args.tests or MODULE_TESTS.get(args.module)
+    if not tests:
+        raise SystemExit(f"no test files known for {args.module}: give them with --tests")
+    result = run(args.module, tests, args.jobs)
+    out = ROOT / "benchmarks" / "data" / "mutation" / (args.module.replace("/", ".").removesuffix(".py") + ".json")
+    out.parent.mkdir(parents=True, exist_ok=True)
+    out.write_text(json.dumps(result, indent=1, ensure_ascii=False) + "\n")
+    print("| module | mutants | killed | survived | timeout | no tests | time |")
+    print("|---|---:|---:|---:|---:|---:|---:|")
+    print(row(result))
+    print(f"\nevery mutant's status and each survivor's diff: {out.relative_to(ROOT)}")
+
+
+if __name__ == "__main__":
+    main()
