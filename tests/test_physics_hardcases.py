@@ -297,3 +297,27 @@ def test_the_stacks_methods_are_the_functions():
         assert np.array_equal(stack_reflectance(wl, c, stack, pol), want)
     with pytest.raises(ValueError, match="polarization must be None, 's' or 'p', got 'x'"):
         stack_reflectance(wl, c, stack, "x")
+
+
+@pytest.mark.parametrize("pairs", [6000, 100_000])
+def test_a_perfect_stacks_float32_error_stays_that_of_the_reduced_phase(pairs):
+    """The Bragg phase is reduced modulo 2π in float64 before it is narrowed (``_bragg_sine``): a
+    perfect stack's float32 reflectance stays within 6e-5 of float64 over the dense grid (4.3e-5
+    measured; the phase narrowed unreduced: 1.4e-4)."""
+    lab = Labradorite(sigma_a=0.0, sigma_b=0.0, pairs=pairs)
+    wl, c = np.meshgrid(_f32_round(np.linspace(360.0, 830.0, 941)), _f32_round(np.linspace(0.0, 1.0, 801)))
+    r64 = lab.reflectance(wl.ravel(), c.ravel())
+    r32 = np.array(lab.reflectance(Float(wl.ravel().astype(np.float32)), Float(c.ravel().astype(np.float32))))
+    assert np.max(np.abs(r32 - r64)) < 6e-5
+
+
+def test_a_drjit_value_inside_the_stack_takes_the_drjit_path():
+    """A zoning's per-point thickness reaches the stack as a Dr.Jit array while the wavelength and
+    the cosine are plain numbers: the stack's reflectance is still computed in Dr.Jit."""
+    from labcut.physics.lamella import stack_reflectance_sp
+    from labcut.physics.ops import is_drjit
+
+    stack = Labradorite.preset("blue").stack
+    r_s, r_p, _ = stack_reflectance_sp(480.0, 0.8, stack)
+    got = stack_reflectance_sp(480.0, 0.8, stack._replace(d_a=Float([stack.d_a])))
+    assert is_drjit(got[0]) and float(np.array(got[0])[0]) == pytest.approx(float(r_s), rel=2e-4)
