@@ -45,7 +45,7 @@ MODULE_TESTS: dict[str, list[str]] = {
     "labcut/explorer/state.py": ["tests/test_explore.py"],
 }
 #: what the copy of the checkout needs besides the package for the tests to run
-ALSO_COPY = ["cli/", "meshes/", "tests/", "examples/", "benchmarks/"]
+ALSO_COPY = ["cli/", "meshes/", "tests/", "examples/", "benchmarks/", "docs/", "tools/", "README.md", "pyproject.toml"]
 
 
 def config(module: str, tests: list[str]) -> str:
@@ -80,6 +80,9 @@ def run(module: str, tests: list[str], jobs: int) -> dict:
                 shown = subprocess.run([str(mutmut), "show", name], cwd=copy, capture_output=True, text=True).stdout
                 survivors[name] = [ln for ln in shown.splitlines() if ln.startswith(("-", "+")) and not ln.startswith(("---", "+++"))]
     counts = Counter(status.values())
+    if status and counts.get("not checked", 0) == len(status):
+        raise SystemExit(f"mutmut checked no mutant of {module}: its tests fail unmutated in the copy "
+                         f"(run mutmut by hand in a clone to see why)")
     return {"module": module, "tests": tests, "seconds": round(seconds, 1), "mutants": len(status),
             "counts": dict(counts), "survivors": survivors, "status": status}
 
