@@ -321,3 +321,50 @@ def test_a_drjit_value_inside_the_stack_takes_the_drjit_path():
     r_s, r_p, _ = stack_reflectance_sp(480.0, 0.8, stack)
     got = stack_reflectance_sp(480.0, 0.8, stack._replace(d_a=Float([stack.d_a])))
     assert is_drjit(got[0]) and float(np.array(got[0])[0]) == pytest.approx(float(r_s), rel=2e-4)
+
+
+# ---------------------------------------------------------------------- the schiller's pieces by hand (labcut.physics.schiller)
+def test_fresnel_by_hand_normal_brewster_oblique_and_clamped():
+    from labcut.physics.schiller import fresnel_reflectance, transmission
+
+    eta = 1.56
+    normal = ((eta - 1.0) / (eta + 1.0)) ** 2
+    assert float(fresnel_reflectance(1.0, eta)) == pytest.approx(normal, rel=1e-12)
+    # cosines a hair above 1 (rounding) and above are clamped to normal incidence; below 0 to grazing
+    assert float(fresnel_reflectance(1.0 + 1e-7, eta)) == pytest.approx(normal, rel=1e-12)
+    assert float(fresnel_reflectance(1.7, eta)) == pytest.approx(normal, rel=1e-12)
+    assert float(fresnel_reflectance(-0.2, eta)) == pytest.approx(1.0, rel=1e-12)
+    # Brewster's angle: r_p = 0, so R = r_s² / 2
+    c = 1.0 / math.sqrt(1.0 + eta * eta)
+    ct = math.sqrt(1.0 - (1.0 - c * c) / eta ** 2)
+    rs = (c - eta * ct) / (c + eta * ct)
+    assert float(fresnel_reflectance(c, eta)) == pytest.approx(0.5 * rs * rs, rel=1e-12)
+    # 60° by the textbook formulas
+    c = 0.5
+    ct = math.sqrt(1.0 - (1.0 - c * c) / eta ** 2)
+    rs, rp = (c - eta * ct) / (c + eta * ct), (eta * c - ct) / (eta * c + ct)
+    assert float(fresnel_reflectance(c, eta)) == pytest.approx(0.5 * (rs * rs + rp * rp), rel=1e-12)
+    assert float(transmission(c, eta)) == pytest.approx(1.0 - 0.5 * (rs * rs + rp * rp), rel=1e-12)
+
+
+@pytest.mark.parametrize("slot", ["cos", "eta"])
+def test_fresnel_takes_the_drjit_path_from_either_input(slot):
+    from labcut.physics.ops import is_drjit
+    from labcut.physics.schiller import fresnel_reflectance, lobe_density
+
+    got = fresnel_reflectance(Float([0.5]) if slot == "cos" else 0.5, Float([1.56]) if slot == "eta" else 1.56)
+    assert is_drjit(got) and float(np.array(got)[0]) == pytest.approx(float(fresnel_reflectance(0.5, 1.56)), rel=2e-5)  # float32
+    dens = lobe_density(Float([0.99]), 300.0, 2.0)
+    assert is_drjit(dens) and float(np.array(dens)[0]) == pytest.approx(2.0 * math.exp(300.0 * (0.99 - 1.0)), rel=2e-5)
+    assert float(lobe_density(-0.99, 300.0, 2.0)) == pytest.approx(2.0 * math.exp(-3.0), rel=1e-12)  # axial
+
+
+def test_the_schiller_factor_and_pdf_by_hand_at_grazing_geometry():
+    """Well inside their floors (1e-12): the factor T_l T_v / (η² 4 cos_l max(a·n, b·n)) and the
+    pdf q cos_v / (4 cos_l η² b·n), at a geometry whose denominators are below 1."""
+    from labcut.physics.ops import NUMPY
+    from labcut.physics.schiller import schiller_factor, schiller_pdf
+
+    eta = 1.56
+    assert schiller_factor(0.9, 0.8, 0.2, 0.5, eta, NUMPY) == pytest.approx(0.9 * 0.8 / (eta * eta * 4 * 0.2 * 0.5), rel=1e-12)
+    assert schiller_pdf(3.0, 0.2, 0.3, 0.7, eta, NUMPY) == pytest.approx(3.0 * 0.7 / (4 * 0.2 * eta * eta * 0.3), rel=1e-12)
