@@ -40,7 +40,8 @@ MODULE_TESTS: dict[str, list[str]] = {
                                   "tests/test_tmm_reference.py", "tests/test_material.py"],
     "labcut/physics/schiller.py": ["tests/test_physics_montecarlo.py", "tests/test_physics_hardcases.py",
                                    "tests/test_bsdf.py"],
-    "labcut/physics/material.py": ["tests/test_material.py", "tests/test_physics_bragg.py"],
+    "labcut/physics/material.py": ["tests/test_material.py", "tests/test_physics_bragg.py", "tests/test_physics_hardcases.py",
+                                   "tests/test_colour.py", "tests/test_cli_spectrum.py"],
     "labcut/explorer/hemisphere.py": ["tests/test_explore.py"],
     "labcut/explorer/state.py": ["tests/test_explore.py"],
 }
