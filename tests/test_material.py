@@ -160,3 +160,55 @@ def test_each_stack_warns_once_per_process(fresh_notes):
     assert again.visibility_note() == lab.visibility_note() is not None
     with pytest.warns(LabcutWarning):
         lab.replace(sigma_a=17.0)  # another stack
+
+
+# ---------------------------------------------------------------------- pinned by mutation testing (docs/testing.md)
+#: every parameter's documented range: (name, highest accepted, lowest refused above it, a value
+#: refused below it); the indices must exceed 1, thicknesses 0, the spread 0 (open below)
+BOUNDS = [("n_a", 4.0, 4.001, 1.0), ("n_b", 4.0, 4.001, 1.0), ("n_surface", 4.0, 4.001, 1.0),
+          ("d_a", 1e5, 1.0001e5, 0.0), ("d_b", 1e5, 1.0001e5, 0.0), ("sigma_a", 1e5, 1.0001e5, -0.1),
+          ("sigma_b", 1e5, 1.0001e5, -0.1), ("pairs", 1e8, 1.0001e8, 0.5), ("spread_deg", 45.0, 45.01, 0.0),
+          ("body_albedo", 1.0, 1.001, -0.01)]
+
+
+@pytest.mark.parametrize("name, top, over, under", BOUNDS)
+def test_each_parameter_takes_its_whole_range_and_names_itself_outside_it(name, top, over, under):
+    import warnings
+
+    import labcut
+    from labcut import Labradorite
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # an odd stack's visibility note
+        kept = Labradorite(**{name: int(top) if name == "pairs" else top})
+    assert getattr(kept, name) == top
+    for bad in (over, under):
+        with pytest.raises(labcut.ParameterError, match=name):
+            Labradorite(**{name: bad})
+
+
+def test_parameters_are_stored_as_the_numbers_they_mean():
+    """Numbers given as ints, numpy scalars or whole floats are stored as Python floats, the pair
+    count as an int (the material's JSON and its cache keys read them)."""
+    import numpy as np
+
+    from labcut import Labradorite
+
+    lab = Labradorite(n_a=np.float32(1.5), d_a=80, sigma_a=np.int64(12), pairs=6000.0, spread_deg=3, body_albedo=1)
+    for name in ("n_a", "d_a", "sigma_a", "spread_deg", "body_albedo"):
+        assert type(getattr(lab, name)) is float, name
+    assert type(lab.pairs) is int and lab.pairs == 6000
+
+
+def test_the_materials_intensity_is_its_finite_refracting_stacks():
+    """Labradorite.intensity passes its pair count and its stone's index on (a finite stack with
+    Snell in each phase), not the infinite-stack, one-angle form."""
+    from labcut import Labradorite
+    from labcut.physics import lamella_intensity
+
+    lab = Labradorite(pairs=40, sigma_a=2.0, sigma_b=2.0)
+    got = float(lab.intensity(480.0, 0.6))
+    args = (480.0, 0.6, lab.n_a, lab.n_b, lab.d_a, lab.d_b, lab.sigma_a, lab.sigma_b)
+    assert got == pytest.approx(float(lamella_intensity(*args, pairs=40, n_surface=lab.n_surface)), rel=1e-12)
+    assert abs(got / float(lamella_intensity(*args, n_surface=lab.n_surface)) - 1.0) > 1e-3
+    assert abs(got / float(lamella_intensity(*args, pairs=40)) - 1.0) > 1e-3
