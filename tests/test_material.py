@@ -165,25 +165,29 @@ def test_each_stack_warns_once_per_process(fresh_notes):
 # ---------------------------------------------------------------------- pinned by mutation testing (docs/testing.md)
 #: every parameter's documented range: (name, highest accepted, lowest refused above it, a value
 #: refused below it); the indices must exceed 1, thicknesses 0, the spread 0 (open below)
-BOUNDS = [("n_a", 4.0, 4.001, 1.0), ("n_b", 4.0, 4.001, 1.0), ("n_surface", 4.0, 4.001, 1.0),
-          ("d_a", 1e5, 1.0001e5, 0.0), ("d_b", 1e5, 1.0001e5, 0.0), ("sigma_a", 1e5, 1.0001e5, -0.1),
-          ("sigma_b", 1e5, 1.0001e5, -0.1), ("pairs", 1e8, 1.0001e8, 0.5), ("spread_deg", 45.0, 45.01, 0.0),
-          ("body_albedo", 1.0, 1.001, -0.01)]
+BOUNDS = [("n_a", 4.0, 4.001, 1.0, 1.001), ("n_b", 4.0, 4.001, 1.0, 1.001), ("n_surface", 4.0, 4.001, 1.0, 1.001),
+          ("d_a", 1e5, 100000.5, 0.0, 0.5), ("d_b", 1e5, 100000.5, 0.0, 0.5),
+          ("sigma_a", 1e5, 100000.5, -0.1, 0.0), ("sigma_b", 1e5, 100000.5, -0.1, 0.0),
+          ("pairs", 1e8, 100000001, 0.5, 1), ("spread_deg", 45.0, 45.01, 0.0, 0.5), ("body_albedo", 1.0, 1.001, -0.01, 0.0)]
 
 
-@pytest.mark.parametrize("name, top, over, under", BOUNDS)
-def test_each_parameter_takes_its_whole_range_and_names_itself_outside_it(name, top, over, under):
+@pytest.mark.parametrize("name, top, over, under, low", BOUNDS)
+def test_each_parameter_takes_its_whole_range_and_names_itself_outside_it(name, top, over, under, low):
+    """Each parameter's documented range, to its ends: the highest and a low value accepted, the
+    values just beyond refused with a message that starts with the parameter's name."""
+    import re
     import warnings
 
     import labcut
     from labcut import Labradorite
 
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")  # an odd stack's visibility note
-        kept = Labradorite(**{name: int(top) if name == "pairs" else top})
-    assert getattr(kept, name) == top
+    for good in (top, low):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # an odd stack's visibility note
+            kept = Labradorite(**{name: int(good) if name == "pairs" else good})
+        assert getattr(kept, name) == good
     for bad in (over, under):
-        with pytest.raises(labcut.ParameterError, match=name):
+        with pytest.raises(labcut.ParameterError, match=rf"^{re.escape(name)}\b"):
             Labradorite(**{name: bad})
 
 
