@@ -216,3 +216,42 @@ def test_the_materials_intensity_is_its_finite_refracting_stacks():
     assert got == pytest.approx(float(lamella_intensity(*args, pairs=40, n_surface=lab.n_surface)), rel=1e-12)
     assert abs(got / float(lamella_intensity(*args, n_surface=lab.n_surface)) - 1.0) > 1e-3
     assert abs(got / float(lamella_intensity(*args, pairs=40)) - 1.0) > 1e-3
+
+
+@pytest.mark.parametrize("wl, c, message", [
+    ("blue", 0.5, "wavelength and cos_theta must be numbers or numeric arrays"),
+    (480.0, float("nan"), "wavelength and cos_theta must be finite (no NaN or inf)"),
+    ([480.0, float("inf")], 0.5, "wavelength and cos_theta must be finite (no NaN or inf)"),
+    ([480.0, -5.0], 0.5, "wavelength must be > 0 nm, got -5"),
+    (480.0, [0.5, -1.25], "cos_theta must lie in [-1, 1], got 1.25"),
+])
+def test_a_bad_wavelength_or_cosine_is_one_plain_sentence(wl, c, message):
+    import labcut
+    from labcut import Labradorite
+
+    with pytest.raises(labcut.ParameterError) as info:
+        Labradorite().reflectance(wl, c)
+    assert str(info.value) == message
+
+
+def test_a_grazing_peak_is_refused_in_words():
+    import labcut
+    from labcut import Labradorite
+
+    with pytest.raises(labcut.ParameterError) as info:
+        Labradorite().peak_wavelength(0.0)
+    assert str(info.value) == "cos_theta must be > 0: at grazing incidence there is no peak"
+
+
+@pytest.mark.parametrize("slot", ["wavelength", "cos"])
+def test_the_material_takes_the_drjit_path_from_either_input(slot):
+    import numpy as np
+    from drjit.llvm import Float
+
+    from labcut import Labradorite
+    from labcut.physics.ops import is_drjit
+
+    lab = Labradorite()
+    want = float(lab.reflectance(480.0, 0.8))
+    got = lab.reflectance(Float([480.0]) if slot == "wavelength" else 480.0, Float([0.8]) if slot == "cos" else 0.8)
+    assert is_drjit(got) and float(np.array(got)[0]) == pytest.approx(want, rel=2e-4)
