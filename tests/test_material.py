@@ -255,3 +255,24 @@ def test_the_material_takes_the_drjit_path_from_either_input(slot):
     want = float(lab.reflectance(480.0, 0.8))
     got = lab.reflectance(Float([480.0]) if slot == "wavelength" else 480.0, Float([0.8]) if slot == "cos" else 0.8)
     assert is_drjit(got) and float(np.array(got)[0]) == pytest.approx(want, rel=2e-4)
+
+
+def test_the_visibility_note_names_the_material_and_says_when_no_face_reaches_the_peak():
+    """An infrared peak near the visible is seen through a face at a steep enough angle (no
+    "more than ..." clause); one far out is not (the clause, with the face's limiting angle); the
+    note starts with the material's name when it has one."""
+    import warnings
+
+    from labcut import Labradorite
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        near = Labradorite.from_peak_wavelength(850.0)
+        far = Labradorite.from_peak_wavelength(1600.0, name="deep")
+        unnamed = Labradorite.from_peak_wavelength(1600.0).replace(name=None)
+    assert near.visibility_note().startswith("the face-on flash peak, 850 nm")  # no name: no "None: "
+    assert "over 23° from the lamella normal, where" in near.visibility_note()  # 23° < 40°: a face reaches it
+    note = far.visibility_note()
+    assert note.startswith("deep: the face-on flash peak, 1600 nm, lies outside the visible range (380-780 nm)")
+    assert "(more than the 40° that light reaches through a face parallel to the lamellae)" in note
+    assert unnamed.visibility_note().startswith("the face-on flash peak, 1600 nm")
