@@ -133,6 +133,11 @@ class Study:
             self.builds["recommendation"] += 1
         return hit
 
+    def recommended(self, optimizer: str = "nlopt") -> Recommendation | None:
+        """The recommendation :meth:`recommend` has made with ``optimizer``, or None when it has
+        not been asked yet (nothing is computed here: a live view shows it only once made)."""
+        return self._recommendations.get(optimizer)
+
     def evaluate(self, normal: Any = None, *, tilt: float | None = None, azimuth: float | None = None) -> FlashMetrics:
         """Flash metrics (DESIGN.md §4) of one lamella orientation: a ``normal`` (mesh frame, axial),
         or ``tilt`` (degrees from +Z) and ``azimuth`` (degrees from +X toward +Y). The answer of

@@ -42,26 +42,10 @@ def cli_main(capsys):
     """The CLI in this process (``labcut_cli.app.main``, as the console script runs it, without a
     new interpreter's start-up and imports: about 1.5 s a call): ``cli_main(*args)`` returns a
     ``subprocess.CompletedProcess`` of its exit status, stdout and stderr, like :func:`run_cli`."""
-    from labcut_cli.app import main
-    from labcut_cli.root import console, err_console
+    from cli_run import in_process
 
     def run(*args: str, cwd: Path | None = None, columns: int = 120) -> subprocess.CompletedProcess[str]:
-        capsys.readouterr()
-        widths = console.width, err_console.width
-        console.width = err_console.width = columns  # as run_cli's terminal
-        here = os.getcwd()
-        try:
-            if cwd is not None:
-                os.chdir(cwd)
-            main([str(a) for a in args])
-            code = 0
-        except SystemExit as exc:
-            code = exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 1)
-        finally:
-            os.chdir(here)
-            console.width, err_console.width = widths
-        out, err = capsys.readouterr()
-        return subprocess.CompletedProcess(["labcut", *map(str, args)], code, out, err)
+        return in_process(args, capsys, cwd=cwd, columns=columns)  # 120 columns: as run_cli's terminal
 
     return run
 

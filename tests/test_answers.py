@@ -24,6 +24,7 @@ from labcut.fileio import atomic_output
 from labcut.geometry.meshio import load_mesh
 from labcut.orientation.recommend import energy_parts
 from labcut.rendering.images import read_png_metadata, shared_exposure
+from cli_run import run_in_process as _run_in_process
 
 ROOT = Path(__file__).resolve().parents[1]
 OVAL = ROOT / "meshes" / "oval-16x12-low.ply"
@@ -106,13 +107,6 @@ def test_cli_says_when_the_view_shows_no_flash(cli, tmp_path):
 
 
 # ----------------------------------------------------------------------------- 6. the answer first
-def _run_in_process(argv, capsys):
-    from labcut_cli.app import main
-
-    with pytest.raises(SystemExit) as info:
-        main([str(a) for a in argv])
-    out, err = capsys.readouterr()
-    return info.value.code, out, err
 
 
 def test_a_failing_render_leaves_the_answer(tmp_path, capsys, monkeypatch):

@@ -362,11 +362,11 @@ def test_a_bad_port_or_host_is_a_parameter_error():
 
 # ---------------------------------------------------------------------- the command line
 def test_the_command_refuses_bad_input_in_one_line(capsys):
-    """In process (labcut_cli.app.main, as the console script runs it): each bad input one line on
-    stderr and exit 2, before any server starts."""
+    """In process (tests/cli_run.py): each bad input one line on stderr and exit 2, before any
+    server starts."""
     import socket
 
-    from labcut_cli.app import main
+    from cli_run import in_process
 
     taken = socket.socket()
     taken.bind(("127.0.0.1", 0))
@@ -377,10 +377,9 @@ def test_the_command_refuses_bad_input_in_one_line(capsys):
                             ([OVAL, "--port", busy, "--no-browser"], f"cannot listen on 127.0.0.1:{busy}"),
                             ([OVAL, "--scenario", "moon", "--no-browser"], "scenario"),
                             ([OVAL, "--peak", "-3", "--no-browser"], "peak")):
-            with pytest.raises(SystemExit) as info:
-                main(["explore", *args])
-            err = capsys.readouterr().err
-            assert info.value.code == 2, (args, err)
+            done = in_process(["explore", *args], capsys)
+            err = done.stderr
+            assert done.returncode == 2, (args, err)
             assert words in err and "Traceback" not in err and len(err.strip().splitlines()) <= 3, err
     finally:
         taken.close()

@@ -30,6 +30,7 @@ from labcut.geometry.gemcad import (
 )
 from labcut.geometry.meshio import load_mesh
 from labcut.geometry.stone import Stone
+from cli_run import run_in_process as _run
 
 ROOT = Path(__file__).resolve().parents[1]
 DESIGNS = ROOT / "meshes" / "designs"
@@ -416,15 +417,6 @@ def test_cli_mesh_options_pass_size_through():
     with pytest.raises(ParameterError):
         mo.check_mesh_options("auto", "auto", -1.0)
     assert mo.check_mesh_options("auto", "auto", 10.0) == ("auto", "auto")
-
-
-def _run(argv, capsys):
-    from labcut_cli.app import main
-
-    with pytest.raises(SystemExit) as info:
-        main([str(a) for a in argv])
-    out, err = capsys.readouterr()
-    return info.value.code, out, err
 
 
 def test_cli_inspect_design(capsys):

@@ -13,18 +13,10 @@ import pytest
 import trimesh
 
 from labcut.geometry.meshio import load_mesh
-from labcut_cli.app import main
+from cli_run import run_in_process as run
 
 ROOT = Path(__file__).resolve().parents[1]
 LABCUT = Path(sys.executable).with_name("labcut")
-
-
-def run(argv, capsys):
-    """Run the CLI in-process; return (exit code, stdout, stderr)."""
-    with pytest.raises(SystemExit) as info:
-        main([str(a) for a in argv])
-    out, err = capsys.readouterr()
-    return info.value.code, out, err
 
 
 def assert_one_line_error(code, err):

@@ -16,18 +16,10 @@ import pytest
 import labcut
 from labcut.errors import OutputError, ParameterError
 from labcut.fileio import check_output_path, check_outputs
+from cli_run import run_in_process as _run
 
 ROOT = Path(__file__).resolve().parents[1]
 OVAL = ROOT / "meshes" / "oval-16x12-low.ply"
-
-
-def _run(argv, capsys):
-    from labcut_cli.app import main
-
-    with pytest.raises(SystemExit) as info:
-        main([str(a) for a in argv])
-    out, err = capsys.readouterr()
-    return info.value.code, out, err
 
 
 # ----------------------------------------------------------------------------- the library's checks

@@ -128,3 +128,12 @@ def test_the_docs_study_example_runs(capsys):
         os.chdir(here)
     assert namespace["study"].builds == {"plan": 3, "problem": 3, "recommendation": 3}
     assert "tilt" in capsys.readouterr().out
+
+
+def test_recommended_is_the_recommendation_once_made_and_nothing_before():
+    import labcut
+
+    study = labcut.Study(labcut.load_mesh("meshes/oval-16x12-low.ply"), quality="draft")
+    assert study.recommended() is None and study.builds["recommendation"] == 0
+    rec = study.recommend()
+    assert study.recommended() is rec and study.recommended("grid") is None

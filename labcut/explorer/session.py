@@ -183,7 +183,7 @@ class ExploreSession:
 
     def recommendation(self) -> Recommendation | None:
         """The current Study's recommendation, when "recommend here" has made it."""
-        return self.study()._recommendations.get("nlopt")
+        return self.study().recommended()
 
     # ------------------------------------------------------------------ answers
     def score_map(self) -> tuple[np.ndarray, np.ndarray]:
