@@ -796,7 +796,7 @@ saturation) against the same unpolarised means, next to the model of this releas
 
 def section_internal_angles(quick: bool) -> tuple[str, dict]:
     """Which internal angles to the lamellae the product's scenes reach (weighted by flash)."""
-    from labcut.orientation.problem import light_terms, view_terms
+    from labcut.orientation.radiance import light_terms, view_terms
     from labcut.physics import schiller as lobe
     from labcut.physics.ops import NUMPY
     from labcut.scene import Scenario

@@ -42,21 +42,35 @@ def spot_rec(oval):
 
 
 # ----------------------------------------------------------------------------- 4. no meaningless answers
+#: a stone lit only from behind and below its horizon, seen from in front just above it: the light reaches
+#: only the back of the dome, which the viewer sees at grazing, so no orientation flashes (the threshold
+#: is the scene's own, τ P: under an even sky or a ceiling a stone does flash, test_radiance.py)
+BACKLIT = {"directions": [[0.0, 0.998, -0.06]]}
+GRAZING = {"directions": [[0.0, -0.99, 0.14]]}
+
+
 @pytest.mark.parametrize("objective", ["area", "intensity", "balanced"])
 def test_threshold_objectives_without_any_flash_are_an_error(oval, objective):
+    lights, views = labcut.Lights(**BACKLIT), labcut.Views(**GRAZING)
     with pytest.raises(ParameterError) as info:
-        labcut.recommend_orientation(oval, LAB, lighting="sky", viewing="face-up", objective=objective, quality="draft")
+        labcut.recommend_orientation(oval, LAB, lighting=lights, viewing=views, objective=objective, quality="draft")
     msg = str(info.value)
     assert "--objective energy" in msg and "objective='energy'" in msg and "\n" not in msg
+    assert "the brightest schiller its light can give" in msg
     # energy still ranks orientations under the same light
-    rec = labcut.recommend_orientation(oval, LAB, lighting="sky", viewing="face-up", quality="draft")
-    assert rec.score > 0
+    rec = labcut.recommend_orientation(oval, LAB, lighting=lights, viewing=views, quality="draft")
+    assert rec.score > 0 and rec.metrics.flash_area == 0.0
+    # the same stone under an even sky, by the scene's own threshold, flashes
+    sky = labcut.recommend_orientation(oval, LAB, lighting="sky", viewing="face-up", objective="area", quality="draft")
+    assert sky.score > 0.05
 
 
 def test_cli_no_flash_objective_exit_2_no_files(cli, tmp_path):
     js = tmp_path / "r.json"
-    proc = cli("recommend-orientation", str(OVAL), "--lighting", "sky", "--objective", "area", "--quality", "draft",
-               "--json", str(js))
+    (tmp_path / "back.json").write_text(json.dumps(BACKLIT))
+    (tmp_path / "grazing.json").write_text(json.dumps(GRAZING))
+    proc = cli("recommend-orientation", str(OVAL), "--lighting", str(tmp_path / "back.json"), "--viewing",
+               str(tmp_path / "grazing.json"), "--objective", "area", "--quality", "draft", "--json", str(js))
     assert proc.returncode == 2 and "--objective energy" in proc.stderr and "±0.0°" not in proc.stdout
     assert proc.stderr.strip().splitlines()[-1].startswith("error:") and not js.exists()
 

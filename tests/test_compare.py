@@ -342,7 +342,7 @@ def test_turning_the_camera_is_tilting_the_stone():
 def test_flash_colour_agrees_with_the_physics_and_the_estimator():
     """Dominant wavelength of the flash near the material's own colour; flashing pixels ~ flash area."""
     from labcut.colour import dominant_wavelength
-    from labcut.orientation.problem import reference_radiance
+    from labcut.orientation.radiance import reference_radiance
     from labcut.rendering.scene import RENDER_IRRADIANCE
     from labcut.reports.analysis import tilt_curve
     from labcut.reports.flashcolour import (
@@ -545,5 +545,5 @@ def test_the_flash_colour_maps_flash_is_the_estimators(comparison):
                 int(np.argmin(np.abs(r.tilt.angles_deg)))]))
             assert st["flash_fraction"] == pytest.approx(st["estimator_flash_area"], abs=0.04), (c.name, s)
             h, w = r.renders.schiller.shape[:2]
-            flashing = r.renders.mask & (r.renders.flash.ratio_at(h, w) >= cmp.tau)
+            flashing = r.renders.mask & (r.renders.flash.ratio_at(h, w) >= r.renders.flash.threshold)
             assert st["flash_pixels"] == int(flashing.sum())

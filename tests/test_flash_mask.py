@@ -56,14 +56,22 @@ def test_the_masks_share_is_the_views_flash_area(name, scenario, normal, look):
 
 def test_an_environment_of_many_lights_leaves_no_speckles():
     # 77 lights (the pendant's office: lamps and an environment map's samples): a sampled render
-    # put 6 % of the pixels over the threshold at 16 spp where none flash; the mask sums them exactly
-    mesh = labcut.load_mesh(OVAL)
-    setting = labcut.scene.resolve_scene("pendant").main_setting()
-    assert len(setting.lights.weights) > 50
+    # put faint pixels over the threshold at random; the mask sums the lights exactly, so its flash is
+    # whole regions (no flashing pixel without a flashing neighbour) at the scene's own threshold
+    from labcut.orientation.radiance import scene_peak
     from labcut.rendering.scene import camera_views
 
-    mask = fm.flash_mask(mesh, labcut.Labradorite.preset("blue"), (0, 0, 1), setting, camera_views("main", setting), 64)
-    assert mask.share == 0.0 and mask.coverage.max() == 1.0 and 0.0 < mask.ratio.max() < 0.1
+    mesh = labcut.load_mesh(OVAL)
+    lab = labcut.Labradorite.preset("blue")
+    setting = labcut.scene.resolve_scene("pendant").main_setting()
+    assert len(setting.lights.weights) > 50
+    mask = fm.flash_mask(mesh, lab, (0, 0, 1), setting, camera_views("main", setting), 64)
+    assert mask.threshold == pytest.approx(0.1 * scene_peak(lab, setting.lights)) and mask.threshold < 0.02
+    assert 0.0 < mask.share < 1.0 and mask.coverage.max() == 1.0 and 0.0 < mask.ratio.max() < 0.1
+    on = mask.mask
+    padded = np.pad(on, 1)
+    neighbours = padded[:-2, 1:-1] | padded[2:, 1:-1] | padded[1:-1, :-2] | padded[1:-1, 2:]
+    assert on.sum() > 20 and not (on & ~neighbours).any()
 
 
 def test_the_ratio_is_the_schiller_radiance_over_the_reference():
@@ -174,7 +182,10 @@ def test_recommend_orientation_marks_the_flash_of_its_render(cli, tmp_path):
     assert proc.returncode == 0, proc.stderr
     render = json.loads(js.read_text())["render"]
     share, area = render["flash_mask"]["share"], render["flash_by_view"][0]["flash_area"]
-    assert mask.exists() and share == pytest.approx(area, abs=0.03) and area > 0.02
+    # under the pendant's own threshold 60 % of the stone flashes (converged: the 128 px mask and the
+    # high-quality estimator agree within a point); the draft estimator (3000 points) and a 48 px mask
+    # each sit a couple of points off it, on either side
+    assert mask.exists() and share == pytest.approx(area, abs=0.05) and area > 0.3
     assert render["exposure_mode"] == "reference" and render["exposure_vs_reference_ev"] == 0.0
     proc = cli("recommend-orientation", str(OVAL), "--flash-mask", str(tmp_path / "alone.png"))
     assert proc.returncode == 2 and "give --render too" in proc.stderr and not (tmp_path / "alone.png").exists()

@@ -17,7 +17,8 @@ from hypothesis import strategies as st
 
 import labcut
 from labcut import Labradorite, Lights, ParameterError, Scenario, Views
-from labcut.orientation.problem import build_problem, reference_radiance, schiller_weights
+from labcut.orientation.problem import build_problem
+from labcut.orientation.radiance import reference_radiance, schiller_weights
 from labcut.orientation.render_estimator import render_metrics
 from labcut.rendering.scene import camera_views
 from labcut.scene import LIGHTING, SCENARIOS, VIEWING, Environment, direction, resolve_scene

@@ -1,9 +1,9 @@
 """The flash mask of a render: which pixels of the stone flash, by the metrics' own threshold.
 
 A presentation render is tonemapped for the eye; whether a pixel *flashes* is the metrics'
-question (DESIGN.md §4): is its schiller radiance ``L_s`` at least ``tau`` times ``L_ref``, the
-schiller radiance of a flat polished face with lamellae parallel to it, lit and viewed along its
-normal by one light of the same total irradiance? :func:`flash_mask` answers it per pixel from the
+question (DESIGN.md §4): is its schiller radiance ``L_s`` at least ``τ P L_ref``, ``P`` the
+brightest schiller the scene's lights can give a flat polished face, in units of ``L_ref``
+(:mod:`labcut.orientation.radiance`)? :func:`flash_mask` answers it per pixel from the
 render's own cameras: the schiller lobe alone (the BSDF plugin, luminance: the mono variant),
 summed exactly over the scenario's lights as the metrics model them (every direction with its
 weight, at unit total irradiance, no room light; a shadow ray each), at the pixels a ray from the
@@ -32,7 +32,7 @@ from ..rendering.api import bsdf_dict, tile_views
 from ..rendering.scene import CameraView, camera, to_mitsuba_mesh
 from ..scene import Setting
 from ..scene.directions import normalize_normal
-from .problem import reference_radiance
+from .radiance import flash_threshold, reference_radiance
 
 #: coverage below which a pixel does not see the stone
 COVERED = 1e-3
@@ -98,25 +98,27 @@ def schiller_ratio(scene: Any, directions: np.ndarray, irradiances: np.ndarray, 
 @dataclass(frozen=True)
 class FlashMask:
     """Per pixel of a render (H x W): ``ratio`` = ``L_s / L_ref`` (schiller radiance over the
-    reference flash) and ``coverage`` (the share of the pixel the stone covers); ``tau`` the flash
-    threshold; ``views`` the camera names, tiled 4 across as the render's are."""
+    reference flash) and ``coverage`` (the share of the pixel the stone covers); ``threshold`` the flash
+    threshold ``τ P`` in units of ``L_ref`` (``P`` the scene's peak, :mod:`labcut.orientation.radiance`);
+    ``views`` the camera names, tiled 4 across as the render's are; ``tau`` the threshold's factor τ."""
 
     ratio: np.ndarray
     coverage: np.ndarray
-    tau: float
+    threshold: float
     views: tuple[str, ...]
     shares: tuple[float, ...]
+    tau: float = 0.1
 
     @property
     def mask(self) -> np.ndarray:
         """The flashing pixels (bool, H x W): on the stone and at or above the threshold."""
-        return (self.coverage > COVERED) & (self.ratio >= self.tau)
+        return (self.coverage > COVERED) & (self.ratio >= self.threshold)
 
     @property
     def share(self) -> float:
         """The coverage-weighted share of the stone's pixels that flash (all views together; one
         view: its flash area as the render sees it)."""
-        return _share(self.ratio, self.coverage, self.tau)
+        return _share(self.ratio, self.coverage, self.threshold)
 
     def ratio_at(self, height: int, width: int) -> np.ndarray:
         """``ratio`` on a picture of ``height`` x ``width`` px framed like the mask (each picture
@@ -142,14 +144,14 @@ class FlashMask:
 
     def to_dict(self) -> dict[str, Any]:
         """Plain JSON: the threshold, the share, and each view's share."""
-        return {"tau": self.tau, "share": self.share,
+        return {"tau": self.tau, "threshold": self.threshold, "share": self.share,
                 "by_view": [{"view": v, "share": s} for v, s in zip(self.views, self.shares)]}
 
 
-def _share(ratio: np.ndarray, coverage: np.ndarray, tau: float) -> float:
+def _share(ratio: np.ndarray, coverage: np.ndarray, threshold: float) -> float:
     on = coverage > COVERED
     total = float(coverage[on].sum())
-    return float((coverage[on] * (ratio[on] >= tau)).sum()) / total if total > 0 else 0.0
+    return float((coverage[on] * (ratio[on] >= threshold)).sum()) / total if total > 0 else 0.0
 
 
 def flash_mask(mesh: Any, material: Labradorite, lamella_normal: Any, setting: Setting, cameras: Sequence[CameraView],
@@ -161,7 +163,8 @@ def flash_mask(mesh: Any, material: Labradorite, lamella_normal: Any, setting: S
     frames them (``perspective``, ``fov_deg``, ``margin``, ``far_radii``:
     :func:`~labcut.rendering.scene.camera`'s), at ``resolution`` px up to
     :data:`MASK_RESOLUTION` (:meth:`FlashMask.overlay` scales it to the picture);
-    ``subsamples``² rays per pixel; ``tau`` the flash threshold (DESIGN.md §4). Through a
+    ``subsamples``² rays per pixel; ``tau`` the flash threshold's factor (a pixel flashes at
+    ``L_s ≥ τ P L_ref``, DESIGN.md §4). Through a
     perspective camera each point the camera sees is judged from the camera's direction, as the
     metrics' distant viewer sees it, so the mask marks what the numbers count."""
     import mitsuba as mi
@@ -172,6 +175,7 @@ def flash_mask(mesh: Any, material: Labradorite, lamella_normal: Any, setting: S
     m = normalize_normal(lamella_normal)
     set_variant("mono")
     l_ref = reference_radiance(material, 1.0)
+    threshold = flash_threshold(material, setting.lights, tau)
     res = min(int(resolution), MASK_RESOLUTION)
     stone = to_mitsuba_mesh(mesh, mi.load_dict(bsdf_dict(material, m, ("schiller",))))
     weights = np.asarray(setting.lights.weights, dtype=np.float64)
@@ -184,5 +188,5 @@ def flash_mask(mesh: Any, material: Labradorite, lamella_normal: Any, setting: S
                                       cam.direction if perspective else None)
         ratios.append(ratio)
         covers.append(cover)
-        shares.append(_share(ratio, cover, tau))
-    return FlashMask(tile_views(ratios), tile_views(covers), float(tau), tuple(c.name for c in cameras), tuple(shares))
+        shares.append(_share(ratio, cover, threshold))
+    return FlashMask(tile_views(ratios), tile_views(covers), threshold, tuple(c.name for c in cameras), tuple(shares), float(tau))

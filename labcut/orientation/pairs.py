@@ -41,7 +41,8 @@ from ..physics.material import Labradorite
 from ..scene import Setting
 from ..scene.quality import Quality
 from .problem import (DeviceTerms, add_lobe_terms, check_problem_inputs, light_rows, lights_reach, opaque_stencil, pair_major,
-                      reference_radiance, surface_samples, view_pairs)
+                      surface_samples, view_pairs)
+from .radiance import flash_threshold, reference_radiance
 
 
 @dataclass
@@ -57,6 +58,7 @@ class PairProblem:
     kappa: float
     q_norm: float
     tau: float
+    threshold: float
     convex: bool
     n_points: int
     info: dict[str, Any] = field(default_factory=dict)
@@ -134,7 +136,8 @@ def build_pairs(mesh: Any, material: Labradorite, quality: Quality | str, tau: f
                          float(material.lobe_kappa), float(material.lobe_norm))
     return PairProblem(
         pair_view=pair_view, pair_weight=np.concatenate(pw_parts), view_weight=view_weight / view_weight.sum(),
-        kappa=float(material.lobe_kappa), q_norm=float(material.lobe_norm), tau=float(tau), convex=convex, n_points=count,
+        kappa=float(material.lobe_kappa), q_norm=float(material.lobe_norm), tau=float(tau),
+        threshold=flash_threshold(material, settings[0].lights, tau), convex=convex, n_points=count,
         info={"l_ref": l_ref, "pairs": int(pair_point.size), "poses": n_pose, "pair_point": pair_point.astype(np.int32)},
         _sums=sums,
     )

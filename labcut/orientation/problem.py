@@ -14,9 +14,8 @@ For a surface point ``x`` (smooth shading normal ``n``), a light ``l`` and a vie
 ``c_t q(h_t·m)``, and the whole hemisphere at once by binning ``h_t``
 (:meth:`labcut.orientation.scoring.Scorer.energy_map`).
 
-``L_ref`` (DESIGN.md §4) is ``L_s`` of a flat polished face with the lamellae
-parallel to it, lit and viewed along its normal by one light carrying the total
-irradiance: ``E T(0)² R_Y(1) q(1) / (4 η²)``.
+``L_ref``, the unit of flash values, and the flash threshold ``τ P`` (``P`` the brightest schiller
+the scene's lights can give a flat face) are defined in :mod:`labcut.orientation.radiance`.
 
 Projected areas: points are sampled uniformly by area; a point counts for view
 ``v`` when its geometric normal faces ``v`` and (non-convex meshes only) nothing
@@ -45,47 +44,7 @@ from ..physics.ops import NUMPY
 from ..scene import Lights, Setting, Views
 from ..scene.quality import Quality
 from .kernels import DEFAULT_KERNELS, KernelOptions
-
-
-def fresnel_dielectric(cos_i: np.ndarray, eta: float) -> np.ndarray:
-    """Unpolarised Fresnel reflectance from outside (index 1) into index ``eta`` (numpy)."""
-    return lobe.fresnel_reflectance(np.asarray(cos_i, dtype=np.float64), eta, NUMPY)
-
-
-def light_terms(n: np.ndarray, l: np.ndarray, irradiance: np.ndarray, eta: float) -> tuple[np.ndarray, np.ndarray]:
-    """Per (point, light): the internal direction ``a`` and ``E T(n·l) (n·l)``."""
-    cos_nl = NUMPY.dot(l, n)
-    return lobe.internal_direction(l, n, eta, NUMPY), irradiance * lobe.transmission(cos_nl, eta) * cos_nl
-
-
-def view_terms(n: np.ndarray, v: np.ndarray, eta: float) -> tuple[np.ndarray, np.ndarray]:
-    """Per (point, view): the internal direction ``b`` and ``T(n·v)``."""
-    return lobe.internal_direction(v, n, eta, NUMPY), lobe.transmission(NUMPY.dot(v, n), eta)
-
-
-def triple_terms(a: np.ndarray, e_t_l: np.ndarray, b: np.ndarray, t_v: np.ndarray, n: np.ndarray, eta: float,
-                 table: tuple[np.ndarray, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
-    """Per triple: the lamella orientation ``h`` (unit, not folded) and the factor ``w`` in front of
-    the lobe, ``L_s = w · q(h·m)``: the BSDF's ``f_s`` (:mod:`labcut.physics.schiller`) times E (n·l)."""
-    h, cos_l, max_ab = lobe.mirror_terms(a, b, n, NUMPY)
-    r_y = np.interp(np.clip(cos_l, 0.0, 1.0), table[0], table[1])
-    return h, lobe.schiller_factor(e_t_l, t_v, cos_l, max_ab, eta, NUMPY) * r_y
-
-
-def schiller_weights(n: np.ndarray, l: np.ndarray, v: np.ndarray, irradiance: np.ndarray, eta: float,
-                     table: tuple[np.ndarray, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
-    """:func:`triple_terms` straight from (T, 3) shading normals, light and view directions."""
-    a, e_t_l = light_terms(n, l, irradiance, eta)
-    b, t_v = view_terms(n, v, eta)
-    return triple_terms(a, e_t_l, b, t_v, n, eta, table)
-
-
-def reference_radiance(material: Labradorite, total_irradiance: float) -> float:
-    """L_ref (DESIGN.md §4): flat polished face, lamellae parallel, lit and viewed along its
-    normal by one light of irradiance ``total_irradiance``: ``E T(0)² R_Y(1) q(1) / (4 η²)``."""
-    eta = material.n_surface
-    t0 = 1.0 - float(fresnel_dielectric(np.array(1.0), eta))
-    return total_irradiance * t0 * t0 * float(luminance_table(material)[1][-1]) * material.lobe_norm / (4.0 * eta * eta)
+from .radiance import flash_threshold, light_terms, reference_radiance, view_terms
 
 
 #: triples per chunk of :meth:`FlashProblem.pair_radiance`: its (stencil normals x chunk) float32 lobe
@@ -105,7 +64,8 @@ class FlashProblem:
     view_weight: np.ndarray  # (V,) normalised view weights
     kappa: float
     q_norm: float
-    tau: float
+    tau: float  # the flash threshold's factor τ
+    threshold: float  # the flash threshold τ P in units of L_ref (P: the scene's peak, orientation/radiance.py)
     material: Labradorite
     lights: Lights
     views: Views
@@ -508,6 +468,7 @@ def build_problem(
         kappa=material.lobe_kappa,
         q_norm=material.lobe_norm,
         tau=float(tau),
+        threshold=flash_threshold(material, settings[0].lights, tau),
         material=material,
         lights=settings[0].lights,
         views=settings[0].views,

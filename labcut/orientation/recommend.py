@@ -44,12 +44,21 @@ FRAME = {
 
 #: the flash metrics, as the table and the JSON state them (DESIGN.md §4, docs/orientation.md)
 METRIC_DEFINITIONS = {
-    "flash_area": "share of the visible stone (projected area) whose schiller reaches tau x L_ref; mean over views",
+    "flash_area": "share of the visible stone (projected area) whose schiller reaches the flash threshold "
+                  "tau x P x L_ref; mean over views",
     "flash_intensity": "mean L_s / L_ref over the flashing part of a view (0 where none flashes); mean over views",
     "flash_energy": "mean L_s / L_ref over the whole visible stone; mean over views. "
                     "= energy_in_flash + energy_below_threshold",
     "energy_in_flash": "sum over views of weight x flash_area x flash_intensity: the energy of the flashing parts",
-    "energy_below_threshold": "the energy of the faint schiller below tau x L_ref",
+    "energy_below_threshold": "the energy of the faint schiller below the flash threshold tau x P x L_ref",
+    "L_ref": "the unit of flash values: the schiller radiance of a flat polished face with the lamellae parallel to it, "
+             "lit and seen along its normal by one light carrying the scene's whole irradiance",
+    "scene_peak": "P: the brightest schiller the scenario's own lights can give that flat face, turned whichever way "
+                  "makes it brightest and seen along its normal, in units of L_ref (1 for one small lamp; a few "
+                  "hundredths under an even ceiling or sky): settings.scene_peak",
+    "flash_threshold": "tau x P in units of L_ref (settings.flash_threshold): a point flashes where its schiller "
+                       "reaches that share of the brightest the scene's light can give, so flash means the same under "
+                       "a lamp and under diffuse light",
     "coverage": "weight of the views whose flash_area exceeds 0.05",
     "balanced": "sqrt(flash_area x flash_intensity) of the aggregates",
     "misorientation": "flash energy kept (÷ the optimum's) when the lamella normal misses the recommended one by "
@@ -433,6 +442,7 @@ def answer_recommendation(mesh: Any, ask: FlashQuestion, scorer: Scorer, plan: A
         uncertainty=bars, misorientation=misorientation_curve(scorer.energy_map, normal, float(tol), quality),
         settings={
             **ask.to_dict(),
+            "scene_peak": scorer.problem.threshold / scorer.problem.tau, "flash_threshold": scorer.problem.threshold,
             "convex": scorer.problem.convex, "surface_samples": scorer.problem.n_points,
             "triples": scorer.problem.n_triples, "lights": len(scene.lights), "views": len(scene.views),
             "estimator": plan.estimator, "occlusion": plan.on("occlusion"), "inter_reflection": plan.on("inter_reflection"),
@@ -451,7 +461,7 @@ def _no_flash(objective: str, scene: Scenario, tau: float) -> None:
         raise ParameterError(f"no light of scenario {scene.name!r} reaches a part of the stone its viewers see")
     raise ParameterError(
         f"under scenario {scene.name!r} ({scene.lights.name} light, {scene.views.name} viewers) no point of the stone reaches "
-        f"the flash threshold (tau = {tau:g} x a face-on flash) at any lamella orientation, so the {objective!r} objective "
+        f"the flash threshold (tau = {tau:g} x the brightest schiller its light can give) at any lamella orientation, so the {objective!r} objective "
         "is 0 everywhere and cannot rank them; use --objective energy (objective='energy'), which ranks the faint "
         "schiller, or a more directed light"
     )

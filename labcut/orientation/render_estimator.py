@@ -40,7 +40,7 @@ from ..physics.material import Labradorite
 from ..scene.directions import normalize_normal
 from ..scene import Lights, Setting, Views
 from ..scene.quality import Quality
-from .problem import reference_radiance
+from .radiance import flash_threshold, reference_radiance
 from ..validation import check_number
 from .render_objective import CARVING_DEPTH, DIRECT_DEPTH, SMOOTH_WIDTH, RenderObjective
 from .scoring import FlashMetrics
@@ -83,6 +83,7 @@ def render_metrics(
     m = normalize_normal(normal)
     set_variant("mono")
     l_ref = reference_radiance(material, 1.0)
+    threshold = flash_threshold(material, settings[0].lights, tau)  # τ P, in units of L_ref
     stone = to_mitsuba_mesh(mesh, mi.load_dict(bsdf_dict(material, m, ("schiller",))))
     area_v, energy_v, intensity_v, weight_v = [], [], [], []
     pose_total = sum(float(st.weight) for st in settings)
@@ -100,7 +101,7 @@ def render_metrics(
             cover = alpha > 1e-3
             w = alpha[cover]
             ratio = value[cover] / w / l_ref
-            flash = ratio >= tau
+            flash = ratio >= threshold
             total = float(w.sum())
             a = float((w * flash).sum()) / total if total > 0 else 0.0
             e = float((w * ratio).sum()) / total if total > 0 else 0.0

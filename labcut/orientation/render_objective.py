@@ -26,7 +26,7 @@ from ..geometry.stone import Stone
 from ..physics.material import Labradorite
 from ..scene.directions import normalize_normal
 from ..scene import Setting
-from .problem import reference_radiance
+from .radiance import flash_threshold, reference_radiance
 from .scoring import FlashMetrics
 
 #: width of the logistic step that stands in for the flash threshold in the gradients of the
@@ -196,6 +196,7 @@ class RenderObjective:
         self.l_ref = reference_radiance(self.material, 1.0)
         if not self.l_ref > 0:
             raise ParameterError("the material reflects nothing at normal incidence: no flash can be scored")
+        self.threshold = flash_threshold(self.material, settings[0].lights, self.tau)  # τ P, in units of L_ref
         self.variant = set_variant("mono")
         from ..rendering.zoning import resolve as resolve_zoning
 
@@ -353,7 +354,7 @@ class RenderObjective:
         return acc / float(self.spp)
 
     def _terms(self, images: Sequence[np.ndarray], width: float | None) -> list[ViewTerms]:
-        return [view_terms(img[..., 0], img[..., 1], self.tau, self.l_ref, width) for img in images]
+        return [view_terms(img[..., 0], img[..., 1], self.threshold, self.l_ref, width) for img in images]
 
     def metrics(self, normal: Any) -> FlashMetrics:
         """All flash metrics (hard threshold) of ``normal`` from its renders (:func:`render_metrics`'s

@@ -558,7 +558,7 @@ class Scorer:
         # opaque scalars: one compiled kernel serves every spread and threshold
         self.kappa = dr.opaque(t.Float, float(p.kappa))
         self.q_norm = dr.opaque(t.Float, float(p.q_norm))
-        self.tau = dr.opaque(t.Float, float(p.tau))
+        self.tau = dr.opaque(t.Float, float(p.threshold))
         self.evaluations = 0
         self._bins_np: tuple[np.ndarray, np.ndarray] | None = None  # binned energy weights, built on first use
         self._bins: tuple[Any, Any, int, Any] | None = None  # the same on the Dr.Jit device
@@ -787,7 +787,7 @@ class Scorer:
         m = m / np.linalg.norm(m)
         p = self.problem
         radiance = p.pair_radiance(m[None, :])[:, 0]
-        flash = radiance >= p.tau
+        flash = radiance >= p.threshold
         V = self.n_views
         area_v = np.bincount(p.pair_view, weights=p.pair_weight * flash, minlength=V)
         energy_v = np.bincount(p.pair_view, weights=p.pair_weight * radiance, minlength=V)

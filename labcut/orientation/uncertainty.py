@@ -241,7 +241,7 @@ def objective_values(problem: FlashProblem, radiance: np.ndarray, point_weights:
     x = pw[:, None] * radiance
     blocks = [x]
     if objective != "energy":
-        flash = radiance >= problem.tau
+        flash = radiance >= problem.threshold
         blocks += [np.where(flash, pw[:, None], 0.0), np.where(flash, x, 0.0)]
     values = np.concatenate(blocks, axis=1) if len(blocks) > 1 else x
     cols = values.shape[1]

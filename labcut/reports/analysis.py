@@ -105,7 +105,7 @@ def per_view_flash(problem: Any, normal: np.ndarray) -> tuple[np.ndarray, np.nda
     views = problem.view_weight.size
     w = problem.pair_weight
     energy = np.bincount(problem.pair_view, weights=w * radiance, minlength=views)
-    area = np.bincount(problem.pair_view, weights=w * (radiance >= problem.tau), minlength=views)
+    area = np.bincount(problem.pair_view, weights=w * (radiance >= problem.threshold), minlength=views)
     return energy, area
 
 

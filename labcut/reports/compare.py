@@ -747,7 +747,7 @@ def overall_score(ratios: Sequence[float | None], bars: Sequence[Any]) -> tuple[
 def run_comparison(plan: ComparisonPlan, progress: Callable[[int, int], None] | None = None) -> Comparison:
     """The long work of :func:`compare_cuts` for a checked :class:`ComparisonPlan`."""
     from ..geometry.inspect import summarize
-    from ..orientation.problem import reference_radiance
+    from ..orientation.radiance import reference_radiance
     from ..study import Study
     from ..orientation.recommend import describe, workshop
     from ..rendering.scene import RENDER_IRRADIANCE
@@ -764,7 +764,7 @@ def run_comparison(plan: ComparisonPlan, progress: Callable[[int, int], None] | 
     resolved, lab, scens, ref, quality, seed = plan.cuts, plan.material, plan.scenarios, plan.reference, plan.quality, plan.seed
     res, n_spp, strip_spp, strip_angles, tau = plan.resolution, plan.spp, plan.strip_spp, plan.strip_angles, plan.tau
     report = progress or (lambda done, total: None)
-    threshold = tau * reference_radiance(lab, RENDER_IRRADIANCE)
+    l_ref = reference_radiance(lab, RENDER_IRRADIANCE)
     naming = naming_scenario(scens)
 
     total = len(resolved) * len(scens)
@@ -790,7 +790,8 @@ def run_comparison(plan: ComparisonPlan, progress: Callable[[int, int], None] | 
                                  seed, strip_spp=strip_spp, tau=tau)
             mark_warm(renders.plan["integrator"])
             h, w = renders.schiller.shape[:2]
-            colour = flash_colour_map(renders.schiller, renders.mask, threshold, renders.flash.ratio_at(h, w), tau)
+            level = renders.flash.threshold  # τ P: the scenario's own flash threshold, in units of L_ref
+            colour = flash_colour_map(renders.schiller, renders.mask, level * l_ref, renders.flash.ratio_at(h, w), level)
             rest = tilt.at_rest("flash_area")  # the estimator's, the same view at rest (NaN: edge-on)
             colour.stats["estimator_flash_area"] = rest if math.isfinite(rest) else None
             per[sc.name] = ScenarioResult(cut.name, sc, rec, tilt, mis, renders, colour, seconds=time.perf_counter() - t0)
@@ -809,7 +810,7 @@ def run_comparison(plan: ComparisonPlan, progress: Callable[[int, int], None] | 
 
     exposures = rank_and_normalise(results, scens, ref)
     render_info = {"resolution": res, "spp": n_spp, "strip_spp": strip_spp, "strip_angles_deg": list(strip_angles),
-                   "flash_threshold": threshold, "irradiance": RENDER_IRRADIANCE}
+                   "l_ref": l_ref, "irradiance": RENDER_IRRADIANCE}
     seconds = time.perf_counter() - start
     budget: dict[str, Any] = {}
     if plan.budget is not None:  # the calibration learns from this run (reports/budget.py)

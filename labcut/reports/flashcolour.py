@@ -3,9 +3,10 @@
 From a render of the schiller lobe alone (linear sRGB, D65 white) seen from the scenario's main
 viewer, each pixel of the stone gets
 
-* its *level*: luminance ``Y`` over the flash threshold ``τ L_ref`` of the render's lights
-  (DESIGN.md §4: ``L_ref`` is the schiller of a flat face, lamellae parallel, lit and seen along
-  its normal by one light of the same total irradiance); a pixel flashes when ``level >= 1``,
+* its *level*: luminance ``Y`` over the flash threshold ``τ P L_ref`` of the render's lights
+  (DESIGN.md §4 and :mod:`labcut.orientation.radiance`: ``L_ref`` is the schiller of a flat face,
+  lamellae parallel, lit and seen along its normal by one light of the same total irradiance; ``P``
+  the brightest share of it the scene's lights can give); a pixel flashes when ``level >= 1``,
   so the flashing share of the stone's pixels estimates the main view's flash area;
 * its *dominant wavelength* (CIE 15, :func:`labcut.colour.dominant_wavelength`): the
   spectral-locus wavelength on the ray from the white point through the pixel's chromaticity;
@@ -100,7 +101,7 @@ class FlashColourMap:
     """Flash colour over the stone as the main viewer sees it (H x W arrays; see the module docstring).
 
     ``wavelength_nm``: dominant wavelength per pixel (NaN off the stone or without hue).
-    ``level``: schiller luminance / (τ L_ref), 0 off the stone. ``mask``: stone pixels.
+    ``level``: schiller luminance / (τ P L_ref), 0 off the stone. ``mask``: stone pixels.
     ``stats``: :func:`colour_stats`."""
 
     wavelength_nm: np.ndarray
@@ -110,20 +111,20 @@ class FlashColourMap:
 
 
 def flash_colour_map(schiller_rgb: np.ndarray, mask: np.ndarray, threshold: float,
-                     ratio: np.ndarray | None = None, tau: float = 0.1) -> FlashColourMap:
+                     ratio: np.ndarray | None = None, ratio_threshold: float = 0.1) -> FlashColourMap:
     """:class:`FlashColourMap` of a schiller-only render (linear sRGB, H x W x 3) with the stone's
-    ``mask`` and the flash ``threshold`` ``τ L_ref`` in the render's units (luminance).
+    ``mask`` and the flash ``threshold`` ``τ P L_ref`` in the render's units (luminance).
 
     ``ratio`` (H x W, ``L_s / L_ref``: a :class:`~labcut.orientation.flash_mask.FlashMask`'s, the
     lights summed exactly) decides which pixels flash and how much instead of the render's
-    sampled luminance (``tau`` the threshold): the colours stay the render's, the flash is the
-    one the metrics count."""
+    sampled luminance (``ratio_threshold`` the threshold ``τ P`` in units of ``L_ref``: the mask's
+    ``threshold``): the colours stay the render's, the flash is the one the metrics count."""
     rgb = np.nan_to_num(np.asarray(schiller_rgb, dtype=np.float64))
     xyz = linear_srgb_to_xyz(rgb)
     if ratio is None:
         level = np.where(mask, np.clip(xyz[..., 1], 0.0, None) / float(threshold), 0.0)
     else:
-        level = np.where(mask, np.clip(np.asarray(ratio, dtype=np.float64), 0.0, None) / float(tau), 0.0)
+        level = np.where(mask, np.clip(np.asarray(ratio, dtype=np.float64), 0.0, None) / float(ratio_threshold), 0.0)
     inside = np.asarray(mask, dtype=bool)
     wl = np.full(inside.shape, np.nan)
     wl[inside] = dominant_wavelengths(rgb[inside])  # the stone's pixels only: the background has no flash

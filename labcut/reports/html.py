@@ -20,11 +20,12 @@ COMPARE_DEFINITIONS = {
     "flash_energy": "mean schiller radiance over the whole visible stone, in units of L_ref (a flat face, lamellae "
                     "parallel, lit and seen along its normal by one light of the same total irradiance); mean over the "
                     "scenario's viewers and poses. The ranking metric.",
-    "flash_area": "share of the visible stone (projected area) whose schiller reaches tau x L_ref (tau = 0.1); mean over viewers",
+    "flash_area": "share of the visible stone (projected area) whose schiller reaches the flash threshold tau x P x L_ref "
+                  "(tau = 0.1; P the brightest schiller the scenario's light can give, scene_peak); mean over viewers",
     "flash_intensity": "mean schiller radiance / L_ref over the part that flashes (0 where none does); mean over viewers",
     "coverage": "share (weight) of the viewers that see a flash on more than 5 % of the stone",
     "energy_in_flash": "the part of the flash energy in the flashing regions: sum over views of weight x area x intensity",
-    "energy_below_threshold": "the part of the flash energy in schiller fainter than tau x L_ref",
+    "energy_below_threshold": "the part of the flash energy in schiller fainter than tau x P x L_ref",
     "tolerance_deg": "how far (degrees) the lamella normal may miss the optimum in any direction and keep 90 % of the "
                      "flash energy; front_back_deg / left_right_deg: the same, missing only towards the front/back "
                      "(±Y) or the sides (±X) of the stone",
@@ -38,7 +39,7 @@ COMPARE_DEFINITIONS = {
                   "sampling lies that close (flash_energy_error, overall_score_error; the recommendation's "
                   "uncertainty.score_rel relative). Two scores closer than their bars are not told apart: a tie",
     "verdict": "the comparison in words: the cut that flashes most, the cuts tied for it, or that no cut shows flash "
-               "(none reaches tau x L_ref at its best orientation) and what to try; scenario_verdicts per scenario",
+               "(none reaches tau x P x L_ref at its best orientation) and what to try; scenario_verdicts per scenario",
     "overall_score": "mean over the scenarios of a cut's flash energy at its compromise orientation divided by the "
                      "reference cut's at its own compromise orientation",
     "compromise": "one lamella orientation per cut for all chosen scenarios: the normal maximising the mean over "
@@ -55,7 +56,7 @@ COMPARE_DEFINITIONS = {
                               "schiller alone: the luminance-weighted median over the pixels that flash (or, where none "
                               "does, over the faint schiller); p10_nm / p90_nm the 10th / 90th percentiles; negative "
                               "values are purples' complementary wavelengths",
-    "flash_fraction": "share of the stone's pixels whose schiller radiance reaches tau x L_ref (the lights summed exactly "
+    "flash_fraction": "share of the stone's pixels whose schiller radiance reaches tau x P x L_ref (the lights summed exactly "
                       "from the render's camera: the flash mask): the main view's flash area as the picture shows it, "
                       "beside the estimator's (est.) for the same view at rest",
     "estimator_flash_area": "the surface-sample estimator's flash area of the main view at rest (the tilt curve at 0°)",

@@ -1,0 +1,112 @@
+"""The flash threshold relative to the scene (labcut/orientation/radiance.py, docs/orientation.md):
+``L_ref`` the unit, ``P`` the brightest schiller the scene's own lights can give a flat face."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+import labcut
+from labcut.orientation.problem import build_problem
+from labcut.orientation.radiance import (flash_threshold, flat_face_schiller, reference_radiance, scene_peak,
+                                         sky_schiller)
+from labcut.orientation.scoring import Scorer
+from labcut.scene import Lights, Scenario, Views
+from labcut.scene.directions import direction
+
+LAB = labcut.Labradorite.preset("blue")
+
+
+@settings(max_examples=25, deadline=None)
+@given(st.floats(0.0, 85.0), st.floats(0.0, 360.0))
+def test_one_point_light_gives_the_reference_flash_facing_it(tilt, azimuth):
+    # L_ref's own definition: the face turned to the lamp, seen along its normal
+    d = direction(tilt, azimuth)
+    lamp = Lights.lamp(d, 0.0, 1.0, 1)
+    assert flat_face_schiller(LAB, lamp, d[None])[0] == pytest.approx(1.0, rel=1e-9)
+    assert scene_peak(LAB, lamp) == pytest.approx(1.0, rel=1e-9)
+    # a face turned away sees the lamp further out in its lobe (σ 3° inside the stone: about 9°
+    # outside, the light's internal direction turning twice the lamella's angle)
+    away = [flat_face_schiller(LAB, lamp, direction(tilt + a if tilt < 50 else tilt - a, azimuth)[None])[0]
+            for a in (5.0, 10.0, 30.0)]
+    assert 0.8 < away[0] < 0.92 and 0.45 < away[1] < 0.65 and 0.0 < away[2] < 0.02
+
+
+def test_the_irradiance_is_the_scenes_own_whatever_its_scale():
+    d = direction(20.0, 40.0)
+    assert scene_peak(LAB, Lights.lamp(d, 0.0, 7.5, 1)) == pytest.approx(1.0)
+    assert flat_face_schiller(LAB, Lights.lamp(d, 3.0, 7.5, 9), d[None])[0] == pytest.approx(
+        flat_face_schiller(LAB, Lights.lamp(d, 3.0, 1.0, 9), d[None])[0])
+
+
+def test_a_wider_lamp_spreads_its_light_over_more_than_the_lobe():
+    peaks = [scene_peak(LAB, Lights.lamp([0, 0, 1], r, 1.0, 400)) for r in (0.0, 2.0, 8.0, 20.0)]
+    assert peaks[0] == pytest.approx(1.0) and all(a > b for a, b in zip(peaks, peaks[1:]))
+    assert 0.6 < peaks[2] < 0.95 and peaks[3] < 0.5
+
+
+def test_the_sky_term_is_the_lobe_summed_over_a_densely_sampled_sky():
+    # an independent route: a uniform sky of unit radiance as 40,000 point lights (equal solid angle
+    # over the upper hemisphere) summed on the face seen from straight above
+    n = 40_000
+    i = np.arange(n) + 0.5
+    z = 1.0 - i / n
+    r = np.sqrt(1.0 - z * z)
+    phi = i * math.pi * (3.0 - math.sqrt(5.0))
+    dirs = np.stack([r * np.cos(phi), r * np.sin(phi), z], axis=1)
+    sky = Lights(dirs, np.full(n, 2.0 * math.pi / n))
+    points = flat_face_schiller(LAB, sky, np.array([[0.0, 0.0, 1.0]]))[0] * sky.total_irradiance
+    assert sky_schiller(LAB) == pytest.approx(points, rel=0.01)
+
+
+def test_an_environment_counts_as_the_map_not_as_its_samples():
+    ceiling = [scene_peak(LAB, Lights.preset("ceiling", q)) for q in ("draft", "standard", "high")]
+    assert ceiling[0] == pytest.approx(ceiling[1], rel=1e-12) == ceiling[2]
+    # the ceiling's brightest direction is the zenith (radiance ∝ cos θ): K Y(zenith) / E
+    ceil = Lights.preset("ceiling", "standard")
+    env = ceil.environment
+    y_top = float(env.luminance()[0].mean())
+    assert ceiling[0] == pytest.approx(sky_schiller(LAB) * y_top / ceil.total_irradiance, rel=0.03)
+    assert ceiling[0] < 0.1  # a few hundredths: no direction gathers more than a lobe's worth of an even ceiling
+
+
+def test_the_peak_does_not_depend_on_the_frame():
+    office = Lights.preset("office", "draft")
+    turn = labcut.scene.directions.rotation([1.0, 0.3, 0.0], 70.0)
+    assert scene_peak(LAB, office.rotated(turn)) == pytest.approx(scene_peak(LAB, office), rel=2e-3)
+
+
+def test_lights_that_reach_no_face_are_refused():
+    lights = Lights.lamp([0, 0, 1], 0.0, 1.0, 1)
+    assert flat_face_schiller(LAB, lights, np.array([[0.0, 0.0, -1.0]]))[0] == 0.0
+    assert reference_radiance(LAB, 2.0) == pytest.approx(2.0 * reference_radiance(LAB, 1.0))
+
+
+def test_every_scenarios_threshold_lies_between_the_ceilings_and_one_lamps():
+    peaks = {name: scene_peak(LAB, Scenario.preset(name, "draft").lights) for name in labcut.scene.SCENARIOS.names()}
+    assert all(0.0 < p <= 1.0 for p in peaks.values()), peaks
+    assert peaks["bench"] > peaks["display"] > peaks["ring"]
+
+
+@pytest.fixture(scope="module")
+def ring_problem():
+    mesh = labcut.load_mesh("meshes/oval-16x12-low.ply")
+    sc = Scenario.preset("ring", "draft")
+    return build_problem(mesh, LAB, quality="draft", tau=0.1, settings=sc.settings()), sc
+
+
+def test_the_problem_holds_the_scenes_threshold_and_its_area_uses_it(ring_problem):
+    p, sc = ring_problem
+    assert p.threshold == pytest.approx(flash_threshold(LAB, sc.lights, 0.1)) and p.threshold < 0.1 * 0.2
+    scorer = Scorer(p)
+    m = np.array([0.0, 0.0, 1.0])
+    radiance = p.pair_radiance(m[None])[:, 0]
+    w = p.pair_alpha
+    by_hand = float((w * (radiance >= p.threshold)).sum())
+    against_a_lamp = float((w * (radiance >= p.tau)).sum())
+    metrics = scorer.metrics(m)
+    assert metrics.flash_area == pytest.approx(by_hand, rel=1e-6) and by_hand > against_a_lamp + 0.05
