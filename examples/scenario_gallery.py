@@ -146,17 +146,74 @@ base on z = 0, the front at -Y, and for stones worn upright (pendant, brooch) th
 bail at the +Y end. A scenario's **pose** is the rotation taking mesh vectors to
 world vectors:
 
-- `face-up` (bench, ring, display, outdoor): mesh +Z = world up, mesh -Y = the viewer's side;
+- `face-up` (bench, ring, display, outdoor and their still versions): mesh +Z = world up, mesh -Y = the viewer's side;
 - `face-front` (pendant): mesh +Z = world -Y (towards the viewer), mesh +Y = world up;
 - brooch: `face-front` tilted back 15°, so the face looks slightly upward.
 
 A **rocking motion** (bench: the cutter tilts the stone ±30° front-to-back and
-±15° sideways under the lamp) turns the stone about the world X and Y axes with
+±15° sideways under the lamp; the worn scenarios: below) turns the stone about the world X and Y axes with
 the lights and viewers fixed in the world. Each pose pairs its own lights with its
-own viewers; the flash metrics average over poses and viewers. Everything
+own viewers; the flash metrics average over poses and viewers. Where many viewers stand
+round a moving stone (ring, outdoor, pendant, brooch), each pose but the rest pose keeps a
+share of them (`motion_view_share`: a stratified subset, a different one per pose, so the poses
+together see every viewer): the metrics average over the poses and the viewers alike, and the
+full product of both grids would cost their product (a ring at standard quality: 13 poses x 20
+viewers) for the same mean. Everything
 downstream works in the mesh frame: `Scenario.settings()` gives, per pose, the
 lights and views rotated into it; `Scenario.main_setting()` the rest pose a render
 shows, with world up as the image's up.
+
+## Lit as rooms are
+
+Rooms and streets are not lit by an even glow: an office has downlights or panels on a grid, a
+window, and the light the ceiling and walls send back; a street has the sun and the sky. The
+worn scenarios (`ring`, `pendant`, `brooch`) light the stone with `room`:
+
+- **downlights** (55 % of the irradiance at the stone): recessed fixtures on a square grid
+  1.8 m apart, 2.0 m above the stone (a 2.75 m ceiling over a hand at desk height, 0.75 m), the
+  stone 0.5 and 0.3 of a spacing off the nearest fixture. Each fixture is a point (a 15 cm opening
+  2 m away subtends 2°, well inside the lamella lobe's 9° outside the stone) with a Lambertian
+  intensity `I0 cos θ`, so the irradiance across its ray at the stone is ∝ cos³ θ (θ from the
+  vertical: inverse square over `h / cos θ`); the 18 fixtures giving at least a tenth of the
+  nearest one's are kept. The spacing follows lighting-design practice for downlights, a
+  spacing-to-mounting-height ratio near 1 for even illuminance on the working plane (the 500 lx
+  and uniformity 0.6 EN 12464-1 asks of office tasks);
+- **a window** in front (15 %): the `window` lamp, a disc of 20° radius 20° above the horizon;
+- **the room's reflected light** (30 %): an even ceiling (`ceiling`, radiance ∝ cos θ, as many
+  map directions as the quality gives a map: fewer miss the light a vertical face catches near the horizon). The share is the indirect part of the illuminance in a room with
+  light ceiling and walls (reflectances about 0.7 / 0.5 / 0.2 for ceiling, walls and floor), of
+  the order of a third in the utilisation-factor tables lighting designers use.
+
+`outdoor` is `daylight`: the sun as a point 50° above the horizon front-right (70 %) and an
+overcast sky (30 %).
+
+These are assumptions a user can change: the constants sit at the top of
+`labcut/scene/presets.py` (`DOWNLIGHT_SPACING_M`, `DOWNLIGHT_HEIGHT_M`, `DOWNLIGHT_OFFSET`,
+`DOWNLIGHT_CUTOFF`, `ROOM_SHARES`), and a scenario JSON file mixes lights by share
+(`{{"lighting": [{{"preset": "downlights", "share": 0.6}}, {{"preset": "ceiling", "share": 0.4}}]}}`).
+
+## Moved as jewellery moves
+
+A worn stone is never still, and its flash is what the wearer's movement shows; cutters check
+schiller by rocking the stone under a lamp for this reason. The worn scenarios move:
+
+| scenario | rock (about the world X axis) | sway (about the world Y axis) | why |
+|---|---|---|---|
+| `bench` | ±30° | ±15° | the cutter tips the stone front-to-back under the lamp, less sideways |
+| `ring` | ±25° | ±25° | the hand turns with its gestures: the back of the hand tips and rolls by tens of degrees while it is looked at (the wrist alone flexes about ±70° and rolls about ±25°, the forearm turns about ±80°: the stone's tilt at the viewers is a fraction of that) |
+| `pendant` | ±10° | ±10° | a pendant swings on its chain as the wearer walks (forward-back) and turns in its own plane (for a stone worn upright the world Y axis is its face's normal) |
+| `brooch` | ±8° | ±8° | a brooch moves with the body: the torso sways and turns a few degrees with each step |
+| `outdoor` | ±25° | ±25° | the ring's hand, outdoors |
+
+The angles are spread evenly over each range (the quality's `rock_steps`: 9 and 4 at standard),
+each pose weighted equally; `rock_deg`, `sway_deg` and `motion_view_share` in a scenario JSON
+file set another motion. The still, evenly lit scenarios of earlier releases remain, under their
+own names: `ring-diffuse`, `pendant-diffuse`, `brooch-diffuse`, `outdoor-still`.
+
+How far the scene's own flash threshold and the motion move the bundled stones' flash figures, by
+scenario: docs/orientation.md ("What counts as flash").
+
+## Changing lights and viewers
 
 `--lighting` and `--viewing` replace a scenario's lights or viewers (in its
 world); given without `--scenario`, they describe a still, face-up stone, as in
@@ -195,12 +252,13 @@ the procedural studio map, to light another tool the same way.
                {{"envmap": "shop.exr", "n": 128, "share": 0.5}}],
   "viewing": {{"directions": [[0, -0.3, 1], [0.3, -0.3, 1]], "main": [0, -0.3, 1]}},
   "rock_deg": 10,
-  "sway_deg": 0
+  "sway_deg": 0,
+  "motion_view_share": 0.5
 }}
 ```
 
 `pose` is `face-up`, `face-front` or a 3 x 3 rotation matrix (rows; mesh to
-world); `lighting` and `viewing` are preset names, files, direction lists or (for
+world); `motion_view_share` (in (0, 1], default 1) the share of the viewers each moving pose keeps; `lighting` and `viewing` are preset names, files, direction lists or (for
 lighting) a list of parts. A pose that is not a rotation, NaN, empty lights or
 views, unknown keys: a one-line error (exit 2 on the command line), nothing
 written.

@@ -66,6 +66,12 @@ COMMANDS = ("render", "recommend", "evaluate", "compare")
 #: and scenarios against it, and docs/planner.md ("The tolerance") gives the seed-to-seed
 #: spread of a recommendation's score it is set against (benchmarks/planner.py measures it)
 INTERREFLECTION_TOLERANCE = 0.02
+#: a map seen past a carving's parts is left to the surface samples where the stone, moving through a
+#: scenario's poses, sees at least this many of the map's directions in its own frame (the map's
+#: sampled directions x the poses: each pose turns them): docs/planner.md measures the biplane under
+#: the moving scenarios (224 and more) against the renders; still under the ceiling (32 and 64
+#: directions) the two were 9° and 2.7° apart
+ENV_DIRECTIONS_ENOUGH = 96
 
 
 @dataclass(frozen=True)
@@ -653,10 +659,13 @@ def plan_effects(
     else:
         bias = max(polarisation_biases(material, [(st.lights, st.views) for st in scene.settings()]))
         facts["polarisation_bias"] = round(bias, 5)
+        over = (f", above the {INTERREFLECTION_TOLERANCE:.0%} the answer can miss: the flash estimators carry "
+                "unpolarised terms only (grazing light on the face; a render with --polarizer shows the polarised "
+                "flash)") if bias > INTERREFLECTION_TOLERANCE else ""
         decisions.append(Decision(
             "polarisation", False, "",
             f"unpolarised light and eye: s/p-averaged Fresnel and stack terms, {bias:.2%} off the exact "
-            "unpolarised product for this scene's light and view pairs", False, bias))
+            f"unpolarised product for this scene's light and view pairs{over}", False, bias))
 
     # colour --------------------------------------------------------------------
     if rendering:
@@ -693,9 +702,11 @@ def plan_effects(
     n_map = len(scene.lights) - scene.lights.n_lamps
     # an environment map seen past the parts of a carving: the samples see the map through n_map
     # directions shared by every surface point, each blocked or not (docs/planner.md measures it)
-    env_occ = bool(envs) and occ_on and not convex
-    if env_occ:
+    env_seen = n_map * len(scene.poses())  # the map's directions in the stone's frame, over the motion
+    env_occ = bool(envs) and occ_on and not convex and env_seen < ENV_DIRECTIONS_ENOUGH
+    if bool(envs) and occ_on and not convex:
         facts["map_directions"] = n_map
+        facts["map_directions_over_poses"] = env_seen
     if not rendering:
         if estimator == "render":
             chosen, est_why = "render", "asked for"
@@ -713,6 +724,11 @@ def plan_effects(
             chosen, est_why = "render", (f"an environment map seen past the parts of a non-convex stone: the surface samples see "
                                          f"it through {n_map} directions, each blocked or not for every point; renders trace "
                                          "what each point sees of the whole map")
+        elif "map_directions_over_poses" in facts:
+            chosen, est_why = "samples", (f"an environment map seen past the parts of a non-convex stone, but the moving stone "
+                                          f"sees {n_map} map directions in each of {len(scene.poses())} poses, {env_seen} in its "
+                                          f"own frame (at least {ENV_DIRECTIONS_ENOUGH}): the samples follow the map as the "
+                                          "renders do (docs/planner.md)")
         else:
             chosen, est_why = "samples", "every effect on is one the surface samples carry"
         if command == "compare" and chosen == "render":

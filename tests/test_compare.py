@@ -230,7 +230,8 @@ def test_compromise_is_the_best_mean_of_relative_energies(comparison):
     others = np.array([r.normal for r in recs])
     assert mean_rel(dense).max() <= cp.score * (1 + 2e-3)
     assert mean_rel(others).max() <= cp.score * (1 + 1e-9)
-    assert cp.tolerance_deg <= min(cp.tolerance_by_axis.values()) + 1e-9
+    # (the two searches find the same side's edge by separate root-finds: equal to about 1e-7 degrees)
+    assert cp.tolerance_deg <= min(cp.tolerance_by_axis.values()) + 1e-6
     one = compromise(scorers[:1], ["x"], [recs[0].normal], "draft")
     assert np.allclose(one.normal, recs[0].normal) and one.score == 1.0
 

@@ -229,9 +229,15 @@ def test_polarisation_left_off_is_within_the_tolerance_and_matches_a_direct_comp
     assert polarisation_bias(mat, L, V) == pytest.approx(abs(averaged - exact) / exact, rel=1e-6)
     # the unpolarised transmission the estimators use is the s/p mean
     assert schiller.transmission(np.array([math.cos(tilt_l)]), eta)[0] == pytest.approx(0.5 * (tsl + tpl), rel=1e-9)
-    for name in ("bench", "ring", "pendant", "display", "outdoor"):
+    # below the tolerance for every bundled scenario but the upright worn ones, whose faces catch the
+    # office's downlights at grazing angles, and the hand turned ±25° in the sun: there the plan says the
+    # bias is above what the answer can miss
+    above = {"pendant", "brooch", "outdoor"}
+    for name in labcut.scene.SCENARIOS.names():
         plan = plan_effects(labcut.load_mesh("meshes/oval-16x12-low.ply"), scenario=name, quality="draft")
-        assert plan["polarisation"].bound < INTERREFLECTION_TOLERANCE, name
+        bound, why = plan["polarisation"].bound, plan["polarisation"].why
+        assert (bound > INTERREFLECTION_TOLERANCE) is (name in above), (name, bound)
+        assert ("above the 2% the answer can miss" in why) is (name in above) and bound < 0.04, (name, why)
 
 
 def test_hemispherical_fresnel_matches_its_closed_form():

@@ -271,16 +271,18 @@ def test_carving_gradient_with_light_between_its_parts_matches_finite_difference
     assert obj.value(n) == pytest.approx(direct.value(n), rel=0.05)  # the glare and the body are not flash
 
 
-@pytest.mark.parametrize("mesh_name, depth", [("oval-16x12-low.ply", None), ("carving-biplane.ply", 4)])
-def test_poses_in_one_scene_render_as_one_scene_per_pose(mesh_name, depth, monkeypatch):
+@pytest.mark.parametrize("mesh_name, depth, scenario", [("oval-16x12-low.ply", None, "bench"), ("carving-biplane.ply", 4, "bench"),
+                                                        ("carving-biplane.ply", 4, "pendant")])
+def test_poses_in_one_scene_render_as_one_scene_per_pose(mesh_name, depth, scenario, monkeypatch):
     """A rocking stone's poses share one Mitsuba scene (one tree; each pose's lamps set through
     mi.traverse before its views render): its images, values and gradients are those of one
     scene per pose, bit for bit, direct lighting (the oval) and deeper paths with the no-schiller
-    base images (the biplane); the gradients to float32 rounding."""
+    base images (the biplane); the gradients to float32 rounding. A worn pendant's poses turn an
+    environment map as well as the lamps: its ``to_world`` is set per pose too."""
     from labcut.orientation import render_objective as ro
 
     mesh = labcut.load_mesh(MESHES / mesh_name)
-    settings = resolve_scene("bench", quality="draft").settings()[:3]
+    settings = resolve_scene(scenario, quality="draft").settings()[:3]
     assert len(settings) == 3
     kw = dict(resolution=24, spp=4, seed=2, max_depth=depth)
     shared = RenderObjective(mesh, LAB, settings, **kw)
@@ -313,4 +315,14 @@ def test_which_poses_share_a_scene():
     assert not poses_share_a_scene([one, {"light_0": lamp([0, 0, -1])}])  # another lamp set
     assert not poses_share_a_scene([one, {**moved, "light_1": lamp([0, 1, -1], 2.0)}])  # another irradiance
     env = {"type": "envmap", "filename": "x.exr"}
-    assert not poses_share_a_scene([{**one, "environment": env}, {**moved, "environment": env}])
+    assert not poses_share_a_scene([{**one, "environment": env}, {**moved, "environment": env}])  # not a bitmap
+    import mitsuba as mi
+
+    from labcut.backend import set_variant
+
+    set_variant("mono")
+    sky = lambda v, w=0.3: {"type": "envmap", "bitmap": mi.Bitmap(np.full((4, 8, 3), v, dtype=np.float32)),  # noqa: E731
+                            "to_world": mi.ScalarTransform4f(), "sampling_weight": w}
+    assert poses_share_a_scene([{**one, "environment": sky(1.0)}, {**moved, "environment": sky(1.0)}])
+    assert not poses_share_a_scene([{**one, "environment": sky(1.0)}, {**moved, "environment": sky(2.0)}])  # another map
+    assert not poses_share_a_scene([{**one, "environment": sky(1.0)}, {**moved, "environment": sky(1.0, 0.4)}])

@@ -116,7 +116,9 @@ def test_an_orbit_with_flash_renders_with_the_flash_it_checked(monkeypatch, tmp_
     mesh = labcut.load_mesh(OVAL)
     ask = RenderRequest.build("blue", view="orbit")
     preview = rf.flash_preview(mesh, ask, (0.0, 0.3, 1.0) / __import__("numpy").linalg.norm((0.0, 0.3, 1.0)))
-    assert [f["flash_area"] for f in flash] == pytest.approx(list(preview.areas))
+    # the same computation run again: the standard quality's surface samples go through Dr.Jit's
+    # float32 sums, whose order (and last bits) vary between runs, so a point on the threshold may flip
+    assert [f["flash_area"] for f in flash] == pytest.approx(list(preview.areas), abs=2e-3)
 
 
 def test_an_animation_without_flash_stops_before_rendering(monkeypatch, tmp_path, capsys):

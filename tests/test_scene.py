@@ -42,7 +42,8 @@ def oval():
 
 # ---------------------------------------------------------------------- registries
 def test_one_registry_per_kind_names_the_same_choices_everywhere(cli):
-    assert SCENARIOS.names() == ("bench", "ring", "pendant", "brooch", "display", "outdoor")
+    assert SCENARIOS.names() == ("bench", "ring", "pendant", "brooch", "display", "outdoor", "ring-diffuse", "pendant-diffuse",
+                                 "brooch-diffuse", "outdoor-still")
     for registry, make in ((SCENARIOS, Scenario.preset), (LIGHTING, Lights.preset), (VIEWING, Views.preset)):
         with pytest.raises(ParameterError) as err:
             make("nonsense")

@@ -18,7 +18,7 @@ ROOT = Path(__file__).resolve().parents[1]
 STONES = ("oval-16x12-low.ply", "carving-biplane.ply")
 QUALITIES = ("draft", "standard")
 #: the render estimator's case the test reruns: the planner's choice for the non-convex carving
-RENDER_CASE = ("carving-biplane.ply", "pendant", "draft")
+RENDER_CASE = ("carving-biplane.ply", "pendant-diffuse", "draft")
 OUT = ROOT / "tests" / "data" / "answers_golden.json"
 
 

@@ -23,7 +23,7 @@ from .scoring import Scorer
 
 def flash_by_view(mesh: Any, material: Labradorite, lamella_normal: Any, setting: Setting,
                   cameras: Sequence[CameraView]) -> tuple[list[dict[str, Any]], list[str]]:
-    """Does the stone flash from each camera? The surface-sample estimator (draft quality) under
+    """Does the stone flash from each camera? The surface-sample estimator (standard quality) under
     the render's lights, one view per camera (mesh frame). Returns per camera ``{"view", "flash_area",
     "flash"}`` (None for a camera that sees the face edge-on or from behind) and the notes to show."""
     normal = normalize_normal(lamella_normal)
@@ -33,7 +33,7 @@ def flash_by_view(mesh: Any, material: Labradorite, lamella_normal: Any, setting
     areas: list[float | None] = [None] * len(cameras)
     if len(usable):
         try:
-            problem = build_problem(mesh, material, quality="draft",
+            problem = build_problem(mesh, material, quality="standard",
                                     settings=[Setting(setting.lights, Views(dirs[usable]), 1.0, setting.pose)])
             per_view = Scorer(problem).metrics(normal).per_view["flash_area"]
         except ParameterError:  # no light reaches what any camera sees

@@ -415,33 +415,50 @@ class RenderObjective:
 def poses_share_a_scene(lamp_sets: Sequence[dict[str, Any]]) -> bool:
     """Whether the poses whose Mitsuba emitters are ``lamp_sets`` (:func:`labcut.rendering.scene.
     emitters` of each pose's lights) can share one scene: two or more poses, the same directional
-    lamps in each (names, irradiance and sampling weight), only their directions differ. The
-    scene's tree is then built once, and its images are those of one scene per pose, bit for bit
-    (``tests/test_render_estimator.py``)."""
+    lamps in each (names, irradiance and sampling weight) and the same environment map (its
+    radiance, bit for bit, and sampling weight), only their directions (a lamp's direction, the
+    map's ``to_world``) differ. The scene's tree is then built once, and its images are those of one
+    scene per pose, bit for bit (``tests/test_render_estimator.py``). (One scene matters beyond its
+    build: Dr.Jit traces every live emitter and shape at each render's calls, so a scene per pose
+    makes every render trace all poses' instances.)"""
     if len(lamp_sets) < 2:
         return False
     first = lamp_sets[0]
-    if not first or any(d.get("type") != "directional" for d in first.values()):
+    if not first or any(d.get("type") not in ("directional", "envmap") for d in first.values()):
         return False
     for lamps in lamp_sets[1:]:
         if lamps.keys() != first.keys():
             return False
         for key, d in lamps.items():
-            if d.get("type") != "directional" or d.get("irradiance") != first[key].get("irradiance") \
-                    or d.get("sampling_weight") != first[key].get("sampling_weight"):
+            f = first[key]
+            if d.get("type") != f.get("type") or d.get("sampling_weight") != f.get("sampling_weight"):
+                return False
+            if d["type"] == "directional" and d.get("irradiance") != f.get("irradiance"):
+                return False
+            if d["type"] == "envmap" and not _same_map(d, f):
                 return False
     return True
 
 
+def _same_map(a: dict[str, Any], b: dict[str, Any]) -> bool:
+    """Two ``envmap`` emitter dictionaries hold the same radiance (their ``bitmap``), bit for bit."""
+    if "bitmap" not in a or "bitmap" not in b or set(a) != set(b) or a.get("scale", 1.0) != b.get("scale", 1.0):
+        return False
+    return bool(np.array_equal(np.asarray(a["bitmap"]), np.asarray(b["bitmap"])))
+
+
 def _lamp_params(lamps: dict[str, Any]) -> dict[str, Any]:
     """The traversable parameters (``light_i.to_world``, ...) of a pose's emitters, as Mitsuba
-    builds them from their dictionaries (so a shared scene holds exactly a pose's own lamps)."""
+    builds them from their dictionaries (so a shared scene holds exactly a pose's own lamps); of an
+    environment map its ``to_world`` alone (its radiance is the same in every pose)."""
     import mitsuba as mi
 
     out: dict[str, Any] = {}
     for key, d in lamps.items():
         params = mi.traverse(mi.load_dict(d))
         for name in params.keys():
+            if d.get("type") == "envmap" and name != "to_world":
+                continue
             out[f"{key}.{name}"] = params[name]
     return out
 

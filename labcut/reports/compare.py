@@ -694,7 +694,8 @@ def compare_cuts(
     >>> labcut.compare_cuts(["cab:oval,16x12,low"], "blue", ["beach"])
     Traceback (most recent call last):
     ...
-    labcut.errors.ParameterError: unknown scenario 'beach'; choose one of bench, ring, pendant, brooch, display, outdoor, or a scenario JSON file
+    labcut.errors.ParameterError: unknown scenario 'beach'; choose one of bench, ring, pendant, brooch, display, outdoor, ring-diffuse,
+    pendant-diffuse, brooch-diffuse, outdoor-still, or a scenario JSON file
     """
     plan = plan_comparison(cuts, material, scenarios, reference, quality, units=units, up_axis=up_axis, seed=seed,
                            resolution=resolution, spp=spp, effects=effects, size=size, time_budget=time_budget)

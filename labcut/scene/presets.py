@@ -93,6 +93,47 @@ def shop(quality: Quality | str) -> Lights:
     return Lights.combine(parts, "shop")
 
 
+# ---------------------------------------------------------------------- rooms as they are lit
+#: recessed office downlights (docs/scenarios.md, "Lit as rooms are"): a square grid DOWNLIGHT_SPACING_M
+#: apart, DOWNLIGHT_HEIGHT_M above the stone (a 2.75 m ceiling over a hand at desk height), the stone
+#: off the nearest fixture by DOWNLIGHT_OFFSET spacings; each fixture a point (a 15 cm opening 2 m away
+#: subtends 2°, below the lamella lobe's 9°) of Lambertian intensity I0 cos θ, so the irradiance it
+#: gives across its ray at the stone is ∝ cos³ θ (θ from the vertical); fixtures giving less than
+#: DOWNLIGHT_CUTOFF of the brightest's are left out
+DOWNLIGHT_SPACING_M = 1.8
+DOWNLIGHT_HEIGHT_M = 2.0
+DOWNLIGHT_OFFSET = (0.5, 0.3)
+DOWNLIGHT_CUTOFF = 0.1
+#: an office as lit: the downlights' direct light, a window, and the room's reflected light
+#: (ceiling, walls: an even ceiling stands for it), shares of the irradiance at the stone
+ROOM_SHARES = {"downlights": 0.55, "window": 0.15, "reflected": 0.30}
+
+
+def downlight_grid() -> tuple[np.ndarray, np.ndarray]:
+    """(directions towards each downlight, world frame; their irradiance weights, summing to 1)."""
+    k = np.arange(-5, 6)
+    gx, gy = np.meshgrid((k - DOWNLIGHT_OFFSET[0]) * DOWNLIGHT_SPACING_M, (k - DOWNLIGHT_OFFSET[1]) * DOWNLIGHT_SPACING_M)
+    pos = np.stack([gx.ravel(), gy.ravel(), np.full(gx.size, DOWNLIGHT_HEIGHT_M)], axis=1)
+    d = pos / np.linalg.norm(pos, axis=1, keepdims=True)
+    w = d[:, 2] ** 3
+    keep = w >= DOWNLIGHT_CUTOFF * w.max()
+    return d[keep], w[keep] / w[keep].sum()
+
+
+@LIGHTING.register("downlights", "recessed office downlights on a 1.8 m grid, 2 m above the stone: point lights, each "
+                                 "weighted by its cos³ from the vertical")
+def downlights(quality: Quality | str) -> Lights:
+    d, w = downlight_grid()
+    return Lights(d, w, "downlights")
+
+
+@LIGHTING.register("room", "an office as lit: downlights (55 %), a window in front (15 %), the room's reflected light "
+                           "as an even ceiling (30 %)")
+def room(quality: Quality | str) -> Lights:
+    return Lights.combine([(downlights(quality), ROOM_SHARES["downlights"]), (window(quality), ROOM_SHARES["window"]),
+                           (ceiling(quality), ROOM_SHARES["reflected"])], "room")
+
+
 @LIGHTING.register("studio", "a photographer's light tent built in code: key softbox, strip light, top light")
 def studio(quality: Quality | str) -> Lights:
     return _unit(Lights.from_envmap(_env("studio"), 2 * Quality.coerce(quality).env_samples, "studio"), "studio")

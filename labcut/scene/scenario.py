@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import math
 import os
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -37,7 +37,8 @@ POSES = {
     "face-up": np.eye(3),
     "face-front": rotation([1.0, 0.0, 0.0], 90.0),  # mesh +Z -> world -Y, mesh +Y -> world +Z
 }
-SCENARIO_KEYS = ("name", "description", "pose", "tilt_back_deg", "lighting", "viewing", "rock_deg", "sway_deg")
+SCENARIO_KEYS = ("name", "description", "pose", "tilt_back_deg", "lighting", "viewing", "rock_deg", "sway_deg",
+                 "motion_view_share")
 
 
 @dataclass(frozen=True, eq=False)
@@ -68,6 +69,10 @@ class Scenario:
     sway_deg: float = 0.0
     description: str = ""
     quality: Quality | str = "standard"  # coerced to a Quality: its direction counts and rocking steps
+    #: the share of the viewers each pose of the motion but the rest pose keeps (a stratified subset,
+    #: a different one per pose): a moving stone seen from many sides averages over poses and viewers
+    #: alike, and the product of both grids costs their product; 1: every pose keeps every viewer
+    motion_view_share: float = 1.0
 
     def __repr__(self) -> str:
         """One line: the name, the lights and views (:meth:`Lights.__repr__`), the rocking and the
@@ -81,6 +86,9 @@ class Scenario:
             value = getattr(self, key)
             if not (isinstance(value, int | float) and math.isfinite(value) and 0.0 <= value <= 60.0):
                 raise ParameterError(f"scenario {self.name!r}: {key} must lie in [0, 60] degrees, got {value!r}")
+        share = self.motion_view_share
+        if not (isinstance(share, int | float) and not isinstance(share, bool) and math.isfinite(share) and 0.0 < share <= 1.0):
+            raise ParameterError(f"scenario {self.name!r}: motion_view_share must lie in (0, 1], got {share!r}")
         if not isinstance(self.lights, Lights) or not isinstance(self.views, Views):
             raise ParameterError(f"scenario {self.name!r} needs labcut.Lights and labcut.Views")
         object.__setattr__(self, "quality", check_quality(self.quality))
@@ -98,7 +106,7 @@ class Scenario:
         >>> import labcut
         >>> pendant = labcut.Scenario.preset("pendant", "draft")
         >>> pendant.lights.name, pendant.views.name
-        ('office', 'eye-level')
+        ('room', 'eye-level')
         >>> pendant.main_setting().up().round(3).tolist()  # world up is the stone's +Y (bail) end
         [0.0, 1.0, 0.0]
         """
@@ -107,7 +115,7 @@ class Scenario:
     @classmethod
     def from_json(cls, path: str | os.PathLike[str], quality: Quality | str = "standard") -> Scenario:
         """A scenario from a JSON file (keys: name, description, pose, tilt_back_deg, lighting,
-        viewing, rock_deg, sway_deg; docs/scenarios.md)."""
+        viewing, rock_deg, sway_deg, motion_view_share; docs/scenarios.md)."""
         from ..fileio import read_json
 
         data = read_json(path, "scenario file")
@@ -128,13 +136,14 @@ class Scenario:
         lights = _lighting(data["lighting"], quality, source, base)
         views = _viewing(data["viewing"], quality, source, base)
         rock, sway = (_number(data.get(k, 0.0), f"{source}: {k}") for k in ("rock_deg", "sway_deg"))
-        return cls(name, pose, lights, views, rock, sway, str(data.get("description", "")), quality)
+        share = _number(data.get("motion_view_share", 1.0), f"{source}: motion_view_share")
+        return cls(name, pose, lights, views, rock, sway, str(data.get("description", "")), quality, share)
 
     def with_lights(self, lights: Lights) -> Scenario:
-        return Scenario(self.name, self.pose, lights, self.views, self.rock_deg, self.sway_deg, self.description, self.quality)
+        return replace(self, lights=lights)
 
     def with_views(self, views: Views) -> Scenario:
-        return Scenario(self.name, self.pose, self.lights, views, self.rock_deg, self.sway_deg, self.description, self.quality)
+        return replace(self, views=views)
 
     # ------------------------------------------------------------------ use
     @property
@@ -160,11 +169,27 @@ class Scenario:
         list of the same frozen settings each time)."""
         made = self.__dict__.get("_settings")
         if made is None:
-            made = [Setting(self.lights.rotated(p.T), self.views.rotated(p.T), w, p) for p, w in self.poses()]
+            made = [Setting(self.lights.rotated(p.T), self.views_of_pose(k).rotated(p.T), w, p)
+                    for k, (p, w) in enumerate(self.poses())]
             if not any(np.any(s.views.directions[:, 2] > 0.0) for s in made):
                 raise ParameterError(f"scenario {self.name!r}: no viewer sees the face of the stone")
             object.__setattr__(self, "_settings", made)
         return list(made)
+
+    def views_of_pose(self, k: int) -> Views:
+        """The viewers (world frame) of pose ``k`` of :meth:`poses`: all of them at rest (pose 0) and
+        wherever :attr:`motion_view_share` is 1; else ``keep = max(1, round(share x count))`` of them.
+        The viewers are put in a stratified order (every ``count // keep``-th, then the same from the
+        next offset, ...) and pose ``k`` takes the next ``keep`` of that order, cyclically: each pose's
+        viewers lie spread over the set, and the poses sweep through all of it in turn."""
+        v = self.views
+        n = len(v.weights)
+        keep = max(1, round(self.motion_view_share * n))
+        if k == 0 or keep >= n:
+            return v
+        stride = max(1, n // keep)
+        order = np.concatenate([np.arange(o, n, stride) for o in range(stride)])
+        return v.subset(order[((k - 1) * keep + np.arange(keep)) % n])
 
     def main_setting(self) -> Setting:
         """The rest pose in the mesh frame: what a render of this scenario shows."""
@@ -180,6 +205,7 @@ class Scenario:
             "viewing": self.views.name,
             "rock_deg": self.rock_deg,
             "sway_deg": self.sway_deg,
+            "motion_view_share": self.motion_view_share,
             "poses": len(self.poses()),
             "lights": len(self.lights),
             "views": len(self.views),
@@ -260,20 +286,39 @@ def bench(quality: Quality | str) -> Scenario:
     return _preset("bench", POSES["face-up"], "overhead", "cutter", quality, SCENARIOS.get("bench").summary, 30.0, 15.0)
 
 
-@SCENARIOS.register("ring", "a ring on a hand: stone face-up under an office ceiling, seen from every side looking down 20-60°")
+#: how worn jewellery moves (docs/scenarios.md, "Moved as jewellery moves"): (rock_deg, sway_deg) about the
+#: world's X (front-to-back) and Y (side-to-side; for a stone worn upright, a turn in its own plane) axes
+MOTION = {"ring": (25.0, 25.0), "pendant": (10.0, 10.0), "brooch": (8.0, 8.0), "outdoor": (25.0, 25.0)}
+#: the share of the viewers each moving pose keeps (Scenario.motion_view_share): the ring's and the
+#: street's viewers stand all round, the pendant's and the brooch's in front
+MOTION_VIEWS = {"ring": 0.1, "pendant": 0.15, "brooch": 0.15, "outdoor": 0.1}
+BROOCH_TILT_BACK_DEG = 15.0
+
+
+def _worn(name: str, pose: np.ndarray, lighting: str, viewing: str, quality: Quality | str) -> Scenario:
+    rock, sway = MOTION[name]
+    return replace(_preset(name, pose, lighting, viewing, quality, SCENARIOS.get(name).summary, rock, sway),
+                   motion_view_share=MOTION_VIEWS[name])
+
+
+@SCENARIOS.register("ring", "a ring on a moving hand in an office: downlights, a window and the room's reflected light; "
+                            "the hand turns the stone ±25° both ways; seen from every side looking down 20-60°")
 def ring(quality: Quality | str) -> Scenario:
-    return _preset("ring", POSES["face-up"], "ceiling", "above", quality, SCENARIOS.get("ring").summary)
+    return _worn("ring", POSES["face-up"], "room", "above", quality)
 
 
-@SCENARIOS.register("pendant", "a pendant: face vertical, bail at the stone's +Y end; ceiling and window light; viewers in front at eye level within ±20°")
+@SCENARIOS.register("pendant", "a pendant in an office: face vertical, bail at the stone's +Y end, swinging ±10° "
+                               "forward-back and in its plane; downlights, a window, reflected light; viewers in front "
+                               "at eye level within ±20°")
 def pendant(quality: Quality | str) -> Scenario:
-    return _preset("pendant", POSES["face-front"], "office", "eye-level", quality, SCENARIOS.get("pendant").summary)
+    return _worn("pendant", POSES["face-front"], "room", "eye-level", quality)
 
 
-@SCENARIOS.register("brooch", "a brooch: face vertical but tilted back 15° (facing slightly up); ceiling and window light; viewers at eye level")
+@SCENARIOS.register("brooch", "a brooch in an office: face vertical but tilted back 15°, moving ±8° with the body; "
+                              "downlights, a window, reflected light; viewers at eye level")
 def brooch(quality: Quality | str) -> Scenario:
-    pose = rotation([1.0, 0.0, 0.0], -15.0) @ POSES["face-front"]
-    return _preset("brooch", pose, "office", "eye-level", quality, SCENARIOS.get("brooch").summary)
+    pose = rotation([1.0, 0.0, 0.0], -BROOCH_TILT_BACK_DEG) @ POSES["face-front"]
+    return _worn("brooch", pose, "room", "eye-level", quality)
 
 
 @SCENARIOS.register("display", "a shop window: stone face-up, spots 30-45° from the vertical, viewers 0-30° from the vertical in front")
@@ -281,9 +326,34 @@ def display(quality: Quality | str) -> Scenario:
     return _preset("display", POSES["face-up"], "shop", "front", quality, SCENARIOS.get("display").summary)
 
 
-@SCENARIOS.register("outdoor", "outdoors: stone face-up in sun and sky, seen from every side looking down 20-60°")
+@SCENARIOS.register("outdoor", "outdoors on a moving hand: sun and sky, the stone turned ±25° both ways, seen from every "
+                               "side looking down 20-60°")
 def outdoor(quality: Quality | str) -> Scenario:
-    return _preset("outdoor", POSES["face-up"], "daylight", "above", quality, SCENARIOS.get("outdoor").summary)
+    return _worn("outdoor", POSES["face-up"], "daylight", "above", quality)
+
+
+# the still, evenly lit scenarios of labcut's earlier releases, under their own names
+@SCENARIOS.register("ring-diffuse", "a ring held still under an even office ceiling, seen from every side looking down 20-60°")
+def ring_diffuse(quality: Quality | str) -> Scenario:
+    return _preset("ring-diffuse", POSES["face-up"], "ceiling", "above", quality, SCENARIOS.get("ring-diffuse").summary)
+
+
+@SCENARIOS.register("pendant-diffuse", "a still pendant: face vertical, bail at +Y; an even ceiling and a window; viewers "
+                                       "in front at eye level within ±20°")
+def pendant_diffuse(quality: Quality | str) -> Scenario:
+    return _preset("pendant-diffuse", POSES["face-front"], "office", "eye-level", quality,
+                   SCENARIOS.get("pendant-diffuse").summary)
+
+
+@SCENARIOS.register("brooch-diffuse", "a still brooch tilted back 15°; an even ceiling and a window; viewers at eye level")
+def brooch_diffuse(quality: Quality | str) -> Scenario:
+    pose = rotation([1.0, 0.0, 0.0], -BROOCH_TILT_BACK_DEG) @ POSES["face-front"]
+    return _preset("brooch-diffuse", pose, "office", "eye-level", quality, SCENARIOS.get("brooch-diffuse").summary)
+
+
+@SCENARIOS.register("outdoor-still", "a still stone face-up in sun and sky, seen from every side looking down 20-60°")
+def outdoor_still(quality: Quality | str) -> Scenario:
+    return _preset("outdoor-still", POSES["face-up"], "daylight", "above", quality, SCENARIOS.get("outdoor-still").summary)
 
 
 def scenario_from(spec: Any, quality: Quality | str = "standard") -> Scenario:

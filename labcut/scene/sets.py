@@ -254,6 +254,20 @@ class Views(DirectionSet):
         object.__setattr__(out, "main", r @ self.main)
         return out
 
+    def subset(self, rows: np.ndarray) -> Views:
+        """The viewers at ``rows`` (indices), their weights renormalised, the same main view: one
+        pose's share of a moving scenario's viewers (:meth:`labcut.Scenario.views_of_pose`)."""
+        rows = np.asarray(rows, dtype=np.int64)
+        if rows.size == 0:
+            raise ParameterError("a subset of the views needs at least one of them")
+        w = self.weights[rows]
+        out = object.__new__(Views)
+        object.__setattr__(out, "directions", self.directions[rows])
+        object.__setattr__(out, "weights", w / w.sum())
+        object.__setattr__(out, "name", self.name)
+        object.__setattr__(out, "main", self.main)
+        return out
+
     def to_dict(self) -> dict[str, Any]:
         out = super().to_dict()
         out["main"] = self.main.tolist()
