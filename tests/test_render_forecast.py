@@ -143,7 +143,11 @@ def test_ctrl_c_stops_a_long_render_within_two_seconds(tmp_path):
     out = tmp_path / "long.png"
     proc = subprocess.Popen([str(LABCUT), "render", str(OVAL), "-o", str(out), "--resolution", "1536", "--spp", "256",
                              "--yes"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                            env={**os.environ, "COLUMNS": "120"})
+                            env={**os.environ, "COLUMNS": "120"},
+                            # a user's Ctrl-C: the child handles SIGINT as a terminal's process would, even where
+                            # the suite runs as a background job (a shell starts those with SIGINT ignored, and
+                            # Python then installs no KeyboardInterrupt handler: the render would never stop)
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     try:
         time.sleep(5.0)  # into the work: any stage of it (preflight, render) must stop at once
         assert proc.poll() is None, proc.communicate()

@@ -299,11 +299,11 @@ def test_every_scenario_works_on_every_command(cli_main, tmp_path, scenario):
 
 def test_recommended_render_is_the_scenarios_main_view(cli, tmp_path):
     js = tmp_path / "p.json"
-    proc = cli("recommend-orientation", str(OVAL), "--scenario", "pendant", "--quality", "draft", "--render",
+    proc = cli("recommend-orientation", str(OVAL), "--scenario", "pendant-diffuse", "--quality", "draft", "--render",
                str(tmp_path / "p.png"), "--spp", "2", "--json", str(js))
     assert proc.returncode == 0, proc.stderr
     data = json.loads(js.read_text())
-    assert data["render"]["scenario"]["name"] == "pendant"
+    assert data["render"]["scenario"]["name"] == "pendant-diffuse"
     assert "eye-level" in data["render"]["views"][0]
 
 
