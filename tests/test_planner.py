@@ -233,8 +233,9 @@ def test_polarisation_left_off_is_within_the_tolerance_and_matches_a_direct_comp
     # office's downlights at grazing angles, and the hand turned ±25° in the sun: there the plan says the
     # bias is above what the answer can miss
     above = {"pendant", "brooch", "outdoor"}
+    oval = labcut.load_mesh("meshes/oval-16x12-low.ply")
     for name in labcut.scene.SCENARIOS.names():
-        plan = plan_effects(labcut.load_mesh("meshes/oval-16x12-low.ply"), scenario=name, quality="draft")
+        plan = plan_effects(oval, scenario=name, quality="draft", predict=False)
         bound, why = plan["polarisation"].bound, plan["polarisation"].why
         assert (bound > INTERREFLECTION_TOLERANCE) is (name in above), (name, bound)
         assert ("above the 2% the answer can miss" in why) is (name in above) and bound < 0.04, (name, why)
