@@ -383,3 +383,33 @@ def test_the_command_refuses_bad_input_in_one_line(capsys):
             assert words in err and "Traceback" not in err and len(err.strip().splitlines()) <= 3, err
     finally:
         taken.close()
+
+
+def test_a_script_that_ends_with_the_explorer_running_exits_cleanly():
+    """A notebook or script that starts the explorer and ends without stop(): the explorer stops itself
+    before Dr.Jit shuts down under the worker's render (it aborted the process: "terminate called
+    without an active exception", signal 6, in 1 of 2 runs before)."""
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    code = ("import labcut, time\nex = labcut.explore(labcut.load_mesh('meshes/oval-16x12-low.ply'), material='blue')\n"
+            "time.sleep(0.5)\n")
+    for _ in range(3):
+        proc = subprocess.run([sys.executable, "-c", code], cwd=root, capture_output=True, text=True, timeout=120)
+        assert proc.returncode == 0, proc.stderr[-800:]
+        assert "terminate called" not in proc.stderr and "render failed" not in proc.stderr and "Traceback" not in proc.stderr
+    # the exit hook is the explorer's own: registered when it starts, undone by stop()
+    from types import SimpleNamespace
+
+    from labcut.explorer import server
+
+    hooks: list = []
+    fake = SimpleNamespace(register=hooks.append, unregister=lambda f: hooks.remove(f) if f in hooks else None)
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(server, "atexit", fake)
+        ex = labcut.explore(labcut.load_mesh(root / "meshes" / "oval-16x12-low.ply"), material="blue")
+        assert hooks == [ex._stop_at_exit]
+        ex.stop()
+        assert hooks == []

@@ -20,6 +20,7 @@ beside it; nothing a page sends reaches the terminal as a traceback.
 from __future__ import annotations
 
 import asyncio
+import atexit
 import base64
 import contextlib
 import ipaddress
@@ -47,6 +48,8 @@ STATIC = {
 }
 #: how long an export may take (seconds): a report runs a recommendation and renders
 EXPORT_SECONDS = 600.0
+#: how long a process that ends with the explorer still running waits for the worker's render to stop
+EXIT_WAIT_SECONDS = 10.0
 #: controls whose change takes more than a moment (a new stone, scenario or quality): the page shows
 #: that the answer is coming
 SLOW_CONTROLS = frozenset({"quality", "outline", "dome", "scenario"})
@@ -443,7 +446,15 @@ class Explorer:
         ready.wait()
         if failure:
             raise failure[0]
+        # a notebook or script that ends without stop(): stop here, before Dr.Jit and Mitsuba shut down
+        # under a render the worker is still running (registered now, not at import; undone by stop())
+        atexit.register(self._stop_at_exit)
         return self
+
+    def _stop_at_exit(self) -> None:
+        self.stop()
+        if self.worker.is_alive():
+            self.worker.join(timeout=EXIT_WAIT_SECONDS)
 
     def _halt(self) -> None:
         import tornado.ioloop
@@ -458,6 +469,7 @@ class Explorer:
 
     def stop(self) -> None:
         """Stop serving (the page's socket closes) and the worker."""
+        atexit.unregister(self._stop_at_exit)
         loop = self._loop
         if loop is not None:
             with contextlib.suppress(RuntimeError):
