@@ -703,8 +703,9 @@ def plan_effects(
     # an environment map seen past the parts of a carving: the samples see the map through n_map
     # directions shared by every surface point, each blocked or not (docs/planner.md measures it)
     env_seen = n_map * len(scene.poses())  # the map's directions in the stone's frame, over the motion
-    env_occ = bool(envs) and occ_on and not convex and env_seen < ENV_DIRECTIONS_ENOUGH
-    if bool(envs) and occ_on and not convex:
+    past_parts = bool(envs) and occ_on and not convex
+    env_occ = past_parts and env_seen < ENV_DIRECTIONS_ENOUGH
+    if past_parts:
         facts["map_directions"] = n_map
         facts["map_directions_over_poses"] = env_seen
     if not rendering:
@@ -724,7 +725,7 @@ def plan_effects(
             chosen, est_why = "render", (f"an environment map seen past the parts of a non-convex stone: the surface samples see "
                                          f"it through {n_map} directions, each blocked or not for every point; renders trace "
                                          "what each point sees of the whole map")
-        elif "map_directions_over_poses" in facts:
+        elif past_parts:
             chosen, est_why = "samples", (f"an environment map seen past the parts of a non-convex stone, but the moving stone "
                                           f"sees {n_map} map directions in each of {len(scene.poses())} poses, {env_seen} in its "
                                           f"own frame (at least {ENV_DIRECTIONS_ENOUGH}): the samples follow the map as the "

@@ -80,7 +80,20 @@ def test_the_peak_does_not_depend_on_the_frame():
     assert scene_peak(LAB, office.rotated(turn)) == pytest.approx(scene_peak(LAB, office), rel=2e-3)
 
 
-def test_lights_that_reach_no_face_are_refused():
+def test_a_scenarios_poses_and_main_setting_find_the_peak_once(monkeypatch):
+    # P does not depend on the frame: the lights' turned copies share it (Lights.invariants)
+    from labcut.orientation import radiance
+
+    calls = []
+    real = radiance._scene_peak
+    monkeypatch.setattr(radiance, "_scene_peak", lambda m, l: calls.append(l) or real(m, l))
+    sc = Scenario.preset("pendant", "draft")
+    peaks = {scene_peak(LAB, st.lights) for st in sc.settings()} | {scene_peak(LAB, sc.main_setting().lights)}
+    assert len(calls) == 1 and len(peaks) == 1
+    assert scene_peak(LAB, Lights.preset("room", "draft")) == pytest.approx(peaks.pop(), rel=1e-6) and len(calls) == 2  # anew
+
+
+def test_a_light_behind_the_face_gives_nothing():
     lights = Lights.lamp([0, 0, 1], 0.0, 1.0, 1)
     assert flat_face_schiller(LAB, lights, np.array([[0.0, 0.0, -1.0]]))[0] == 0.0
     assert reference_radiance(LAB, 2.0) == pytest.approx(2.0 * reference_radiance(LAB, 1.0))

@@ -26,14 +26,13 @@ Frames: any, as long as the face normals, lights and views share it; irradiances
 
 from __future__ import annotations
 
-import hashlib
 import math
 from typing import Any
 
 import numpy as np
 from scipy.optimize import minimize
 
-from ..colour import luminance_table
+from ..colour import luminance_table, material_key
 from ..errors import ParameterError
 from ..physics import schiller as lobe
 from ..physics.material import Labradorite
@@ -118,7 +117,7 @@ def sky_schiller(material: Labradorite) -> float:
     """``K``: the schiller (units of ``L_ref`` per unit irradiance) a flat polished face, lamellae parallel,
     shows along its normal under a sky of unit radiance, found by summing the lobe over a fine cap of
     directions around the normal (the lobe is a few degrees wide; the cap holds it whole); once per material."""
-    key = _material_key(material)
+    key = material_key(material)
     if key not in _SKY:
         _SKY[key] = _sky_schiller(material)
     return _SKY[key]
@@ -154,9 +153,9 @@ def scene_peak(material: Labradorite, lights: Lights) -> float:
     """The scene's peak ``P`` (module docstring): the largest :func:`flat_face_schiller` over every face
     direction, in units of ``L_ref`` (0 < P ≤ 1 for lights above some face). Found on a grid of the whole
     sphere, every lamp's own direction and the map's brightest pixels, the best few polished by a simplex
-    search; kept with the lights, per material."""
-    key = _material_key(material)
-    kept = lights.__dict__.setdefault("_scene_peaks", {})
+    search; kept with the lights (and their turned copies), per material."""
+    key = f"scene peak {material_key(material)}"
+    kept = lights.invariants  # shared with the lights' turned copies: P does not depend on the frame
     if key not in kept:
         kept[key] = _scene_peak(material, lights)
     return kept[key]
@@ -190,9 +189,3 @@ def _scene_peak(material: Labradorite, lights: Lights) -> float:
                          options={"xatol": 0.01, "fatol": 1e-9, "initial_simplex": start + np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]])})
         best = max(best, -float(found.fun))
     return min(best, 1.0)
-
-
-def _material_key(material: Labradorite) -> str:
-    table = luminance_table(material)[1]
-    text = f"{material.n_surface!r}|{material.lobe_kappa!r}|{material.lobe_norm!r}|".encode() + np.ascontiguousarray(table).tobytes()
-    return hashlib.blake2b(text, digest_size=12).hexdigest()

@@ -114,6 +114,14 @@ class Lights(DirectionSet):
 
     _what: ClassVar[str] = "lights"
 
+    @property
+    def invariants(self) -> dict[str, Any]:
+        """Values derived from these lights that no change of frame alters (the scene's flash peak,
+        :func:`labcut.orientation.radiance.scene_peak`), kept by whoever derives them: one dict shared
+        by these lights and every copy :meth:`rotated` makes of them, so a scenario's poses and its
+        main setting derive each value once."""
+        return self.__dict__.setdefault("_invariants", {})
+
     def __init__(self, directions: Any, weights: Any = None, name: str = "custom") -> None:
         super().__init__(directions, weights, name)
         object.__setattr__(self, "environment", None)
@@ -199,7 +207,8 @@ class Lights(DirectionSet):
         # rotate every pose's lights, several times per recommendation)
         out = object.__new__(Lights)
         for key, value in (("directions", self.directions @ np.asarray(r, dtype=np.float64).T), ("weights", self.weights),
-                           ("name", self.name), ("environment", env), ("n_lamps", self.n_lamps)):
+                           ("name", self.name), ("environment", env), ("n_lamps", self.n_lamps),
+                           ("_invariants", self.invariants)):
             object.__setattr__(out, key, value)
         return out
 
