@@ -213,6 +213,37 @@ own names: `ring-diffuse`, `pendant-diffuse`, `brooch-diffuse`, `outdoor-still`.
 How far the scene's own flash threshold and the motion move the bundled stones' flash figures, by
 scenario: docs/orientation.md ("What counts as flash").
 
+## Variants: the same wear, another room
+
+A preset fixes numbers the world does not: how far apart the downlights hang, where the window
+is, how much the hand turns, how high the onlookers' eyes are. `--variants N` (API
+`recommend_orientation(..., variants=N)` or a `labcut.Variation` with its own ranges) answers the
+question again under N plausible variants of the scenario and says how far the best orientation
+moves across them (`rec.robustness`, the JSON's `robustness`: each variant's drawn values, its
+best normal, how far it moved and how much of that variant's best the recommended cut keeps).
+Each range is cut into N strata and every stratum is drawn once (a Latin hypercube), so a handful
+of variants spans every range:
+
+| free parameter | range drawn | why |
+|---|---|---|
+| downlight spacing (`room` lighting) | 1.4-2.4 m | office layouts space recessed downlights 1.2-2.4 m, at a spacing-to-height ratio near 1 |
+| downlight height above the stone | 1.6-2.6 m | ceilings of 2.5-3.4 m over a hand or chest at 0.8-1.2 m |
+| where the stone sits under the grid | anywhere in a cell | the wearer stands anywhere in the room |
+| the window's azimuth / height | ±45° of the front / ±10° | the wearer faces the window only roughly |
+| other lights (a lamp, the sun, a map) | turned ±45° about the vertical, tilted up to 10° | the wearer faces another way; a lamp not quite overhead, the sun higher or lower |
+| rocking and swaying amplitudes | x0.6-1.4 | a calmer or livelier wearer (the ranges of "Moved as jewellery moves" are typical, not fixed) |
+| the viewers | tilted up to 10° about a horizontal axis | taller or shorter onlookers, nearer or to one side |
+
+Every variant is answered by the sample estimator with the same surface samples as the answer, so
+the spread is the scenario's, not the sampling's. The verdict compares the largest move with the
+answer's error bar and tolerance: *inside* the error bar (the free parameters matter less than the
+sampling), *beside* it (beyond the bar, within the tolerance), or *swings*: beyond the tolerance,
+and then the output says so, in words and with the least share of a variant's best the
+recommended cut keeps ("the answer swings by up to 9.6° across 6 variants of the scenario ..., more
+than its tolerance (±5.4°): it depends on how the stone will really be lit and worn; cut as
+recommended it keeps at least 86% of each variant's best"). The figures for the bundled stones
+under every scenario: docs/orientation.md ("Across variants of the scenario").
+
 ## Changing lights and viewers
 
 `--lighting` and `--viewing` replace a scenario's lights or viewers (in its

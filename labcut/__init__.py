@@ -56,6 +56,7 @@ _LAZY = {
     "Views": "labcut.scene.sets:Views",
     "Scenario": "labcut.scene.scenario:Scenario",
     "Quality": "labcut.scene.quality:Quality",
+    "Variation": "labcut.scene.variants:Variation",
     "scene": "labcut.scene",
     "RenderResult": "labcut.rendering.api:RenderResult",
     "compare_cuts": "labcut.reports.compare:compare_cuts",

@@ -175,6 +175,11 @@ def recommend_orientation(
     max_tilt: Annotated[float, typer.Option("--max-tilt", help="Largest allowed tilt of the lamella normal, degrees.")] = 90.0,
     tilt_axis: Annotated[Optional[str], typer.Option("--tilt-axis", help="Only tilt about this horizontal axis X,Y,Z.")] = None,
     seed: Annotated[int, typer.Option(help="Seed of the surface sampling.", min=0)] = 0,
+    variants: Annotated[int, typer.Option(
+        "--variants", metavar="N",
+        help="Also answer under N plausible variants of the scenario (2-64: room layout, motion range, viewers; "
+             "docs/scenarios.md) and say how far the best orientation moves across them, against its error bar and "
+             "tolerance; 0 (the default) skips them.")] = 0,
     time_budget: Annotated[Optional[float], typer.Option(
         "--time-budget", metavar="SECONDS",
         help="Seconds the whole call may take (loading the mesh, planning, the recommendation, its error bars and its "
@@ -218,6 +223,12 @@ def recommend_orientation(
     if optimizer not in OPTIMIZERS:
         raise ParameterError(f"--optimizer must be one of {', '.join(OPTIMIZERS)}, got {optimizer!r}")
     exposure_value = lo.parse_exposure(exposure)
+    from labcut.scene import Variation
+
+    try:
+        variation = Variation.coerce(variants)
+    except ParameterError as exc:
+        raise ParameterError(f"--{exc}") from None
     quality_or_budget(quality is not None, time_budget is not None, flags=True)
     quality = quality or "standard"
     # the whole question, checked once (FlashQuestion.build); the library takes it as it is
@@ -256,6 +267,7 @@ def recommend_orientation(
         rec = labcut.recommend_orientation(
             mesh, setup=setup, optimizer=optimizer, progress=lambda stage, fraction: update(int(round(100 * fraction)), 100),
             time_budget=remaining, plan=None if time_budget is not None else the_plan,  # planned once
+            variants=variation,
         )
     if time_budget is not None:  # the call's budget, and what went before the recommendation's share of it
         rec.settings["time_budget"].update(call_budget_seconds=time_budget, before_seconds=before)
@@ -278,9 +290,14 @@ def recommend_orientation(
             console.print(misses)
         if rec.metrics.flash_area == 0.0:
             console.print(
-                f"No part of the stone reaches the flash threshold ({rec.settings['tau']:g} x a face-on flash under one lamp "
-                "of the same total light): diffuse lighting spreads the schiller thin. The energy score still ranks orientations."
+                f"No part of the stone reaches the flash threshold ({rec.settings['tau']:g} x the brightest schiller this "
+                "scenario's light can give a flat polished face) at this orientation. The energy score still ranks orientations."
             )
+        if rec.robustness is not None:
+            r = rec.robustness
+            style = "bold yellow" if r.verdict == "swings" else ""
+            console.print((f"[{style}]" if style else "") + r.sentence()[0].upper() + r.sentence()[1:] + "."
+                          + (f"[/{style}]" if style else ""), highlight=False)
         if rec.runners_up:
             table = Table(title="Other good orientations (distinct optima)")
             for col in ("#", "orientation", f"{objective} vs best"):

@@ -27,6 +27,7 @@ from ..planner import PILOT_BUDGET_SHARE, EffectPlan, occlusion_on, plan_questio
 from ..scene import Lights, Scenario, Views
 from ..scene.directions import lamella_normal
 from ..scene.quality import Quality
+from ..scene.variants import Variation
 from ..validation import check_budget, is_default
 
 
@@ -68,6 +69,7 @@ def recommend_orientation(
     setup: FlashQuestion | None = None,
     time_budget: float | None = None,
     plan: Any = None,
+    variants: int | Variation | None = None,
 ) -> Recommendation:
     """Find the lamella normal (mesh frame) that maximises the flash objective.
 
@@ -112,6 +114,12 @@ def recommend_orientation(
         (:func:`labcut.planner.plan_effects` with ``command="recommend"``, e.g. to show it first, as
         the CLI does), used as it is instead of planning again; not with ``time_budget`` (which
         plans at the quality it chooses).
+    variants: also answer under this many plausible variants of the scenario (2-64; a
+        :class:`~labcut.scene.variants.Variation` sets the ranges too): room layout, motion range,
+        viewers (:mod:`labcut.scene.variants`); ``rec.robustness`` says how far the best normal
+        moves across them, against the error bar and the tolerance
+        (:mod:`labcut.orientation.robustness`). Each variant costs about one search of the
+        question; a time budget covers the recommendation, not its variants.
 
     Returns a :class:`Recommendation`: normal (unit, z >= 0), tilt and azimuth, score and all
     metrics, the tolerance (degrees the cutter may miss and keep 90 % of the score), distinct
@@ -120,6 +128,7 @@ def recommend_orientation(
     runners-up come from the sample estimator around that normal.
     """
     mesh = mesh_of(mesh)  # a Stone or a trimesh
+    variation = Variation.coerce(variants)
     if optimizer not in OPTIMIZERS:
         raise ParameterError(f"optimizer must be one of {', '.join(OPTIMIZERS)}, got {optimizer!r}")
     start = time.perf_counter()
@@ -135,12 +144,14 @@ def recommend_orientation(
         ask, budget = within_budget(mesh, ask, time_budget, quality_given=not is_default(quality, "standard"))
         pilots_max = PILOT_BUDGET_SHARE * budget.budget_seconds
     scorer, plan = planned_scorer(mesh, ask, "recommend", plan, pilot_seconds_max=pilots_max)
-    rec = answer_recommendation(mesh, ask, scorer, plan, optimizer=optimizer, progress=report, budget=budget, start=start)
+    rec = answer_recommendation(mesh, ask, scorer, plan, optimizer=optimizer, progress=report, budget=budget, start=start,
+                                variation=variation)
     if budget is not None:  # the calibration learns from this run (commands/budget.py)
         # what the calibration predicts: the recommendation, not the plans' pilot renders; the
         # first of its kind in this process feeds the first-call seconds instead of the factor
         record(budget.kind, budget.uncorrected(budget.predicted_seconds),
-               rec.seconds - budget.pilot_seconds - plan.pilot_seconds, first_call=budget.cold)
+               rec.seconds - budget.pilot_seconds - plan.pilot_seconds - (rec.robustness.seconds if rec.robustness else 0.0),
+               first_call=budget.cold)
     mark_warm(kind_of(rec.estimator, plan.on("occlusion")))  # the next one of its kind here is predicted warm
     return rec
 

@@ -29,6 +29,8 @@ _EXPORTS = {
     "MisorientationCurve": ".misorientation:MisorientationCurve",
     "misorientation_curve": ".misorientation:misorientation_curve",
     "UPRIGHT_NAMES": ".misorientation:UPRIGHT_NAMES",
+    "Robustness": ".robustness:Robustness",
+    "scenario_robustness": ".robustness:scenario_robustness",
 }
 
 __getattr__, __dir__, __all__ = lazy_exports(__name__, _EXPORTS)

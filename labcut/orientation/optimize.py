@@ -18,6 +18,7 @@ import numpy as np
 
 from ..backend import Launched
 from ..errors import ParameterError
+from ..scene.directions import axial_upper
 from ..scene.quality import Quality
 from .scoring import Scorer, normal_to_stereo, stereo_to_normal
 
@@ -342,6 +343,45 @@ def run_optimizer(name: str, scorer: Scorer, constraint: Constraint, quality: Qu
     if name == "gradient":
         return optimize_gradient(scorer, constraint, starts=q.gradient_starts)
     raise ParameterError(f"optimizer must be one of {', '.join(OPTIMIZERS)}, got {name!r}")
+
+
+@dataclass(frozen=True, eq=False)
+class Search:
+    """The best normal of a question's scorer (:func:`search_best`): the normal (unit, mesh frame,
+    z >= 0) and its score, and the hemisphere map made on the way (its normals and scores)."""
+
+    normal: np.ndarray
+    score: float
+    map_normals: np.ndarray
+    map_scores: np.ndarray
+
+
+def search_best(scorer: Scorer, constraint: Constraint, quality: Quality | str, optimizer: str = "nlopt",
+                step: Callable[[str], None] | None = None) -> Search:
+    """The best lamella normal of ``scorer`` where ``constraint`` allows: a map over the allowed
+    hemisphere at ``quality.map_spacing_deg`` and optimiser ``optimizer`` (:func:`run_optimizer`),
+    the better of the two, polished. ``step``: called with ``"optimising"`` once the map is launched.
+
+    The energy map is launched (Dr.Jit's threads sum it while the optimiser's DIRECT-L steps in
+    numpy) and read when its cells seed the polishes, or after the optimiser; its best cells seed
+    the polishes where the map is at least twice as fine as the seed map NLopt would make
+    (standard's 3° and high's 1.5°, not draft's 4°: a peak narrower than its cells can hide between
+    them, and the seeds are the energy's)."""
+    q = Quality.coerce(quality)
+    map_normals = hemisphere_grid(q.map_spacing_deg, constraint)
+    map_launched = scorer.launch_energy_map(map_normals) if scorer.objective == "energy" else None
+    if step is not None:
+        step("optimising")
+    seeds = ((map_normals, map_launched) if map_launched is not None and q.map_spacing_deg <= 0.5 * SEED_SPACING_DEG
+             and constraint.tilt_axis is None else None)
+    best = run_optimizer(optimizer, scorer, constraint, q, seed_map=seeds)
+    map_scores = map_launched.value if map_launched is not None else score_map(scorer, map_normals)
+    normal = axial_upper(best.normal)
+    score = scorer.score(normal)
+    if map_scores.max() > score * (1.0 + 1e-4):  # the map found better: trust the better point, polished
+        normal, score = polish_grid(scorer, map_normals[int(np.argmax(map_scores))], constraint, q.map_spacing_deg, 0.1)
+        normal = axial_upper(normal)
+    return Search(normal, float(score), map_normals, map_scores)
 
 
 #: the tolerance's precision (degrees): the answer lies within this of the first failing ring

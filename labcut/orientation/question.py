@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 from ..errors import ParameterError
@@ -25,7 +25,8 @@ from ..scene.quality import Quality
 from ..validation import check_number
 from .kernels import DEFAULT_KERNELS, KernelOptions
 from .optimize import Constraint
-from .scoring import OBJECTIVES
+from .problem import build_problem
+from .scoring import OBJECTIVES, Scorer
 
 
 
@@ -112,10 +113,21 @@ class FlashQuestion:
         """The same question sampled at another :class:`~labcut.Quality` (the scene's lamp, map
         and viewing-cone directions and rocking poses re-drawn from :attr:`scene_spec`; a
         :class:`~labcut.Scenario` given as an object keeps its own directions)."""
-        from dataclasses import replace
-
         q = Quality.coerce(quality)
         return replace(self, quality=q, scenario=resolve_scene(*self.scene_spec, q), scene_spec=self.scene_spec)
+
+    def with_scenario(self, scenario: Scenario) -> FlashQuestion:
+        """The same question under another :class:`~labcut.Scenario` (a variant of this one,
+        :mod:`labcut.scene.variants`), kept as the object it is at every quality."""
+        return replace(self, scenario=scenario, scene_spec=(scenario, None, None))
+
+    def scorer(self, mesh: Any, *, occlusion: bool) -> Scorer:
+        """The sample estimator's scorer of this question about ``mesh`` (a checked trimesh): its
+        flash problem over every pose of the scenario, with occlusion rays or not (the effect
+        planner's choice), the question's kernel options."""
+        problem = build_problem(mesh, self.material, quality=self.quality, tau=self.tau, seed=self.seed,
+                                settings=self.scenario.settings(), occlusion=occlusion, kernels=self.kernels)
+        return Scorer(problem, self.objective)
 
     @property
     def effect_overrides(self) -> dict[str, bool]:

@@ -14,17 +14,17 @@ import numpy as np
 from ..errors import ParameterError
 from ..validation import given_besides
 from ..scene import Scenario, resolve_scene
-from ..scene.directions import axial_upper, tilt_azimuth
+from ..scene.directions import tilt_azimuth
 from ..scene.quality import Quality
-from .optimize import (OPTIMIZERS, SEED_SPACING_DEG, Constraint, hemisphere_grid, polish_grid, run_optimizer, score_map,
-                       tolerance_deg)
+from .optimize import OPTIMIZERS, Constraint, search_best, tolerance_deg
 from ..geometry.stone import Stone
-from .problem import build_problem
 from .scoring import FlashMetrics, Scorer
 from .estimators import estimator_for
 from .question import FlashQuestion
 from .misorientation import MisorientationCurve, misorientation_curve
+from .robustness import Robustness, scenario_robustness
 from .uncertainty import Uncertainty, uncertainty_for
+from ..scene.variants import Variation
 
 #: the presets' map spacing (degrees), read from :class:`~labcut.scene.quality.Quality`
 MAP_SPACING_DEG = {name: q.map_spacing_deg for name, q in Quality.PRESETS.items()}
@@ -188,6 +188,9 @@ class Recommendation:
     #: flash energy kept when the cut misses this normal, against degrees off, on average, at
     #: worst and towards each side (:mod:`labcut.orientation.misorientation`); None: not computed
     misorientation: MisorientationCurve | None = None
+    #: how far the best normal moves across plausible variants of the scenario
+    #: (:mod:`labcut.orientation.robustness`); None unless asked for (``variants=``)
+    robustness: Robustness | None = None
 
     @property
     def angle_error_deg(self) -> float | None:
@@ -232,6 +235,7 @@ class Recommendation:
             "plan": self.plan,
             "render_estimator": self.render,
             "uncertainty": None if self.uncertainty is None else self.uncertainty.to_dict(),
+            "robustness": None if self.robustness is None else self.robustness.to_dict(),
             "map": {"tilt_deg": list(map(float, tilt)), "azimuth_deg": list(map(float, az)), "score": self.map_scores.tolist()},
         }
 
@@ -258,6 +262,8 @@ class Recommendation:
                 ("flash energy", f"{m.flash_energy:.4f}"), ("coverage", f"{m.coverage:.0%}")]
         if self.scenario is not None:
             rows.insert(1, ("scenario", self.scenario.name))
+        if self.robustness is not None:
+            rows.insert(4, ("across scenario variants", f"moves ≤ {self.robustness.spread_deg:.1f}° ({self.robustness.verdict})"))
         body = "".join(f"<tr><td>{escape(k)}</td><td style='text-align:right'>{escape(v)}</td></tr>" for k, v in rows)
         return f"<table><thead><tr><th colspan='2'>labcut recommendation</th></tr></thead><tbody>{body}</tbody></table>"
 
@@ -297,6 +303,7 @@ class Recommendation:
                 render=dict(data.get("render_estimator", {})),
                 uncertainty=Uncertainty.from_dict(data.get("uncertainty")),
                 misorientation=MisorientationCurve.from_dict(data.get("misorientation")),
+                robustness=Robustness.from_dict(data.get("robustness")),
             )
         except KeyError as exc:
             raise ParameterError(f"{source}: not a labcut recommendation (missing {exc.args[0]!r})") from None
@@ -364,20 +371,19 @@ def build_scorer(mesh: Any, setup: FlashQuestion, plan: Any) -> Scorer:
     """The sample estimator's scorer of the question ``setup`` about ``mesh`` (a checked trimesh),
     its flash problem built as ``plan`` (an :class:`~labcut.planner.EffectPlan`) says: occlusion
     rays or not, the setup's kernel options."""
-    problem = build_problem(mesh, setup.material, quality=setup.quality, tau=setup.tau, seed=setup.seed,
-                            settings=setup.scenario.settings(), occlusion=plan.on("occlusion"), kernels=setup.kernels)
-    return Scorer(problem, setup.objective)
+    return setup.scorer(mesh, occlusion=plan.on("occlusion"))
 
 
 def answer_recommendation(mesh: Any, ask: FlashQuestion, scorer: Scorer, plan: Any, *, optimizer: str = "nlopt",
                           progress: Callable[[str, float], None] | None = None, budget: Any = None,
-                          start: float | None = None) -> Recommendation:
+                          start: float | None = None, variation: Variation | None = None) -> Recommendation:
     """The recommendation of question ``ask`` about ``mesh`` (a checked trimesh) from its sample
     estimator's ``scorer`` and effect ``plan`` (:func:`build_scorer`; a
     :class:`~labcut.study.Study` keeps both between questions): the map, the optimiser, the
     render estimator where planned, tolerances, runners-up, error bars. ``budget``: the time-budget
     choice the question was made at, for the answer's record; ``start``: when the call began
-    (``time.perf_counter()``), for the answer's seconds."""
+    (``time.perf_counter()``), for the answer's seconds; ``variation``: answer the question under
+    these variants of its scenario too (:mod:`labcut.orientation.robustness`)."""
     if optimizer not in OPTIMIZERS:
         raise ParameterError(f"optimizer must be one of {', '.join(OPTIMIZERS)}, got {optimizer!r}")
     start = time.perf_counter() if start is None else start
@@ -388,23 +394,9 @@ def answer_recommendation(mesh: Any, ask: FlashQuestion, scorer: Scorer, plan: A
     share = estimator.progress_before_refine
     stage = lambda fraction: share * fraction  # noqa: E731 - the sample estimator's share of the progress
     report("mapping the hemisphere", stage(0.3))
-    map_normals = hemisphere_grid(quality.map_spacing_deg, constraint)
-    # the energy map is launched (Dr.Jit's threads sum it while the optimiser's DIRECT-L steps in
-    # numpy) and read when its cells seed the polishes, or after the optimiser
-    map_launched = scorer.launch_energy_map(map_normals) if objective == "energy" else None
-    report("optimising", stage(0.6))
-    # the map's best cells seed the optimiser's polishes where the map is at least twice as fine as
-    # the seed map it would make (standard's 3° and high's 1.5°, not draft's 4°: a peak narrower
-    # than its cells can hide between them, and the seeds are the energy's)
-    seeds = ((map_normals, map_launched) if map_launched is not None and quality.map_spacing_deg <= 0.5 * SEED_SPACING_DEG
-             and constraint.tilt_axis is None else None)
-    best = run_optimizer(optimizer, scorer, constraint, quality, seed_map=seeds)
-    map_scores = map_launched.value if map_launched is not None else score_map(scorer, map_normals)
-    normal = axial_upper(best.normal)
-    score = scorer.score(normal)
-    if map_scores.max() > score * (1.0 + 1e-4):  # the map found better: trust the better point, polished
-        normal, score = polish_grid(scorer, map_normals[int(np.argmax(map_scores))], constraint, quality.map_spacing_deg, 0.1)
-        normal = axial_upper(normal)
+    found = search_best(scorer, constraint, quality, optimizer, step=lambda name: report(name, stage(0.6)))
+    normal, score, map_normals, map_scores = found.normal, found.score, found.map_normals, found.map_scores
+    sample_normal = normal  # where the variants' moves are measured from (the render estimator starts here)
     if not score > 0.0:
         _no_flash(objective, scene, tau)
     refined = estimator.refine(normal, score, lambda st, f: report(f"renders: {st}", share + (0.9 - share) * f))
@@ -420,6 +412,13 @@ def answer_recommendation(mesh: Any, ask: FlashQuestion, scorer: Scorer, plan: A
     by_axis = axis_tolerances(scorer, normal, sample_score, constraint)
     report("error bars", 0.95)
     bars = uncertainty_for(mesh, ask, scorer.problem, normal, occlusion=plan.on("occlusion"), tolerance_deg=float(tol))
+    robust = None
+    if variation is not None:
+        report("scenario variants", 0.96)
+        robust = scenario_robustness(mesh, ask, sample_normal, occlusion=plan.on("occlusion"), variation=variation,
+                                     bar_deg=bars.angle_deg if bars is not None else 0.0, tolerance_deg=float(tol),
+                                     optimizer=optimizer,
+                                     progress=lambda f: report("scenario variants", 0.96 + 0.03 * f))
     if metrics is None:  # after the bars: their stencil's sums came with every triple's sum at the answer
         metrics = scorer.metrics(normal)
     tilt, az = tilt_azimuth(normal)
@@ -440,6 +439,7 @@ def answer_recommendation(mesh: Any, ask: FlashQuestion, scorer: Scorer, plan: A
         parallel_within_deg=parallel, workshop=workshop(normal, mesh, scene, parallel=parallel is not None),
         mesh=Stone.of(mesh).provenance_dict(), plan=plan.to_dict(), estimator=plan.estimator or "samples", render=render_stats,
         uncertainty=bars, misorientation=misorientation_curve(scorer.energy_map, normal, float(tol), quality),
+        robustness=robust,
         settings={
             **ask.to_dict(),
             "scene_peak": scorer.problem.threshold / scorer.problem.tau, "flash_threshold": scorer.problem.threshold,

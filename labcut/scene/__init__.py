@@ -18,6 +18,7 @@ from .presets import LIGHTING, VIEWING
 from .quality import QUALITIES, Quality
 from .scenario import SCENARIOS, Scenario, Setting, resolve_scene, scenario_from
 from .sets import Lights, Views, lights_from, views_from
+from .variants import Variant, Variation, scenario_variants
 
 __all__ = [
     "EFFECTS",
@@ -33,11 +34,14 @@ __all__ = [
     "Quality",
     "Scenario",
     "Setting",
+    "Variant",
+    "Variation",
     "Views",
     "check_effects",
     "direction",
     "lamella_normal",
     "lights_from",
+    "scenario_variants",
     "normalize_normal",
     "parse_effects",
     "resolve_scene",

@@ -21,6 +21,9 @@ VIEWING = Registry("viewing", "or a JSON file of directions/weights")
 
 FRONT_LEFT = FRONT_AZIMUTH_DEG - 30.0
 FRONT_RIGHT = FRONT_AZIMUTH_DEG + 30.0
+#: the window (``window`` lighting, and the room's): its centre's angle from the vertical and its azimuth (in front)
+ROOM_WINDOW_POLAR_DEG = 70.0
+ROOM_WINDOW_AZIMUTH_DEG = FRONT_AZIMUTH_DEG
 
 _ENV_CACHE: dict[str, Environment] = {}
 
@@ -64,7 +67,7 @@ def sky(quality: Quality | str) -> Lights:
 
 @LIGHTING.register("window", "daylight through a window the stone faces: a disc of 20° radius, 20° above the horizon, in front")
 def window(quality: Quality | str) -> Lights:
-    return _unit(Lights.lamp(direction(70.0, FRONT_AZIMUTH_DEG), 20.0, 1.0, Quality.coerce(quality).lamp_samples, "window"), "window")
+    return _unit(Lights.lamp(direction(ROOM_WINDOW_POLAR_DEG, ROOM_WINDOW_AZIMUTH_DEG), 20.0, 1.0, Quality.coerce(quality).lamp_samples, "window"), "window")
 
 
 @LIGHTING.register("sun", "direct sun 50° above the horizon, front-right (a point: its 0.27° radius is far below the lamella spread)")
@@ -109,11 +112,14 @@ DOWNLIGHT_CUTOFF = 0.1
 ROOM_SHARES = {"downlights": 0.55, "window": 0.15, "reflected": 0.30}
 
 
-def downlight_grid() -> tuple[np.ndarray, np.ndarray]:
-    """(directions towards each downlight, world frame; their irradiance weights, summing to 1)."""
-    k = np.arange(-5, 6)
-    gx, gy = np.meshgrid((k - DOWNLIGHT_OFFSET[0]) * DOWNLIGHT_SPACING_M, (k - DOWNLIGHT_OFFSET[1]) * DOWNLIGHT_SPACING_M)
-    pos = np.stack([gx.ravel(), gy.ravel(), np.full(gx.size, DOWNLIGHT_HEIGHT_M)], axis=1)
+def downlight_grid(spacing_m: float = DOWNLIGHT_SPACING_M, height_m: float = DOWNLIGHT_HEIGHT_M,
+                   offset: tuple[float, float] = DOWNLIGHT_OFFSET) -> tuple[np.ndarray, np.ndarray]:
+    """(directions towards each downlight, world frame; their irradiance weights, summing to 1) of a
+    square grid ``spacing_m`` apart, ``height_m`` above the stone, the stone off the nearest fixture
+    by ``offset`` spacings (x, y)."""
+    k = np.arange(-8, 9)
+    gx, gy = np.meshgrid((k - offset[0]) * spacing_m, (k - offset[1]) * spacing_m)
+    pos = np.stack([gx.ravel(), gy.ravel(), np.full(gx.size, height_m)], axis=1)
     d = pos / np.linalg.norm(pos, axis=1, keepdims=True)
     w = d[:, 2] ** 3
     keep = w >= DOWNLIGHT_CUTOFF * w.max()
@@ -127,11 +133,23 @@ def downlights(quality: Quality | str) -> Lights:
     return Lights(d, w, "downlights")
 
 
+def room_lights(quality: Quality | str, *, spacing_m: float = DOWNLIGHT_SPACING_M, height_m: float = DOWNLIGHT_HEIGHT_M,
+                offset: tuple[float, float] = DOWNLIGHT_OFFSET, window_polar_deg: float = ROOM_WINDOW_POLAR_DEG,
+                window_azimuth_deg: float = ROOM_WINDOW_AZIMUTH_DEG) -> Lights:
+    """The ``room`` lighting with its layout given: the downlight grid (:func:`downlight_grid`) and
+    the window's direction (a disc of 20° radius); the shares of :data:`ROOM_SHARES`. The preset is
+    this at its defaults; :mod:`labcut.scene.variants` draws other plausible layouts."""
+    q = Quality.coerce(quality)
+    d, w = downlight_grid(spacing_m, height_m, offset)
+    win = _unit(Lights.lamp(direction(window_polar_deg, window_azimuth_deg), 20.0, 1.0, q.lamp_samples, "window"), "window")
+    return Lights.combine([(Lights(d, w, "downlights"), ROOM_SHARES["downlights"]), (win, ROOM_SHARES["window"]),
+                           (ceiling(q), ROOM_SHARES["reflected"])], "room")
+
+
 @LIGHTING.register("room", "an office as lit: downlights (55 %), a window in front (15 %), the room's reflected light "
                            "as an even ceiling (30 %)")
 def room(quality: Quality | str) -> Lights:
-    return Lights.combine([(downlights(quality), ROOM_SHARES["downlights"]), (window(quality), ROOM_SHARES["window"]),
-                           (ceiling(quality), ROOM_SHARES["reflected"])], "room")
+    return room_lights(quality)
 
 
 @LIGHTING.register("studio", "a photographer's light tent built in code: key softbox, strip light, top light")
