@@ -19,7 +19,7 @@ from labcut.errors import ParameterError
 from labcut.orientation.pairs import build_pairs
 from labcut.orientation.problem import build_problem, lobe_reach
 from labcut.orientation.question import FlashQuestion
-from labcut.orientation.uncertainty import finer_poses, half_directions, stencil
+from labcut.orientation.uncertainty import finer_poses, finer_directions, stencil
 
 MESHES = Path(__file__).resolve().parents[1] / "meshes"
 
@@ -30,17 +30,17 @@ def meshes():
 
 
 CASES = [
-    ("oval-16x12-low.ply", "bench", "half", (0.06, -0.01, 1.0)),
+    ("oval-16x12-low.ply", "bench", "dense", (0.06, -0.01, 1.0)),
     ("oval-16x12-low.ply", "bench", "finer", (0.06, -0.01, 1.0)),
-    ("oval-16x12-low.ply", "pendant", "half", (0.0, 0.3, 1.0)),
-    ("carving-biplane.ply", "ring", "half", (0.1, 0.05, 1.0)),  # not convex: occlusion rays
+    ("oval-16x12-low.ply", "pendant", "dense", (0.0, 0.3, 1.0)),
+    ("carving-biplane.ply", "ring", "dense", (0.1, 0.05, 1.0)),  # not convex: occlusion rays
     ("carving-biplane.ply", "bench", "finer", (-0.2, 0.1, 1.0)),
 ]
 
 
 def _both(mesh, scenario, which, occlusion=None):
     setup = FlashQuestion.build("blue", scenario, quality="draft")
-    q = half_directions(setup.quality) if which == "half" else finer_poses(setup.quality)
+    q = finer_directions(setup.quality) if which == "dense" else finer_poses(setup.quality)
     other = setup.at_quality(q)
     settings = other.scenario.settings()
     whole = build_problem(mesh, setup.material, quality=other.quality, tau=setup.tau, seed=setup.seed, settings=settings,
@@ -78,8 +78,8 @@ def test_the_carving_with_and_without_occlusion_rays(meshes):
     """The carving's occlusion rays matter (its sums without them differ), and the pairs follow the
     planner's switch as build_problem does."""
     normals, _ = stencil(np.array([0.0, 0.0, 1.0]), 1.5)
-    whole_off, pairs_off = _both(meshes["carving-biplane.ply"], "ring", "half", occlusion=False)
-    whole_on, pairs_on = _both(meshes["carving-biplane.ply"], "ring", "half", occlusion=True)
+    whole_off, pairs_off = _both(meshes["carving-biplane.ply"], "ring", "dense", occlusion=False)
+    whole_on, pairs_on = _both(meshes["carving-biplane.ply"], "ring", "dense", occlusion=True)
     assert pairs_off.pair_view.size > pairs_on.pair_view.size  # the rays hide pairs
     np.testing.assert_allclose(pairs_off.pair_radiance(normals), whole_off.pair_radiance(normals), rtol=1e-6, atol=1e-12)
     np.testing.assert_allclose(pairs_on.pair_radiance(normals), whole_on.pair_radiance(normals), rtol=1e-6, atol=1e-12)

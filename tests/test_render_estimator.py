@@ -326,3 +326,24 @@ def test_which_poses_share_a_scene():
     assert poses_share_a_scene([{**one, "environment": sky(1.0)}, {**moved, "environment": sky(1.0)}])
     assert not poses_share_a_scene([{**one, "environment": sky(1.0)}, {**moved, "environment": sky(2.0)}])  # another map
     assert not poses_share_a_scene([{**one, "environment": sky(1.0)}, {**moved, "environment": sky(1.0, 0.4)}])
+
+
+@pytest.mark.parametrize("depth", [None, 4])
+def test_lights_seen_behind_the_stone_are_not_flash(depth):
+    """A stone seen from the side (the pendant, at eye level) has the room's ceiling behind it: a
+    pixel at the silhouette mixes stone and background, and the background must add nothing. Direct
+    lighting and deeper paths then agree where the lamellae send no flash to the viewers (the
+    planner's pilot renders compare the two: counting the background made 10.6 % of "light between
+    the parts" of the biplane, and sent its pendant and brooch answers through the render
+    estimator); the flash where they do is the same too."""
+    mesh = labcut.load_mesh(MESHES / "carving-biplane.ply")
+    settings = resolve_scene("pendant-diffuse", quality="draft").settings()
+    direct = RenderObjective(mesh, LAB, settings, resolution=48, spp=8, seed=0, max_depth=2)
+    other = direct if depth is None else RenderObjective(mesh, LAB, settings, resolution=48, spp=8, seed=0, max_depth=depth)
+    away = np.array([1.0, 0.0, 0.3]) / np.linalg.norm([1.0, 0.0, 0.3])  # the lamellae face the side: no flash forward
+    best = np.array([0.0, 0.0, 1.0])
+    e_best = direct.value(best)
+    assert e_best > 0.0
+    assert direct.value(away) < 0.01 * e_best  # the ceiling behind the silhouette read 11 % of the best
+    if depth is not None:
+        assert other.value(best) == pytest.approx(e_best, rel=0.02)

@@ -20,7 +20,7 @@ from labcut.orientation.question import FlashQuestion
 from labcut.orientation.uncertainty import (
     estimate_uncertainty,
     finer_poses,
-    half_directions,
+    finer_directions,
     uncertainty_for,
 )
 
@@ -48,7 +48,7 @@ def test_reused_error_bars_equal_the_direct_computation(oval, scenario, objectiv
     problem = _full(oval, setup, setup.quality)
     got = uncertainty_for(oval, setup, problem, normal, occlusion=None, tolerance_deg=3.0)
     rocks = setup.scenario.rock_deg > 0.0 or setup.scenario.sway_deg > 0.0
-    want = estimate_uncertainty(problem, normal, objective, coarse=_full(oval, setup, half_directions(setup.quality)),
+    want = estimate_uncertainty(problem, normal, objective, dense=_full(oval, setup, finer_directions(setup.quality)),
                                 fine=_full(oval, setup, finer_poses(setup.quality)) if rocks else None,
                                 tolerance_deg=3.0, seed=setup.seed)
     assert got == want

@@ -21,7 +21,7 @@ from labcut.orientation.uncertainty import (
     Uncertainty,
     estimate_uncertainty,
     fit_peaks,
-    half_directions,
+    finer_directions,
     stencil,
 )
 from labcut.scene.quality import Quality
@@ -49,14 +49,31 @@ def test_fit_peaks_finds_the_peak_of_a_quadratic():
     assert heights[0] == pytest.approx(float((-values).max()))
 
 
-def test_half_directions_halves_every_direction_count_and_keeps_the_points():
+def test_finer_directions_doubles_every_direction_count_at_a_quarter_of_the_points():
     q = Quality.coerce("standard")
-    h = half_directions(q)
-    assert h.surface_points == q.surface_points
-    assert (h.lamp_samples, h.env_samples, h.cone_views, h.ring_views) == (7, 32, 7, 10)
-    assert h.rock_steps == (4, 2)
-    one = half_directions(q.replace(lamp_samples=1, cone_views=1, rock_steps=(2, 2)))
-    assert (one.lamp_samples, one.cone_views, one.rock_steps) == (1, 1, (2, 2))
+    h = finer_directions(q)
+    assert h.surface_points == q.surface_points // 4
+    assert (h.lamp_samples, h.env_samples, h.cone_views, h.ring_views) == (26, 128, 26, 40)
+    assert h.rock_steps == q.rock_steps and h.map_spacing_deg == q.map_spacing_deg
+    assert finer_directions(q.replace(surface_points=1000)).surface_points == 500
+
+
+def test_a_peak_beyond_the_stencil_is_followed():
+    """A discretisation problem whose peak lies 6° from the answer, four stencil radii away: the
+    followed peak is found there (a fit held to the first stencil read at most its radius)."""
+    from labcut.orientation.uncertainty import follow_peak
+
+    class Bowl:  # the objective exp(-angle² / 2 s²) about ``peak``, as stencil_values reads it
+        peak = np.array([math.sin(math.radians(6.0)), 0.0, math.cos(math.radians(6.0))])
+        pair_alpha = np.ones(1)
+        kappa = 100.0
+
+        def pair_radiance(self, normals, reach):
+            a = np.degrees(np.arccos(np.clip(np.abs(normals @ self.peak), 0.0, 1.0)))
+            return np.exp(-0.5 * (a / 4.0) ** 2)[None, :]
+
+    found, value = follow_peak(Bowl(), np.array([0.0, 0.0, 1.0]), 1.5, "energy")
+    assert _angle(found, Bowl.peak) < 0.1 and value == pytest.approx(1.0, abs=1e-3)
 
 
 def test_every_recommendation_carries_error_bars_in_its_json_and_repr(oval, tmp_path):

@@ -95,7 +95,9 @@ def render_metrics(
             sensor = camera(mesh, CameraView("v", tuple(d), tuple(st.up())), resolution)
             sensor["film"]["pixel_format"] = "luminance_alpha"
             sensor["film"]["rfilter"] = {"type": "box"}
-            scene = mi.load_dict({"type": "scene", "integrator": {"type": "direct"}, "sensor": sensor, "stone": stone, **lamps})
+            # hide_emitters: the lights seen behind the stone add nothing to a pixel it covers in part
+            scene = mi.load_dict({"type": "scene", "integrator": {"type": "direct", "hide_emitters": True}, "sensor": sensor,
+                                  "stone": stone, **lamps})
             img = np.array(mi.render(scene, spp=spp, seed=seed), dtype=np.float64)
             value, alpha = img[..., 0], img[..., 1]
             cover = alpha > 1e-3

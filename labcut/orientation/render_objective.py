@@ -202,8 +202,13 @@ class RenderObjective:
 
         self.zoning = resolve_zoning(zoning, self.material)  # colour zones: each point's own lamella stack
         baked = None if self.zoning is None else self.zoning.bake(mesh.bounds)
-        integ: dict[str, Any] = ({"type": "direct", "emitter_samples": 1, "bsdf_samples": 1} if self.integrator == "direct"
-                                 else {"type": "prb", "max_depth": self.max_depth})
+        # hide_emitters: a pixel the stone covers only in part must not add the lights seen behind it
+        # (an environment map behind a stone viewed from the side, pendant and brooch: its radiance
+        # at the silhouette read as flash; the deeper paths' image less its no-schiller image
+        # cancelled it, direct lighting's did not)
+        integ: dict[str, Any] = ({"type": "direct", "emitter_samples": 1, "bsdf_samples": 1, "hide_emitters": True}
+                                 if self.integrator == "direct" else
+                                 {"type": "prb", "max_depth": self.max_depth, "hide_emitters": True})
         # direct lighting: the schiller lobe alone is the flash. Deeper paths: every lobe, so light
         # the polish (or the body) of one part sends to another reaches its schiller; the flash is
         # then the image less the same scene's image without the schiller (rendered once: it does

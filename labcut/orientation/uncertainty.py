@@ -14,23 +14,27 @@ measures each on the problem at hand, in a fraction of the recommendation's time
   renormalised per view, as the estimator does) and fits a quadratic to the stencil: the spread
   of the fitted peaks is the sampling error of the normal, the spread of the peak values that
   of the score.
-* **discretisation** (systematic, the directions): the same surface points with half as many
-  directions per lamp, map, cone and ring (:func:`half_directions`) are fitted the same way;
-  the angle between the two peaks and the relative change of the score bound the error of the
-  finer set. The poses of a rocking motion are the exception: a flash lives within a few
-  degrees of pose, so coarse pose sets alias it and halving them says nothing (the benchmark,
-  ``docs/accuracy.md``, finds the oval's energy with 3 and with 5 front-to-back poses within 3 %
-  of each other, both a third below the converged energy). For a scenario that rocks, a problem with twice
-  the poses at a quarter of the surface points (the same number of terms,
-  :func:`finer_poses`) is fitted too; its difference also holds the sampling noise of the
-  fewer points, which makes that part conservative.
+* **discretisation** (systematic, the directions): a problem with twice as many directions per
+  lamp, map, cone and ring at a quarter of the surface points (the same number of terms,
+  :func:`finer_directions`) is fitted the same way, its peak followed where it lies beyond the
+  stencil (:func:`follow_peak`); the angle between the two peaks and the relative change of the
+  score measure the error of the answer's set. (Halving the directions instead said little: a
+  coarse set aliases a flash differently from the answer's, and its peak moved 2-7x as far as the
+  answer's own error, or, held to the stencil, at most the stencil's radius: docs/accuracy.md.)
+  The poses of a rocking motion likewise: a flash lives within a few degrees of pose, so coarse
+  pose sets alias it (the benchmark, ``docs/accuracy.md``, finds the oval's energy with 3 and with
+  5 front-to-back poses within 3 % of each other, both a third below the converged energy). For a
+  scenario that rocks, a problem with twice the poses at a quarter of the surface points
+  (:func:`finer_poses`) is fitted too. Both differences also hold the sampling noise of the fewer
+  points, which makes them conservative.
 
 The bars are ``sqrt((K σ)² + D²)`` with ``K`` = :data:`COVER` (sampling spread, 2 standard
 deviations of the 2-D peak scatter) and ``D`` the discretisation differences, each scaled to the
 error it implies (:data:`DIRECTION_FACTOR`, :data:`POSE_FACTOR`, calibrated by the study); also added in
 quadrature: the distance between the optimiser's normal and the fitted peak of the full problem
 (optimiser and fit error). ``docs/accuracy.md`` shows that these bars cover the distance to the
-converged reference on the benchmark cases, and ``tests/test_uncertainty.py`` checks it.
+converged reference on the benchmark cases and under every scenario, and
+``tests/test_uncertainty.py`` and ``tests/test_scenario_coverage.py`` check it.
 
 Angles in degrees, normals unit vectors in the mesh frame (axial), scores relative (a share of
 the score).
@@ -55,14 +59,15 @@ from .problem import FlashProblem
 BOOTSTRAP = 32
 #: coverage factor on the sampling spread (standard deviations)
 COVER = 2.0
-#: the error of a direction set over its difference to half as many directions, and of a pose set
-#: over its difference to twice as many poses: calibrated by the accuracy study (docs/accuracy.md,
-#: three cases, knobs varied against a converged reference): the errors fall by 1.6-2.5x per
-#: doubling of the lamp directions and by 1.7-2.5x per doubling of the poses, so a difference
-#: understates the error by up to 1/(r - 1) = 1.5 (directions, half vs full) and r/(r - 1) = 2.5
-#: (poses, full vs double)
+#: the error of a direction set, and of a pose set, over its difference to twice as many: if the
+#: errors fall by r per doubling, the difference is (1 - 1/r) of the error, so the error is
+#: r / (r - 1) times the difference: 1.5 at r = 3 for the directions (the study of every scenario,
+#: docs/accuracy.md: the doubled set's peak lies 0.7-1.6x the answer's own error away), 2.5 at
+#: r = 1.7 for the poses (the accuracy study's 1.7-2.5x per doubling of the poses)
 DIRECTION_FACTOR = 1.5
 POSE_FACTOR = 2.5
+#: how many times a discretisation problem's peak is followed to a new stencil (:func:`follow_peak`)
+FOLLOW_STEPS = 8
 #: stencil: rings at these fractions of the fit radius, directions per ring
 RINGS = (0.5, 1.0)
 RING_DIRECTIONS = 8
@@ -74,8 +79,8 @@ class Uncertainty:
 
     ``angle_deg``: angle (degrees) within which the converged normal lies; ``score_rel``: relative
     error of the score (0.05 = ±5 %). The parts: ``sampling_*`` (bootstrap over the surface
-    points, :data:`COVER` standard deviations), ``discretisation_*`` (difference to half as
-    many light and view directions), ``fit_angle_deg`` (optimiser's normal to the fitted peak);
+    points, :data:`COVER` standard deviations), ``discretisation_*`` (difference to twice as
+    many light and view directions and rocking poses), ``fit_angle_deg`` (optimiser's normal to the fitted peak);
     ``radius_deg`` the stencil radius, ``method`` how it was estimated."""
 
     angle_deg: float
@@ -87,7 +92,14 @@ class Uncertainty:
     fit_angle_deg: float
     radius_deg: float
     replicates: int
-    method: str = "bootstrap over surface points + half-direction difference"
+    method: str = "bootstrap over surface points + finer-direction and finer-pose differences"
+    #: the raw differences behind ``discretisation_*`` (before :data:`DIRECTION_FACTOR` and
+    #: :data:`POSE_FACTOR`): the finer-direction and the finer-pose problem's peak against the
+    #: answer's, degrees and a share of the score (0 where not made)
+    directions_angle_deg: float = 0.0
+    directions_score_rel: float = 0.0
+    poses_angle_deg: float = 0.0
+    poses_score_rel: float = 0.0
 
     def to_dict(self) -> dict[str, Any]:
         return asdict(self)
@@ -100,7 +112,9 @@ class Uncertainty:
         if not isinstance(data, dict):
             raise ParameterError("uncertainty must be a JSON object")
         try:
-            values: dict[str, Any] = {k: float(data[k]) for k in cls.__dataclass_fields__ if k not in ("replicates", "method")}
+            optional = ("directions_angle_deg", "directions_score_rel", "poses_angle_deg", "poses_score_rel")
+            values: dict[str, Any] = {k: float(data[k]) for k in cls.__dataclass_fields__
+                                      if k not in ("replicates", "method") and (k in data or k not in optional)}
             values["replicates"] = int(data["replicates"])
             if "method" in data:
                 values["method"] = str(data["method"])
@@ -113,31 +127,24 @@ class Uncertainty:
         f = float(factor)
         return Uncertainty(self.angle_deg * f, self.score_rel * f, self.sampling_angle_deg * f, self.sampling_score_rel * f,
                            self.discretisation_angle_deg * f, self.discretisation_score_rel * f, self.fit_angle_deg * f,
-                           self.radius_deg, self.replicates, self.method)
+                           self.radius_deg, self.replicates, self.method, self.directions_angle_deg * f,
+                           self.directions_score_rel * f, self.poses_angle_deg * f, self.poses_score_rel * f)
 
 
-def half_directions(quality: Quality) -> Quality:
-    """``quality`` with half as many directions per lamp, environment map, viewing cone and ring,
-    and half the rocking poses (at least one each); the surface samples are kept."""
-    def half(n: int) -> int:
-        return max(1, (n + 1) // 2)
-
-    def half_rock(k: int) -> int:
-        # a rocking motion of k steps has k - k % 2 poses besides the rest pose, an even number
-        # (Scenario.poses: a symmetric line); half of them, rounded to an even number >= 2
-        moved = k - k % 2
-        return max(2, 2 * round(moved / 4))
-
-    return quality.replace(lamp_samples=half(quality.lamp_samples), env_samples=half(quality.env_samples),
-                           cone_views=half(quality.cone_views), ring_views=half(quality.ring_views),
-                           rock_steps=tuple(half_rock(s) for s in quality.rock_steps))
+def finer_directions(quality: Quality) -> Quality:
+    """``quality`` with twice as many directions per lamp, environment map, viewing cone and ring
+    and a quarter of the surface samples (the same number of terms): the error bars' check of the
+    answer's direction sets."""
+    return quality.replace(surface_points=max(500, quality.surface_points // 4),
+                           lamp_samples=2 * quality.lamp_samples, env_samples=2 * quality.env_samples,
+                           cone_views=2 * quality.cone_views, ring_views=2 * quality.ring_views)
 
 
 def finer_poses(quality: Quality) -> Quality:
     """``quality`` with twice the moved poses of each rocking line and a quarter of the surface
-    samples (the same number of terms): the rocking motion's quadrature is the one direction
-    set whose coarse error the half-direction difference cannot see (a flash lives within a
-    few degrees of pose; at draft's 15° pose spacing both the coarse and the half set alias it)."""
+    samples (the same number of terms): the rocking motion's quadrature, checked as the direction
+    sets are (:func:`finer_directions`: a flash lives within a few degrees of pose, and at draft's
+    15° pose spacing a coarser set aliases it too)."""
     def double(k: int) -> int:
         moved = k - k % 2
         return 2 * moved + 1
@@ -176,6 +183,13 @@ def fit_peaks(xy: np.ndarray, values: np.ndarray, radius_deg: float) -> tuple[np
     (K, 2): ``(peaks (R, 2) in degrees, peak values (R,))``. A fit that is not concave, or
     whose peak lies beyond the stencil, falls back on the best stencil point. All rows at once
     (the 2 x 2 Hessians' concavity and stationary points in closed form)."""
+    peaks, heights, _ = _fit(xy, values, radius_deg)
+    return peaks, heights
+
+
+def _fit(xy: np.ndarray, values: np.ndarray, radius_deg: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`fit_peaks` and, per row, whether its fitted peak lies inside the stencil (else the
+    peak is the best stencil point)."""
     x, y = xy[:, 0], xy[:, 1]
     design = np.stack([np.ones_like(x), x, y, x * x, x * y, y * y], axis=1)
     coef = np.linalg.lstsq(design, values.T, rcond=None)[0].T  # (R, 6)
@@ -193,7 +207,40 @@ def fit_peaks(xy: np.ndarray, values: np.ndarray, radius_deg: float) -> tuple[np
     fitted = (coef[:, 0] + coef[:, 1] * px + coef[:, 2] * py + coef[:, 3] * px * px + coef[:, 4] * px * py
               + coef[:, 5] * py * py)
     heights = np.where(inside, fitted, values[rows, best])
-    return peaks, heights
+    return peaks, heights, inside
+
+
+def offset_normal(m: np.ndarray, xy: Any) -> np.ndarray:
+    """The unit normal at tangent-plane coordinates ``xy`` (degrees, along :func:`tangent_basis`)
+    from the unit normal ``m``: the inverse of the stencil's coordinates."""
+    e1, e2 = tangent_basis(m)
+    x, y = float(xy[0]), float(xy[1])
+    theta = math.radians(math.hypot(x, y))
+    phi = math.atan2(y, x)
+    return math.cos(theta) * m + math.sin(theta) * (math.cos(phi) * e1 + math.sin(phi) * e2)
+
+
+def follow_peak(problem: Any, m: np.ndarray, radius_deg: float, objective: str,
+                radiance: np.ndarray | None = None) -> tuple[np.ndarray, float]:
+    """The peak of ``problem``'s objective near the unit normal ``m``: ``(unit normal, value)``.
+    A quadratic is fitted to the stencil around ``m`` (``radiance``: its pair sums, when made
+    already); where the fitted peak lies beyond the stencil, or the fit is not concave, the
+    stencil moves to its best point and fits again, up to :data:`FOLLOW_STEPS` times. A
+    discretisation problem's peak can lie several stencil radii away (a flat landscape whose
+    direction sets alias differently): a fit that stopped at the first stencil would read at most
+    its radius as the difference."""
+    centre = m
+    for step in range(FOLLOW_STEPS + 1):
+        normals, xy = stencil(centre, radius_deg)
+        values = stencil_values(problem, normals, objective, radiance=radiance if step == 0 else None)
+        peaks, heights, inside = _fit(xy, values, radius_deg)
+        if inside[0]:
+            return offset_normal(centre, peaks[0]), float(heights[0])
+        best = int(np.argmax(values[0]))
+        if best == 0:  # the centre is the best point (a flat or ridged top): stay
+            return centre, float(values[0, 0])
+        centre = normals[best] / np.linalg.norm(normals[best])
+    return centre, float(heights[0])
 
 
 def pair_radiance(problem: FlashProblem, normals: np.ndarray) -> np.ndarray:
@@ -336,12 +383,12 @@ def bootstrap_weights(seed: int, points: int, replicates: int) -> np.ndarray:
 
 
 def estimate_uncertainty(problem: FlashProblem, normal: Any, objective: str = "energy", *,
-                         coarse: FlashProblem | None = None, fine: FlashProblem | None = None,
+                         dense: FlashProblem | None = None, fine: FlashProblem | None = None,
                          tolerance_deg: float | None = None,
                          replicates: int = BOOTSTRAP, seed: int = 0) -> Uncertainty:
     """Error bars of the answer ``normal`` (unit, mesh frame) of ``problem`` (module docstring).
 
-    ``coarse``: the same surface points with half the directions (:func:`half_directions`);
+    ``dense``: twice the directions at a quarter of the points (:func:`finer_directions`);
     ``fine``: twice the rocking poses at a quarter of the points (:func:`finer_poses`, for a
     scenario that rocks); each None: that discretisation part left out (they add in quadrature). ``tolerance_deg``: the answer's tolerance, which sets the
     stencil radius (half of it, within 0.3-3°)."""
@@ -355,7 +402,7 @@ def estimate_uncertainty(problem: FlashProblem, normal: Any, objective: str = "e
     normals, xy = stencil(m, radius)
     # every problem's stencil sums launched at once: the discretisation problems' kernels run on
     # Dr.Jit's threads while the host makes the answer's bootstrap
-    launched = [_launch_stencil_sums(p, normals) for p in (problem, coarse, fine)]
+    launched = [_launch_stencil_sums(p, normals) for p in (problem, dense, fine)]
     rad = launched[0].value
     weights = bootstrap_weights(seed, _point_count(problem), replicates)
     values = objective_values(problem, rad, weights, objective)
@@ -366,31 +413,40 @@ def estimate_uncertainty(problem: FlashProblem, normal: Any, objective: str = "e
     scale = abs(base_height) if base_height != 0 else 1.0
     score_sd = float(np.std(heights[1:], ddof=1) / scale)
     fit = float(np.hypot(*base_peak))
-    d_angle = d_score = 0.0
-    for other, factor, sums in ((coarse, DIRECTION_FACTOR, launched[1]), (fine, POSE_FACTOR, launched[2])):
+    base_normal = offset_normal(m, base_peak)
+    raw = {}
+    for name, other, sums in (("directions", dense, launched[1]), ("poses", fine, launched[2])):
         if other is None:
             continue
-        o_vals = stencil_values(other, normals, objective, radiance=sums.value)
-        o_peak, o_height = fit_peaks(xy, o_vals, radius)
-        d_angle = math.hypot(d_angle, factor * float(np.hypot(*(o_peak[0] - base_peak))))
-        d_score = math.hypot(d_score, factor * float(abs(o_height[0] - base_height) / scale))
+        o_normal, o_height = follow_peak(other, m, radius, objective, radiance=sums.value)
+        raw[f"{name}_angle_deg"] = math.degrees(math.acos(min(1.0, abs(float(np.dot(o_normal, base_normal))))))
+        raw[f"{name}_score_rel"] = float(abs(o_height - base_height) / scale)
+    d_angle, d_score = discretisation(**raw)
     s_angle, s_score = COVER * spread, COVER * score_sd
     return Uncertainty(
         angle_deg=float(math.sqrt(s_angle ** 2 + d_angle ** 2 + fit ** 2)),
         score_rel=float(math.sqrt(s_score ** 2 + d_score ** 2)),
         sampling_angle_deg=s_angle, sampling_score_rel=s_score,
         discretisation_angle_deg=d_angle, discretisation_score_rel=d_score,
-        fit_angle_deg=fit, radius_deg=radius, replicates=int(replicates),
+        fit_angle_deg=fit, radius_deg=radius, replicates=int(replicates), **raw,
     )
+
+
+def discretisation(directions_angle_deg: float = 0.0, directions_score_rel: float = 0.0, poses_angle_deg: float = 0.0,
+                   poses_score_rel: float = 0.0) -> tuple[float, float]:
+    """The discretisation bars ``(angle_deg, score_rel)`` from the raw differences of the
+    finer-direction and finer-pose problems: each times its factor, in quadrature."""
+    return (math.hypot(DIRECTION_FACTOR * directions_angle_deg, POSE_FACTOR * poses_angle_deg),
+            math.hypot(DIRECTION_FACTOR * directions_score_rel, POSE_FACTOR * poses_score_rel))
 
 
 def uncertainty_for(mesh: Any, setup: Any, problem: FlashProblem, normal: Any, *, occlusion: bool | None,
                     tolerance_deg: float | None) -> Uncertainty:
     """:func:`estimate_uncertainty` of a recommendation asked as ``setup`` (a
     :class:`~labcut.orientation.question.FlashQuestion`) whose sample problem is ``problem``: the
-    half-direction problem of the same question (:meth:`FlashQuestion.at_quality
-    <labcut.orientation.question.FlashQuestion.at_quality>` with :func:`half_directions`, the answer's
-    own surface samples) and, for a scenario that rocks, the finer-pose one (:func:`finer_poses`).
+    finer-direction problem of the same question (:meth:`FlashQuestion.at_quality
+    <labcut.orientation.question.FlashQuestion.at_quality>` with :func:`finer_directions`) and, for a
+    scenario that rocks, the finer-pose one (:func:`finer_poses`).
 
     Both are built as pairs only (:func:`labcut.orientation.pairs.build_pairs`): their stencil sums
     make each (pair, light) term in one kernel, within reach of the stencil around ``normal``, the
@@ -399,14 +455,13 @@ def uncertainty_for(mesh: Any, setup: Any, problem: FlashProblem, normal: Any, *
 
     def build(q: Quality) -> Any:
         other = setup.at_quality(q)
-        # the same point count and seed as the answer's: its surface samples, from the mesh's cache
         return build_pairs(mesh, setup.material, other.quality, setup.tau, setup.seed, other.scenario.settings(),
                            occlusion=occlusion)
 
-    coarse = build(half_directions(setup.quality))
+    dense = build(finer_directions(setup.quality))
     rocks = setup.scenario.rock_deg > 0.0 or setup.scenario.sway_deg > 0.0
     fine = build(finer_poses(setup.quality)) if rocks else None
-    return estimate_uncertainty(problem, normal, setup.objective, coarse=coarse, fine=fine, tolerance_deg=tolerance_deg,
+    return estimate_uncertainty(problem, normal, setup.objective, dense=dense, fine=fine, tolerance_deg=tolerance_deg,
                                 seed=setup.seed)
 
 
