@@ -412,7 +412,8 @@ def report(results: list[dict], renders: list[dict], images: list[str], args, se
             rs = np.median([c["score_err"] / max(c["bar_score"], 1e-12) for c in sel])
             lines.append(f"| {res['label']} | {q} | {len(sel)} | {ok_a}/{len(sel)} | {ok_s}/{len(sel)} | {ra:.2f} | {rs:.2f} |")
     lines += ["", "`tests/test_uncertainty.py` checks the same on a smaller scale in `make test` (the oval under bench "
-              "and pendant, draft, four seeds, against a reference of 8x the samples).", ""]
+              "and pendant-diffuse, draft, four seeds, against a reference of 8x the samples). Every scenario, the "
+              "render estimator included: below.", ""]
     if budgets:
         lines += ["## Time budgets", "",
                   "`labcut recommend-orientation MESH --time-budget SECONDS` (API `time_budget=`) runs the most accurate rung "
@@ -488,7 +489,16 @@ def main() -> None:
     out = Path(args.out)
     images = plot(results, out.parent / "images")
     total = json.loads(data.read_text())["seconds"]
-    out.write_text(report(results, renders, images, args, total, budgets, compare_budgets))
+    text = report(results, renders, images, args, total, budgets, compare_budgets)
+    # the coverage study of every scenario (benchmarks/scenario_coverage.py) keeps its block
+    from scenario_coverage import BEGIN, END
+
+    old = out.read_text() if out.exists() else ""
+    if BEGIN in old and END in old:
+        block = BEGIN + old.split(BEGIN, 1)[1].split(END, 1)[0] + END
+        head, sep, tail = text.partition("## Time budgets")
+        text = head + block + "\n\n" + sep + tail
+    out.write_text(text)
     print(f"wrote {out} and {data}")
 
 
