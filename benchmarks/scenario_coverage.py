@@ -271,7 +271,7 @@ def main() -> None:
     for res in ordered:
         rebar_all(res)
     write_json(TEST_DATA, test_references(ordered))
-    block = report(ordered, seconds, "benchmarks/scenario_coverage.py")
+    block = report(ordered, seconds, ".venv/bin/python benchmarks/scenario_coverage.py")
     print(block)
     if args.out != "-":
         splice(Path(args.out), block)
