@@ -230,18 +230,20 @@ of variants spans every range:
 | downlight height above the stone | 1.6-2.6 m | ceilings of 2.5-3.4 m over a hand or chest at 0.8-1.2 m |
 | where the stone sits under the grid | anywhere in a cell | the wearer stands anywhere in the room |
 | the window's azimuth / height | ±45° of the front / ±10° | the wearer faces the window only roughly |
-| other lights (a lamp, the sun, a map) | turned ±45° about the vertical, tilted up to 10° | the wearer faces another way; a lamp not quite overhead, the sun higher or lower |
+| other lamps (the bench lamp, the sun, spots) | turned ±45° about the vertical, tilted up to 10° | the wearer faces another way; a lamp not quite overhead, the sun higher or lower |
+| an environment map (the room's reflected light, a sky, a photographed room) | kept as given | turning its few sampled directions would move the answer by their discretisation error, not by anything in the world |
 | rocking and swaying amplitudes | x0.6-1.4 | a calmer or livelier wearer (the ranges of "Moved as jewellery moves" are typical, not fixed) |
 | the viewers | tilted up to 10° about a horizontal axis | taller or shorter onlookers, nearer or to one side |
 
 Every variant is answered by the sample estimator with the same surface samples as the answer, so
-the spread is the scenario's, not the sampling's. The verdict compares the largest move with the
-answer's error bar and tolerance: *inside* the error bar (the free parameters matter less than the
-sampling), *beside* it (beyond the bar, within the tolerance), or *swings*: beyond the tolerance,
-and then the output says so, in words and with the least share of a variant's best the
-recommended cut keeps ("the answer swings by up to 9.6° across 6 variants of the scenario ..., more
-than its tolerance (±5.4°): it depends on how the stone will really be lit and worn; cut as
-recommended it keeps at least 86% of each variant's best"). The figures for the bundled stones
+the spread is the scenario's, not the sampling's. The verdict compares the typical (median) move
+with the answer's error bar and tolerance: *inside* the error bar (the free parameters matter less
+than the sampling), *beside* it (beyond the bar, within the tolerance), or *swings*: beyond the
+tolerance, and then the output says so in words. The largest move is reported beside the median
+(it grows with the number of variants drawn), and always the least share of a variant's best the
+recommended cut keeps ("the answer swings by 5.7° typically (up to 10.7°) across 6 variants of the
+scenario ..., more than its tolerance (±4.1°): it depends on how the stone will really be lit and
+worn; cut as recommended it keeps at least 70% of each variant's best"). The figures for the bundled stones
 under every scenario: docs/orientation.md ("Across variants of the scenario").
 
 ## Changing lights and viewers

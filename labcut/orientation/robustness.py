@@ -11,11 +11,11 @@ world the stone is worn in differs from the preset in ways nobody can fix in adv
   scenario's, not the sampling's);
 * ``keeps`` per variant: the variant's score of the answer over the variant's best score (what the
   cutter loses by cutting for the preset when the stone is worn in the variant);
-* the ``spread_deg`` (the largest move) and its verdict against the answer's error bar and its
-  tolerance: ``inside`` (the spread is within the error bar: the answer does not depend on the
-  free parameters more than on the sampling), ``beside`` (beyond the bar, within the tolerance),
-  ``swings`` (beyond the tolerance: the output says the answer depends on how the stone is lit and
-  worn, and how much of each variant's best it keeps).
+* the largest and the median move (``spread_deg``, ``median_deg``) and the verdict, the median
+  against the answer's error bar and its tolerance: ``inside`` (within the error bar: the answer
+  does not depend on the free parameters more than on the sampling), ``beside`` (beyond the bar,
+  within the tolerance), ``swings`` (beyond the tolerance: the output says the answer depends on
+  how the stone is lit and worn); and always how much of each variant's best the cut keeps.
 """
 
 from __future__ import annotations
@@ -60,35 +60,37 @@ class Robustness:
 
     @property
     def verdict(self) -> str:
-        """``inside`` the error bar, ``beside`` it (within the tolerance), or ``swings`` beyond the
-        tolerance (or where a variant has no answer at all: the stone may stay grey there)."""
+        """How far the best normal typically moves (the median over the variants): ``inside`` the
+        error bar, ``beside`` it (within the tolerance), or ``swings`` beyond the tolerance (also
+        where a variant has no answer at all: the stone may stay grey there). The median, not the
+        largest move: the largest grows with the number of variants drawn, and is reported beside."""
         if self.answered < len(self.variants):
             return "swings"
-        if self.spread_deg <= self.bar_deg:
+        if self.median_deg <= self.bar_deg:
             return "inside"
-        return "beside" if self.spread_deg <= self.tolerance_deg else "swings"
+        return "beside" if self.median_deg <= self.tolerance_deg else "swings"
 
     @property
     def answered(self) -> int:
         return sum("error" not in v for v in self.variants)
 
     def sentence(self) -> str:
-        """One line for people: how far the answer moves and what that means."""
+        """One line for people: how far the answer moves, what that means, what the cut keeps."""
         n = len(self.variants)
         head = f"across {n} variants of the scenario (room layout, motion, viewers)"
         missing = n - self.answered
-        tail = f"; {missing} variant(s) without flash" if missing else ""
-        if self.verdict == "inside":
-            return (f"{head} the best orientation moves by at most {self.spread_deg:.1f}°, inside its error bar "
-                    f"(±{self.bar_deg:.1f}°){tail}")
-        if self.verdict == "beside":
-            return (f"{head} the best orientation moves by up to {self.spread_deg:.1f}° (median {self.median_deg:.1f}°), "
-                    f"beyond its error bar (±{self.bar_deg:.1f}°) but within its tolerance (±{self.tolerance_deg:.1f}°){tail}")
         if not self.answered:
             return f"{head} no orientation flashes: the answer holds only for the scenario as given"
-        return (f"the answer swings by up to {self.spread_deg:.1f}° {head}, more than its tolerance (±{self.tolerance_deg:.1f}°): "
-                f"it depends on how the stone will really be lit and worn; cut as recommended it keeps at least "
-                f"{self.keeps_min:.0%} of each variant's best{tail}")
+        moves = f"{self.median_deg:.1f}° typically (up to {self.spread_deg:.1f}°)"
+        keeps = f"cut as recommended it keeps at least {self.keeps_min:.0%} of each variant's best"
+        tail = f"; {missing} variant(s) without flash" if missing else ""
+        if self.verdict == "inside":
+            return f"{head} the best orientation moves by {moves}, inside its error bar (±{self.bar_deg:.1f}°); {keeps}{tail}"
+        if self.verdict == "beside":
+            return (f"{head} the best orientation moves by {moves}, beyond its error bar (±{self.bar_deg:.1f}°) but within "
+                    f"its tolerance (±{self.tolerance_deg:.1f}°); {keeps}{tail}")
+        return (f"the answer swings by {moves} {head}, more than its tolerance (±{self.tolerance_deg:.1f}°): it depends on "
+                f"how the stone will really be lit and worn; {keeps}{tail}")
 
     def to_dict(self) -> dict[str, Any]:
         return {"variation": self.variation, "variants": list(self.variants), "spread_deg": self.spread_deg,

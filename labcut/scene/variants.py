@@ -11,10 +11,12 @@ stratum is used once, so a handful of variants spans every range):
   spacing (:attr:`Variation.downlight_spacing_m`), its height above the stone
   (:attr:`Variation.downlight_height_m`), where the stone sits under it (anywhere in a cell), and
   the window's azimuth (:attr:`Variation.light_turn_deg` either side of the front) and height
-  (``± light_tilt_deg``). For any other lights (a lamp, the sun, a map, a JSON file): the whole
-  set turned about the vertical by up to ``± light_turn_deg`` (the wearer faces another way) and
+  (``± light_tilt_deg``). For any other lights (a lamp, the sun, spots, a JSON file): the lamps
+  turned about the vertical by up to ``± light_turn_deg`` (the wearer faces another way) and
   tilted about a random horizontal axis by up to ``light_tilt_deg`` (a lamp not quite overhead,
-  the sun higher or lower);
+  the sun higher or lower). An environment map (the room's reflected light, a sky, a photographed
+  room) stays as it is: turning its few sampled directions would move the answer by their
+  discretisation error, not by anything in the world;
 * **the motion**: rocking and swaying amplitudes scaled by a factor in :attr:`Variation.motion_scale`
   (a scenario that does not move stays still);
 * **the viewers**: the whole set of viewing directions tilted about a random horizontal axis by up
@@ -37,6 +39,7 @@ from .directions import rotation
 from .presets import (DOWNLIGHT_HEIGHT_M, DOWNLIGHT_SPACING_M, ROOM_WINDOW_AZIMUTH_DEG, ROOM_WINDOW_POLAR_DEG,
                       room_lights)
 from .scenario import Scenario
+from .sets import Lights
 
 #: the lightings whose layout is drawn fixture by fixture (:func:`labcut.scene.presets.room_lights`)
 ROOM_LIGHTINGS = ("room",)
@@ -119,6 +122,17 @@ def _tilt(axis_u: float, amount: float) -> np.ndarray:
     return rotation([math.cos(phi), math.sin(phi), 0.0], amount)
 
 
+def _lamps_turned(lights: Lights, r: np.ndarray) -> Lights:
+    """``lights`` with their lamps (the first ``n_lamps`` directions) turned by ``r`` and their
+    environment map's sampled directions left as they are: a map is the surroundings as given (a
+    photograph of a room, an even ceiling or sky), and turning its few sampled directions would
+    move the answer by their discretisation error, not by anything in the world."""
+    k = lights.n_lamps
+    d = lights.directions.copy()
+    d[:k] = d[:k] @ np.asarray(r, dtype=np.float64).T
+    return Lights._make(d, lights.weights, lights.name, lights.environment, k)
+
+
 def scenario_variants(scenario: Scenario, variation: Variation | int = 6) -> list[Variant]:
     """``variation.count`` plausible variants of ``scenario`` (module docstring), at its quality.
     Each variant keeps the scenario's name with a ``~k`` suffix (k = 1, 2, ...)."""
@@ -147,7 +161,7 @@ def scenario_variants(scenario: Scenario, variation: Variation | int = 6) -> lis
                             "window_polar_deg": round(polar, 2), "window_azimuth_deg": round(float(ROOM_WINDOW_AZIMUTH_DEG + turn), 2)})
         else:
             r = _tilt(row[4], tilt) @ rotation([0.0, 0.0, 1.0], turn)
-            lights = scenario.lights.rotated(r)
+            lights = _lamps_turned(scenario.lights, r)
             changes.update({"light_turn_deg": round(float(turn), 2), "light_tilt_deg": round(float(abs(tilt)), 2),
                             "light_tilt_axis_deg": round(360.0 * float(row[4]), 1)})
         scale = var.motion_scale[0] + row[6] * (var.motion_scale[1] - var.motion_scale[0])
