@@ -169,14 +169,16 @@ def test_recommendation_runs_numpy_blas_on_one_thread_and_restores_it(monkeypatc
     def blas_threads() -> set[int]:
         return {lib["num_threads"] for lib in threadpool_info() if lib["user_api"] == "blas"}
 
+    from labcut.orientation import optimize as opt
+
     seen: list[set[int]] = []
-    real = rec_module.run_optimizer
+    real = opt.run_optimizer
 
     def spy(*args, **kwargs):
         seen.append(blas_threads())
         return real(*args, **kwargs)
 
-    monkeypatch.setattr(rec_module, "run_optimizer", spy)
+    monkeypatch.setattr(opt, "run_optimizer", spy)
     real_metrics = rec_module.Scorer.metrics
 
     def spy_metrics(self, *args, **kwargs):

@@ -129,10 +129,9 @@ def test_the_recommendation_seeds_its_optimiser_from_its_map(oval, monkeypatch):
     """One energy map per recommendation: the optimiser gets the hemisphere map's cells and makes no
     seed map of its own."""
     from labcut.orientation import optimize as opt
-    from labcut.orientation import recommend as rec_module
 
     got = {}
-    real = rec_module.run_optimizer
+    real = opt.run_optimizer
 
     def spy(name, scorer, constraint, quality, seed_map=None):
         got["seed_map"] = seed_map
@@ -141,7 +140,7 @@ def test_the_recommendation_seeds_its_optimiser_from_its_map(oval, monkeypatch):
     def no_seed_map(*args, **kwargs):
         raise AssertionError("the optimiser made a seed map of its own")
 
-    monkeypatch.setattr(rec_module, "run_optimizer", spy)
+    monkeypatch.setattr(opt, "run_optimizer", spy)  # the search of recommend's answer (optimize.search_best)
     real_seeds = opt._map_seeds
     monkeypatch.setattr(opt, "_map_seeds", no_seed_map)
     rec = labcut.recommend_orientation(oval, LAB, scenario="bench", quality="standard")
