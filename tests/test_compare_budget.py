@@ -97,11 +97,11 @@ def test_compare_with_a_budget_learns_and_reports(monkeypatch):
 
 def test_cli_compare_time_budget(cli, tmp_path):
     out = tmp_path / "cmp.json"
-    r = cli("compare", *CUTS[:1], "--time-budget", "30", "--resolution", "32", "--spp", "2", "--json", str(out))
+    r = cli("compare", *CUTS[:1], "--time-budget", "8", "--resolution", "32", "--spp", "2", "--json", str(out))
     assert r.returncode == 0, r.stderr
     data = json.loads(out.read_text())
-    assert data["time_budget"]["budget_seconds"] == 30 and data["quality"] == data["time_budget"]["quality"]
-    assert "time budget 30 s: quality" in r.stdout
+    assert data["time_budget"]["budget_seconds"] == 8 and data["quality"] == data["time_budget"]["quality"]
+    assert "time budget 8 s: quality" in r.stdout
     r = cli("compare", *CUTS[:1], "--time-budget", "30", "--quality", "draft")
     assert r.returncode == 2 and "not both" in r.stderr and len(r.stderr.strip().splitlines()) == 1
     r = cli("compare", *CUTS[:1], "--time-budget", "-1")

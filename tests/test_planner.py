@@ -319,12 +319,13 @@ def test_polarisation_bias_is_kept_per_material_and_direction_set(monkeypatch, t
 
 def test_a_question_plans_itself_as_plan_effects_would():
     """FlashQuestion.plan passes every part of the question (material, scene, quality, estimator,
-    effect overrides, the pilots' scene): the plan plan_effects makes of the same parts."""
+    effect overrides, the pilots' scene: the rocking bench's, whose pilots other tests share): the
+    plan plan_effects makes of the same parts."""
     import labcut
     from labcut.orientation.question import FlashQuestion
 
     mesh = labcut.load_mesh("meshes/carving-biplane.ply")
-    setup = FlashQuestion.build("blue", "pendant", None, None, quality="draft", estimator="samples", effects={"occlusion": True})
+    setup = FlashQuestion.build("blue", "bench", None, None, quality="draft", estimator="samples", effects={"occlusion": True})
     mine = plan_question(mesh, setup, "evaluate", predict=False)
     theirs = labcut.plan_effects(mesh, setup.material, command="evaluate", scenario=setup.scenario, quality=setup.quality,
                                  estimator="samples", effects={"occlusion": True}, predict=False,

@@ -123,3 +123,23 @@ def test_the_problem_holds_the_scenes_threshold_and_its_area_uses_it(ring_proble
     against_a_lamp = float((w * (radiance >= p.tau)).sum())
     metrics = scorer.metrics(m)
     assert metrics.flash_area == pytest.approx(by_hand, rel=1e-6) and by_hand > against_a_lamp + 0.05
+
+
+def test_lights_built_again_find_their_peak_by_content(monkeypatch):
+    """The same lights made anew (a scenario resolved again, a rough plan's candidates) reuse the
+    scene peak found for the first: one search per content and material, not per object; other
+    lights or another material search again."""
+    import labcut
+    import labcut.orientation.radiance as rad
+
+    calls = []
+    real = rad._scene_peak
+    monkeypatch.setattr(rad, "_scene_peak", lambda m, l: calls.append(l.name) or real(m, l))
+    monkeypatch.setattr(rad, "_PEAKS", {})
+    lab = labcut.Labradorite.preset("blue")
+    first = rad.scene_peak(lab, labcut.Lights.preset("room", "draft"))
+    again = rad.scene_peak(lab, labcut.Lights.preset("room", "draft"))
+    assert again == first and calls == ["room"]
+    rad.scene_peak(lab, labcut.Lights.preset("room", "standard"))  # more window directions: other content
+    rad.scene_peak(labcut.Labradorite.preset("gold"), labcut.Lights.preset("room", "draft"))
+    assert calls == ["room", "room", "room"]

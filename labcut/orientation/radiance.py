@@ -50,6 +50,10 @@ SKY_CAP_DEG = 70.0
 SKY_CAP_SAMPLES = 20000
 
 _SKY: dict[str, float] = {}  # sky_schiller per material key
+#: scene peaks by the lights' content and the material (:func:`scene_peak`): lights built anew with
+#: the same directions (a scenario resolved again, a rough plan's candidates) find theirs here
+_PEAKS: dict[str, float] = {}
+_PEAKS_KEPT = 256
 
 
 def fresnel_dielectric(cos_i: np.ndarray, eta: float) -> np.ndarray:
@@ -157,8 +161,29 @@ def scene_peak(material: Labradorite, lights: Lights) -> float:
     key = f"scene peak {material_key(material)}"
     kept = lights.invariants  # shared with the lights' turned copies: P does not depend on the frame
     if key not in kept:
-        kept[key] = _scene_peak(material, lights)
+        content = _content_key(lights, key)
+        if content not in _PEAKS:
+            if len(_PEAKS) >= _PEAKS_KEPT:
+                _PEAKS.pop(next(iter(_PEAKS)))
+            _PEAKS[content] = _scene_peak(material, lights)
+        kept[key] = _PEAKS[content]
     return kept[key]
+
+
+def _content_key(lights: Lights, material: str) -> str:
+    """A digest of what :func:`_scene_peak` reads of ``lights`` (directions, weights, how many are
+    lamps, the environment map's luminance and rotation) and the material's key."""
+    import hashlib
+
+    h = hashlib.sha256(material.encode())
+    for a in (lights.directions, lights.weights):
+        h.update(np.ascontiguousarray(a, dtype=np.float64).tobytes())
+    h.update(str(lights.n_lamps).encode())
+    env = lights.environment
+    if env is not None:
+        h.update(np.ascontiguousarray(env.luminance(), dtype=np.float64).tobytes())
+        h.update(np.ascontiguousarray(env.rotation, dtype=np.float64).tobytes())
+    return h.hexdigest()
 
 
 def flash_threshold(material: Labradorite, lights: Lights, tau: float) -> float:
