@@ -192,19 +192,19 @@ def test_a_stone_outside_half_a_mm_to_half_a_metre_is_refused(tmp_path, oval, un
     assert hint in str(info.value) and "\n" not in str(info.value)
 
 
-def test_units_on_every_command_that_reads_a_mesh(cli, tmp_path, oval):
+def test_units_on_every_command_that_reads_a_mesh(cli_main, tmp_path, oval):
     path = export(oval, tmp_path / "metres.ply", "+Z", unit_mm=1000.0)
     out = tmp_path / "x.png"
     commands = [["inspect"], ["evaluate-orientation", "--quality", "draft"], ["recommend-orientation", "--quality", "draft"],
                 ["render", "-o", str(out), "--resolution", "16", "--spp", "1"]]
     for cmd in commands:
-        proc = cli(cmd[0], str(path), *cmd[1:])
+        proc = cli_main(cmd[0], str(path), *cmd[1:])
         assert proc.returncode == 2 and "--units m" in proc.stderr, (cmd, proc.stderr)
         assert not out.exists()
     for cmd in commands:
-        proc = cli(cmd[0], str(path), *cmd[1:], "--units", "m")
+        proc = cli_main(cmd[0], str(path), *cmd[1:], "--units", "m")
         assert proc.returncode == 0, (cmd, proc.stderr)
-    proc = cli("evaluate-orientation", str(path), "--units", "furlong")
+    proc = cli_main("evaluate-orientation", str(path), "--units", "furlong")
     assert proc.returncode == 2 and "unknown units" in proc.stderr
 
 
@@ -300,12 +300,12 @@ def test_any_size_renders_a_stone_not_a_flat_image(scale):
 
 
 # ----------------------------------------------------------------------------- 10. provenance
-def test_provenance_in_json_and_repairs_shown(cli, tmp_path):
+def test_provenance_in_json_and_repairs_shown(cli_main, tmp_path):
     box = trimesh.creation.box(extents=(10.0, 8.0, 3.0))
     path = tmp_path / "inverted.obj"
     trimesh.Trimesh(box.vertices, box.faces[:, ::-1], process=False).export(path)
     js = tmp_path / "rec.json"
-    proc = cli("recommend-orientation", str(path), "--quality", "draft", "--json", str(js), "--units", "cm")
+    proc = cli_main("recommend-orientation", str(path), "--quality", "draft", "--json", str(js), "--units", "cm")
     assert proc.returncode == 0, proc.stderr
     assert "repaired" in proc.stdout and "inverted all faces" in proc.stdout
     mesh = json.loads(js.read_text())["mesh"]
@@ -313,7 +313,7 @@ def test_provenance_in_json_and_repairs_shown(cli, tmp_path):
     assert mesh["bodies"] == 1 and any("inverted" in r for r in mesh["repairs"])
     assert mesh["dimensions_mm"] == pytest.approx([100.0, 80.0, 30.0])
     rj = tmp_path / "render.json"
-    proc = cli("render", str(path), "--units", "cm", "-o", str(tmp_path / "r.png"), "--resolution", "16", "--spp", "1",
+    proc = cli_main("render", str(path), "--units", "cm", "-o", str(tmp_path / "r.png"), "--resolution", "16", "--spp", "1",
                "--json", str(rj))
     assert proc.returncode == 0, proc.stderr
     assert "inverted all faces" in proc.stdout

@@ -254,15 +254,15 @@ def test_cli_errors_name_the_option_before_any_work(cli, args, words):
     assert proc.stderr.strip().startswith(words), proc.stderr
 
 
-def test_cli_plans_a_slab(cli, tmp_path):
-    proc = cli("rough", "slab:40x30x6", "--flash-tilt", "5", "--flash-azimuth", "90", "--quality", "draft",
+def test_cli_plans_a_slab(cli_main, tmp_path):
+    proc = cli_main("rough", "slab:40x30x6", "--flash-tilt", "5", "--flash-azimuth", "90", "--quality", "draft",
                "--cut", "cab:oval,16x12,low", "--json", "-")
     assert proc.returncode == 0, proc.stderr
     d = json.loads(proc.stdout)
     n = d["lamella_normal"]
     assert n == pytest.approx(list(direction(5.0, 90.0)))
     assert d["stones"] and d["checks"]["inside"]
-    proc = cli("rough", "slab:40x30x6", "--lamella", "0,0,1", "--quality", "draft", "--cut", "cab:oval,16x12,low",
+    proc = cli_main("rough", "slab:40x30x6", "--lamella", "0,0,1", "--quality", "draft", "--cut", "cab:oval,16x12,low",
                "--png", str(tmp_path / "p.png"))
     assert proc.returncode == 0, proc.stderr
     assert "stone 1" in proc.stdout and "Saw" in proc.stdout or "flat" in proc.stdout
