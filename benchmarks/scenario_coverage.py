@@ -41,6 +41,8 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
+from accuracy_time import COVERAGE_BEGIN, COVERAGE_END, angle, axial_mean  # noqa: E402  (this folder's helpers)
+
 STONES = {
     "oval": ("low oval cabochon 16 x 12 mm", "meshes/oval-16x12-low.ply", None),
     "biplane": ("biplane carving", "meshes/carving-biplane.ply", None),
@@ -51,21 +53,10 @@ TEST_STONES = ("oval", "srb")
 REF_QUALITY = "high"
 REF_SEEDS = (101, 102)
 QUALITIES = ("draft", "standard")
-BEGIN, END = "<!-- SCENARIO-COVERAGE:BEGIN -->", "<!-- SCENARIO-COVERAGE:END -->"
+BEGIN, END = COVERAGE_BEGIN, COVERAGE_END
 DATA = ROOT / "benchmarks" / "data" / "scenario_coverage.json"
 TEST_DATA = ROOT / "tests" / "data" / "scenario_references.json"
 NORMAL_TARGET, SCORE_TARGET = 0.90, 0.80
-
-
-def angle(a, b) -> float:
-    return math.degrees(math.acos(min(1.0, abs(float(np.dot(a, b))))))
-
-
-def axial_mean(normals: list[np.ndarray]) -> np.ndarray:
-    m = sum(np.outer(n, n) for n in normals)
-    _, v = np.linalg.eigh(m)
-    n = v[:, -1]
-    return n if n[2] >= 0 else -n
 
 
 def load(stone: str):
