@@ -413,8 +413,8 @@ def report(results: list[dict], renders: list[dict], images: list[str], args, se
             ra = np.median([c["angle_deg"] / c["bar_deg"] for c in sel])
             rs = np.median([c["score_err"] / max(c["bar_score"], 1e-12) for c in sel])
             lines.append(f"| {res['label']} | {q} | {len(sel)} | {ok_a}/{len(sel)} | {ok_s}/{len(sel)} | {ra:.2f} | {rs:.2f} |")
-    lines += ["", "`tests/test_uncertainty.py` checks the same on a smaller scale in `make test` (the oval under bench "
-              "and pendant-diffuse, draft, four seeds, against a reference of 8x the samples). Every scenario, the "
+    lines += ["", "`tests/test_uncertainty.py` checks the same on a smaller scale in `make test` (the oval under bench, "
+              "draft, four seeds, against a reference of 8x the samples). Every scenario, the "
               "render estimator included: below.", ""]
     if budgets:
         lines += ["## Time budgets", "",

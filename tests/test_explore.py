@@ -413,3 +413,5 @@ def test_a_script_that_ends_with_the_explorer_running_exits_cleanly():
         assert hooks == [ex._stop_at_exit]
         ex.stop()
         assert hooks == []
+        # stop() returns when the worker is done: no picture under way switches Mitsuba's variant later
+        assert not ex.worker.is_alive()

@@ -112,14 +112,14 @@ def _converged(scenario: str):
     return labcut.recommend_orientation(mesh, "blue", scenario=scenario, quality=q, seed=101)
 
 
-@pytest.mark.parametrize("scenario", ["bench", "pendant-diffuse"])
+@pytest.mark.parametrize("scenario", ["bench"])
 def test_the_bars_cover_the_distance_to_a_converged_answer(oval, scenario):
     """Draft answers of four seeds: each bar covers its distance to the converged normal and score
     (about 95 % coverage each: at most one miss of the eight in the two scenarios would already be
-    unusual, so every one must hold); and the bars are not vacuous: within the tolerance on the
-    bench, within twice it on the still pendant, whose draft answers lie 1.8-2.2° from the
-    converged one against a tolerance of 3.2° (its bars of 3.3-4.4° say that draft cannot promise
-    the tolerance there; every scenario: docs/accuracy.md)."""
+    unusual, so every one must hold); and the bars are not vacuous: within the tolerance. (Every
+    scenario, against references kept by the coverage study: tests/test_scenario_coverage.py; the
+    still pendant's draft bars, 3.3-4.4° for errors of 1.8-2.2°, exceed its tolerance of 3.2°:
+    draft cannot promise it there, docs/accuracy.md.)"""
     ref = _converged(scenario)
     for seed in range(4):
         rec = labcut.recommend_orientation(oval, "blue", scenario=scenario, quality="draft", seed=seed)
@@ -127,20 +127,19 @@ def test_the_bars_cover_the_distance_to_a_converged_answer(oval, scenario):
         assert _angle(rec.normal, ref.normal) <= u.angle_deg + ref.uncertainty.angle_deg, (seed, u)
         # score_rel is relative to the answer's own score: "energy 0.054 ± 35 %"
         assert abs(ref.score / rec.score - 1.0) <= u.score_rel + ref.uncertainty.score_rel, (seed, u)
-        assert u.angle_deg < (1.0 if scenario == "bench" else 2.0) * rec.tolerance_deg
+        assert u.angle_deg < rec.tolerance_deg
 
 
 def test_a_bar_too_narrow_would_miss():
     """The coverage test can fail: bars shrunk 10x do not cover the draft answers' distances."""
     mesh = labcut.load_mesh("meshes/oval-16x12-low.ply")
-    ref = _converged("pendant-diffuse")
+    ref = _converged("bench")
     misses = 0
     for seed in range(4):
-        rec = labcut.recommend_orientation(mesh, "blue", scenario="pendant-diffuse", quality="draft", seed=seed)
+        rec = labcut.recommend_orientation(mesh, "blue", scenario="bench", quality="draft", seed=seed)
         small = rec.uncertainty.scaled(0.1)
         misses += _angle(rec.normal, ref.normal) > small.angle_deg
     assert misses >= 2
-
 
 def test_bad_inputs_are_one_line_errors(oval):
     setup = FlashQuestion.build("blue", "bench", quality="draft")

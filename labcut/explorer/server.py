@@ -93,9 +93,17 @@ class Worker(threading.Thread):
     def submit(self, job: _Job) -> None:
         self.jobs.put(job)
 
+    #: how long :meth:`stop` waits for a picture under way (seconds)
+    STOP_WAIT_SECONDS = 30.0
+
     def stop(self) -> None:
+        """Stop answering, and wait for a picture under way to finish: once this returns the worker
+        renders nothing more (a render switches Mitsuba's variant, which is the process's: one still
+        running after the explorer stopped could switch it under the caller's next render)."""
         self.stopped.set()
         self.jobs.put(None)
+        if self.is_alive() and threading.current_thread() is not self:
+            self.join(timeout=self.STOP_WAIT_SECONDS)
 
     # ------------------------------------------------------------------ the loop
     def run(self) -> None:
