@@ -19,7 +19,7 @@ def test_example_runs(script, expect):
 
 
 def test_recommend_carving_example(tmp_path):
-    proc = subprocess.run([sys.executable, str(ROOT / "examples" / "recommend_carving.py"), "--out", str(tmp_path)],
+    proc = subprocess.run([sys.executable, str(ROOT / "examples" / "recommend_carving.py"), "--quick", "--out", str(tmp_path)],
                           capture_output=True, text=True, timeout=600, cwd=ROOT)
     assert proc.returncode == 0, proc.stderr[-2000:]
     assert (tmp_path / "carving-recommended.png").exists() and (tmp_path / "carving-score-map.png").exists()

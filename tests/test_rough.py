@@ -19,6 +19,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import labcut
+from labcut.scene.quality import Quality
 from labcut.errors import MeshError, ParameterError
 from labcut.rough.check import inside, outside_share, overlap_mm3, surface_distance, triangle_distances
 from labcut.rough.pose import largest_fit, rotation_of, rotations, sphere_directions, supports
@@ -137,8 +138,11 @@ def test_a_thin_slab_at_45_degrees_reports_the_tradeoff_and_stays_inside():
 
 
 def test_two_stones_in_the_dented_nodule_are_inside_apart_and_keep_the_margin():
+    """Inside, apart and with the margin kept: what any search must give, so a coarser one than
+    draft's (half its directions, spins and refinements) checks it."""
+    coarse = Quality.coerce("draft").replace(rough_directions=48, rough_spins=6, rough_refine=8)
     plan = labcut.plan_rough(ROUGHS / "nodule-dented.ply", direction(30.0, 60.0), count=2, margin_mm=0.5,
-                             quality="draft")
+                             quality=coarse)
     assert len(plan.stones) == 2 and not plan.rough.convex
     for s in plan.stones:
         assert outside_share(plan.rough.mesh, s.mesh) <= 1e-3
