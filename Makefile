@@ -37,7 +37,7 @@ demo: setup
 	$(BIN)/labcut spectrum --preset blue --plot $(OUT)/spectrum-blue.png --json $(OUT)/spectrum-blue.json
 	$(BIN)/labcut recommend-orientation meshes/oval-16x12-low.ply --preset blue --scenario bench \
 		--json $(OUT)/oval-bench.json --render $(OUT)/oval-bench.png --map $(OUT)/oval-bench-map.png
-	$(BIN)/labcut recommend-orientation meshes/oval-16x12-low.ply --preset blue --scenario pendant \
+	$(BIN)/labcut recommend-orientation meshes/oval-16x12-low.ply --preset blue --scenario pendant --variants 6 \
 		--json $(OUT)/oval-pendant.json --render $(OUT)/oval-pendant.png --map $(OUT)/oval-pendant-map.png
 	$(BIN)/labcut recommend-orientation meshes/carving-biplane.ply --preset blue --scenario bench \
 		--json $(OUT)/biplane-bench.json --render $(OUT)/biplane-bench.png --map $(OUT)/biplane-bench-map.png
