@@ -182,3 +182,14 @@ def test_the_cli_reports_the_variants(cli_main, tmp_path):
     assert r["sentence"][1:] in " ".join(done.stdout.split())
     done = cli_main("recommend-orientation", "meshes/oval-16x12-low.ply", "--variants", "1")
     assert done.returncode == 2 and "--variants must be 0 (none) or a count in [2, 64], got 1" in done.stderr
+
+
+def test_lights_named_room_are_not_taken_for_the_room_preset():
+    """The room's layout is redrawn only for the preset's own lights (told by their directions and
+    weights): a lighting file that happens to be called "room" is turned and tilted as any lamp is."""
+    ring = labcut.Scenario.preset("ring", "draft")
+    mine = ring.with_lights(labcut.Lights([[0.0, -0.3, 1.0], [0.2, 0.1, 1.0]], name="room"))
+    for v in scenario_variants(mine, 3):
+        assert "light_turn_deg" in v.changes and "downlight_spacing_m" not in v.changes
+        assert len(v.scenario.lights) == 2
+    assert all("downlight_spacing_m" in v.changes for v in scenario_variants(ring, 3))

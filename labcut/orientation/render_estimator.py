@@ -42,7 +42,7 @@ from ..scene import Lights, Setting, Views
 from ..scene.quality import Quality
 from .radiance import flash_threshold, reference_radiance
 from ..validation import check_number
-from .render_objective import CARVING_DEPTH, DIRECT_DEPTH, SMOOTH_WIDTH, RenderObjective
+from .render_objective import CARVING_DEPTH, DIRECT_DEPTH, SMOOTH_WIDTH, RenderObjective, flash_integrator
 from .scoring import FlashMetrics
 
 __all__ = [
@@ -95,9 +95,7 @@ def render_metrics(
             sensor = camera(mesh, CameraView("v", tuple(d), tuple(st.up())), resolution)
             sensor["film"]["pixel_format"] = "luminance_alpha"
             sensor["film"]["rfilter"] = {"type": "box"}
-            # hide_emitters: the lights seen behind the stone add nothing to a pixel it covers in part
-            scene = mi.load_dict({"type": "scene", "integrator": {"type": "direct", "hide_emitters": True}, "sensor": sensor,
-                                  "stone": stone, **lamps})
+            scene = mi.load_dict({"type": "scene", "integrator": flash_integrator(), "sensor": sensor, "stone": stone, **lamps})
             img = np.array(mi.render(scene, spp=spp, seed=seed), dtype=np.float64)
             value, alpha = img[..., 0], img[..., 1]
             cover = alpha > 1e-3

@@ -202,13 +202,7 @@ class RenderObjective:
 
         self.zoning = resolve_zoning(zoning, self.material)  # colour zones: each point's own lamella stack
         baked = None if self.zoning is None else self.zoning.bake(mesh.bounds)
-        # hide_emitters: a pixel the stone covers only in part must not add the lights seen behind it
-        # (an environment map behind a stone viewed from the side, pendant and brooch: its radiance
-        # at the silhouette read as flash; the deeper paths' image less its no-schiller image
-        # cancelled it, direct lighting's did not)
-        integ: dict[str, Any] = ({"type": "direct", "emitter_samples": 1, "bsdf_samples": 1, "hide_emitters": True}
-                                 if self.integrator == "direct" else
-                                 {"type": "prb", "max_depth": self.max_depth, "hide_emitters": True})
+        integ = flash_integrator(self.max_depth)
         # direct lighting: the schiller lobe alone is the flash. Deeper paths: every lobe, so light
         # the polish (or the body) of one part sends to another reaches its schiller; the flash is
         # then the image less the same scene's image without the schiller (rendered once: it does
@@ -415,6 +409,18 @@ class RenderObjective:
         self._set_normal(m, grad=False)
         self.render_seconds += time.perf_counter() - start
         return float(value), grad
+
+
+def flash_integrator(max_depth: int = DIRECT_DEPTH) -> dict[str, Any]:
+    """The Mitsuba integrator of images measured as flash (this objective, :func:`~labcut.orientation.
+    render_estimator.render_metrics`): direct lighting at :data:`DIRECT_DEPTH`, else ``prb`` to
+    ``max_depth``. Emitters hidden from the cameras: a pixel the stone covers only in part must not
+    add the lights seen behind it (an environment map behind a stone seen from the side, a pendant's
+    or a brooch's ceiling: its radiance at the silhouette read as 11 % of the best flash under
+    direct lighting, which the deeper paths' image less its no-schiller image cancelled)."""
+    if max_depth == DIRECT_DEPTH:
+        return {"type": "direct", "emitter_samples": 1, "bsdf_samples": 1, "hide_emitters": True}
+    return {"type": "prb", "max_depth": int(max_depth), "hide_emitters": True}
 
 
 def poses_share_a_scene(lamp_sets: Sequence[dict[str, Any]]) -> bool:

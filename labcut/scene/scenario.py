@@ -293,6 +293,8 @@ MOTION = {"ring": (25.0, 25.0), "pendant": (10.0, 10.0), "brooch": (8.0, 8.0), "
 #: street's viewers stand all round, the pendant's and the brooch's in front
 MOTION_VIEWS = {"ring": 0.1, "pendant": 0.15, "brooch": 0.15, "outdoor": 0.1}
 BROOCH_TILT_BACK_DEG = 15.0
+#: a brooch's pose (worn or still): the face vertical, tilted back by BROOCH_TILT_BACK_DEG
+BROOCH_POSE = rotation([1.0, 0.0, 0.0], -BROOCH_TILT_BACK_DEG) @ POSES["face-front"]
 
 
 def _worn(name: str, pose: np.ndarray, lighting: str, viewing: str, quality: Quality | str) -> Scenario:
@@ -317,8 +319,7 @@ def pendant(quality: Quality | str) -> Scenario:
 @SCENARIOS.register("brooch", "a brooch in an office: face vertical but tilted back 15°, moving ±8° with the body; "
                               "downlights, a window, reflected light; viewers at eye level")
 def brooch(quality: Quality | str) -> Scenario:
-    pose = rotation([1.0, 0.0, 0.0], -BROOCH_TILT_BACK_DEG) @ POSES["face-front"]
-    return _worn("brooch", pose, "room", "eye-level", quality)
+    return _worn("brooch", BROOCH_POSE, "room", "eye-level", quality)
 
 
 @SCENARIOS.register("display", "a shop window: stone face-up, spots 30-45° from the vertical, viewers 0-30° from the vertical in front")
@@ -347,8 +348,7 @@ def pendant_diffuse(quality: Quality | str) -> Scenario:
 
 @SCENARIOS.register("brooch-diffuse", "a still brooch tilted back 15°; an even ceiling and a window; viewers at eye level")
 def brooch_diffuse(quality: Quality | str) -> Scenario:
-    pose = rotation([1.0, 0.0, 0.0], -BROOCH_TILT_BACK_DEG) @ POSES["face-front"]
-    return _preset("brooch-diffuse", pose, "office", "eye-level", quality, SCENARIOS.get("brooch-diffuse").summary)
+    return _preset("brooch-diffuse", BROOCH_POSE, "office", "eye-level", quality, SCENARIOS.get("brooch-diffuse").summary)
 
 
 @SCENARIOS.register("outdoor-still", "a still stone face-up in sun and sky, seen from every side looking down 20-60°")

@@ -7,7 +7,8 @@ is, how much the hand turns, how high the onlookers' eyes are. :func:`scenario_v
 ranges of a :class:`Variation` (Latin hypercube: each range is cut in ``count`` strata and every
 stratum is used once, so a handful of variants spans every range):
 
-* **the lights' layout.** For the ``room`` lighting (ring, pendant, brooch): the downlight grid's
+* **the lights' layout.** For the ``room`` lighting's (ring, pendant, brooch; told by its directions and
+  weights, not by name): the downlight grid's
   spacing (:attr:`Variation.downlight_spacing_m`), its height above the stone
   (:attr:`Variation.downlight_height_m`), where the stone sits under it (anywhere in a cell), and
   the window's azimuth (:attr:`Variation.light_turn_deg` either side of the front) and height
@@ -41,8 +42,6 @@ from .presets import (DOWNLIGHT_HEIGHT_M, DOWNLIGHT_SPACING_M, ROOM_WINDOW_AZIMU
 from .scenario import Scenario
 from .sets import Lights
 
-#: the lightings whose layout is drawn fixture by fixture (:func:`labcut.scene.presets.room_lights`)
-ROOM_LIGHTINGS = ("room",)
 
 
 @dataclass(frozen=True)
@@ -122,6 +121,15 @@ def _tilt(axis_u: float, amount: float) -> np.ndarray:
     return rotation([math.cos(phi), math.sin(phi), 0.0], amount)
 
 
+def _is_room(lights: Lights, quality: Any) -> bool:
+    """Whether ``lights`` are the ``room`` preset's (:func:`labcut.scene.presets.room_lights` at its
+    layout, this quality), whose layout the variants draw fixture by fixture: told by what they hold,
+    not by their name (a lighting file may be called "room" too)."""
+    preset = room_lights(quality)
+    return (lights.n_lamps == preset.n_lamps and lights.directions.shape == preset.directions.shape
+            and bool(np.array_equal(lights.directions, preset.directions)) and bool(np.array_equal(lights.weights, preset.weights)))
+
+
 def _lamps_turned(lights: Lights, r: np.ndarray) -> Lights:
     """``lights`` with their lamps (the first ``n_lamps`` directions) turned by ``r`` and their
     environment map's sampled directions left as they are: a map is the surroundings as given (a
@@ -143,7 +151,7 @@ def scenario_variants(scenario: Scenario, variation: Variation | int = 6) -> lis
         return []
     rng = np.random.default_rng(var.seed)
     u = _strata(rng, var.count, 9)
-    room = scenario.lights.name in ROOM_LIGHTINGS
+    room = _is_room(scenario.lights, scenario.quality)
     out = []
     for k, row in enumerate(u, start=1):
         turn = (2.0 * row[0] - 1.0) * var.light_turn_deg
