@@ -182,8 +182,12 @@ def report(results: list[dict], seconds: float, command: str) -> str:
         a = sum(t[1] for t in totals.values())
         s = sum(t[2] for t in totals.values())
         verdict = "met" if a / n >= NORMAL_TARGET and s / n >= SCORE_TARGET else "NOT met"
+        every = [x for res in results for x in res["answers"]]
+        ratio = float(np.median([x["angle_deg"] / max(x["bar_deg"], 1e-9) for x in every]))
+        wide = sum(x["bar_deg"] > 2.0 * x["tolerance_deg"] for x in every)
         lines += ["", f"All answers: normals {a}/{n} ({a / n:.0%}) covered, scores {s}/{n} ({s / n:.0%}); the target "
-                  f"({NORMAL_TARGET:.0%} of normals, {SCORE_TARGET:.0%} of scores) is {verdict}."]
+                  f"({NORMAL_TARGET:.0%} of normals, {SCORE_TARGET:.0%} of scores) is {verdict}. The median distance is "
+                  f"{ratio:.2f} of the answer's own bar; {wide} of the {n} bars exceed twice the answer's tolerance."]
     if misses:
         lines += ["", "Misses (distance against bar + reference bar):", ""]
         for res, a, c in misses:

@@ -12,7 +12,7 @@ import pytest
 import labcut
 from labcut.errors import ParameterError
 from labcut.orientation.robustness import Robustness
-from labcut.scene.presets import DOWNLIGHT_CUTOFF, downlight_grid, room, room_lights
+from labcut.scene.presets import DOWNLIGHT_CUTOFF, downlight_grid
 from labcut.scene.variants import Variation, scenario_variants
 
 
@@ -26,11 +26,6 @@ def oval():
 
 
 # ---------------------------------------------------------------------- the draw
-def test_the_room_preset_is_its_layout_at_the_defaults():
-    a, b = room("draft"), room_lights("draft")
-    assert np.array_equal(a.directions, b.directions) and np.array_equal(a.weights, b.weights)
-
-
 def test_a_downlight_grid_follows_its_spacing_height_and_offset():
     """The stone right under a fixture (offset 0): the brightest light straight above; a wider,
     lower grid puts the next fixtures further from the vertical."""
