@@ -202,14 +202,17 @@ def report(results: list[dict], seconds: float, command: str) -> str:
     return "\n".join(lines)
 
 
-def splice(path: Path, block: str) -> None:
+def splice(path: Path, block: str, begin: str = BEGIN, end: str = END, anchor: str | None = "## Time budgets") -> None:
+    """Put ``block`` (which holds its own ``begin`` and ``end`` markers) between those markers of the
+    file at ``path``, or, where it has none, before ``anchor`` (``None``: refuse); atomically."""
     text = path.read_text()
-    if BEGIN in text and END in text:
-        head, rest = text.split(BEGIN, 1)
-        _, tail = rest.split(END, 1)
+    if begin in text and end in text:
+        head, rest = text.split(begin, 1)
+        _, tail = rest.split(end, 1)
         text = head + block + tail
+    elif anchor is None:
+        raise SystemExit(f"{path} has no {begin} ... {end} markers")
     else:
-        anchor = "## Time budgets"
         head, sep, tail = text.partition(anchor)
         text = head + block + "\n\n" + sep + tail if sep else text + "\n" + block + "\n"
     tmp = path.with_suffix(".tmp")

@@ -14,6 +14,7 @@ seconds the variants took. The table goes between the ``SCENARIO-VARIANTS`` mark
 from __future__ import annotations
 
 import argparse
+import sys
 import os
 import platform
 import time
@@ -21,24 +22,10 @@ from pathlib import Path
 
 import labcut
 
-ROOT = Path(__file__).resolve().parents[1]
-STONES = {
-    "oval": ("low oval cabochon", "meshes/oval-16x12-low.ply", None),
-    "biplane": ("biplane carving", "meshes/carving-biplane.ply", None),
-    "srb": ("GemCad SRB, 10 mm", "meshes/designs/SRB.asc", 10.0),
-}
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from scenario_coverage import ROOT, STONES, load, splice  # noqa: E402  (this folder's stones and splice)
+
 BEGIN, END = "<!-- SCENARIO-VARIANTS:BEGIN -->", "<!-- SCENARIO-VARIANTS:END -->"
-
-
-def splice(path: Path, block: str) -> None:
-    text = path.read_text()
-    if BEGIN not in text or END not in text:
-        raise SystemExit(f"{path} has no {BEGIN} ... {END} markers")
-    head, rest = text.split(BEGIN, 1)
-    _, tail = rest.split(END, 1)
-    tmp = path.with_suffix(".tmp")
-    tmp.write_text(head + block + tail)
-    tmp.replace(path)
 
 
 def main() -> None:
@@ -56,8 +43,8 @@ def main() -> None:
             "|---|---|---|---|---|---|---|---|---|"]
     verdicts: dict[str, int] = {}
     for stone in args.stones.split(","):
-        label, path, size = STONES[stone]
-        mesh = labcut.load_mesh(ROOT / path, size=size) if size else labcut.load_mesh(ROOT / path)
+        label = STONES[stone][0]
+        mesh = load(stone)
         for name in args.scenarios.split(","):
             rec = labcut.recommend_orientation(mesh, "blue", scenario=name, quality=args.quality, variants=args.variants)
             r = rec.robustness
@@ -75,7 +62,7 @@ def main() -> None:
         "Verdicts: " + ", ".join(f"{k} {v}" for k, v in sorted(verdicts.items())) + ".", "", END])
     print(block)
     if args.out != "-":
-        splice(Path(args.out), block)
+        splice(Path(args.out), block, BEGIN, END, anchor=None)
 
 
 if __name__ == "__main__":
