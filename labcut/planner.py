@@ -19,6 +19,12 @@ Effects (all directions in the mesh frame, mm, +Z face-up):
     and ``rho`` the most the stone can send back (hemispherical Fresnel reflectance of its polish
     + body albedo + the brightest schiller reflectance). It is simulated (a path tracer; for a
     recommendation the render estimator) when the bound exceeds :data:`INTERREFLECTION_TOLERANCE`.
+``depth``
+    light mirrored below the surface by the stack (:attr:`labcut.Labradorite.flash_depth_mm` deep
+    on average) leaving the stone elsewhere, or not at all where a part is thinner than the stack.
+    Weighed by :func:`labcut.orientation.volume.depth_exposure` (the share of the surface over less
+    stone than the stack's depth, the normal's turn across the flash depth): on (the ``volume``
+    estimator) where that share reaches :data:`DEPTH_THIN_SHARE`.
 ``environment``
     an environment map among the lights (``ceiling``, ``sky``, an .exr/.hdr file): sampled into
     directions by the sample estimator, an ``envmap`` emitter in renders.
@@ -72,6 +78,16 @@ INTERREFLECTION_TOLERANCE = 0.02
 #: the moving scenarios (224 and more) against the renders; still under the ceiling (32 and 64
 #: directions) the two were 9° and 2.7° apart
 ENV_DIRECTIONS_ENOUGH = 96
+#: the light is carried through the stone's volume (the ``volume`` estimator) where at least this
+#: share of the surface lies over less stone than the material's stack is deep
+#: (:func:`labcut.orientation.volume.depth_exposure`): there the surface model lets thin parts mirror
+#: a whole stack's flash. docs/planner.md ("Depth") measures the bundled stones: the carving
+#: (64 %) loses a quarter of its flash energy through the volume; below, the low dome's rim (12 %)
+#: and every other bundled cut move their answer by at most 0.5° and their energy by at most 4 %
+DEPTH_THIN_SHARE = 0.2
+#: a volume-estimator answer's time over the sample estimator's (its paths are traced with ray
+#: casts, three per path; measured by benchmarks/volume_reference.py --timing, docs/accuracy.md)
+VOLUME_TIME_FACTOR = 3.0
 
 
 @dataclass(frozen=True)
@@ -640,6 +656,30 @@ def plan_effects(
         how = "the render estimator's path tracer (the surface samples cannot carry it)"
     decisions.append(Decision("inter_reflection", ir_on, how, why, "inter_reflection" in forced, bound))
 
+    # depth -----------------------------------------------------------------------
+    from .orientation.volume import depth_exposure
+
+    exposure = depth_exposure(mesh, material)
+    facts.update(thin_share=exposure["thin_share"], normal_turn_deg=exposure["turn_deg"],
+                 flash_depth_mm=exposure["flash_depth_mm"], stack_depth_mm=exposure["stack_depth_mm"])
+    thin_text = (f"{exposure['thin_share']:.0%} of the surface lies over less stone than the stack's "
+                 f"{exposure['stack_depth_mm']:.2f} mm and the normal turns {exposure['turn_deg']:.1f}° across twice "
+                 f"the flash depth ({exposure['flash_depth_mm']:.2f} mm)")
+    depth_on = forced.get("depth", exposure["thin_share"] >= DEPTH_THIN_SHARE)
+    if rendering:
+        depth_on = False
+        depth_why = "renders mirror the schiller where the light meets the surface (the BSDF); recommend --estimator volume carries the depth"
+    elif "depth" in forced:
+        depth_why = f"switched {'on' if depth_on else 'off'} ({thin_text})"
+    elif depth_on:
+        depth_why = (f"{thin_text}: at or above {DEPTH_THIN_SHARE:.0%}, thin parts would mirror a whole stack's flash "
+                     "in the surface model")
+    else:
+        depth_why = (f"{thin_text}: below {DEPTH_THIN_SHARE:.0%}; on the bundled cuts this leaves the answer within "
+                     "0.5° and its energy within 4 % (docs/planner.md)")
+    decisions.append(Decision("depth", depth_on, "the volume estimator: light refracted in, mirrored at a depth drawn "
+                              "from the stack's depth law, traced to where it leaves", depth_why, "depth" in forced))
+
     # environment ---------------------------------------------------------------
     envs = {st.lights.environment.name for st in scene.settings() if st.lights.environment is not None}
     if envs:
@@ -712,8 +752,18 @@ def plan_effects(
     if not rendering:
         if estimator == "render":
             chosen, est_why = "render", "asked for"
+            if depth_on:
+                est_why += "; renders mirror the light where it enters (the stack's depth is left out)"
+        elif estimator == "volume":
+            chosen, est_why = "volume", "asked for"
+            if ir_on:
+                est_why += f"; it cannot carry inter-reflection (up to {bound:.1%} of the energy is left out)"
+            if env_occ:
+                est_why += f"; it sees the environment map past the stone's parts through {n_map} directions only (approximate)"
         elif estimator == "samples":
             chosen, est_why = "samples", "asked for"
+            if depth_on:
+                est_why += "; it mirrors the light where it enters (the stack's depth is left out)"
             if ir_on:
                 est_why += f"; it cannot carry inter-reflection (up to {bound:.1%} of the energy is left out)"
             if env_occ:
@@ -726,25 +776,33 @@ def plan_effects(
             chosen, est_why = "render", (f"an environment map seen past the parts of a non-convex stone: the surface samples see "
                                          f"it through {n_map} directions, each blocked or not for every point; renders trace "
                                          "what each point sees of the whole map")
-        elif past_parts:
-            chosen, est_why = "samples", (f"an environment map seen past the parts of a non-convex stone, but the moving stone "
-                                          f"sees {n_map} map directions in each of {len(scene.poses())} poses, {env_seen} in its "
-                                          f"own frame (at least {ENV_DIRECTIONS_ENOUGH}): the samples follow the map as the "
-                                          "renders do (docs/planner.md)")
+        elif depth_on or past_parts:
+            chosen = "volume" if depth_on else "samples"
+            parts = (["the stack's depth matters here and the volume estimator carries it"] if depth_on else []) + (
+                [f"an environment map seen past the parts of a non-convex stone, but the moving stone sees {n_map} map "
+                 f"directions in each of {len(scene.poses())} poses, {env_seen} in its own frame (at least "
+                 f"{ENV_DIRECTIONS_ENOUGH}): the samples follow the map as the renders do (docs/planner.md)"]
+                if past_parts else [])
+            est_why = "; ".join(parts)
         else:
             chosen, est_why = "samples", "every effect on is one the surface samples carry"
-        if command == "compare" and chosen == "render":
-            if estimator == "render":
+        if chosen == "render" and depth_on and estimator == "auto":
+            est_why += "; renders mirror the light where it enters (the stack's depth is left out)"
+        if command == "compare" and chosen in ("render", "volume"):
+            if estimator in ("render", "volume"):
                 raise ParameterError("compare runs the sample estimator (many cuts and curves); "
-                                     "use --estimator samples, or recommend-orientation --estimator render per cut")
+                                     f"use --estimator samples, or recommend-orientation --estimator {estimator} per cut")
             chosen = "samples"
             missing = ([f"inter-reflection (up to {bound:.1%} of the flash energy)"] if ir_on else []) + (
-                [f"the environment map past the stone's parts beyond its {n_map} sampled directions"] if env_occ else [])
+                [f"the environment map past the stone's parts beyond its {n_map} sampled directions"] if env_occ else []) + (
+                ["the stack's depth (thin parts mirroring less)"] if depth_on else [])
+            how = " or ".join((["--estimator render"] if ir_on or env_occ else []) + (["--estimator volume"] if depth_on else []))
             est_why = (f"compare ranks many cuts with the sample estimator; {' and '.join(missing)} "
                        f"{'are' if len(missing) > 1 else 'is'} left out: "
-                       "recommend-orientation --estimator render per cut carries it")
+                       f"recommend-orientation {how} per cut carries it")
             decisions = [Decision(d.effect, False, "", f"left out: compare ranks with the sample estimator ({d.why})",
-                                  d.forced, d.bound) if d.effect == "inter_reflection" and d.on else d for d in decisions]
+                                  d.forced, d.bound) if d.effect in ("inter_reflection", "depth") and d.on else d
+                         for d in decisions]
     predicted: dict[str, float] = {}
     if predict:
         if rendering:
@@ -785,13 +843,15 @@ def estimator_seconds(scene: Any, command: str, occlusion: bool, inter_reflectio
         samples = predict_evaluate_seconds(settings, q.surface_points, occlusion)
         one = predict_render_seconds(n_views, rq.resolution, rq.spp, convex, 1, 0, depth)
         two = predict_render_seconds(n_views, rq.resolution, rq.spp, convex, 2, 0, depth)
-        return {"samples": samples, "render": samples + max(one - (two - one), 0.0)}  # no L-BFGS step: one primal per view
+        return {"samples": samples, "volume": samples * VOLUME_TIME_FACTOR,
+                "render": samples + max(one - (two - one), 0.0)}  # no L-BFGS step: one primal per view
     samples = predict_sample_seconds(settings, q.surface_points, occlusion)
     if command == "compare":
         return {"samples": samples}
+    volume = samples * VOLUME_TIME_FACTOR
     coarse = len(hemisphere_grid(rq.coarse_deg, Constraint(90.0))) if zoned else 0
     render = samples + predict_render_seconds(n_views, rq.resolution, rq.spp, convex, rq.iterations, coarse, depth)
-    return {"samples": samples, "render": render}
+    return {"samples": samples, "volume": volume, "render": render}
 
 
 # ---------------------------------------------------------------------- calibrations of the other commands

@@ -38,14 +38,15 @@ def test_plan_only_prints_the_plan_and_why_and_runs_nothing(tmp_path):
     text = " ".join(res.output.split())
     assert "Effect plan (recommend, carving-biplane.ply)" in text
     assert "occlusion ON" in text and "inter-reflection off" in text and "pilot renders" in text
-    assert "estimator samples" in text and "predicted" in text
+    assert "depth ON" in text and "estimator volume" in text and "predicted" in text
     data = json.loads(out.read_text())
     assert set(data) == {"plan"}  # no recommendation: nothing ran
     plan = data["plan"]
-    assert plan["command"] == "recommend" and plan["estimator"] == "samples"
+    assert plan["command"] == "recommend" and plan["estimator"] == "volume"
     assert plan["effects"]["occlusion"]["on"] and not plan["effects"]["inter_reflection"]["on"]
-    assert set(plan["predicted_seconds"]) == {"samples", "render"}
-    assert 0 < plan["predicted_seconds"]["samples"] < plan["predicted_seconds"]["render"]
+    assert set(plan["predicted_seconds"]) == {"samples", "volume", "render"}
+    seconds = plan["predicted_seconds"]
+    assert 0 < seconds["samples"] < seconds["volume"] < seconds["render"]
 
 
 def test_recommendation_json_holds_its_plan_and_the_render_estimator_is_reachable(tmp_path):
@@ -86,7 +87,7 @@ def test_evaluate_and_render_and_compare_carry_the_plan(tmp_path):
 
 
 @pytest.mark.parametrize("args, message", [
-    (("recommend-orientation", OVAL, "--estimator", "bogus"), "--estimator must be one of auto, samples, render"),
+    (("recommend-orientation", OVAL, "--estimator", "bogus"), "--estimator must be one of auto, samples, volume, render"),
     (("recommend-orientation", OVAL, "--effect", "occlusion=on"), "occlusion cannot be switched on for a convex stone"),
     (("recommend-orientation", OVAL, "--effect", "polarisation=on"), "polarisation"),
     (("recommend-orientation", OVAL, "--effect", "occlusion"), "occlusion"),
@@ -109,7 +110,7 @@ def test_plans_show_the_predicted_seconds_of_evaluate_render_and_compare(tmp_pat
     assert res.exit_code == 0, res.output
     assert "predicted" in res.output and "samples ~" in res.output and "render ~" in res.output
     p = json.loads(ev.read_text())["plan"]["predicted_seconds"]
-    assert set(p) == {"samples", "render"} and 0 < p["samples"] < p["render"]
+    assert set(p) == {"samples", "volume", "render"} and 0 < p["samples"] < p["volume"] and p["samples"] < p["render"]
     rj = tmp_path / "r.json"
     res = run("render", OVAL, "-o", str(tmp_path / "x.png"), "--plan-only", "--json", str(rj))
     assert res.exit_code == 0, res.output
@@ -132,7 +133,7 @@ def test_a_full_render_json_holds_the_effect_plan(tmp_path):
     effects = data["plan"]["effects"]
     assert effects["command"] == "render" and effects["estimator"] is None and effects["convex"] is False
     on = {k: v["on"] for k, v in effects["effects"].items()}
-    assert on == {"occlusion": True, "inter_reflection": True, "environment": False, "polarisation": False,
+    assert on == {"occlusion": True, "inter_reflection": True, "depth": False, "environment": False, "polarisation": False,
                   "colour": True, "zoning": False}
     assert effects["effects"]["colour"]["how"] == "rgb"
     assert data["plan"]["integrator"] == "path" and (tmp_path / "x.png").exists()

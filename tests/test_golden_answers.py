@@ -28,7 +28,7 @@ sys.path.insert(0, str(ROOT / "tools"))
 import record_answers  # noqa: E402
 
 GOLDEN = json.loads((ROOT / "tests" / "data" / "answers_golden.json").read_text())
-SAMPLE_CASES = sorted(k for k in GOLDEN if not k.startswith("render|"))
+SAMPLE_CASES = sorted(k for k in GOLDEN if not k.startswith(("render|", "volume|")))
 
 
 @pytest.fixture(scope="module")
@@ -40,8 +40,8 @@ def test_every_case_is_recorded():
     cases = {"|".join(case) for case in record_answers.cases()}
     assert cases == set(SAMPLE_CASES)
     assert len(cases) == len(record_answers.STONES) * (2 * len(record_answers.scenarios()) - len(record_answers.DRAFT_ONLY))
-    # both estimators are among the planner's choices, so both paths are held
-    assert {GOLDEN[c]["planned_estimator"] for c in SAMPLE_CASES} == {"samples", "render"}
+    # every estimator is among the planner's choices, so every path is held
+    assert {GOLDEN[c]["planned_estimator"] for c in SAMPLE_CASES} == {"samples", "volume", "render"}
 
 
 @pytest.mark.parametrize("case", SAMPLE_CASES)
@@ -59,6 +59,15 @@ def test_planner_default_gives_the_same_sample_answer(meshes):
     want = dict(GOLDEN[case])
     assert want.pop("planned_estimator") == "samples"
     assert record_answers.answer(meshes["oval-16x12-low.ply"], "pendant", "draft", estimator="auto") == want
+
+
+@pytest.mark.parametrize("case", record_answers.VOLUME_CASES, ids="|".join)
+def test_volume_estimator_answer_is_unchanged_to_the_last_bit(meshes, case):
+    """The planner's volume answers (the carving's thin wings), exact as the sample estimator's."""
+    stone, scenario, quality = case
+    want = GOLDEN["volume|" + "|".join(case)]
+    got = record_answers.answer(meshes[stone], scenario, quality, estimator="auto")
+    assert got["estimator"] == "volume" and got == want
 
 
 def test_render_estimator_answer_is_unchanged_within_its_noise(meshes):

@@ -119,7 +119,7 @@ def test_the_estimators_answer_through_one_interface(oval):
     from labcut.orientation.estimators import ESTIMATORS, RenderEstimator, SampleEstimator, estimator_for
     from labcut.planner import plan_question
 
-    assert set(ESTIMATORS) == {"samples", "render"}
+    assert set(ESTIMATORS) == {"samples", "volume", "render"}
     asked = FlashQuestion.build(labcut.Labradorite(), "bench", quality="draft", estimator="samples")
     plan = plan_question(oval, asked, "evaluate", predict=False)
     settings = asked.scenario.settings()
@@ -127,6 +127,8 @@ def test_the_estimators_answer_through_one_interface(oval):
     samples = estimator_for("samples", oval, asked, scorer, plan)
     render = estimator_for("render", oval, asked, scorer, plan)
     assert isinstance(samples, SampleEstimator) and isinstance(render, RenderEstimator)
+    volume = estimator_for("volume", oval, asked, scorer, plan)  # the sample estimator over the volume's problem
+    assert isinstance(volume, SampleEstimator) and volume.name == "volume" and volume.scorer is scorer
     m = np.array([0.0, 0.0, 1.0])
     for est in (samples, render):
         assert est.name in ESTIMATORS and 0 < est.progress_before_refine <= 1
@@ -139,4 +141,4 @@ def test_the_estimators_answer_through_one_interface(oval):
         estimator_for("magic", oval, asked, scorer, plan)
     for path in ("labcut/orientation/recommend.py", "labcut/commands/recommend.py", "labcut/study.py"):
         text = (ROOT / path).read_text()
-        assert '== "render"' not in text and '"render" if' not in text, path
+        assert '== "render"' not in text and '"render" if' not in text and '== "volume"' not in text, path

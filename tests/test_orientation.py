@@ -63,7 +63,9 @@ def test_estimators_agree_on_flash_energy(mesh_name):
     mesh = labcut.load_mesh(MESHES / mesh_name)
     lights, views = Lights.preset("overhead", "draft"), Views.preset("face-up", "draft")
     for normal in ([0.0, 0.0, 1.0], [0.12, -0.05, 1.0]):
-        samples = labcut.evaluate_orientation(mesh, normal, LAB, lights, views, quality="standard")
+        # the surface samples: the model the renders' BSDF draws (the planner would carry the
+        # carving's thin wings through the volume, which renders do not)
+        samples = labcut.evaluate_orientation(mesh, normal, LAB, lights, views, quality="standard", estimator="samples")
         images = render_metrics(mesh, LAB, normal, lights, views, resolution=160, spp=16)
         assert abs(samples.flash_energy - images.flash_energy) <= 0.05 * images.flash_energy, (samples, images)
         assert abs(samples.flash_area - images.flash_area) <= 0.05 * max(images.flash_area, 0.02) + 0.01

@@ -62,9 +62,10 @@ def slotted(tmp_path_factory):
 
 def test_carving_gets_occlusion_and_a_measured_inter_reflection(biplane):
     """The biplane: the bound (sky share x return albedo) is large, pilot renders show the light
-    between its parts is below the tolerance, so the samples answer."""
+    between its parts is below the tolerance; its thin wings (most of its surface over less stone
+    than the stack is deep) turn the depth on, so the volume estimator answers."""
     plan = plan_effects(biplane, scenario="display")
-    assert _on(plan) == {"occlusion"} and plan.estimator == "samples"
+    assert _on(plan) == {"occlusion", "depth"} and plan.estimator == "volume"
     f = plan.facts["self_view_fraction"]
     assert 0.05 < f < 0.6  # the biplane's wings and fuselage see each other
     bound = plan.facts["interreflection_bound"]
@@ -254,7 +255,8 @@ def test_every_command_predicts_the_seconds_of_its_choices(oval, biplane):
 
     rec = plan_effects(oval, scenario="display", quality="draft").predicted_seconds
     ev = plan_effects(oval, scenario="display", quality="draft", command="evaluate").predicted_seconds
-    assert set(rec) == set(ev) == {"samples", "render"}
+    assert set(rec) == set(ev) == {"samples", "volume", "render"}
+    assert rec["samples"] < rec["volume"] and ev["samples"] < ev["volume"]  # the volume traces its paths on top
     assert 0 < ev["samples"] < rec["samples"] and 0 < ev["render"] < rec["render"]  # one normal, no optimiser
     cmp = plan_effects(biplane, scenario="bench", quality="draft", command="compare").predicted_seconds
     assert set(cmp) == {"samples"} and cmp["samples"] > 0

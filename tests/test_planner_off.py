@@ -128,7 +128,8 @@ def test_the_measured_share_decides_against_the_tolerance(scenario, monkeypatch)
         # the render estimator where inter-reflection is on, or where an environment map is seen past the
         # parts through too few directions (the still scenes; a moving stone turns the map's directions)
         few = plan.on("environment") and plan.facts["map_directions_over_poses"] < planner.ENV_DIRECTIONS_ENOUGH
-        assert plan.estimator == ("render" if on or few else "samples"), (scenario, share)
+        # (the biplane's thin wings turn the depth on: the samples answer through the volume)
+        assert plan.estimator == ("render" if on or few else "volume"), (scenario, share)
         assert ("above" if on else "below") in plan["inter_reflection"].why
     assert len(calls) == 3  # the pilots were asked each time (the stub is not cached)
     assert (MEASURED[scenario] > TOL) is (scenario in TURNED_ON)
@@ -176,12 +177,12 @@ def test_an_environment_map_past_a_carvings_parts_needs_the_render_estimator():
     assert plan.estimator == "render" and "environment map" in plan.estimator_why
     assert plan.facts["map_directions"] == 32
     # occlusion switched off (the user's choice): the samples answer, and say nothing is missing
-    assert free.estimator == "samples"
+    assert free.estimator == "volume"  # the samples through the volume: its thin wings
     assert "32 directions only" in forced.estimator_why
     assert cmp.estimator == "samples" and "environment map" in cmp.estimator_why and "left out" in cmp.estimator_why
     # the worn ring moves through 7 poses at draft, each turning the map's 32 directions: 224 in the
     # stone's frame, enough (docs/planner.md measures the answers against the renders')
-    assert moving.on("environment") and not moving.on("inter_reflection") and moving.estimator == "samples"
+    assert moving.on("environment") and not moving.on("inter_reflection") and moving.estimator == "volume"
     assert moving.facts["map_directions_over_poses"] == 224 >= planner.ENV_DIRECTIONS_ENOUGH
     assert "7 poses" in moving.estimator_why and "224" in moving.estimator_why
 

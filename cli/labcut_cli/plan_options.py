@@ -15,6 +15,7 @@ Plan = Annotated[bool, typer.Option("--plan", help="Print the effect plan first:
 PlanOnly = Annotated[bool, typer.Option("--plan-only", help="Print the effect plan (and write it with --json) and exit without running.")]
 Estimator = Annotated[str, typer.Option(
     "--estimator", help=f"Flash estimator: {', '.join(ESTIMATORS)} (auto: the planner chooses; samples: surface samples; "
+                        "volume: surface samples with the light carried through the stone, mirrored below the surface and leaving elsewhere; "
                         "render: Mitsuba renders optimised with Dr.Jit gradients, carries light between the parts of a carving).")]
 Effect = Annotated[Optional[list[str]], typer.Option(
     "--effect", help=f"Override the planner: NAME=on|off for {', '.join(x.replace('_', '-') for x in SWITCHABLE)} (repeatable).")]

@@ -5,6 +5,9 @@ A flash question is answered by an estimator the effect planner names (``plan.es
 - ``samples`` (:class:`SampleEstimator`): the surface-sample triples of the flash problem and
   their :class:`~labcut.orientation.scoring.Scorer` (fast; every effect but light between a
   carving's parts);
+- ``volume`` (:class:`SampleEstimator` too): the same, over the volumetric flash problem
+  (:mod:`labcut.orientation.volume`: the light mirrored below the surface and leaving elsewhere,
+  where the stack's depth matters against the stone's thickness and curvature);
 - ``render`` (:class:`RenderEstimator`): Mitsuba renders of the schiller
   (:class:`~labcut.orientation.render_objective.RenderObjective`), optimised through Dr.Jit's
   automatic differentiation from the sample estimator's answer (carries inter-reflection and
@@ -141,7 +144,7 @@ class RenderEstimator:
 
 
 def estimator_for(name: str, mesh: Any, ask: Any, scorer: Scorer, plan: Any) -> FlashEstimator:
-    """The estimator ``name`` (a plan's ``estimator``: ``samples`` or ``render``) for the question
+    """The estimator ``name`` (a plan's ``estimator``: ``samples``, ``volume`` or ``render``) for the question
     ``ask`` about ``mesh``, its sample ``scorer`` and effect ``plan``."""
     make = ESTIMATORS.get(name or "samples")
     if make is None:
@@ -149,8 +152,22 @@ def estimator_for(name: str, mesh: Any, ask: Any, scorer: Scorer, plan: Any) -> 
     return make(mesh, ask, scorer, plan)
 
 
+#: whether each estimator's sample problem carries the light through the stone's volume
+#: (:func:`~labcut.orientation.volume.build_volume_problem`) rather than mirroring it where it enters:
+#: the scorer a plan's estimator is handed (:func:`labcut.orientation.recommend.build_scorer`), its
+#: error bars' and its variants' problems are built so
+VOLUME_PROBLEM: dict[str, bool] = {"samples": False, "volume": True, "render": False}
+
+
+def volume_problem(name: str | None) -> bool:
+    """Whether the estimator ``name``'s sample problem is volumetric (:data:`VOLUME_PROBLEM`)."""
+    return VOLUME_PROBLEM.get(name or "samples", False)
+
+
 #: the estimators by name: how each is made from a question, its sample scorer and its plan
 ESTIMATORS: dict[str, Callable[[Any, Any, Scorer, Any], FlashEstimator]] = {
     "samples": lambda mesh, ask, scorer, plan: SampleEstimator(scorer),
+    # the scorer of a volume plan is the volumetric problem's (recommend.build_scorer): the same estimator over it
+    "volume": lambda mesh, ask, scorer, plan: SampleEstimator(scorer, name="volume"),
     "render": lambda mesh, ask, scorer, plan: RenderEstimator(mesh, ask, 4 if plan.on("inter_reflection") else 2),
 }

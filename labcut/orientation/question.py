@@ -27,6 +27,7 @@ from .kernels import DEFAULT_KERNELS, KernelOptions
 from .optimize import Constraint
 from .problem import build_problem
 from .scoring import OBJECTIVES, Scorer
+from .volume import build_volume_problem
 
 
 
@@ -121,12 +122,18 @@ class FlashQuestion:
         :mod:`labcut.scene.variants`), kept as the object it is at every quality."""
         return replace(self, scenario=scenario, scene_spec=(scenario, None, None))
 
-    def scorer(self, mesh: Any, *, occlusion: bool) -> Scorer:
+    def scorer(self, mesh: Any, *, occlusion: bool, volume: bool = False) -> Scorer:
         """The sample estimator's scorer of this question about ``mesh`` (a checked trimesh): its
         flash problem over every pose of the scenario, with occlusion rays or not (the effect
-        planner's choice), the question's kernel options."""
-        problem = build_problem(mesh, self.material, quality=self.quality, tau=self.tau, seed=self.seed,
-                                settings=self.scenario.settings(), occlusion=occlusion, kernels=self.kernels)
+        planner's choice), the question's kernel options; with ``volume``, the light carried
+        through the stone (:func:`~labcut.orientation.volume.build_volume_problem`, the volume
+        estimator's problem) instead of mirrored where it entered."""
+        if volume:
+            problem = build_volume_problem(mesh, self.material, quality=self.quality, tau=self.tau, seed=self.seed,
+                                           settings=self.scenario.settings(), occlusion=occlusion, kernels=self.kernels)
+        else:
+            problem = build_problem(mesh, self.material, quality=self.quality, tau=self.tau, seed=self.seed,
+                                    settings=self.scenario.settings(), occlusion=occlusion, kernels=self.kernels)
         return Scorer(problem, self.objective)
 
     @property

@@ -19,7 +19,7 @@ from ..scene.quality import Quality
 from .optimize import OPTIMIZERS, Constraint, search_best, tolerance_deg
 from ..geometry.stone import Stone
 from .scoring import FlashMetrics, Scorer
-from .estimators import estimator_for
+from .estimators import estimator_for, volume_problem
 from .question import FlashQuestion
 from .misorientation import MisorientationCurve, misorientation_curve
 from .robustness import Robustness, scenario_robustness
@@ -370,8 +370,9 @@ def question(setup: FlashQuestion | None = None, **asked: Any) -> FlashQuestion:
 def build_scorer(mesh: Any, setup: FlashQuestion, plan: Any) -> Scorer:
     """The sample estimator's scorer of the question ``setup`` about ``mesh`` (a checked trimesh),
     its flash problem built as ``plan`` (an :class:`~labcut.planner.EffectPlan`) says: occlusion
-    rays or not, the setup's kernel options."""
-    return setup.scorer(mesh, occlusion=plan.on("occlusion"))
+    rays or not, through the stone's volume where the plan's estimator is ``volume``, the setup's
+    kernel options."""
+    return setup.scorer(mesh, occlusion=plan.on("occlusion"), volume=volume_problem(plan.estimator))
 
 
 def answer_recommendation(mesh: Any, ask: FlashQuestion, scorer: Scorer, plan: Any, *, optimizer: str = "nlopt",
@@ -411,11 +412,13 @@ def answer_recommendation(mesh: Any, ask: FlashQuestion, scorer: Scorer, plan: A
     runners = _runners_up(scorer, constraint, map_normals, map_scores, normal, sample_score, scenario=scene)
     by_axis = axis_tolerances(scorer, normal, sample_score, constraint)
     report("error bars", 0.95)
-    bars = uncertainty_for(mesh, ask, scorer.problem, normal, occlusion=plan.on("occlusion"), tolerance_deg=float(tol))
+    volume = volume_problem(plan.estimator)
+    bars = uncertainty_for(mesh, ask, scorer.problem, normal, occlusion=plan.on("occlusion"), tolerance_deg=float(tol),
+                           volume=volume)
     robust = None
     if variation is not None:
         report("scenario variants", 0.96)
-        robust = scenario_robustness(mesh, ask, sample_normal, occlusion=plan.on("occlusion"), variation=variation,
+        robust = scenario_robustness(mesh, ask, sample_normal, occlusion=plan.on("occlusion"), volume=volume, variation=variation,
                                      bar_deg=bars.angle_deg if bars is not None else 0.0, tolerance_deg=float(tol),
                                      optimizer=optimizer,
                                      progress=lambda f: report("scenario variants", 0.96 + 0.03 * f))
@@ -446,6 +449,7 @@ def answer_recommendation(mesh: Any, ask: FlashQuestion, scorer: Scorer, plan: A
             "convex": scorer.problem.convex, "surface_samples": scorer.problem.n_points,
             "triples": scorer.problem.n_triples, "lights": len(scene.lights), "views": len(scene.views),
             "estimator": plan.estimator, "occlusion": plan.on("occlusion"), "inter_reflection": plan.on("inter_reflection"),
+            "depth": plan.on("depth"), "volume": scorer.problem.info.get("volume"),
             "zoning": render_stats.get("zoning"),
             "time_budget": None if budget is None else budget.to_dict(),
         },

@@ -54,6 +54,7 @@ from ..backend import Launched
 from ..errors import ParameterError
 from ..scene.quality import Quality
 from .problem import FlashProblem
+from .volume import build_volume_problem
 
 #: bootstrap replicates of the sampling spread
 BOOTSTRAP = 32
@@ -441,7 +442,7 @@ def discretisation(directions_angle_deg: float = 0.0, directions_score_rel: floa
 
 
 def uncertainty_for(mesh: Any, setup: Any, problem: FlashProblem, normal: Any, *, occlusion: bool | None,
-                    tolerance_deg: float | None) -> Uncertainty:
+                    tolerance_deg: float | None, volume: bool = False) -> Uncertainty:
     """:func:`estimate_uncertainty` of a recommendation asked as ``setup`` (a
     :class:`~labcut.orientation.question.FlashQuestion`) whose sample problem is ``problem``: the
     finer-direction problem of the same question (:meth:`FlashQuestion.at_quality
@@ -450,11 +451,17 @@ def uncertainty_for(mesh: Any, setup: Any, problem: FlashProblem, normal: Any, *
 
     Both are built as pairs only (:func:`labcut.orientation.pairs.build_pairs`): their stencil sums
     make each (pair, light) term in one kernel, within reach of the stencil around ``normal``, the
-    terms and sums of whole problems' (:func:`build_problem`) without their triples."""
+    terms and sums of whole problems' (:func:`build_problem`) without their triples. With
+    ``volume`` (the volume estimator's answer) both are volumetric problems
+    (:func:`~labcut.orientation.volume.build_volume_problem`), so that the bars measure the
+    discretisation of the same model."""
     from .pairs import build_pairs
 
     def build(q: Quality) -> Any:
         other = setup.at_quality(q)
+        if volume:
+            return build_volume_problem(mesh, setup.material, other.quality, setup.tau, setup.seed,
+                                        settings=other.scenario.settings(), occlusion=occlusion)
         return build_pairs(mesh, setup.material, other.quality, setup.tau, setup.seed, other.scenario.settings(),
                            occlusion=occlusion)
 

@@ -18,7 +18,7 @@ import numpy as np
 
 from ..errors import LabcutWarning, ParameterError
 from ..validation import check_number
-from . import lamella
+from . import depth, lamella
 from .search import golden_section_max
 from .ops import is_drjit
 
@@ -230,6 +230,20 @@ class Labradorite:
         (normalised over the hemisphere of orientations)."""
         k = self.lobe_kappa
         return k / (2.0 * math.pi * -math.expm1(-k))
+
+    @property
+    def stack_depth_mm(self) -> float:
+        """Depth of the whole stack, ``pairs x (d_a + d_b)``, mm (the presets: 0.93 mm)."""
+        return depth.stack_depth_mm(self)
+
+    @property
+    def flash_depth_mm(self) -> float:
+        """The flash depth: the mean depth (mm, along the lamella normal, from where the light
+        entered the stack) at which the flash is mirrored, at normal incidence, luminance-weighted
+        (:func:`labcut.physics.depth.depth_law`: the stack's own reflectance cut at each depth). A
+        part of the stone thinner than this holds less than the stack that makes its flash; the
+        effect planner weighs it against the stone's thickness and curvature."""
+        return depth.depth_law(self).mean_mm(1.0)
 
     @property
     def period_nm(self) -> float:

@@ -16,12 +16,13 @@ import numpy as np
 
 from ..errors import ParameterError
 
-EFFECTS = ("occlusion", "inter_reflection", "environment", "polarisation", "colour", "zoning")
-#: who answers a flash question: the planner's choice, the surface samples, or renders
-ESTIMATORS = ("auto", "samples", "render")
+EFFECTS = ("occlusion", "inter_reflection", "depth", "environment", "polarisation", "colour", "zoning")
+#: who answers a flash question: the planner's choice, the surface samples, the samples with the
+#: light carried through the stone's volume (docs/physics.md, "Depth"), or renders
+ESTIMATORS = ("auto", "samples", "volume", "render")
 #: the effects a user may switch with ``effects=`` / ``--effect NAME=on|off`` (the others follow
 #: from the scene and from their own options: lighting, --mode, --polarizer, --zoning)
-SWITCHABLE = ("occlusion", "inter_reflection")
+SWITCHABLE = ("occlusion", "inter_reflection", "depth")
 
 
 def check_effects(effects: Mapping[str, Any] | None) -> dict[str, bool]:

@@ -1,0 +1,343 @@
+"""The volumetric flash problem: light mirrored below the surface, leaving elsewhere.
+
+The surface-sample problem (:mod:`labcut.orientation.problem`) mirrors the light where it entered:
+the schiller of a point is lit through that point's own surface. In a stone the stack is deep
+(:attr:`labcut.Labradorite.flash_depth_mm`; the presets' stack is 0.93 mm): light refracted in at
+``p`` is mirrored by the lamellae at some depth and leaves at another point ``q``, through a
+steeper part of a dome, or not at all where the stone is thinner than the stack. This module builds
+the same kind of :class:`~labcut.orientation.problem.FlashProblem` (triples of a mirror orientation
+``h`` and a factor ``c``, per (point, view) pair, the same weights and objectives) with the light
+carried through the volume, so that the sample estimator's map, optimiser, tolerances and error bars
+answer it unchanged.
+
+Each (exit point ``q``, view ``v``) pair is traced backwards. ``b`` is the internal direction that
+refracts into ``v`` at ``q`` (as on the surface). For each light ``l`` of the pose and each of
+``depths`` depth samples ``u`` (stratified, rotated per pair and light), the path
+``p -> r -> q`` is found with (exit leg ``r = q - t b``, entry leg ``p = r + s a``):
+
+- ``a`` refracts into ``l`` at the entry point ``p`` (shading normal there), ``h = normalize(a + b)``
+  the lamella orientation that mirrors it into ``b``;
+- the reflection lies at depth ``z = s |a·h|`` below the entry (along the lamella normal), ``z`` the
+  ``u``-quantile of the stack's depth law (:func:`labcut.physics.depth.depth_law` at ``|a·h|``);
+- ``p`` is where the ray from ``r`` along ``a`` leaves the stone (a Mitsuba ray cast).
+
+The three unknowns (``t``, ``p``, ``a``) are solved by :data:`ITERATIONS` fixed-point steps from the
+surface answer (``p = q``): each casts one ray from ``r`` along ``a``, takes ``a`` from the normal at
+the hit and scales ``t`` by the wanted over the found entry length (exact in one step on a flat
+face). A path counts when its exit leg stays inside the stone (``t`` below the distance from ``q``
+to the far side along ``-b``: the stone holds the depth), its entry leg lands on a surface the
+light faces, the last step moved the entry by less than :data:`CONVERGED` of its length and, on a
+stone that is not convex with occlusion on, nothing hides ``p`` from the light.
+
+Its factor is the surface model's, with the light's terms at the entry and the view's at the exit:
+
+    c = E T(n_p·l) (n_p·l) T(n_q·v) R_Y(|a·h|) / (4 |a·h| max(a·n_p, b·n_q) η² L_ref) / depths,
+
+so that on a flat face thicker than the stack it is the surface triple's exactly (``p`` and ``q``
+share their normal; every depth counts). Left out, and measured against the volumetric reference
+(benchmarks/volume_reference.py, docs/physics-accuracy.md): light mirrored more than once between
+lamellae, Fresnel reflections inside the stone, and the focusing of the beam by the curved surface
+between ``p`` and ``q`` (of order depth over the inside focal length, a few per cent).
+Directions are unit vectors in the mesh frame, lengths in mm.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterator
+from dataclasses import dataclass
+from types import SimpleNamespace
+from typing import Any
+
+import numpy as np
+
+from ..colour import luminance_table
+from ..errors import ParameterError
+from ..geometry.stone import Stone
+from ..geometry.surface import FAST_SMOOTH_FACES, smooth_corner_normals
+from ..physics import schiller as lobe
+from ..physics.depth import depth_law
+from ..physics.material import Labradorite
+from ..physics.ops import NUMPY
+from ..rendering.rays import build_occlusion_scene, escapes_paired, occlusion_scene, ray_variant, surface_offset
+from ..scene import Setting
+from ..scene.quality import Quality
+from .kernels import DEFAULT_KERNELS, KernelOptions
+from .problem import FlashProblem, check_problem_inputs, surface_samples, view_pairs, visible_areas
+from .radiance import flash_threshold, reference_radiance, view_terms
+
+#: depth samples per (pair, light) (stratified; each pair's and light's strata rotated by a
+#: golden-ratio sequence, so that neighbouring pairs fill each other's gaps)
+DEPTHS = 2
+#: fixed-point steps of each path (docs/physics-accuracy.md measures what a fourth would move)
+ITERATIONS = 3
+#: a path counts when its last step moved the entry leg's length by less than this share
+CONVERGED = 0.05
+#: (pair, light, depth) paths traced per chunk (a few hundred bytes each)
+CHUNK = 1 << 19
+
+
+@dataclass(frozen=True)
+class _Hits:
+    """Ray hits: distance (inf: none), shading and geometric normals at the hit (mesh frame)."""
+
+    t: np.ndarray
+    n_sh: np.ndarray
+    n_geo: np.ndarray
+
+
+class VolumeRays:
+    """Ray casts from inside a stone to its surface, with the smooth shading normal at each hit (as
+    the surface samples and the renderer shade: the vertex normals of the stone's smooth-shaded
+    split copy, or the split normals of the hit faces for a mesh too big to copy). The casts run on
+    the stone's one ray scene (:func:`labcut.rendering.rays.occlusion_scene`, kept by the stone), so
+    that the volume estimator adds no Mitsuba scene of its own."""
+
+    def __init__(self, mesh: Any, *, keep: bool = True) -> None:
+        self.stone = Stone.of(mesh)
+        ray_variant()
+        # keep=False: a scene of its own, let go with this object (a planner's few rays about a convex
+        # stone, which otherwise keeps no Mitsuba scene: every live shape is traced into each later
+        # differentiable render's calls, docs/performance.md)
+        self.scene = occlusion_scene(self.stone.mesh) if keep else build_occlusion_scene(self.stone.mesh)
+        self.big = len(self.stone.mesh.faces) > FAST_SMOOTH_FACES
+        self.vertices = np.asarray(self.stone.mesh.vertices, dtype=np.float64)
+        self.faces = np.asarray(self.stone.mesh.faces, dtype=np.int64)
+        if not self.big:
+            split = self.stone.smooth_split()
+            # the copy's face i is the mesh's face order[i] (trimesh's record of the split's patches)
+            order = np.concatenate([np.asarray(c, dtype=np.int64) for c in split.metadata["original_components"]])
+            corners = np.empty((len(self.faces), 3, 3))
+            corners[order] = np.asarray(split.vertex_normals, dtype=np.float64)[np.asarray(split.faces)]
+            self.corners = corners
+
+    def cast(self, origins: np.ndarray, dirs: np.ndarray) -> _Hits:
+        """The first surface hit of each ray (``origins`` and unit ``dirs``, (N, 3))."""
+        import drjit as dr
+        import mitsuba as mi
+
+        o, w = np.asarray(origins, dtype=np.float64), np.asarray(dirs, dtype=np.float64)
+        ray = mi.Ray3f(mi.Point3f(o[:, 0], o[:, 1], o[:, 2]), mi.Vector3f(w[:, 0], w[:, 1], w[:, 2]))
+        pi = self.scene.ray_intersect_preliminary(ray)
+        dr.eval(pi.t, pi.prim_index, pi.prim_uv)
+        t = np.array(pi.t, dtype=np.float64)
+        hit = np.isfinite(t)
+        face = np.where(hit, np.array(pi.prim_index, dtype=np.int64), 0)
+        uv = np.where(hit[None, :], np.array(pi.prim_uv, dtype=np.float64), 0.0)  # a miss: face 0's corner (unused)
+        bary = np.stack([1.0 - uv[0] - uv[1], uv[0], uv[1]], axis=1)
+        tri = self.vertices[self.faces[face]]
+        n_geo = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+        n_geo /= np.maximum(np.linalg.norm(n_geo, axis=1, keepdims=True), 1e-300)
+        if self.big:
+            corners = smooth_corner_normals(self.stone.mesh, self.stone.shading_angle_deg, face)
+        else:
+            corners = self.corners[face]
+        n_sh = np.einsum("ij,ijk->ik", bary, corners)
+        n_sh /= np.maximum(np.linalg.norm(n_sh, axis=1, keepdims=True), 1e-300)
+        t[~hit] = np.inf
+        return _Hits(t, n_sh, n_geo)
+
+
+def depth_strata(n: int, depths: int, salt: int) -> np.ndarray:
+    """(n, depths) quantiles in (0, 1): stratum ``k`` of path group ``i`` at ``(k + frac(i φ + salt φ²)) /
+    depths`` (φ the golden ratio): stratified within a group, rotated between groups."""
+    phi = (math.sqrt(5.0) - 1.0) / 2.0
+    shift = np.mod(np.arange(n, dtype=np.float64) * phi + salt * phi * phi, 1.0)
+    return (np.arange(depths)[None, :] + shift[:, None]) / depths
+
+
+def build_volume_problem(
+    mesh: Any,
+    material: Labradorite,
+    quality: Quality | str = "standard",
+    tau: float = 0.1,
+    seed: int = 0,
+    *,
+    settings: list[Setting],
+    occlusion: bool | None = None,
+    depths: int = DEPTHS,
+    iterations: int = ITERATIONS,
+    n_points: int | None = None,
+    kernels: KernelOptions = DEFAULT_KERNELS,
+) -> FlashProblem:
+    """The volumetric flash problem (module docstring) of ``mesh`` under the poses ``settings``
+    (:meth:`labcut.Scenario.settings`), with the surface samples, pairs, weights, flash threshold and
+    units of :func:`~labcut.orientation.problem.build_problem`'s; ``occlusion`` as there (default:
+    when the stone is not convex). ``depths``: depth samples per (pair, light); ``iterations``: the
+    fixed-point steps of each path."""
+    if not settings:
+        raise ParameterError("build_volume_problem needs at least one setting")
+    if not (isinstance(depths, int) and 1 <= depths <= 64):
+        raise ParameterError(f"depths must be a whole number in [1, 64], got {depths!r}")
+    if not (isinstance(iterations, int) and 1 <= iterations <= 16):
+        raise ParameterError(f"iterations must be a whole number in [1, 16], got {iterations!r}")
+    quality = Quality.coerce(quality)
+    mesh = check_problem_inputs(mesh, seed, tau)
+    count = int(n_points or quality.surface_points)
+    samples = surface_samples(mesh, count, int(seed))
+    points, n_geo, n_sh, convex = samples.points, samples.n_geo, samples.n_sh, samples.convex
+    occluded = not (convex if occlusion is None else not occlusion)
+    table = luminance_table(material)
+    law = depth_law(material)
+    eta = float(material.n_surface)
+    l_ref = reference_radiance(material, 1.0)
+    if not l_ref > 0:
+        raise ParameterError("the material reflects nothing at normal incidence: no flash can be scored")
+    rays = VolumeRays(mesh)
+    eps = surface_offset(mesh)
+    pose_w = np.array([float(st.weight) for st in settings])
+    pose_w = pose_w / pose_w.sum()
+    area_per_point = float(Stone.of(mesh).face_areas.sum()) / count
+
+    h_parts, c_parts, pair_parts = [], [], []
+    pv_parts, pp_parts, pw_parts, vw_parts, view_area = [], [], [], [], []
+    pair_offset = view_offset = 0
+    stats = {"paths": 0, "kept": 0, "thin": 0, "unlit": 0, "unconverged": 0}
+    for k, st in enumerate(settings):
+        V = np.asarray(st.views.directions, dtype=np.float64)
+        L = np.asarray(st.lights.directions, dtype=np.float64)
+        E = np.asarray(st.lights.weights, dtype=np.float64) / float(st.lights.weights.sum())
+        pi, pv, pw = view_pairs(V, points, n_geo, n_sh, mesh, occluded)
+        view_area.append(visible_areas(V, SimpleNamespace(pi=pi, pv=pv), n_geo, area_per_point))
+        pv_parts.append(pv + view_offset)
+        pp_parts.append(pi)
+        pw_parts.append(pw)
+        vw_parts.append(pose_w[k] * np.asarray(st.views.weights, dtype=np.float64))
+        bright = np.flatnonzero(E > 0)
+        if pi.size and bright.size:
+            nq = n_sh[pi]
+            b, t_v = view_terms(nq, V[pv], eta)
+            q0 = points[pi] - eps * n_geo[pi]  # just inside the surface
+            back = rays.cast(q0, -b).t  # how far the stone reaches behind each exit point along -b
+            for h, c, pair in _paths(rays, law, table, eta, l_ref, L[bright], E[bright], q0, nq, b, t_v, back, depths,
+                                     iterations, mesh if occluded else None, eps, salt=k, stats=stats):
+                h_parts.append(h)
+                c_parts.append(c)
+                pair_parts.append(pair + pair_offset)
+        pair_offset += len(pi)
+        view_offset += len(V)
+    h = np.concatenate(h_parts) if h_parts else np.zeros((0, 3), dtype=np.float32)
+    c = np.concatenate(c_parts) if c_parts else np.zeros(0, dtype=np.float32)
+    pair_of_t = np.concatenate(pair_parts) if pair_parts else np.zeros(0, dtype=np.int32)
+    if not (c.size and float(c.sum(dtype=np.float64)) > 0.0):
+        raise ParameterError("no light reaches, through the stone, a part of it that a viewer sees: check that the "
+                             "lights are above the surfaces the views look at (+Z is face-up)")
+    order = np.argsort(pair_of_t, kind="stable")  # sorted by pair, as build_problem's
+    h, c, pair_of_t = h[order], c[order], pair_of_t[order]
+    view_weight = np.concatenate(vw_parts)
+    pair_point = np.concatenate(pp_parts)
+    return FlashProblem(
+        h=h, c=c, pair=pair_of_t, pair_view=np.concatenate(pv_parts).astype(np.int64),
+        pair_weight=np.concatenate(pw_parts), view_weight=view_weight / view_weight.sum(),
+        kappa=material.lobe_kappa, q_norm=material.lobe_norm, tau=float(tau),
+        threshold=flash_threshold(material, settings[0].lights, tau), material=material,
+        lights=settings[0].lights, views=settings[0].views, convex=convex, n_points=count, kernels=kernels,
+        info={"view_area_mm2": np.concatenate(view_area), "l_ref": l_ref, "pairs": int(pair_offset),
+              "triples": int(c.size), "poses": len(settings), "pair_point": pair_point.astype(np.int32),
+              "volume": {"depths": depths, "iterations": iterations, "flash_depth_mm": law.mean_mm(1.0),
+                         "stack_depth_mm": law.depth_mm, **stats}},
+    )
+
+
+def _paths(rays: VolumeRays, law: Any, table: tuple[np.ndarray, np.ndarray], eta: float, l_ref: float,
+           L: np.ndarray, E: np.ndarray, q0: np.ndarray, nq: np.ndarray, b: np.ndarray, t_v: np.ndarray,
+           back: np.ndarray, depths: int, iterations: int, occluder: Any, eps: float, *, salt: int,
+           stats: dict[str, int]) -> Iterator[tuple[np.ndarray, np.ndarray, np.ndarray]]:
+    """``(h, c, pair)`` (float32, float32, int32) of the kept paths of one pose, chunk by chunk:
+    every (pair, light, depth) of the pairs' exit points ``q0`` (just inside the surface), shading
+    normals ``nq``, internal view directions ``b``, transmissions ``t_v`` and back distances ``back``."""
+    n_pairs, n_lights = len(q0), len(L)
+    per_pair = n_lights * depths
+    step = max(1, CHUNK // per_pair)
+    for g0 in range(0, n_pairs, step):
+        g1 = min(n_pairs, g0 + step)
+        pair = np.repeat(np.arange(g0, g1), per_pair)
+        light = np.tile(np.repeat(np.arange(n_lights), depths), g1 - g0)
+        u = depth_strata((g1 - g0) * n_lights, depths, salt).ravel()
+        l, e = L[light], E[light]
+        bq, nqq, q = b[pair], nq[pair], q0[pair]
+        a = lobe.internal_direction(l, nqq, eta, NUMPY)  # the surface answer: entry at the exit point
+        t = None
+        moved = np.full(len(pair), np.inf)
+        for _ in range(iterations):
+            h, cos_l, _unused = lobe.mirror_terms(a, bq, nqq, NUMPY)
+            s_in = law.quantile(u, cos_l) / np.maximum(cos_l, 1e-6)
+            t = s_in.copy() if t is None else t
+            r = q - bq * t[:, None]
+            hit = rays.cast(r, a)
+            p = r + a * np.where(np.isfinite(hit.t), hit.t, 0.0)[:, None]
+            found = np.where(np.isfinite(hit.t) & (hit.t > 0), hit.t, np.nan)
+            moved = np.abs(found - s_in) / np.maximum(s_in, 1e-12)
+            t = t * s_in / found
+            n_p, n_pg = hit.n_sh, hit.n_geo
+            a = lobe.internal_direction(l, n_p, eta, NUMPY)
+        cos_pl = NUMPY.dot(l, n_p)
+        lit = (cos_pl > 1e-6) & (NUMPY.dot(l, n_pg) > 1e-6)
+        inside = np.isfinite(t) & (t > 0) & (t <= back[pair])
+        converged = moved < CONVERGED
+        keep = lit & inside & converged
+        if occluder is not None and keep.any():
+            idx = np.flatnonzero(keep)
+            keep[idx] = escapes_paired(occluder, p[idx] + 2.0 * eps * n_pg[idx], l[idx])
+        stats["paths"] += int(len(pair))
+        stats["thin"] += int(np.count_nonzero(~inside))
+        stats["unlit"] += int(np.count_nonzero(inside & ~lit))
+        stats["unconverged"] += int(np.count_nonzero(inside & lit & ~converged))
+        stats["kept"] += int(np.count_nonzero(keep))
+        if not keep.any():
+            continue
+        a, l, n_p, bq, nqq = a[keep], l[keep], n_p[keep], bq[keep], nqq[keep]
+        h, cos_l, _unused = lobe.mirror_terms(a, bq, nqq, NUMPY)
+        max_ab = np.maximum(NUMPY.dot(a, n_p), NUMPY.dot(bq, nqq))
+        cos_np = NUMPY.dot(l, n_p)
+        e_t_l = e[keep] * lobe.transmission(cos_np, eta) * cos_np
+        r_y = np.interp(np.clip(cos_l, 0.0, 1.0), table[0], table[1])
+        c = lobe.schiller_factor(e_t_l, t_v[pair[keep]], cos_l, max_ab, eta, NUMPY) * r_y / (l_ref * depths)
+        h = np.where(h[:, 2:3] < 0.0, -h, h)  # axial: fold into the upper hemisphere
+        finite = np.isfinite(c) & np.all(np.isfinite(h), axis=1)
+        yield (h[finite].astype(np.float32), c[finite].astype(np.float32), pair[keep][finite].astype(np.int32))
+
+
+#: surface samples of :func:`depth_exposure` (a few thousand rays: milliseconds)
+EXPOSURE_POINTS = 1500
+
+
+def depth_exposure(mesh: Any, material: Labradorite) -> dict[str, float]:
+    """How much the depth of ``material``'s stack can matter in ``mesh``: the facts the effect
+    planner weighs (docs/planner.md, "Depth").
+
+    - ``thin_share``: the share of the surface (by area) behind which the stone is thinner than the
+      stack (along the inward shading normal): there light passes out of the stone before the stack
+      has mirrored all it would, and the surface model is too bright;
+    - ``turn_deg``: the mean angle (area-weighted, degrees) by which the surface normal turns across
+      twice the flash depth (:attr:`~labcut.Labradorite.flash_depth_mm`: the typical distance between
+      where a mirrored ray enters and where it leaves): the entry's refraction differs from the
+      exit's by about this much, which moves the answer;
+    - ``flash_depth_mm`` and ``stack_depth_mm`` of the material.
+
+    Kept by the stone per stack depth (:meth:`~labcut.geometry.stone.Stone.cached`)."""
+    stone = Stone.of(mesh)
+    law = depth_law(material)
+    flash = law.mean_mm(1.0)
+    key = f"depth_exposure_{law.depth_mm:.6g}_{flash:.6g}"
+
+    def build() -> dict[str, float]:
+        samples = stone.surface_samples(EXPOSURE_POINTS, 0)
+        rays = VolumeRays(stone.mesh, keep=not stone.convex)  # a carving keeps its ray scene anyway
+        eps = surface_offset(stone.mesh)
+        thick = rays.cast(samples.points - eps * samples.n_geo, -samples.n_sh).t
+        thin = float(np.mean(thick < law.depth_mm))
+        tri = rays.vertices[rays.faces]
+        vn = rays.corners if not rays.big else smooth_corner_normals(stone.mesh, stone.shading_angle_deg,
+                                                                      np.arange(len(rays.faces)))
+        rate = np.zeros(len(tri))  # radians of normal turn per mm, the steepest edge of each face
+        for i, j in ((0, 1), (1, 2), (2, 0)):
+            length = np.linalg.norm(tri[:, i] - tri[:, j], axis=1)
+            turn = np.arccos(np.clip(np.einsum("ij,ij->i", vn[:, i], vn[:, j]), -1.0, 1.0))
+            rate = np.maximum(rate, np.where(length > 0, turn / np.maximum(length, 1e-300), 0.0))
+        area = stone.face_areas
+        turn_deg = float(np.degrees(np.sum(area * np.minimum(rate * 2.0 * flash, math.pi / 2)) / max(area.sum(), 1e-300)))
+        return {"thin_share": round(thin, 4), "turn_deg": round(turn_deg, 3), "flash_depth_mm": round(flash, 4),
+                "stack_depth_mm": round(law.depth_mm, 4)}
+
+    return dict(stone.cached(key, build))

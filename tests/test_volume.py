@@ -1,0 +1,193 @@
+"""The stack's depth law, the volumetric flash problem (labcut.orientation.volume) and the planner's
+``depth`` decision (docs/physics.md "Depth", docs/planner.md "Depth"; issue 38).
+
+References: the depth law against the model's own reflectance of a shorter stack (computed
+independently through the colour tables); the volume problem on a flat slab against the surface
+problem (exact there when the slab is thicker than the stack) and on a slab thinner than the stack
+against the depth law's share; the fixed point against more iterations."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+import trimesh
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+import labcut
+from labcut.colour import reflectance_luminance
+from labcut.errors import ParameterError
+from labcut.orientation.optimize import search_best
+from labcut.orientation.problem import build_problem
+from labcut.orientation.question import FlashQuestion
+from labcut.orientation.scoring import Scorer
+from labcut.orientation.volume import build_volume_problem, depth_exposure, depth_strata
+from labcut.physics.depth import depth_law, stack_depth_mm
+from labcut.planner import DEPTH_THIN_SHARE, plan_effects
+
+
+@pytest.fixture(scope="module")
+def material():
+    return labcut.Labradorite()
+
+
+def angle_deg(a, b) -> float:
+    return math.degrees(math.acos(min(1.0, abs(float(np.dot(a, b))))))
+
+
+def slab(tmp_path_factory, thickness: float, size: float = 40.0):
+    box = trimesh.creation.box(extents=[size, size, thickness])
+    box.apply_translation([0.0, 0.0, thickness / 2])
+    path = tmp_path_factory.mktemp("slab") / f"slab-{thickness:g}.ply"
+    box.export(path)
+    return labcut.load_mesh(path)
+
+
+# ---------------------------------------------------------------------- the depth law
+def test_the_depth_law_is_the_models_reflectance_of_a_shorter_stack(material):
+    law = depth_law(material)
+    assert law.depth_mm == pytest.approx(material.pairs * material.period_nm * 1e-6) == stack_depth_mm(material)
+    assert material.stack_depth_mm == pytest.approx(0.93)
+    for cos in (1.0, 0.8):
+        full = float(reflectance_luminance(material, np.array([cos]))[0])
+        for share in (0.25, 0.5, 0.75):
+            cut = material.replace(pairs=int(material.pairs * share))
+            want = float(reflectance_luminance(cut, np.array([cos]))[0]) / full
+            assert law.share_above(share * law.depth_mm, cos) == pytest.approx(want, rel=2e-3), (cos, share)
+    assert law.share_above(0.0) == 0.0 and law.share_above(law.depth_mm) == 1.0 and law.share_above(5.0) == 1.0
+    assert np.all(np.diff(law.share, axis=1) >= 0)
+
+
+def test_the_flash_depth_is_the_mean_depth_and_a_weak_stack_spreads_it_evenly(material):
+    law = depth_law(material)
+    z = np.linspace(0.0, law.depth_mm, 4001)
+    density = np.gradient(law.share_above(z, 1.0), z)
+    mean = float(np.sum(z * density) * (z[1] - z[0]))
+    assert material.flash_depth_mm == pytest.approx(mean, rel=5e-3)
+    # saturation mirrors more near the top: the mean lies above half the stack's depth
+    assert 0.3 * law.depth_mm < material.flash_depth_mm < 0.5 * law.depth_mm
+    weak = material.replace(pairs=300)  # R_kin << 1: reflectance grows linearly with the depth
+    assert weak.flash_depth_mm == pytest.approx(0.5 * weak.stack_depth_mm, rel=0.01)
+
+
+@settings(max_examples=40, deadline=None)
+@given(u=st.floats(0.0, 1.0), cos=st.floats(0.2, 1.0))
+def test_the_depth_quantile_inverts_the_share(u, cos):
+    law = depth_law(labcut.Labradorite())
+    z = law.quantile(u, cos)
+    assert 0.0 <= z <= law.depth_mm
+    assert float(law.share_above(z, cos)) == pytest.approx(u, abs=2e-3)
+
+
+def test_depth_strata_fill_each_stratum_once():
+    u = depth_strata(50, 4, 3)
+    assert u.shape == (50, 4) and np.all((u >= 0) & (u < 1))
+    assert np.all(np.floor(u * 4) == np.arange(4)[None, :])
+
+
+# ---------------------------------------------------------------------- the volume problem
+def _answers(mesh, scene_lighting, **volume):
+    q = FlashQuestion.build(None, None, scene_lighting, "face-up", quality="draft")
+    settings_ = q.scenario.settings()
+    surface = build_problem(mesh, q.material, quality=q.quality, settings=settings_)
+    vol = build_volume_problem(mesh, q.material, quality=q.quality, settings=settings_, **volume)
+    out = []
+    for p in (surface, vol):
+        found = search_best(Scorer(p, "energy"), q.constraint, q.quality, "nlopt")
+        out.append((found.normal, found.score))
+    return out, vol
+
+
+def test_on_a_slab_thicker_than_the_stack_the_volume_is_the_surface(tmp_path_factory):
+    """Flat faces, every depth inside the stone: the same flash but for the light that would enter
+    within a millimetre of the slab's edge."""
+    (surface, volume), vol = _answers(slab(tmp_path_factory, 3.0), "spot")
+    assert angle_deg(surface[0], volume[0]) < 0.1
+    assert volume[1] == pytest.approx(surface[1], rel=0.03)
+    info = vol.info["volume"]
+    assert info["kept"] > 0.8 * info["paths"] and info["unconverged"] < 0.03 * info["paths"]  # (at the edges)
+
+
+def test_a_slab_thinner_than_the_stack_mirrors_only_its_depths_share(tmp_path_factory, material):
+    """0.3 mm of stone under the face: only the top 0.3 mm of the 0.93 mm stack mirrors (the light
+    leaves through the base before the rest), a third of the flash; the surface model mirrors the
+    whole stack. The thick slab's ratio takes out what both lose at the slab's edges."""
+    ratios = []
+    for thickness in (0.3, 3.0):
+        (surface, volume), _ = _answers(slab(tmp_path_factory, thickness), "overhead")
+        ratios.append(volume[1] / surface[1])
+    want = float(depth_law(material).share_above(0.3, 1.0))  # lamellae parallel to the face: depth is depth
+    assert 0.3 < want < 0.45
+    assert ratios[0] / ratios[1] == pytest.approx(want, rel=0.08)
+
+
+def test_the_fixed_point_has_converged(material):
+    """Three steps (the default) and eight give the same answer on the high dome; one step does not
+    find the entry (most paths are dropped as unconverged)."""
+    high = labcut.load_mesh("meshes/oval-16x12-high.ply")
+    (_, three), v3 = _answers(high, "spot")
+    (_, eight), _ = _answers(high, "spot", iterations=8)
+    assert angle_deg(three[0], eight[0]) < 0.1 and three[1] == pytest.approx(eight[1], rel=0.01)
+    _, v1 = _answers(high, "spot", iterations=1)
+    assert v1.info["volume"]["unconverged"] > 20 * max(1, v3.info["volume"]["unconverged"])
+
+
+def test_bad_volume_options_are_one_line_errors(material):
+    oval = labcut.load_mesh("meshes/oval-16x12-low.ply")
+    q = FlashQuestion.build(quality="draft")
+    with pytest.raises(ParameterError, match="depths"):
+        build_volume_problem(oval, material, "draft", settings=q.scenario.settings(), depths=0)
+    with pytest.raises(ParameterError, match="iterations"):
+        build_volume_problem(oval, material, "draft", settings=q.scenario.settings(), iterations=99)
+    with pytest.raises(ParameterError, match="setting"):
+        build_volume_problem(oval, material, "draft", settings=[])
+
+
+# ---------------------------------------------------------------------- the planner's decision
+def test_the_low_dome_leaves_the_depth_off_and_its_answer_stays_within_0_3_degrees():
+    oval = labcut.load_mesh("meshes/oval-16x12-low.ply")
+    plan = plan_effects(oval, scenario="bench", predict=False)
+    assert not plan.on("depth") and plan.estimator == "samples"
+    assert plan.facts["thin_share"] < DEPTH_THIN_SHARE and "below" in plan["depth"].why
+    for lighting in ("spot", "overhead"):
+        (surface, volume), _ = _answers(oval, lighting)
+        assert angle_deg(surface[0], volume[0]) < 0.3, lighting
+
+
+def test_thin_parts_turn_the_depth_and_the_volume_estimator_on():
+    biplane = labcut.load_mesh("meshes/carving-biplane.ply")
+    exposure = depth_exposure(biplane, labcut.Labradorite())
+    assert exposure["thin_share"] > DEPTH_THIN_SHARE
+    plan = plan_effects(biplane, scenario="bench", predict=False)
+    assert plan.on("depth") and plan.estimator == "volume" and "thin parts" in plan["depth"].why
+    off = plan_effects(biplane, scenario="bench", predict=False, effects={"depth": "off"})
+    assert not off.on("depth") and off.estimator == "samples" and off["depth"].forced
+    asked = plan_effects(biplane, scenario="bench", predict=False, estimator="samples")
+    assert asked.estimator == "samples" and "depth is left out" in asked.estimator_why
+    cmp = plan_effects(biplane, scenario="bench", predict=False, command="compare")
+    assert cmp.estimator == "samples" and not cmp.on("depth") and "left out" in cmp["depth"].why
+    with pytest.raises(ParameterError, match="compare"):
+        plan_effects(biplane, scenario="bench", predict=False, command="compare", estimator="volume")
+    render = plan_effects(biplane, scenario="bench", predict=False, command="render")
+    assert not render.on("depth") and "BSDF" in render["depth"].why
+
+
+def test_a_thick_cut_is_not_thin_and_a_thin_slab_is(tmp_path_factory, material):
+    thick = depth_exposure(slab(tmp_path_factory, 3.0), material)
+    thin = depth_exposure(slab(tmp_path_factory, 0.5), material)
+    assert thick["thin_share"] == 0.0 and thick["turn_deg"] == 0.0
+    assert thin["thin_share"] > 0.95  # all but the slab's sides (40 mm of stone behind them)
+    assert plan_effects(slab(tmp_path_factory, 0.5), predict=False).estimator == "volume"
+
+
+def test_recommend_with_the_volume_estimator_carries_it_through_the_answer():
+    oval = labcut.load_mesh("meshes/oval-16x12-low.ply")
+    rec = labcut.recommend_orientation(oval, lighting="spot", viewing="face-up", quality="draft", estimator="volume")
+    assert rec.estimator == "volume" and rec.settings["estimator"] == "volume"
+    assert rec.uncertainty is not None and rec.uncertainty.angle_deg > 0
+    surface = labcut.recommend_orientation(oval, lighting="spot", viewing="face-up", quality="draft")
+    assert surface.estimator == "samples"
+    assert angle_deg(rec.normal, surface.normal) < 0.5
+    assert rec.to_dict()["plan"]["effects"]["depth"]["forced"] is False
