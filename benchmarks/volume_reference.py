@@ -37,9 +37,9 @@ beam's focusing by the curved surface are all in.
 low, medium and high oval and the biplane carving under a lamp 35 deg in front (a 4 deg disc, so that
 paths can find it) and the overhead lamp, face-up viewers, and scans the reference's flash energy
 along two great circles through labcut's answer (front-back and left-right, the lamp's plane first),
-:data:`SCAN_STEP_DEG` apart; the reference optimum is a parabola through the best scan points, its
-90 % tolerance where the scan falls to 90 % of that optimum (the smaller of the two axes' and of both
-sides). Results: ``benchmarks/data/volume_reference.json``; ``report`` writes the table between the
+over 1.6 times the answer's tolerance either side; the reference optimum is the vertex of a
+least-squares parabola through each scan, its 90 % tolerance where the parabola falls to 90 % of its
+top (the smaller of the two axes'). Results: ``benchmarks/data/volume_reference.json``; ``report`` writes the table between the
 ``VOLUME-REFERENCE`` markers of docs/physics-accuracy.md.
 """
 
@@ -75,8 +75,6 @@ COSINES = np.linspace(0.0, 1.0, 257)
 MAX_SURFACE_EVENTS = 12
 #: the lamp 35 deg in front, as a disc of this radius (deg) in the comparison (paths must find it)
 SPOT_RADIUS_DEG = 4.0
-SCAN_STEP_DEG = 1.0
-SCAN_HALF_DEG = 8.0
 DATA = ROOT / "benchmarks" / "data" / "volume_reference.json"
 DOC = ROOT / "docs" / "physics-accuracy.md"
 BEGIN, END = "<!-- VOLUME-REFERENCE:BEGIN -->", "<!-- VOLUME-REFERENCE:END -->"
@@ -430,35 +428,20 @@ def energy(ref: Reference, normal: np.ndarray, views: labcut.Views, lamp: np.nda
     return total / lref, math.sqrt(var) / lref
 
 
-def peak_and_tolerance(offsets: np.ndarray, values: np.ndarray) -> tuple[float, float, float, float]:
+def peak_and_tolerance(offsets: np.ndarray, values: np.ndarray, errors: np.ndarray) -> tuple[float, float, float, float]:
     """``(offset of the optimum, value there, tolerance below, tolerance above)`` of one scan: a
-    parabola through the best point and its neighbours; the tolerances are where the scan (linear
-    between its points) first falls below 90 % of that optimum on each side of it (inf: not within
-    the scan)."""
-    i = int(np.argmax(values))
-    i = min(max(i, 1), len(values) - 2)
-    y0, y1, y2 = values[i - 1], values[i], values[i + 1]
-    den = y0 - 2.0 * y1 + y2
-    step = offsets[1] - offsets[0]
-    shift = 0.5 * (y0 - y2) / den * step if den < 0 else 0.0
-    shift = float(np.clip(shift, -step, step))
-    peak = offsets[i] + shift
-    best = y1 - 0.25 * (y0 - y2) * shift / step if den < 0 else y1
-    best = max(best, float(values.max()))
-    level = 0.9 * best
-
-    def crossing(direction: int) -> float:
-        j = i
-        while 0 <= j + direction < len(values):
-            a, b = values[j], values[j + direction]
-            if b < level <= a or (b < level and a < level):
-                frac = (a - level) / (a - b) if a != b else 0.0
-                x = offsets[j] + direction * step * min(max(frac, 0.0), 1.0)
-                return abs(x - peak)
-            j += direction
-        return math.inf
-
-    return peak, best, crossing(-1), crossing(+1)
+    least-squares parabola through every point of the scan (weighted by their standard errors; the
+    scan spans about 1.6 times the answer's tolerance, where the flash is near a parabola), its
+    vertex the optimum and the 90 % tolerances where it falls to 90 % of its top on either side (the
+    parabola is symmetric: both sides alike; inf where it has no top)."""
+    w = 1.0 / np.maximum(np.asarray(errors, dtype=np.float64), 1e-12)
+    a2, a1, a0 = np.polyfit(np.asarray(offsets, dtype=np.float64), np.asarray(values, dtype=np.float64), 2, w=w)
+    if not a2 < 0:
+        return float("nan"), float(np.max(values)), math.inf, math.inf
+    peak = -a1 / (2.0 * a2)
+    top = a0 - a1 * a1 / (4.0 * a2)
+    half = math.sqrt(0.1 * top / -a2)
+    return float(peak), float(top), half, half
 
 
 def compare(paths: int, points: int, fresh: bool) -> dict:
@@ -467,7 +450,9 @@ def compare(paths: int, points: int, fresh: bool) -> dict:
     from labcut.orientation.radiance import reference_radiance
     from labcut.scene.presets import face_up, overhead
 
-    data = {} if fresh or not DATA.exists() else json.loads(DATA.read_text())
+    data = json.loads(DATA.read_text()) if DATA.exists() else {}
+    if fresh:
+        data.pop("cases", None)
     cases = data.setdefault("cases", {})
     mat = labcut.Labradorite()
     lref = reference_radiance(mat, 1.0)
@@ -506,7 +491,7 @@ def compare(paths: int, points: int, fresh: bool) -> dict:
                     values.append(e)
                     errors.append(se)
                 values_a = np.array(values)
-                peak, best, below, above = peak_and_tolerance(offsets, values_a)
+                peak, best, below, above = peak_and_tolerance(offsets, values_a, np.array(errors))
                 scans[axis_name] = {"axis": [float(x) for x in axis], "offsets_deg": [float(x) for x in offsets],
                                     "energy": values, "error": errors, "peak_offset_deg": peak, "peak_energy": best,
                                     "tolerance_below_deg": below, "tolerance_above_deg": above}
@@ -614,8 +599,8 @@ def report() -> None:
     if cases:
         out += ["", "**Default recommendations against the reference** (quality standard, face-up viewers; the reference "
                 f"scanned along two great circles through the answer, {next(iter(cases.values()))['reference']['paths_per_view']:,} "
-                "camera paths per view and normal; its optimum a parabola through the best scan points, its tolerance "
-                "where the scan falls to 90 %). `labcut` is the planner's estimator; `samples` and `volume` the two forced.",
+                "camera paths per view and normal; its optimum the vertex of a least-squares parabola "
+                "through the scan, its tolerance where that parabola falls to 90 %). `labcut` is the planner's estimator; `samples` and `volume` the two forced.",
                 "", "| stone | lamp | labcut | tilt | reference tilt | apart | samples tilt | volume tilt | tolerance | "
                 "reference tolerance | ratio |", "|---|---|---|---|---|---|---|---|---|---|---|"]
         tilt_ok = tol_ok = 0
@@ -666,7 +651,7 @@ def _store(key: str, value: dict) -> None:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("what", choices=("slab", "compare", "planner", "report"))
-    parser.add_argument("--paths", type=int, default=150_000, help="camera paths per view and normal (compare)")
+    parser.add_argument("--paths", type=int, default=250_000, help="camera paths per view and normal (compare)")
     parser.add_argument("--points", type=int, default=13, help="normals per scan (compare)")
     parser.add_argument("--fresh", action="store_true", help="start the comparison over")
     args = parser.parse_args()

@@ -85,9 +85,10 @@ ENV_DIRECTIONS_ENOUGH = 96
 #: (64 %) loses a quarter of its flash energy through the volume; below, the low dome's rim (12 %)
 #: and every other bundled cut move their answer by at most 0.5° and their energy by at most 4 %
 DEPTH_THIN_SHARE = 0.2
-#: a volume-estimator answer's time over the sample estimator's (its paths are traced with ray
-#: casts, three per path; measured by benchmarks/volume_reference.py --timing, docs/accuracy.md)
-VOLUME_TIME_FACTOR = 3.0
+#: seconds per path of the volume estimator on top of the sample estimator's time (four ray casts
+#: and the path's terms; measured on the 2-core machine of docs/accuracy.md, "The volume
+#: estimator's cost": 1.1-2.4 s for 0.44-0.83 M paths at standard)
+VOLUME_PATH_SECONDS = 2.5e-6
 
 
 @dataclass(frozen=True)
@@ -833,6 +834,7 @@ def estimator_seconds(scene: Any, command: str, occlusion: bool, inter_reflectio
         return {}
     from .orientation.optimize import Constraint, hemisphere_grid
     from .orientation.render_estimator import RenderQuality, predict_render_seconds
+    from .orientation.volume import volume_paths
 
     settings = scene.settings()
     q = scene.quality
@@ -843,12 +845,13 @@ def estimator_seconds(scene: Any, command: str, occlusion: bool, inter_reflectio
         samples = predict_evaluate_seconds(settings, q.surface_points, occlusion)
         one = predict_render_seconds(n_views, rq.resolution, rq.spp, convex, 1, 0, depth)
         two = predict_render_seconds(n_views, rq.resolution, rq.spp, convex, 2, 0, depth)
-        return {"samples": samples, "volume": samples * VOLUME_TIME_FACTOR,
+        volume = samples + VOLUME_PATH_SECONDS * volume_paths(settings, q.surface_points)
+        return {"samples": samples, "volume": volume,
                 "render": samples + max(one - (two - one), 0.0)}  # no L-BFGS step: one primal per view
     samples = predict_sample_seconds(settings, q.surface_points, occlusion)
     if command == "compare":
         return {"samples": samples}
-    volume = samples * VOLUME_TIME_FACTOR
+    volume = samples + VOLUME_PATH_SECONDS * volume_paths(settings, q.surface_points)
     coarse = len(hemisphere_grid(rq.coarse_deg, Constraint(90.0))) if zoned else 0
     render = samples + predict_render_seconds(n_views, rq.resolution, rq.spp, convex, rq.iterations, coarse, depth)
     return {"samples": samples, "volume": volume, "render": render}

@@ -62,7 +62,7 @@ def test_reasking_reuses_what_did_not_change(monkeypatch):
     study.score_map()
     assert study.builds == {"plan": 1, "problem": 1, "recommendation": 1}
     # the planner's depth exposure, the answer's samples and the error bars' finer-direction problem's
-    assert draws == [(1500, 0), (3000, 0), (750, 0)]
+    assert draws == [(600, 0), (3000, 0), (750, 0)]
     drawn = len(draws)
     lamp = study.with_lights("spot")
     assert lamp.scenario.lights.name == "spot" and lamp.scenario.views.name == study.scenario.views.name

@@ -114,20 +114,24 @@ def test_a_slab_thinner_than_the_stack_mirrors_only_its_depths_share(tmp_path_fa
     """0.3 mm of stone under the face: only the top 0.3 mm of the 0.93 mm stack mirrors (the light
     leaves through the base before the rest), a third of the flash; the surface model mirrors the
     whole stack. The thick slab's ratio takes out what both lose at the slab's edges."""
-    ratios = []
+    ratios, infos = [], []
     for thickness in (0.3, 3.0):
-        (surface, volume), _ = _answers(slab(tmp_path_factory, thickness), "overhead")
+        (surface, volume), vol = _answers(slab(tmp_path_factory, thickness), "overhead")
         ratios.append(volume[1] / surface[1])
+        infos.append(vol.info["volume"])
     want = float(depth_law(material).share_above(0.3, 1.0))  # lamellae parallel to the face: depth is depth
     assert 0.3 < want < 0.45
     assert ratios[0] / ratios[1] == pytest.approx(want, rel=0.08)
+    # the paths dropped for want of stone: those whose depth lies below the base
+    assert infos[0]["thin"] / infos[0]["paths"] == pytest.approx(1.0 - want, abs=0.05)
+    assert infos[1]["thin"] < 0.05 * infos[1]["paths"]
 
 
 def test_the_fixed_point_has_converged(material):
-    """Three steps (the default) and eight give the same answer on the high dome; one step does not
+    """Four steps (the default) and eight give the same answer on the high dome; one step does not
     find the entry (most paths are dropped as unconverged)."""
     high = labcut.load_mesh("meshes/oval-16x12-high.ply")
-    (_, three), v3 = _answers(high, "spot")
+    (_, three), v3 = _answers(high, "spot")  # the default: four steps
     (_, eight), _ = _answers(high, "spot", iterations=8)
     assert angle_deg(three[0], eight[0]) < 0.1 and three[1] == pytest.approx(eight[1], rel=0.01)
     _, v1 = _answers(high, "spot", iterations=1)

@@ -59,7 +59,7 @@ from ..physics import schiller as lobe
 from ..physics.depth import depth_law
 from ..physics.material import Labradorite
 from ..physics.ops import NUMPY
-from ..rendering.rays import build_occlusion_scene, escapes_paired, occlusion_scene, ray_variant, surface_offset
+from ..rendering.rays import escapes_paired, occlusion_scene, ray_variant, surface_offset
 from ..scene import Setting
 from ..scene.quality import Quality
 from .kernels import DEFAULT_KERNELS, KernelOptions
@@ -67,10 +67,13 @@ from .problem import FlashProblem, check_problem_inputs, surface_samples, view_p
 from .radiance import flash_threshold, reference_radiance, view_terms
 
 #: depth samples per (pair, light) (stratified; each pair's and light's strata rotated by a
-#: golden-ratio sequence, so that neighbouring pairs fill each other's gaps)
-DEPTHS = 2
-#: fixed-point steps of each path (docs/physics-accuracy.md measures what a fourth would move)
-ITERATIONS = 3
+#: golden-ratio sequence, so that neighbouring pairs and lights fill each other's gaps). One is
+#: enough: against four, the answers on the bundled ovals and the carving under a front lamp moved by
+#: at most 0.03° and their energy by 0.1 % (docs/accuracy.md, "The volume estimator's cost")
+DEPTHS = 1
+#: fixed-point steps of each path: against eight, three lost 1.1 % of the high dome's energy under the
+#: front spot (draft; the paths still moving are bright ones), four 0.4 % (tests/test_volume.py)
+ITERATIONS = 4
 #: a path counts when its last step moved the entry leg's length by less than this share
 CONVERGED = 0.05
 #: (pair, light, depth) paths traced per chunk (a few hundred bytes each)
@@ -93,23 +96,15 @@ class VolumeRays:
     the stone's one ray scene (:func:`labcut.rendering.rays.occlusion_scene`, kept by the stone), so
     that the volume estimator adds no Mitsuba scene of its own."""
 
-    def __init__(self, mesh: Any, *, keep: bool = True) -> None:
+    def __init__(self, mesh: Any) -> None:
         self.stone = Stone.of(mesh)
         ray_variant()
-        # keep=False: a scene of its own, let go with this object (a planner's few rays about a convex
-        # stone, which otherwise keeps no Mitsuba scene: every live shape is traced into each later
-        # differentiable render's calls, docs/performance.md)
-        self.scene = occlusion_scene(self.stone.mesh) if keep else build_occlusion_scene(self.stone.mesh)
+        self.scene = occlusion_scene(self.stone.mesh)
         self.big = len(self.stone.mesh.faces) > FAST_SMOOTH_FACES
         self.vertices = np.asarray(self.stone.mesh.vertices, dtype=np.float64)
         self.faces = np.asarray(self.stone.mesh.faces, dtype=np.int64)
         if not self.big:
-            split = self.stone.smooth_split()
-            # the copy's face i is the mesh's face order[i] (trimesh's record of the split's patches)
-            order = np.concatenate([np.asarray(c, dtype=np.int64) for c in split.metadata["original_components"]])
-            corners = np.empty((len(self.faces), 3, 3))
-            corners[order] = np.asarray(split.vertex_normals, dtype=np.float64)[np.asarray(split.faces)]
-            self.corners = corners
+            self.corners = corner_normals(self.stone)
 
     def cast(self, origins: np.ndarray, dirs: np.ndarray) -> _Hits:
         """The first surface hit of each ray (``origins`` and unit ``dirs``, (N, 3))."""
@@ -136,6 +131,41 @@ class VolumeRays:
         n_sh /= np.maximum(np.linalg.norm(n_sh, axis=1, keepdims=True), 1e-300)
         t[~hit] = np.inf
         return _Hits(t, n_sh, n_geo)
+
+
+def corner_normals(stone: Stone) -> np.ndarray:
+    """(faces, 3, 3) smooth shading normals at the corners of each of the stone's faces, in the
+    mesh's face order: the vertex normals of its smooth-shaded split copy (the copy's face ``i`` is
+    the mesh's face ``order[i]``, trimesh's record of the split's patches), or, for a mesh too big
+    to copy, the split normals computed at the faces (:func:`~labcut.geometry.surface.smooth_corner_normals`)."""
+    faces = np.asarray(stone.mesh.faces, dtype=np.int64)
+    if len(faces) > FAST_SMOOTH_FACES:
+        return smooth_corner_normals(stone.mesh, stone.shading_angle_deg, np.arange(len(faces)))
+    split = stone.smooth_split()
+    order = np.concatenate([np.asarray(c, dtype=np.int64) for c in split.metadata["original_components"]])
+    corners = np.empty((len(faces), 3, 3))
+    corners[order] = np.asarray(split.vertex_normals, dtype=np.float64)[np.asarray(split.faces)]
+    return corners
+
+
+def convex_thickness(mesh: Any, points: np.ndarray, dirs: np.ndarray, chunk: int = 128) -> np.ndarray:
+    """How far each ray (``points`` inside a convex ``mesh``, unit ``dirs``) runs to the surface: the
+    nearest of the faces' planes it meets going out (a convex solid is the meet of its faces'
+    half-spaces), without a ray scene; float32 sums (a few micrometres on a centimetre stone)."""
+    faces = np.asarray(mesh.faces, dtype=np.int64)
+    v = np.asarray(mesh.vertices, dtype=np.float64)
+    n = np.asarray(mesh.face_normals, dtype=np.float64)
+    h = np.einsum("ij,ij->i", n, v[faces[:, 0]]).astype(np.float32)
+    n32 = np.ascontiguousarray(n.T, dtype=np.float32)
+    out = np.empty(len(points))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        for s0 in range(0, len(points), chunk):
+            p = np.asarray(points[s0:s0 + chunk], dtype=np.float32)
+            along = np.asarray(dirs[s0:s0 + chunk], dtype=np.float32) @ n32  # (chunk, faces)
+            t = (h[None, :] - p @ n32) / along
+            t[along <= 1e-6] = np.inf
+            out[s0:s0 + chunk] = t.min(axis=1)
+    return out
 
 
 def depth_strata(n: int, depths: int, salt: int) -> np.ndarray:
@@ -298,8 +328,15 @@ def _paths(rays: VolumeRays, law: Any, table: tuple[np.ndarray, np.ndarray], eta
         yield (h[finite].astype(np.float32), c[finite].astype(np.float32), pair[keep][finite].astype(np.int32))
 
 
-#: surface samples of :func:`depth_exposure` (a few thousand rays: milliseconds)
-EXPOSURE_POINTS = 1500
+#: surface samples of :func:`depth_exposure` (its thin share to about ±1.5 % at the low dome's 11 %)
+EXPOSURE_POINTS = 600
+
+
+def volume_paths(settings: list[Setting], surface_points: int, depths: int = DEPTHS) -> float:
+    """About how many paths :func:`build_volume_problem` traces: every surface point seen by half
+    the views (a convex stone shows a view about half its surface), times each pose's lights and
+    the depths (the effect planner's time prediction)."""
+    return float(sum(0.5 * surface_points * len(st.views.directions) * len(st.lights.directions) for st in settings)) * depths
 
 
 def depth_exposure(mesh: Any, material: Labradorite) -> dict[str, float]:
@@ -323,13 +360,16 @@ def depth_exposure(mesh: Any, material: Labradorite) -> dict[str, float]:
 
     def build() -> dict[str, float]:
         samples = stone.surface_samples(EXPOSURE_POINTS, 0)
-        rays = VolumeRays(stone.mesh, keep=not stone.convex)  # a carving keeps its ray scene anyway
         eps = surface_offset(stone.mesh)
-        thick = rays.cast(samples.points - eps * samples.n_geo, -samples.n_sh).t
+        inside = samples.points - eps * samples.n_geo
+        if stone.convex:  # no ray scene: a convex stone needs none anywhere else either
+            thick = convex_thickness(stone.mesh, inside, -samples.n_sh)
+        else:  # a carving's ray scene is kept for its occlusion rays anyway
+            thick = VolumeRays(stone.mesh).cast(inside, -samples.n_sh).t
         thin = float(np.mean(thick < law.depth_mm))
-        tri = rays.vertices[rays.faces]
-        vn = rays.corners if not rays.big else smooth_corner_normals(stone.mesh, stone.shading_angle_deg,
-                                                                      np.arange(len(rays.faces)))
+        faces = np.asarray(stone.mesh.faces, dtype=np.int64)
+        tri = np.asarray(stone.mesh.vertices, dtype=np.float64)[faces]
+        vn = corner_normals(stone)
         rate = np.zeros(len(tri))  # radians of normal turn per mm, the steepest edge of each face
         for i, j in ((0, 1), (1, 2), (2, 0)):
             length = np.linalg.norm(tri[:, i] - tri[:, j], axis=1)

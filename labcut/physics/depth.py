@@ -30,7 +30,8 @@ from typing import Any
 
 import numpy as np
 
-from ..colour import stack_table
+from ..colour import material_key, stack_table
+from ..fileio import cached_array
 from ..errors import ParameterError
 
 #: depths tabulated between 0 and the stack's depth (the law is smooth: linear interpolation
@@ -108,9 +109,15 @@ def depth_law(material: Any, illuminant: str = "D65") -> DepthLaw:
         raise ParameterError(f"the stack has no depth ({material.pairs} pairs of {material.d_a + material.d_b} nm)")
     z = np.linspace(0.0, depth, DEPTH_STEPS + 1)
     cos = np.linspace(COS_MIN, 1.0, COS_STEPS)
-    pairs = (float(material.pairs) * np.arange(1, DEPTH_STEPS + 1) / DEPTH_STEPS)[:, None, None]
-    cut = material.stack._replace(pairs=pairs)
-    y = stack_table(cut, cos, "mono", illuminant)[..., 0]  # (DEPTH_STEPS, COS_STEPS)
+
+    def build() -> np.ndarray:
+        pairs = (float(material.pairs) * np.arange(1, DEPTH_STEPS + 1) / DEPTH_STEPS)[:, None, None]
+        cut = material.stack._replace(pairs=pairs)
+        return stack_table(cut, cos, "mono", illuminant)[..., 0]  # (DEPTH_STEPS, COS_STEPS)
+
+    # kept on disk as the colour tables are (a plan's first question about a stone asks it)
+    key = f"depth law v1 {DEPTH_STEPS} x {COS_STEPS} from cos {COS_MIN} {illuminant} {material_key(material)}"
+    y = cached_array("depth-law", key, build, shape=(DEPTH_STEPS, COS_STEPS), dtype=np.float64)
     full = y[-1]
     share = np.zeros((COS_STEPS, DEPTH_STEPS + 1))
     ok = full > 0
