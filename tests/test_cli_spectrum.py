@@ -33,8 +33,12 @@ def test_explicit_layers_and_material_file(cli, tmp_path):
     proc = cli("spectrum", "--d-a", "90", "--d-b", "80", "--sigma-a", "10", "--pairs", "3000", "--json", str(tmp_path / "m.json"), "--no-plot")
     assert proc.returncode == 0, proc.stderr
     proc = cli("spectrum", "--material", str(tmp_path / "m.json"), "--json", "-", "--no-plot")
-    data = json.loads(proc.stdout)["material"]
+    whole = json.loads(proc.stdout)
+    data = whole["material"]
     assert (data["d_a"], data["d_b"], data["sigma_a"], data["pairs"]) == (90.0, 80.0, 10.0, 3000)
+    # the stack's depth, 3000 x 170 nm, and its flash depth (docs/physics.md "Depth")
+    assert whole["depth"]["stack_depth_mm"] == pytest.approx(0.51)
+    assert 0.2 < whole["depth"]["flash_depth_mm"] < 0.51 / 2 + 0.01
 
 
 @pytest.mark.parametrize(

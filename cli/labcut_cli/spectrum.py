@@ -54,14 +54,17 @@ def spectrum(
     check_outputs({"--plot": (None if no_plot else plot, (".png",)), "--json": (json_path, (".json",))}, ctx)
     rows = spectrum_summary(material, angle_list)
     note = material.visibility_note()  # printed as a warning: line when the material was built
-    result = {"material": material.to_dict(), "angles": rows, "warnings": [note] if note else []}
+    depth = {"stack_depth_mm": material.stack_depth_mm, "flash_depth_mm": material.flash_depth_mm}
+    result = {"material": material.to_dict(), "depth": depth, "angles": rows, "warnings": [note] if note else []}
 
     if json_path == "-":
         typer.echo(json.dumps(_finite(result), indent=2))
     else:
         purple = any(r["hue"] == "purple" for r in rows)
+        depth_line = (f"stack {depth['stack_depth_mm']:.2f} mm deep; its flash mirrored {depth['flash_depth_mm']:.2f} mm "
+                      "below the surface on average (the flash depth)")
         table = Table(title=f"Flash of {material.name or 'labradorite'} (period {material.period_nm:.1f} nm, {material.pairs} pairs)",
-                      caption=colour.PURPLE_CAPTION if purple else None, caption_justify="left")
+                      caption=(colour.PURPLE_CAPTION + "\n" if purple else "") + depth_line, caption_justify="left")
         # every column readable at 80 columns: the numbers and the hex code never wrap or cut;
         # a value too wide for its column (a peak past 10 µm) folds onto a second line
         for col, just in (("angle", "right"), ("peak λ", "right"), ("Bragg λ", "right"), ("peak R", "right"),
