@@ -8,6 +8,7 @@ against the depth law's share; the fixed point against more iterations."""
 
 from __future__ import annotations
 
+import json
 import math
 
 import numpy as np
@@ -195,3 +196,21 @@ def test_recommend_with_the_volume_estimator_carries_it_through_the_answer():
     assert surface.estimator == "samples"
     assert angle_deg(rec.normal, surface.normal) < 0.5
     assert rec.to_dict()["plan"]["effects"]["depth"]["forced"] is False
+
+
+def test_the_cli_answers_through_the_volume_and_can_be_told_not_to(cli_main, tmp_path):
+    out = tmp_path / "r.json"
+    proc = cli_main("recommend-orientation", "meshes/carving-biplane.ply", "--quality", "draft", "--json", str(out))
+    assert proc.returncode == 0, proc.stderr
+    assert "volume estimator:" in proc.stdout and "paths through the stone" in proc.stdout
+    data = json.loads(out.read_text())
+    assert data["estimator"] == "volume" and data["settings"]["depth"] is True
+    assert data["settings"]["volume"]["kept"] > 0 and data["plan"]["effects"]["depth"]["on"]
+    off = tmp_path / "off.json"
+    proc = cli_main("recommend-orientation", "meshes/carving-biplane.ply", "--quality", "draft", "--effect", "depth=off",
+                    "--json", str(off))
+    assert proc.returncode == 0, proc.stderr
+    data = json.loads(off.read_text())
+    assert data["estimator"] == "samples" and data["settings"]["volume"] is None and "volume estimator:" not in proc.stdout
+    proc = cli_main("compare", "meshes/oval-16x12-low.ply", "--estimator", "volume", "--quality", "draft")
+    assert proc.returncode == 2 and "recommend-orientation --estimator volume" in proc.stderr

@@ -183,11 +183,11 @@ def compare(
     # every input is checked before the work starts
     check_outputs({"--html": (html_path, (".html", ".htm")), "--json": (json_path, (".json",)), "--csv": (csv_path, (".csv",))}, ctx)
     effects = po.check(estimator, effect)
-    if estimator == "render":
+    if estimator in ("render", "volume"):
         from labcut.errors import ParameterError
 
         raise ParameterError("compare runs the sample estimator (many cuts and curves); "
-                             "use --estimator samples, or recommend-orientation --estimator render per cut")
+                             f"use --estimator samples, or recommend-orientation --estimator {estimator} per cut")
     quality_or_budget(quality is not None, time_budget is not None, flags=True)
     unit_arg, up, size = mesh_options.units_arg, mesh_options.up, mesh_options.size
     with warnings.catch_warnings(record=True) as caught:

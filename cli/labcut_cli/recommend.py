@@ -313,6 +313,13 @@ def recommend_orientation(
                           f"{b['budget_seconds']:.2f} s left for the recommendation): quality {b['quality']} "
                           f"(predicted {b['predicted_seconds']:.2f} s, took {rec.seconds:.2f} s; its error bars "
                           f"±{rec.uncertainty.angle_deg:.1f}°, ±{rec.uncertainty.score_rel:.0%}, about 95 %)", highlight=False)
+        volume = rec.settings.get("volume")
+        if volume:  # the volume estimator: say what the light did inside the stone
+            paths = max(1, volume["paths"])
+            console.print(f"volume estimator: {volume['paths']} paths through the stone ({volume['depths']} depth per "
+                          f"point, view and light, flash depth {volume['flash_depth_mm']:.2f} mm); "
+                          f"{volume['thin'] / paths:.0%} found too little stone below, {volume['unlit'] / paths:.0%} an "
+                          f"entry the light does not reach", highlight=False)
         if rec.estimator == "render":
             r = rec.render
             console.print(f"render estimator ({r['integrator']}, depth {r['max_depth']}, {r['resolution']}² px, {r['spp']} spp): "
