@@ -14,7 +14,8 @@ directions and Mitsuba's ray casts against the smooth-shaded mesh):
   transmission as weight, Snell with the smooth shading normal) and travel straight through the
   stone.
 * **The lamellae are planes**, :data:`PLANES` of them over the stack's depth ``D = N (d_a + d_b)``,
-  counted from the surface point the light last came in through. Their normal is the domain's: drawn
+  counted from the surface point the path last came in through (traced from the viewer: the point
+  that is seen; after a reflection inside, where it was reflected). Their normal is the domain's: drawn
   from the material's mosaic (an axial von Mises-Fisher distribution of spread ``spread_deg`` around
   the mean lamella normal) where the light comes in, shared by every plane the path meets there (light
   mirrored back and forth between them keeps one mirror direction). A path crossing plane ``k`` is
@@ -40,8 +41,9 @@ paths can find it) and the overhead lamp, face-up viewers, and scans the referen
 along two great circles through labcut's answer (front-back and left-right, the lamp's plane first),
 over 1.6 times the answer's tolerance either side; the reference optimum is the vertex of a
 least-squares parabola through each scan, its 90 % tolerance where the parabola falls to 90 % of its
-top (the smaller of the two axes'). Results: ``benchmarks/data/volume_reference.json``; ``report`` writes the table between the
-``VOLUME-REFERENCE`` markers of docs/physics-accuracy.md.
+top (the smaller of the two axes'). Results: ``benchmarks/data/volume_reference.json`` (``planner``'s in
+``benchmarks/data/volume_planner.json``); ``report`` writes the tables between the ``VOLUME-REFERENCE``
+markers of docs/physics-accuracy.md, ``DEPTH-OFF`` of docs/planner.md and ``VOLUME-COST`` of docs/accuracy.md.
 """
 
 from __future__ import annotations
@@ -77,6 +79,7 @@ MAX_SURFACE_EVENTS = 12
 #: the lamp 35 deg in front, as a disc of this radius (deg) in the comparison (paths must find it)
 SPOT_RADIUS_DEG = 4.0
 DATA = ROOT / "benchmarks" / "data" / "volume_reference.json"
+PLANNER_DATA = ROOT / "benchmarks" / "data" / "volume_planner.json"
 DOC = ROOT / "docs" / "physics-accuracy.md"
 BEGIN, END = "<!-- VOLUME-REFERENCE:BEGIN -->", "<!-- VOLUME-REFERENCE:END -->"
 STONES = {"low oval": "meshes/oval-16x12-low.ply", "medium oval": "meshes/oval-16x12-medium.ply",
@@ -108,11 +111,11 @@ class Planes:
         weight = np.interp(WAVELENGTHS, t.wavelengths, t.d65 * t.xyz_bar[:, 1])
         self.lambda_cdf = np.cumsum(weight) / weight.sum()
 
-    def draw_lambda(self, rng: np.random.Generator, n: int) -> np.ndarray:
-        """Wavelength indices drawn from D65 x ybar (the luminance's weights)."""
-        return np.minimum(np.searchsorted(self.lambda_cdf, rng.random(n)), len(WAVELENGTHS) - 1)
+    def draw_lambda(self, u: np.ndarray) -> np.ndarray:
+        """Wavelength indices drawn from D65 x ybar (the luminance's weights) by the uniforms ``u``."""
+        return np.minimum(np.searchsorted(self.lambda_cdf, u), len(WAVELENGTHS) - 1)
 
-    def next_mirror(self, rng: np.random.Generator, depth: np.ndarray, rate: np.ndarray, lam: np.ndarray,
+    def next_mirror(self, u: np.ndarray, depth: np.ndarray, rate: np.ndarray, lam: np.ndarray,
                     cos: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """``(k, t)``: the plane (1-based) that mirrors each path next and the distance to it (inf:
         none before the path leaves the stack), for paths at ``depth`` (mm below their entry) moving
@@ -127,7 +130,7 @@ class Planes:
         # (n, planes + 1): C[0] = 0, C[k] = sum_{i<=k} log(1 - rho_i), linear in the cosine (the
         # stack's luminance moves by per cent per nanometre of Bragg shift: no nearest row)
         logs = self.log_pass[lam, c] * (1.0 - f) + self.log_pass[lam, c + 1] * f
-        target = np.log(rng.random(n))
+        target = np.log(np.maximum(u, 1e-300))
         going_down = rate > 0
         first = np.where(going_down, np.floor(depth / self.spacing + 1e-9) + 1.0,
                          np.ceil(depth / self.spacing - 1e-9) - 1.0).astype(np.int64)
@@ -214,14 +217,36 @@ def frame(m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return t, np.cross(m, t)
 
 
-def draw_mosaic(rng: np.random.Generator, m: np.ndarray, kappa: float, n: int) -> np.ndarray:
-    """``n`` lamella normals from the axial vMF of concentration ``kappa`` around ``m`` (Wood 1994)."""
-    u = rng.random(n)
+def draw_mosaic(m: np.ndarray, kappa: float, u: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """Lamella normals from the axial vMF of concentration ``kappa`` around ``m`` (Wood 1994), one
+    per pair of uniforms ``u``, ``v``."""
     cos = 1.0 + np.log(u + (1.0 - u) * np.exp(-2.0 * kappa)) / kappa
     sin = np.sqrt(np.clip(1.0 - cos * cos, 0.0, 1.0))
-    phi = 2.0 * np.pi * rng.random(n)
+    phi = 2.0 * np.pi * v
     t, b = frame(m)
     return cos[:, None] * m + sin[:, None] * (np.cos(phi)[:, None] * t + np.sin(phi)[:, None] * b)
+
+
+class Streams:
+    """Counter-based uniform numbers: path ``i``'s number ``k`` of stream ``s`` is a hash (splitmix64)
+    of ``(seed, i, k, s)`` alone. So a path draws the same numbers whatever the other paths do, and a
+    scan over lamella normals is traced with the same numbers at every normal (common random
+    numbers: its differences are smooth, not the lottery of which paths find the lamp)."""
+
+    def __init__(self, seed: int) -> None:
+        self.seed = np.uint64(seed)
+
+    def uniform(self, ids: np.ndarray, counter: np.ndarray | int, stream: int) -> np.ndarray:
+        with np.errstate(over="ignore"):
+            x = (np.asarray(ids, dtype=np.uint64) * np.uint64(0x9E3779B97F4A7C15)
+                 + np.asarray(counter, dtype=np.uint64) * np.uint64(0xD1B54A32D192ED03)
+                 + np.uint64(stream) * np.uint64(0x8CB92BA72F3D8DD7) + self.seed * np.uint64(0xDB4F0B9175AE2165))
+            x ^= x >> np.uint64(30)
+            x *= np.uint64(0xBF58476D1CE4E5B9)
+            x ^= x >> np.uint64(27)
+            x *= np.uint64(0x94D049BB133111EB)
+            x ^= x >> np.uint64(31)
+        return ((x >> np.uint64(11)).astype(np.float64) + 0.5) * 2.0 ** -53
 
 
 # ---------------------------------------------------------------------- the tracer
@@ -246,11 +271,13 @@ class Reference:
         from the unit direction ``view`` (orthographic, towards the stone), lamellae of mean normal
         ``normal``, lit by a disc lamp of irradiance 1 (normal to its centre ``lamp``). ``half_width``:
         look at a square of that half width (mm) around the stone's centre only (a slab's middle)."""
-        rng = np.random.default_rng(seed)
+        rng = Streams(seed)
+        ids = np.arange(paths)
         m = np.asarray(normal, dtype=np.float64) / np.linalg.norm(normal)
         v = np.asarray(view, dtype=np.float64) / np.linalg.norm(view)
         t, b = frame(v)
-        xy = (rng.random((paths, 2)) * 2.0 - 1.0) * (self.radius if half_width is None else half_width)
+        xy = (np.stack([rng.uniform(ids, 0, 0), rng.uniform(ids, 0, 1)], axis=1) * 2.0 - 1.0) * (
+            self.radius if half_width is None else half_width)
         origin = self.centre + 2.0 * self.radius * v + xy[:, :1] * t + xy[:, 1:] * b
         w = np.tile(-v, (paths, 1))
         hit = self.rays.cast(origin, w)
@@ -269,12 +296,13 @@ class Reference:
         weight[lost] = 0.0
         w[lost] = -v
         x = x - self.eps * hit.n_geo[seen]
-        lam = self.planes.draw_lambda(rng, n_seen)
-        score = self._trace(rng, m, x, w, weight, lam, lamp / np.linalg.norm(lamp), lamp_radius_deg)
+        ids = ids[seen]
+        lam = self.planes.draw_lambda(rng.uniform(ids, 0, 2))
+        score = self._trace(rng, ids, m, x, w, weight, lam, lamp / np.linalg.norm(lamp), lamp_radius_deg)
         # over the whole outline: the paths that hit, weighted alike
         return float(score.mean()), float(score.std(ddof=1) / math.sqrt(n_seen)), int(np.count_nonzero(score))
 
-    def _trace(self, rng: np.random.Generator, m: np.ndarray, x: np.ndarray, w: np.ndarray, weight: np.ndarray,
+    def _trace(self, rng: Streams, ids: np.ndarray, m: np.ndarray, x: np.ndarray, w: np.ndarray, weight: np.ndarray,
                lam: np.ndarray, lamp: np.ndarray, lamp_radius_deg: float) -> np.ndarray:
         """The radiance each path brings back from the lamp (its schiller part)."""
         pl = self.planes
@@ -284,7 +312,8 @@ class Reference:
         # each path's lamellae: one domain of the mosaic, drawn where the light comes in (every plane
         # the path meets there shares its normal, so light mirrored back and forth between them
         # keeps one mirror direction: the model's whole reflectance in one lobe)
-        dom = draw_mosaic(rng, m, self.kappa, n)
+        dom = draw_mosaic(m, self.kappa, rng.uniform(ids, 0, 3), rng.uniform(ids, 0, 4))
+        step = np.zeros(n, dtype=np.int64)  # each path's count of steps: the counter of its numbers
         entry = np.einsum("ij,ij->i", x, dom)  # the plane coordinate of the point the light came in through
         down = np.sign(np.einsum("ij,ij->i", w, dom))  # the way into the stack from there
         down[down == 0] = 1.0
@@ -294,13 +323,15 @@ class Reference:
         cos_lamp = math.cos(math.radians(lamp_radius_deg))
         lamp_radiance = 1.0 / (math.pi * math.sin(math.radians(lamp_radius_deg)) ** 2)
         alive = np.isfinite(bound) & (weight > 0)
-        x, w, weight, lam, entry, down, mirrored, events, bound, idx, dom = (
-            a[alive] for a in (x, w, weight, lam, entry, down, mirrored, events, bound, idx, dom))
+        x, w, weight, lam, entry, down, mirrored, events, bound, idx, dom, step = (
+            a[alive] for a in (x, w, weight, lam, entry, down, mirrored, events, bound, idx, dom, step))
         while len(idx):
+            step += 1
+            pid = ids[idx]
             wm = np.einsum("ij,ij->i", w, dom)
             depth = (np.einsum("ij,ij->i", x, dom) - entry) * down  # below the entry, along the way in
             rate = wm * down
-            k, t_plane = pl.next_mirror(rng, depth, rate, lam, np.abs(wm))
+            k, t_plane = pl.next_mirror(rng.uniform(pid, step, 5), depth, rate, lam, np.abs(wm))
             at_plane = t_plane < bound
             # --- the plane that mirrors the path (the ones before it passed)
             r_idx = np.flatnonzero(at_plane)
@@ -325,7 +356,7 @@ class Reference:
                 n_sh[flip] = probe.n_geo[flip]
                 cos_i = np.einsum("ij,ij->i", w[s_idx], n_sh)
                 f = fresnel(cos_i, self.eta)
-                inside = rng.random(s_idx.size) < f
+                inside = rng.uniform(pid[s_idx], step[s_idx], 6) < f
                 events[s_idx] += 1
                 out = s_idx[~inside]
                 if out.size:
@@ -339,15 +370,16 @@ class Reference:
                 if back.size:
                     w[back] = reflect(w[back], n_sh[inside])
                     x[back] = xs[inside] - self.eps * probe.n_geo[inside]
-                    dom[back] = draw_mosaic(rng, m, self.kappa, back.size)  # another place: another domain
+                    dom[back] = draw_mosaic(m, self.kappa, rng.uniform(pid[back], step[back], 7),
+                                            rng.uniform(pid[back], step[back], 8))  # another place: another domain
                     entry[back] = np.einsum("ij,ij->i", x[back], dom[back])
                     d = np.sign(np.einsum("ij,ij->i", w[back], dom[back]))
                     down[back] = np.where(d == 0, 1.0, d)
                     bound[back] = self.rays.cast(x[back], w[back]).t
                     done[back[events[back] >= MAX_SURFACE_EVENTS]] = True
             keep = ~done
-            x, w, weight, lam, entry, down, mirrored, events, bound, idx, dom = (
-                a[keep] for a in (x, w, weight, lam, entry, down, mirrored, events, bound, idx, dom))
+            x, w, weight, lam, entry, down, mirrored, events, bound, idx, dom, step = (
+                a[keep] for a in (x, w, weight, lam, entry, down, mirrored, events, bound, idx, dom, step))
         return score
 
 
@@ -365,7 +397,7 @@ def slab_check(paths: int = 400_000) -> dict:
     rng = np.random.default_rng(1)
     rows = []
     for cos in (1.0, 0.9, 0.75, 0.6):
-        lam = planes.draw_lambda(rng, paths)
+        lam = planes.draw_lambda(rng.random(paths))
         cos_arr = np.full(paths, cos)
         depth = np.zeros(paths)
         rate = np.full(paths, cos)
@@ -374,7 +406,7 @@ def slab_check(paths: int = 400_000) -> dict:
         for _ in range(200):  # down and up until each walker leaves the stack
             if not active.size:
                 break
-            k, t = planes.next_mirror(rng, depth[active], rate[active], lam[active], cos_arr[active])
+            k, t = planes.next_mirror(rng.random(active.size), depth[active], rate[active], lam[active], cos_arr[active])
             mirrored = np.isfinite(t)
             out = active[~mirrored]
             returned[out] = rate[out] < 0  # left through the top
@@ -670,7 +702,7 @@ def report() -> None:
                 f"tolerance within {TOLERANCE_TARGET:.0%} of the reference's in {tol_ok} of {len(cases)}, the fitted one in "
                 f"{fit_ok} of {len(cases)}."]
     splice(DOC, BEGIN, END, "\n".join(out))
-    rows = data.get("planner", {}).get("rows", [])
+    rows = json.loads(PLANNER_DATA.read_text()).get("rows", []) if PLANNER_DATA.exists() else []
     if rows:
         text = ["Measured with `.venv/bin/python benchmarks/volume_reference.py planner` "
                 f"({machine}): every bundled cut at draft quality, the surface samples' answer against the volume "
@@ -704,7 +736,7 @@ def _store(key: str, value: dict) -> None:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("what", choices=("slab", "compare", "model-scans", "planner", "report"))
-    parser.add_argument("--paths", type=int, default=250_000, help="camera paths per view and normal (compare)")
+    parser.add_argument("--paths", type=int, default=200_000, help="camera paths per view and normal (compare)")
     parser.add_argument("--points", type=int, default=13, help="normals per scan (compare)")
     parser.add_argument("--fresh", action="store_true", help="start the comparison over")
     args = parser.parse_args()
@@ -715,7 +747,9 @@ def main() -> None:
     elif args.what == "model-scans":
         model_scans()
     elif args.what == "planner":
-        _store("planner", planner_table())
+        PLANNER_DATA.parent.mkdir(parents=True, exist_ok=True)
+        PLANNER_DATA.write_text(json.dumps({**planner_table(), "machine": f"{platform.machine()}, Python "
+                                            f"{platform.python_version()}"}, indent=1))
     elif args.what == "compare":
         compare(args.paths, args.points, args.fresh)
     else:

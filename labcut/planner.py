@@ -82,7 +82,7 @@ ENV_DIRECTIONS_ENOUGH = 96
 #: share of the surface lies over less stone than the material's stack is deep
 #: (:func:`labcut.orientation.volume.depth_exposure`): there the surface model lets thin parts mirror
 #: a whole stack's flash. docs/planner.md ("Depth") measures the bundled stones: the carving
-#: (64 %) loses a quarter of its flash energy through the volume; below, the low dome's rim (12 %)
+#: (66 %) loses a quarter of its flash energy through the volume; below, the low dome's rim (10 %)
 #: and every other bundled cut move their answer by at most 0.5° and their energy by at most 4 %
 DEPTH_THIN_SHARE = 0.2
 #: seconds per path of the volume estimator on top of the sample estimator's time (four ray casts
