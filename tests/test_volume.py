@@ -214,3 +214,20 @@ def test_the_cli_answers_through_the_volume_and_can_be_told_not_to(cli_main, tmp
     assert data["estimator"] == "samples" and data["settings"]["volume"] is None and "volume estimator:" not in proc.stdout
     proc = cli_main("compare", "meshes/oval-16x12-low.ply", "--estimator", "volume", "--quality", "draft")
     assert proc.returncode == 2 and "recommend-orientation --estimator volume" in proc.stderr
+
+
+def test_over_the_path_budget_each_pair_draws_its_lights_without_bias(material):
+    """A scene with more (pair, light) paths than the budget draws each pair's lights in proportion
+    to their irradiance: the flash energy and the answer stay those of every light's paths."""
+    oval = labcut.load_mesh("meshes/oval-16x12-low.ply")
+    q = FlashQuestion.build(None, None, "overhead", "face-up", quality="draft")  # 7 lamp directions
+    full = build_volume_problem(oval, material, "draft", settings=q.scenario.settings())
+    drawn = build_volume_problem(oval, material, "draft", settings=q.scenario.settings(), path_budget=5_000)
+    assert not full.info["volume"]["lights_drawn"] and drawn.info["volume"]["lights_drawn"]
+    assert drawn.info["volume"]["paths"] < 0.5 * full.info["volume"]["paths"]
+    best = []
+    for p in (full, drawn):
+        found = search_best(Scorer(p, "energy"), q.constraint, q.quality, "nlopt")
+        best.append(found)
+    assert best[1].score == pytest.approx(best[0].score, rel=0.03)
+    assert angle_deg(best[0].normal, best[1].normal) < 1.0

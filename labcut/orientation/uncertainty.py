@@ -54,7 +54,7 @@ from ..backend import Launched
 from ..errors import ParameterError
 from ..scene.quality import Quality
 from .problem import FlashProblem
-from .volume import build_volume_problem
+from .volume import BAR_PATH_BUDGET, build_volume_problem
 
 #: bootstrap replicates of the sampling spread
 BOOTSTRAP = 32
@@ -461,7 +461,8 @@ def uncertainty_for(mesh: Any, setup: Any, problem: FlashProblem, normal: Any, *
         other = setup.at_quality(q)
         if volume:
             return build_volume_problem(mesh, setup.material, other.quality, setup.tau, setup.seed,
-                                        settings=other.scenario.settings(), occlusion=occlusion)
+                                        settings=other.scenario.settings(), occlusion=occlusion,
+                                        path_budget=BAR_PATH_BUDGET)
         return build_pairs(mesh, setup.material, other.quality, setup.tau, setup.seed, other.scenario.settings(),
                            occlusion=occlusion)
 

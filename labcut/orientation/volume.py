@@ -78,6 +78,15 @@ ITERATIONS = 4
 CONVERGED = 0.05
 #: (pair, light, depth) paths traced per chunk (a few hundred bytes each)
 CHUNK = 1 << 19
+#: the most paths a problem traces (about three seconds on two cores). A scene with more (pair, light)
+#: combinations (a moving stone under a room's or a map's many directions: 13 poses x a hundred
+#: lights) draws each pair's lights instead, in proportion to their irradiance, as many per pair
+#: as the budget allows and at least one, each weighted by the pose's irradiance over the draws
+#: (an unbiased estimate of the sum over lights; docs/accuracy.md measures what it moves)
+PATH_BUDGET = 1_000_000
+#: the budget of the error bars' finer problems (their difference from the answer's problem is the
+#: discretisation bar: the draws' own noise can only widen it)
+BAR_PATH_BUDGET = PATH_BUDGET // 4
 
 
 @dataclass(frozen=True)
@@ -187,6 +196,7 @@ def build_volume_problem(
     occlusion: bool | None = None,
     depths: int = DEPTHS,
     iterations: int = ITERATIONS,
+    path_budget: int = PATH_BUDGET,
     n_points: int | None = None,
     kernels: KernelOptions = DEFAULT_KERNELS,
 ) -> FlashProblem:
@@ -194,7 +204,8 @@ def build_volume_problem(
     (:meth:`labcut.Scenario.settings`), with the surface samples, pairs, weights, flash threshold and
     units of :func:`~labcut.orientation.problem.build_problem`'s; ``occlusion`` as there (default:
     when the stone is not convex). ``depths``: depth samples per (pair, light); ``iterations``: the
-    fixed-point steps of each path."""
+    fixed-point steps of each path; ``path_budget``: the most paths before each pair's lights are
+    drawn (:data:`PATH_BUDGET`)."""
     if not settings:
         raise ParameterError("build_volume_problem needs at least one setting")
     if not (isinstance(depths, int) and 1 <= depths <= 64):
@@ -222,25 +233,32 @@ def build_volume_problem(
     h_parts, c_parts, pair_parts = [], [], []
     pv_parts, pp_parts, pw_parts, vw_parts, view_area = [], [], [], [], []
     pair_offset = view_offset = 0
-    stats = {"paths": 0, "kept": 0, "thin": 0, "unlit": 0, "unconverged": 0}
+    stats = {"paths": 0, "kept": 0, "thin": 0, "unlit": 0, "unconverged": 0, "lights_drawn": False}
+    pose_pairs = [view_pairs(np.asarray(st.views.directions, dtype=np.float64), points, n_geo, n_sh, mesh, occluded)
+                  for st in settings]
+    every = sum(len(pp[0]) * int(np.count_nonzero(st.lights.weights > 0)) for pp, st in zip(pose_pairs, settings)) * depths
+    share = 1.0 if every <= path_budget else path_budget / every  # of each pair's lights traced
     for k, st in enumerate(settings):
         V = np.asarray(st.views.directions, dtype=np.float64)
         L = np.asarray(st.lights.directions, dtype=np.float64)
         E = np.asarray(st.lights.weights, dtype=np.float64) / float(st.lights.weights.sum())
-        pi, pv, pw = view_pairs(V, points, n_geo, n_sh, mesh, occluded)
+        pi, pv, pw = pose_pairs[k]
         view_area.append(visible_areas(V, SimpleNamespace(pi=pi, pv=pv), n_geo, area_per_point))
         pv_parts.append(pv + view_offset)
         pp_parts.append(pi)
         pw_parts.append(pw)
         vw_parts.append(pose_w[k] * np.asarray(st.views.weights, dtype=np.float64))
         bright = np.flatnonzero(E > 0)
+        draws = None if share >= 1.0 else max(1, int(round(share * bright.size)))
+        draws = None if draws is not None and draws >= bright.size else draws
+        stats["lights_drawn"] = stats["lights_drawn"] or draws is not None
         if pi.size and bright.size:
             nq = n_sh[pi]
             b, t_v = view_terms(nq, V[pv], eta)
             q0 = points[pi] - eps * n_geo[pi]  # just inside the surface
             back = rays.cast(q0, -b).t  # how far the stone reaches behind each exit point along -b
             for h, c, pair in _paths(rays, law, table, eta, l_ref, L[bright], E[bright], q0, nq, b, t_v, back, depths,
-                                     iterations, mesh if occluded else None, eps, salt=k, stats=stats):
+                                     iterations, mesh if occluded else None, eps, salt=k, stats=stats, draws=draws):
                 h_parts.append(h)
                 c_parts.append(c)
                 pair_parts.append(pair + pair_offset)
@@ -272,19 +290,29 @@ def build_volume_problem(
 def _paths(rays: VolumeRays, law: Any, table: tuple[np.ndarray, np.ndarray], eta: float, l_ref: float,
            L: np.ndarray, E: np.ndarray, q0: np.ndarray, nq: np.ndarray, b: np.ndarray, t_v: np.ndarray,
            back: np.ndarray, depths: int, iterations: int, occluder: Any, eps: float, *, salt: int,
-           stats: dict[str, int]) -> Iterator[tuple[np.ndarray, np.ndarray, np.ndarray]]:
+           stats: dict[str, Any], draws: int | None = None) -> Iterator[tuple[np.ndarray, np.ndarray, np.ndarray]]:
     """``(h, c, pair)`` (float32, float32, int32) of the kept paths of one pose, chunk by chunk:
     every (pair, light, depth) of the pairs' exit points ``q0`` (just inside the surface), shading
-    normals ``nq``, internal view directions ``b``, transmissions ``t_v`` and back distances ``back``."""
-    n_pairs, n_lights = len(q0), len(L)
+    normals ``nq``, internal view directions ``b``, transmissions ``t_v`` and back distances ``back``;
+    with ``draws``, that many lights per pair drawn in proportion to ``E`` (stratified, rotated per
+    pair by a golden-ratio sequence), each carrying ``sum(E) / draws``."""
+    n_pairs = len(q0)
+    n_lights = len(L) if draws is None else draws
+    cdf = np.cumsum(E) / E.sum()
     per_pair = n_lights * depths
     step = max(1, CHUNK // per_pair)
     for g0 in range(0, n_pairs, step):
         g1 = min(n_pairs, g0 + step)
         pair = np.repeat(np.arange(g0, g1), per_pair)
-        light = np.tile(np.repeat(np.arange(n_lights), depths), g1 - g0)
+        if draws is None:
+            light = np.tile(np.repeat(np.arange(n_lights), depths), g1 - g0)
+            e = E[light]
+        else:
+            slot = depth_strata(g1 - g0, draws, salt + 7919)  # (pairs, draws): stratified in (0, 1)
+            light = np.repeat(np.minimum(np.searchsorted(cdf, slot.ravel()), len(E) - 1), depths)
+            e = np.full(len(light), float(E.sum()) / draws)
         u = depth_strata((g1 - g0) * n_lights, depths, salt).ravel()
-        l, e = L[light], E[light]
+        l = L[light]
         bq, nqq, q = b[pair], nq[pair], q0[pair]
         a = lobe.internal_direction(l, nqq, eta, NUMPY)  # the surface answer: entry at the exit point
         t = None
@@ -335,8 +363,10 @@ EXPOSURE_POINTS = 600
 def volume_paths(settings: list[Setting], surface_points: int, depths: int = DEPTHS) -> float:
     """About how many paths :func:`build_volume_problem` traces: every surface point seen by half
     the views (a convex stone shows a view about half its surface), times each pose's lights and
-    the depths (the effect planner's time prediction)."""
-    return float(sum(0.5 * surface_points * len(st.views.directions) * len(st.lights.directions) for st in settings)) * depths
+    the depths, down to :data:`PATH_BUDGET` or one light a pair (the effect planner's time prediction)."""
+    pairs = sum(0.5 * surface_points * len(st.views.directions) for st in settings)
+    every = float(sum(0.5 * surface_points * len(st.views.directions) * len(st.lights.directions) for st in settings)) * depths
+    return min(every, max(float(PATH_BUDGET), pairs * depths))
 
 
 def depth_exposure(mesh: Any, material: Labradorite) -> dict[str, float]:
