@@ -253,10 +253,14 @@ class Streams:
 class Reference:
     """The volumetric reference of one stone and material (module docstring)."""
 
-    def __init__(self, mesh: object, material: labcut.Labradorite, planes: int = PLANES) -> None:
+    def __init__(self, mesh: object, material: labcut.Labradorite, planes: int = PLANES,
+                 surface_events: int = MAX_SURFACE_EVENTS) -> None:
         self.mesh = mesh
         self.material = material
         self.planes = Planes(material, planes)
+        #: the surface events a path may have (1: no reflection inside, the first meeting with the
+        #: surface from inside is the last: what the estimators carry)
+        self.surface_events = int(surface_events)
         self.rays = VolumeRays(mesh)
         self.eps = surface_offset(mesh)
         self.eta = float(material.n_surface)
@@ -376,7 +380,7 @@ class Reference:
                     d = np.sign(np.einsum("ij,ij->i", w[back], dom[back]))
                     down[back] = np.where(d == 0, 1.0, d)
                     bound[back] = self.rays.cast(x[back], w[back]).t
-                    done[back[events[back] >= MAX_SURFACE_EVENTS]] = True
+                    done[back[events[back] >= self.surface_events]] = True
             keep = ~done
             x, w, weight, lam, entry, down, mirrored, events, bound, idx, dom, step = (
                 a[keep] for a in (x, w, weight, lam, entry, down, mirrored, events, bound, idx, dom, step))
@@ -482,16 +486,18 @@ def peak_and_tolerance(offsets: np.ndarray, values: np.ndarray, errors: np.ndarr
     return float(peak), float(top), half, half
 
 
-def compare(paths: int, points: int, fresh: bool) -> dict:
+def compare(paths: int, points: int, fresh: bool, *, stones: list[str] | None = None, surface_events: int = MAX_SURFACE_EVENTS,
+            key: str = "cases") -> dict:
     """labcut's default recommendations against the reference (module docstring); one case at a
-    time, kept in :data:`DATA` as it finishes."""
+    time, kept in :data:`DATA` (under ``key``) as it finishes. ``stones``: only these of
+    :data:`STONES`; ``surface_events``: the reference's (1: no light reflected inside the stone)."""
     from labcut.orientation.radiance import reference_radiance
     from labcut.scene.presets import face_up, overhead
 
     data = json.loads(DATA.read_text()) if DATA.exists() else {}
     if fresh:
-        data.pop("cases", None)
-    cases = data.setdefault("cases", {})
+        data.pop(key, None)
+    cases = data.setdefault(key, {})
     mat = labcut.Labradorite()
     lref = reference_radiance(mat, 1.0)
     views = face_up("standard")
@@ -501,6 +507,8 @@ def compare(paths: int, points: int, fresh: bool) -> dict:
                                         front, SPOT_RADIUS_DEG),
                   "overhead lamp": (overhead("standard"), np.array([0.0, 0.0, 1.0]), 8.0)}
     for stone, path in STONES.items():
+        if stones and stone not in stones:
+            continue
         mesh = labcut.load_mesh(str(ROOT / path))
         ref = None
         for lamp_name, (lights, centre, radius) in lamp_cases.items():
@@ -516,7 +524,7 @@ def compare(paths: int, points: int, fresh: bool) -> dict:
                     mesh, material=mat, lighting=lights, viewing="face-up", quality="standard", estimator=est)
                 forced[est] = {"normal": [float(x) for x in other.normal], "tilt_deg": other.tilt_deg,
                                "tolerance_deg": other.tolerance_deg, "seconds": other.seconds}
-            ref = ref or Reference(mesh, mat)
+            ref = ref or Reference(mesh, mat, surface_events=surface_events)
             n0 = np.asarray(rec.normal, dtype=np.float64)
             half = float(np.clip(1.6 * rec.tolerance_deg, 3.0, 12.0))
             offsets = np.linspace(-half, half, points)
@@ -735,6 +743,19 @@ def report() -> None:
         out += ["", f"Tilt within {TILT_TARGET_DEG}° of the reference in {tilt_ok} of {len(cases)} cases; the stated 90 % "
                 f"tolerance within {TOLERANCE_TARGET:.0%} of the reference's in {tol_ok} of {len(cases)}, the fitted one in "
                 f"{fit_ok} of {len(cases)}."]
+    bare = data.get("no_internal", {})
+    if bare:
+        out += ["", "**Without light reflected inside** (`compare --no-internal --stones \"medium oval,high oval\"`: a path "
+                "ends at its first meeting with the surface from inside, as in the estimators):", "",
+                "| stone | lamp | labcut tilt | reference tilt: all light | without | tolerance: labcut | reference: all | without |",
+                "|---|---|---|---|---|---|---|---|"]
+        for key, c in bare.items():
+            full = cases.get(key)
+            if not full:
+                continue
+            out.append(f"| {c['stone']} | {c['lamp']} | {c['answer']['tilt_deg']:.2f}° | {full['reference']['tilt_deg']:.2f}° | "
+                       f"{c['reference']['tilt_deg']:.2f}° | ±{c['answer']['tolerance_deg']:.2f}° | "
+                       f"±{full['reference']['tolerance_deg']:.2f}° | ±{c['reference']['tolerance_deg']:.2f}° |")
     splice(DOC, BEGIN, END, "\n".join(out))
     rows = json.loads(PLANNER_DATA.read_text()).get("rows", []) if PLANNER_DATA.exists() else []
     if rows:
@@ -779,6 +800,9 @@ def main() -> None:
     parser.add_argument("--paths", type=int, default=200_000, help="camera paths per view and normal (compare)")
     parser.add_argument("--points", type=int, default=13, help="normals per scan (compare)")
     parser.add_argument("--fresh", action="store_true", help="start the comparison over")
+    parser.add_argument("--stones", default=None, help="compare: only these stones (comma-separated names)")
+    parser.add_argument("--no-internal", action="store_true",
+                        help="compare: no light reflected inside the stone (kept apart, as no_internal)")
     args = parser.parse_args()
     if args.what == "slab":
         result = slab_check()
@@ -796,7 +820,11 @@ def main() -> None:
         data.update(planner_table(), machine=f"{platform.machine()}, Python {platform.python_version()}")
         PLANNER_DATA.write_text(json.dumps(data, indent=1))
     elif args.what == "compare":
-        compare(args.paths, args.points, args.fresh)
+        stones = args.stones.split(",") if args.stones else None
+        if args.no_internal:
+            compare(args.paths, args.points, args.fresh, stones=stones, surface_events=1, key="no_internal")
+        else:
+            compare(args.paths, args.points, args.fresh, stones=stones)
     else:
         report()
 
