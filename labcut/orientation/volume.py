@@ -379,7 +379,8 @@ def depth_exposure(mesh: Any, material: Labradorite) -> dict[str, float]:
     - ``turn_deg``: the mean angle (area-weighted, degrees) by which the surface normal turns across
       twice the flash depth (:attr:`~labcut.Labradorite.flash_depth_mm`: the typical distance between
       where a mirrored ray enters and where it leaves): the entry's refraction differs from the
-      exit's by about this much, which moves the answer;
+      exit's by about this much (reported; on the bundled cuts, up to 14°, it moved no answer by
+      more than half a degree: docs/planner.md);
     - ``flash_depth_mm`` and ``stack_depth_mm`` of the material.
 
     Kept by the stone per stack depth (:meth:`~labcut.geometry.stone.Stone.cached`)."""
