@@ -1,10 +1,10 @@
-"""The stack's depth law, the volumetric flash problem (labcut.orientation.volume) and the planner's
-``depth`` decision (docs/physics.md "Depth", docs/planner.md "Depth"; issue 38).
+"""The volumetric flash problem (labcut.orientation.volume) and the planner's ``depth`` decision
+(docs/physics.md "Depth", docs/planner.md "Depth"; issue 38). The stack's depth law is
+tests/test_depth_law.py's.
 
-References: the depth law against the model's own reflectance of a shorter stack (computed
-independently through the colour tables); the volume problem on a flat slab against the surface
-problem (exact there when the slab is thicker than the stack) and on a slab thinner than the stack
-against the depth law's share; the fixed point against more iterations."""
+References: the volume problem on a flat slab against the surface problem (exact there when the
+slab is thicker than the stack) and on a slab thinner than the stack against the depth law's share;
+the fixed point against more iterations; drawn lights against every light."""
 
 from __future__ import annotations
 
@@ -14,18 +14,15 @@ import math
 import numpy as np
 import pytest
 import trimesh
-from hypothesis import given, settings
-from hypothesis import strategies as st
 
 import labcut
-from labcut.colour import reflectance_luminance
 from labcut.errors import ParameterError
 from labcut.orientation.optimize import search_best
 from labcut.orientation.problem import build_problem
 from labcut.orientation.question import FlashQuestion
 from labcut.orientation.scoring import Scorer
 from labcut.orientation.volume import build_volume_problem, depth_exposure, depth_strata
-from labcut.physics.depth import depth_law, stack_depth_mm
+from labcut.physics.depth import depth_law
 from labcut.planner import DEPTH_THIN_SHARE, plan_effects
 
 
@@ -46,49 +43,13 @@ def slab(tmp_path_factory, thickness: float, size: float = 40.0):
     return labcut.load_mesh(path)
 
 
-# ---------------------------------------------------------------------- the depth law
-def test_the_depth_law_is_the_models_reflectance_of_a_shorter_stack(material):
-    law = depth_law(material)
-    assert law.depth_mm == pytest.approx(material.pairs * material.period_nm * 1e-6) == stack_depth_mm(material)
-    assert material.stack_depth_mm == pytest.approx(0.93)
-    for cos in (1.0, 0.8):
-        full = float(reflectance_luminance(material, np.array([cos]))[0])
-        for share in (0.25, 0.5, 0.75):
-            cut = material.replace(pairs=int(material.pairs * share))
-            want = float(reflectance_luminance(cut, np.array([cos]))[0]) / full
-            assert law.share_above(share * law.depth_mm, cos) == pytest.approx(want, rel=2e-3), (cos, share)
-    assert law.share_above(0.0) == 0.0 and law.share_above(law.depth_mm) == 1.0 and law.share_above(5.0) == 1.0
-    assert np.all(np.diff(law.share, axis=1) >= 0)
-
-
-def test_the_flash_depth_is_the_mean_depth_and_a_weak_stack_spreads_it_evenly(material):
-    law = depth_law(material)
-    z = np.linspace(0.0, law.depth_mm, 4001)
-    density = np.gradient(law.share_above(z, 1.0), z)
-    mean = float(np.sum(z * density) * (z[1] - z[0]))
-    assert material.flash_depth_mm == pytest.approx(mean, rel=5e-3)
-    # saturation mirrors more near the top: the mean lies above half the stack's depth
-    assert 0.3 * law.depth_mm < material.flash_depth_mm < 0.5 * law.depth_mm
-    weak = material.replace(pairs=300)  # R_kin << 1: reflectance grows linearly with the depth
-    assert weak.flash_depth_mm == pytest.approx(0.5 * weak.stack_depth_mm, rel=0.01)
-
-
-@settings(max_examples=40, deadline=None)
-@given(u=st.floats(0.0, 1.0), cos=st.floats(0.2, 1.0))
-def test_the_depth_quantile_inverts_the_share(u, cos):
-    law = depth_law(labcut.Labradorite())
-    z = law.quantile(u, cos)
-    assert 0.0 <= z <= law.depth_mm
-    assert float(law.share_above(z, cos)) == pytest.approx(u, abs=2e-3)
-
-
+# ---------------------------------------------------------------------- the volume problem
 def test_depth_strata_fill_each_stratum_once():
     u = depth_strata(50, 4, 3)
     assert u.shape == (50, 4) and np.all((u >= 0) & (u < 1))
     assert np.all(np.floor(u * 4) == np.arange(4)[None, :])
 
 
-# ---------------------------------------------------------------------- the volume problem
 def _answers(mesh, scene_lighting, **volume):
     q = FlashQuestion.build(None, None, scene_lighting, "face-up", quality="draft")
     settings_ = q.scenario.settings()

@@ -35,6 +35,7 @@ ROOT = Path(__file__).resolve().parents[1]
 
 #: each module of issue 37's list and its own test files
 MODULE_TESTS: dict[str, list[str]] = {
+    "labcut/physics/depth.py": ["tests/test_depth_law.py"],
     "labcut/physics/lamella.py": ["tests/test_physics_bragg.py", "tests/test_physics_hardcases.py",
                                   "tests/test_physics_montecarlo.py", "tests/test_physics_tmm.py",
                                   "tests/test_tmm_reference.py", "tests/test_material.py"],
