@@ -54,3 +54,23 @@ def test_the_depth_quantile_inverts_the_share(u, cos):
     assert float(law.share_above(z, cos)) == pytest.approx(u, abs=2e-3)
 
 
+
+
+def test_nan_reads_as_the_surface_and_normal_incidence(material):
+    """A path whose depth or angle is not a number (a missed ray) is read at depth 0 and normal
+    incidence, so the caller's own checks drop it (docs: DepthLaw.share_above)."""
+    law = depth_law(material)
+    assert float(law.share_above(np.nan, 0.8)) == 0.0 and float(law.quantile(np.nan, 0.8)) == 0.0
+    assert float(law.share_above(0.3, np.nan)) == float(law.share_above(0.3, 1.0))
+    assert float(law.quantile(0.4, np.nan)) == float(law.quantile(0.4, 1.0))
+
+
+def test_the_mean_depth_at_an_oblique_angle_is_that_angles_law(material):
+    """At 53° from the lamella normal (cos 0.6) the stack is weaker (its Bragg peak left the
+    visible's bright middle), so its flash is mirrored more evenly and a little deeper."""
+    law = depth_law(material)
+    z = np.linspace(0.0, law.depth_mm, 4001)
+    density = np.gradient(law.share_above(z, 0.6), z)
+    mean = float(np.sum(z * density) * (z[1] - z[0]))
+    assert law.mean_mm(0.6) == pytest.approx(mean, rel=5e-3)
+    assert law.mean_mm(0.6) > law.mean_mm(1.0)
