@@ -112,6 +112,9 @@ class VolumeRays:
         self.big = len(self.stone.mesh.faces) > FAST_SMOOTH_FACES
         self.vertices = np.asarray(self.stone.mesh.vertices, dtype=np.float64)
         self.faces = np.asarray(self.stone.mesh.faces, dtype=np.int64)
+        tri = self.vertices[self.faces]
+        n_geo = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+        self.face_normals = n_geo / np.maximum(np.linalg.norm(n_geo, axis=1, keepdims=True), 1e-300)
         if not self.big:
             self.corners = corner_normals(self.stone)
 
@@ -129,9 +132,7 @@ class VolumeRays:
         face = np.where(hit, np.array(pi.prim_index, dtype=np.int64), 0)
         uv = np.where(hit[None, :], np.array(pi.prim_uv, dtype=np.float64), 0.0)  # a miss: face 0's corner (unused)
         bary = np.stack([1.0 - uv[0] - uv[1], uv[0], uv[1]], axis=1)
-        tri = self.vertices[self.faces[face]]
-        n_geo = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
-        n_geo /= np.maximum(np.linalg.norm(n_geo, axis=1, keepdims=True), 1e-300)
+        n_geo = self.face_normals[face]
         if self.big:
             corners = smooth_corner_normals(self.stone.mesh, self.stone.shading_angle_deg, face)
         else:
