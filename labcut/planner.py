@@ -87,8 +87,8 @@ ENV_DIRECTIONS_ENOUGH = 96
 DEPTH_THIN_SHARE = 0.2
 #: seconds per path of the volume estimator on top of the sample estimator's time (four ray casts
 #: and the path's terms, its error bars' quarter-budget problems included; measured on the 2-core
-#: machine of docs/accuracy.md, "The volume estimator's cost": +1.5-2.6 s for 0.44-0.83 M paths at standard)
-VOLUME_PATH_SECONDS = 3.2e-6
+#: machine of docs/accuracy.md, "The volume estimator's cost": +1.1-1.9 s for 0.44-0.83 M paths at standard)
+VOLUME_PATH_SECONDS = 2.5e-6
 
 
 @dataclass(frozen=True)
