@@ -270,6 +270,17 @@ def explorer():
     ex.stop()
 
 
+@pytest.fixture(autouse=True)
+def _explorer_idle_after(request):
+    """After each test that used the module's explorer, wait for its worker to draw the pictures of
+    the last state: the explorer lives on between tests, and with xdist the next test on this worker
+    may be another module's, whose Mitsuba variant a picture drawn meanwhile would switch under it
+    (tests/test_backend.py's variant test read rgb so, with this explorer's threads alive)."""
+    yield
+    if "explorer" in request.fixturenames:
+        assert request.getfixturevalue("explorer").worker.wait_idle(120)
+
+
 def _get(url, host=None):
     request = urllib.request.Request(url, headers={"Host": host} if host else {})
     try:

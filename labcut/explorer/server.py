@@ -89,9 +89,19 @@ class Worker(threading.Thread):
         self._render_state: Any = None  # the state whose pictures are done or under way
         self.generation = 0
         self.stopped = threading.Event()
+        #: set while the worker has nothing to do (no job queued, the pictures of the current state
+        #: done): :meth:`wait_idle`
+        self.idle = threading.Event()
 
     def submit(self, job: _Job) -> None:
+        self.idle.clear()
         self.jobs.put(job)
+
+    def wait_idle(self, timeout: float) -> bool:
+        """Wait until the worker has answered every job and drawn the pictures of the current state
+        (a caller about to use Mitsuba itself: the pictures switch its variant, the process's);
+        False if ``timeout`` seconds passed first."""
+        return self.idle.wait(timeout)
 
     #: how long :meth:`stop` waits for a picture under way (seconds)
     STOP_WAIT_SECONDS = 30.0
@@ -108,6 +118,8 @@ class Worker(threading.Thread):
     # ------------------------------------------------------------------ the loop
     def run(self) -> None:
         while not self.stopped.is_set():
+            if self._render_state == self.session.state and self.jobs.empty():
+                self.idle.set()
             try:
                 job = self.jobs.get(timeout=0.05 if self._render_state != self.session.state else 1.0)
             except queue.Empty:
