@@ -192,3 +192,18 @@ def test_over_the_path_budget_each_pair_draws_its_lights_without_bias(material):
         best.append(found)
     assert best[1].score == pytest.approx(best[0].score, rel=0.03)
     assert angle_deg(best[0].normal, best[1].normal) < 1.0
+
+
+def test_a_scan_too_big_to_copy_gets_the_same_exposure_from_rays_and_a_face_sample(monkeypatch, material):
+    """A mesh over FAST_SMOOTH_FACES (a scan) is measured by ray casts and by the normal turn of
+    faces drawn by area (a 1.4 M-triangle oval: 14 s as the small ones are measured, 1.5 s so);
+    the low dome, taken for such a mesh, keeps its figures."""
+    from labcut.orientation import volume
+
+    small = depth_exposure(labcut.load_mesh("meshes/oval-16x12-low.ply"), material)
+    monkeypatch.setattr(volume, "FAST_SMOOTH_FACES", 1000)
+    monkeypatch.setattr(volume, "EXPOSURE_FACES", 4000)
+    drawn = volume.depth_exposure(labcut.load_mesh("meshes/oval-16x12-low.ply"), material)
+    assert drawn["thin_share"] == pytest.approx(small["thin_share"], abs=0.005)
+    assert drawn["turn_deg"] == pytest.approx(small["turn_deg"], rel=0.05)
+    assert drawn["turn_deg"] != small["turn_deg"]  # measured anew, from the drawn faces

@@ -146,11 +146,10 @@ class VolumeRays:
 def corner_normals(stone: Stone) -> np.ndarray:
     """(faces, 3, 3) smooth shading normals at the corners of each of the stone's faces, in the
     mesh's face order: the vertex normals of its smooth-shaded split copy (the copy's face ``i`` is
-    the mesh's face ``order[i]``, trimesh's record of the split's patches), or, for a mesh too big
-    to copy, the split normals computed at the faces (:func:`~labcut.geometry.surface.smooth_corner_normals`)."""
+    the mesh's face ``order[i]``, trimesh's record of the split's patches). For a mesh of at most
+    :data:`~labcut.geometry.surface.FAST_SMOOTH_FACES` faces (a bigger one is not copied: its split
+    normals are computed at the faces asked, :func:`~labcut.geometry.surface.smooth_corner_normals`)."""
     faces = np.asarray(stone.mesh.faces, dtype=np.int64)
-    if len(faces) > FAST_SMOOTH_FACES:
-        return smooth_corner_normals(stone.mesh, stone.shading_angle_deg, np.arange(len(faces)))
     split = stone.smooth_split()
     order = np.concatenate([np.asarray(c, dtype=np.int64) for c in split.metadata["original_components"]])
     corners = np.empty((len(faces), 3, 3))
@@ -359,6 +358,8 @@ def _paths(rays: VolumeRays, law: Any, table: tuple[np.ndarray, np.ndarray], eta
 
 #: surface samples of :func:`depth_exposure` (its thin share to about ±1.5 % at the low dome's 11 %)
 EXPOSURE_POINTS = 600
+#: faces whose normal turn :func:`depth_exposure` averages on a mesh too big to copy (drawn by area)
+EXPOSURE_FACES = 20_000
 
 
 def volume_paths(settings: list[Setting], surface_points: int, depths: int = DEPTHS) -> float:
@@ -394,21 +395,27 @@ def depth_exposure(mesh: Any, material: Labradorite) -> dict[str, float]:
         samples = stone.surface_samples(EXPOSURE_POINTS, 0)
         eps = surface_offset(stone.mesh)
         inside = samples.points - eps * samples.n_geo
-        if stone.convex:  # no ray scene: a convex stone needs none anywhere else either
+        big = len(stone.mesh.faces) > FAST_SMOOTH_FACES
+        if stone.convex and not big:  # no ray scene: a convex stone needs none anywhere else either
             thick = convex_thickness(stone.mesh, inside, -samples.n_sh)
-        else:  # a carving's ray scene is kept for its occlusion rays anyway
+        else:  # a carving's ray scene is kept for its occlusion rays anyway; a scan's planes are too many
             thick = VolumeRays(stone.mesh).cast(inside, -samples.n_sh).t
         thin = float(np.mean(thick < law.depth_mm))
         faces = np.asarray(stone.mesh.faces, dtype=np.int64)
-        tri = np.asarray(stone.mesh.vertices, dtype=np.float64)[faces]
-        vn = corner_normals(stone)
+        area = stone.face_areas
+        if big:  # the mean over faces drawn by area, their split normals computed at them alone
+            pick = np.random.default_rng(0).choice(len(faces), size=EXPOSURE_FACES, p=area / area.sum())
+            vn = smooth_corner_normals(stone.mesh, stone.shading_angle_deg, pick)
+            weight = np.ones(len(pick))
+        else:
+            pick, vn, weight = np.arange(len(faces)), corner_normals(stone), area
+        tri = np.asarray(stone.mesh.vertices, dtype=np.float64)[faces[pick]]
         rate = np.zeros(len(tri))  # radians of normal turn per mm, the steepest edge of each face
         for i, j in ((0, 1), (1, 2), (2, 0)):
             length = np.linalg.norm(tri[:, i] - tri[:, j], axis=1)
             turn = np.arccos(np.clip(np.einsum("ij,ij->i", vn[:, i], vn[:, j]), -1.0, 1.0))
             rate = np.maximum(rate, np.where(length > 0, turn / np.maximum(length, 1e-300), 0.0))
-        area = stone.face_areas
-        turn_deg = float(np.degrees(np.sum(area * np.minimum(rate * 2.0 * flash, math.pi / 2)) / max(area.sum(), 1e-300)))
+        turn_deg = float(np.degrees(np.sum(weight * np.minimum(rate * 2.0 * flash, math.pi / 2)) / max(weight.sum(), 1e-300)))
         return {"thin_share": round(thin, 4), "turn_deg": round(turn_deg, 3), "flash_depth_mm": round(flash, 4),
                 "stack_depth_mm": round(law.depth_mm, 4)}
 
