@@ -55,7 +55,7 @@ def _test(mi, scene, o, d):
 @pytest.mark.parametrize("name", ["carving-biplane.ply", "step-cut-12x10.ply", "oval-16x12-low.ply", "cube-10.ply"])
 def test_the_instanced_scene_answers_what_the_plain_scene_answered(mi, name):
     mesh = labcut.load_mesh(MESHES / name)
-    plain = rays.build_occlusion_scene(mesh, instanced=False)
+    plain = rays._build_occlusion_scene(mesh, instanced=False)
     scene = rays.occlusion_scene(mesh)
     if mi.variant().startswith(("llvm_", "scalar_")):  # Embree
         # the fast build is the one taken: one shape, the instance (not a mesh) of the group

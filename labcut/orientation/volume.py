@@ -54,7 +54,7 @@ import numpy as np
 from ..colour import luminance_table
 from ..errors import ParameterError
 from ..geometry.stone import Stone
-from ..geometry.surface import FAST_SMOOTH_FACES, smooth_corner_normals
+from ..geometry.surface import FAST_SMOOTH_FACES, smooth_corner_normals, unit_normals
 from ..physics import schiller as lobe
 from ..physics.depth import depth_law
 from ..physics.material import Labradorite
@@ -112,9 +112,7 @@ class VolumeRays:
         self.big = len(self.stone.mesh.faces) > FAST_SMOOTH_FACES
         self.vertices = np.asarray(self.stone.mesh.vertices, dtype=np.float64)
         self.faces = np.asarray(self.stone.mesh.faces, dtype=np.int64)
-        tri = self.vertices[self.faces]
-        n_geo = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
-        self.face_normals = n_geo / np.maximum(np.linalg.norm(n_geo, axis=1, keepdims=True), 1e-300)
+        self.face_normals = unit_normals(self.vertices[self.faces])  # once, not per hit
         if not self.big:
             self.corners = corner_normals(self.stone)
 

@@ -73,11 +73,10 @@ def occlusion_scene(mesh: Any) -> Any:
     import mitsuba as mi
 
     stone = Stone.of(mesh)
-    return stone.cached(f"occlusion_scene_{mi.variant()}", lambda: build_occlusion_scene(stone.mesh))
+    return stone.cached(f"occlusion_scene_{mi.variant()}", lambda: _build_occlusion_scene(stone.mesh))
 
 
-def build_occlusion_scene(mesh: Any, instanced: bool | None = None) -> Any:
-    """A new Mitsuba scene of ``mesh``'s bare triangles (:func:`occlusion_scene`'s, not kept)."""
+def _build_occlusion_scene(mesh: Any, instanced: bool | None = None) -> Any:
     import mitsuba as mi
 
     v = np.ascontiguousarray(mesh.vertices, dtype=np.float32)
