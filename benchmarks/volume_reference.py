@@ -631,6 +631,49 @@ def timing() -> dict:
     return {"rows": rows}
 
 
+def choices() -> dict:
+    """What the volume estimator's settings move (docs/accuracy.md, "The volume estimator's cost"):
+    the depths per (pair, light) (1 against 4) and the fixed-point steps (3, 4 against 8) on the
+    ovals and the carving under the 4° front lamp at standard (draft for the steps, as the test), and
+    the path budget on the carving under the worn ring and pendant (every light, 1 M, 0.5 M): each a
+    search of the volume problem's map and optimiser (its tilt and energy)."""
+    from labcut.orientation.optimize import search_best
+    from labcut.orientation.question import FlashQuestion
+    from labcut.orientation.scoring import Scorer
+    from labcut.orientation.volume import build_volume_problem
+
+    mat = labcut.Labradorite()
+    rows = []
+
+    def run(stone: str, scene: str, ask: FlashQuestion, **options: int) -> None:
+        mesh = labcut.load_mesh(str(ROOT / STONES[stone]))
+        t0 = time.perf_counter()
+        problem = build_volume_problem(mesh, mat, ask.quality, settings=ask.scenario.settings(),
+                                       occlusion=not labcut.Stone.of(mesh).convex, **options)
+        seconds = time.perf_counter() - t0
+        best = search_best(Scorer(problem, "energy"), ask.constraint, ask.quality, "nlopt")
+        rows.append({"stone": stone, "scene": scene, "quality": ask.quality.name, **options,
+                     "tilt_deg": math.degrees(math.acos(min(1.0, abs(float(best.normal[2]))))),
+                     "normal": [float(x) for x in best.normal], "energy": float(best.score), "seconds": seconds,
+                     "paths": problem.info["volume"]["paths"]})
+        print(rows[-1], flush=True)
+
+    front = labcut.Lights.lamp(direction(35.0, FRONT_AZIMUTH_DEG), SPOT_RADIUS_DEG, 1.0,
+                               labcut.Quality.coerce("standard").lamp_samples, "front lamp")
+    lamp = FlashQuestion.build(mat, None, front, "face-up", quality="standard")
+    for stone in STONES:
+        for depths in (1, 4):
+            run(stone, "lamp 35° in front", lamp, depths=depths)
+    spot = FlashQuestion.build(mat, None, "spot", "face-up", quality="draft")
+    for iterations in (3, 4, 8):
+        run("high oval", "spot", spot, iterations=iterations)
+    for scene in ("ring", "pendant"):
+        worn = FlashQuestion.build(mat, scene, quality="standard")
+        for budget in (100_000_000, 1_000_000, 500_000):
+            run("biplane", scene, worn, path_budget=budget)
+    return {"rows": rows}
+
+
 PLANNER_SCENES = ("spot", "overhead", "pendant", "ring")
 
 
@@ -796,7 +839,7 @@ def _store(key: str, value: dict) -> None:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("what", choices=("slab", "compare", "model-scans", "planner", "timing", "report"))
+    parser.add_argument("what", choices=("slab", "compare", "model-scans", "planner", "timing", "choices", "report"))
     parser.add_argument("--paths", type=int, default=200_000, help="camera paths per view and normal (compare)")
     parser.add_argument("--points", type=int, default=13, help="normals per scan (compare)")
     parser.add_argument("--fresh", action="store_true", help="start the comparison over")
@@ -810,6 +853,10 @@ def main() -> None:
         print(json.dumps(result, indent=1))
     elif args.what == "model-scans":
         model_scans()
+    elif args.what == "choices":
+        data = json.loads(PLANNER_DATA.read_text()) if PLANNER_DATA.exists() else {}
+        data["choices"] = choices()
+        PLANNER_DATA.write_text(json.dumps(data, indent=1))
     elif args.what == "timing":
         data = json.loads(PLANNER_DATA.read_text()) if PLANNER_DATA.exists() else {}
         data["timing"] = timing()

@@ -69,7 +69,7 @@ from .radiance import flash_threshold, reference_radiance, view_terms
 #: depth samples per (pair, light) (stratified; each pair's and light's strata rotated by a
 #: golden-ratio sequence, so that neighbouring pairs and lights fill each other's gaps). One is
 #: enough: against four, the answers on the bundled ovals and the carving under a front lamp moved by
-#: at most 0.03° and their energy by 0.1 % (docs/accuracy.md, "The volume estimator's cost")
+#: at most 0.16° and their energy by 0.4 % (docs/accuracy.md, "The volume estimator's cost")
 DEPTHS = 1
 #: fixed-point steps of each path: against eight, three lost 1.1 % of the high dome's energy under the
 #: front spot (draft; the paths still moving are bright ones), four 0.4 % (tests/test_volume.py)
