@@ -116,6 +116,16 @@ class VolumeRays:
         if not self.big:
             self.corners = corner_normals(self.stone)
 
+    @classmethod
+    def of(cls, mesh: Any) -> VolumeRays:
+        """The stone's rays, made once per stone and Mitsuba variant (its face and corner normals
+        are not computed again for the error bars' problems, the variants' and the planner's)."""
+        import mitsuba as mi
+
+        stone = Stone.of(mesh)
+        ray_variant()
+        return stone.cached(f"volume_rays_{mi.variant()}", lambda: cls(stone.mesh))
+
     def cast(self, origins: np.ndarray, dirs: np.ndarray) -> _Hits:
         """The first surface hit of each ray (``origins`` and unit ``dirs``, (N, 3))."""
         import drjit as dr
@@ -222,7 +232,7 @@ def build_volume_problem(
     l_ref = reference_radiance(material, 1.0)
     if not l_ref > 0:
         raise ParameterError("the material reflects nothing at normal incidence: no flash can be scored")
-    rays = VolumeRays(mesh)
+    rays = VolumeRays.of(mesh)
     eps = surface_offset(mesh)
     pose_w = np.array([float(st.weight) for st in settings])
     pose_w = pose_w / pose_w.sum()
@@ -397,7 +407,7 @@ def depth_exposure(mesh: Any, material: Labradorite) -> dict[str, float]:
         if stone.convex and not big:  # no ray scene: a convex stone needs none anywhere else either
             thick = convex_thickness(stone.mesh, inside, -samples.n_sh)
         else:  # a carving's ray scene is kept for its occlusion rays anyway; a scan's planes are too many
-            thick = VolumeRays(stone.mesh).cast(inside, -samples.n_sh).t
+            thick = VolumeRays.of(stone.mesh).cast(inside, -samples.n_sh).t
         thin = float(np.mean(thick < law.depth_mm))
         faces = np.asarray(stone.mesh.faces, dtype=np.int64)
         area = stone.face_areas
