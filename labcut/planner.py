@@ -789,10 +789,8 @@ def plan_effects(
             chosen, est_why = "samples", "every effect on is one the surface samples carry"
         if chosen == "render" and depth_on and estimator == "auto":
             est_why += "; renders mirror the light where it enters (the stack's depth is left out)"
-        if command == "compare" and chosen in ("render", "volume"):
-            if estimator in ("render", "volume"):
-                raise ParameterError("compare runs the sample estimator (many cuts and curves); "
-                                     f"use --estimator samples, or recommend-orientation --estimator {estimator} per cut")
+        if command == "compare" and chosen in COMPARE_REFUSES:
+            check_compare_estimator(estimator)
             chosen = "samples"
             missing = ([f"inter-reflection (up to {bound:.1%} of the flash energy)"] if ir_on else []) + (
                 [f"the environment map past the stone's parts beyond its {n_map} sampled directions"] if env_occ else []) + (
@@ -814,6 +812,18 @@ def plan_effects(
         else:
             predicted = estimator_seconds(scene, command, occ_on, ir_on, convex, zoning is not None)
     return EffectPlan(command, tuple(decisions), chosen, est_why, predicted, convex, facts, pilot_seconds)
+
+
+#: the estimators compare does not run (it ranks many cuts with the surface samples)
+COMPARE_REFUSES = ("render", "volume")
+
+
+def check_compare_estimator(estimator: str) -> None:
+    """Refuse, with a one-line :class:`~labcut.errors.ParameterError`, an estimator compare does not
+    run (:data:`COMPARE_REFUSES`): the planner's and the CLI's one check."""
+    if estimator in COMPARE_REFUSES:
+        raise ParameterError("compare runs the sample estimator (many cuts and curves); "
+                             f"use --estimator samples, or recommend-orientation --estimator {estimator} per cut")
 
 
 def estimator_seconds(scene: Any, command: str, occlusion: bool, inter_reflection: bool, convex: bool,

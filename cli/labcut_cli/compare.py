@@ -183,11 +183,9 @@ def compare(
     # every input is checked before the work starts
     check_outputs({"--html": (html_path, (".html", ".htm")), "--json": (json_path, (".json",)), "--csv": (csv_path, (".csv",))}, ctx)
     effects = po.check(estimator, effect)
-    if estimator in ("render", "volume"):
-        from labcut.errors import ParameterError
+    from labcut.planner import check_compare_estimator
 
-        raise ParameterError("compare runs the sample estimator (many cuts and curves); "
-                             f"use --estimator samples, or recommend-orientation --estimator {estimator} per cut")
+    check_compare_estimator(estimator)
     quality_or_budget(quality is not None, time_budget is not None, flags=True)
     unit_arg, up, size = mesh_options.units_arg, mesh_options.up, mesh_options.size
     with warnings.catch_warnings(record=True) as caught:
