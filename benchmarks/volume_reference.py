@@ -93,7 +93,7 @@ class Planes:
     def __init__(self, material: labcut.Labradorite, planes: int = PLANES) -> None:
         self.material = material
         self.planes = planes
-        self.depth_mm = material.pairs * (material.d_a + material.d_b) * 1e-6
+        self.depth_mm = material.stack_depth_mm
         self.spacing = self.depth_mm / planes
         pairs = material.pairs * np.arange(0, planes + 1) / planes
         r = np.zeros((planes + 1, len(WAVELENGTHS), len(COSINES)))
