@@ -63,7 +63,7 @@ from .errors import ParameterError
 from .geometry.stone import Stone, mesh_of
 from .scene.effects import ESTIMATORS, check_effects
 
-__all__ = ["COMMANDS", "PILOT_BUDGET_SHARE", "Decision", "EffectPlan", "measured_interreflection", "pilot_scene", "plan_effects", "plan_question"]
+__all__ = ["COMMANDS", "COMPARE_REFUSES", "PILOT_BUDGET_SHARE", "Decision", "EffectPlan", "check_compare_estimator", "measured_interreflection", "pilot_scene", "plan_effects", "plan_question"]
 
 COMMANDS = ("render", "recommend", "evaluate", "compare")
 #: the stated tolerance of the planner's "off" decisions: an effect whose measured or bounded
