@@ -205,8 +205,8 @@ def calibration(name: str, key: str, measure: Any, *, check: Any = None, refresh
     else in the user cache file ``name`` (:func:`cache_path`; up to ``keep`` keys per file, the
     newest kept), else ``measure()`` (a JSON-able dict), stored under ``key``. ``key`` names what
     the value depends on (versions, CPU count, the layout): a changed key measures again. ``check``:
-    optional ``check(value)`` raising KeyError/TypeError/ValueError for a stored value of an older
-    layout (then it is measured again). ``refresh`` measures again whatever is kept."""
+    optional ``check(value)`` raising KeyError/TypeError/ValueError for a stored value that is not
+    what is kept under ``key`` (a damaged entry: measured again, with one warning for the file). ``refresh`` measures again whatever is kept."""
     return calibrations(name, [key], lambda missing: [measure()], check=check, refresh=refresh, keep=keep)[0]
 
 
@@ -233,8 +233,10 @@ def calibrations(name: str, keys: Sequence[str], measure: Any, *, check: Any = N
                 if check is not None:
                     check(value)
             except (KeyError, TypeError, ValueError, IndexError):
+                cache_problem(path, f"its entry {key[:60]!r} is not what labcut keeps there")
                 value = None
-        else:
+        elif value is not None:
+            cache_problem(path, f"its entry {key[:60]!r} is not what labcut keeps there")
             value = None
         if value is not None:
             values[key] = value

@@ -89,6 +89,22 @@ def fresh_pilot_cache(tmp_path_factory):
     mp.undo()
 
 
+@pytest.fixture
+def fresh_user_cache(tmp_path, monkeypatch):
+    """labcut's user cache as a new user's: an empty folder of its own, nothing kept in this
+    process (the calibration files' and the scene peaks' memos); returns the folder."""
+    from labcut import fileio
+    from labcut.orientation import radiance
+
+    folder = tmp_path / "user-cache"
+    monkeypatch.setattr(fileio, "cache_path", lambda name: folder / name)
+    monkeypatch.setattr(fileio, "_CALIBRATIONS", {})
+    monkeypatch.setattr(fileio, "_STORES", {})
+    monkeypatch.setattr(fileio, "_CACHE_WARNED", set())
+    monkeypatch.setattr(radiance, "_PEAKS", {})
+    return folder
+
+
 @pytest.fixture(autouse=True, scope="module")
 def _let_go_of_the_modules_scenes():
     """Collect what a test module left behind when it ends: every live Mitsuba shape and BSDF (a

@@ -80,7 +80,7 @@ def test_the_peak_does_not_depend_on_the_frame():
     assert scene_peak(LAB, office.rotated(turn)) == pytest.approx(scene_peak(LAB, office), rel=2e-3)
 
 
-def test_a_scenarios_poses_and_main_setting_find_the_peak_once(monkeypatch):
+def test_a_scenarios_poses_and_main_setting_find_the_peak_once(monkeypatch, fresh_user_cache):
     # P does not depend on the frame: the lights' turned copies share it (Lights.invariants)
     from labcut.orientation import radiance
 
@@ -125,7 +125,7 @@ def test_the_problem_holds_the_scenes_threshold_and_its_area_uses_it(ring_proble
     assert metrics.flash_area == pytest.approx(by_hand, rel=1e-6) and by_hand > against_a_lamp + 0.05
 
 
-def test_lights_built_again_find_their_peak_by_content(monkeypatch):
+def test_lights_built_again_find_their_peak_by_content(monkeypatch, fresh_user_cache):
     """The same lights made anew (a scenario resolved again, a rough plan's candidates) reuse the
     scene peak found for the first: one search per content and material, not per object; other
     lights or another material search again."""

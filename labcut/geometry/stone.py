@@ -287,6 +287,19 @@ class Stone:
         return derived[key]
 
     @property
+    def digest(self) -> str:
+        """A hash of the mesh's vertices (float64) and faces (int64), 32 hex digits: the key under which
+        what is derived from this geometry is kept between processes (labcut's user cache)."""
+        def build() -> str:
+            import hashlib
+
+            h = hashlib.blake2b(np.ascontiguousarray(self.mesh.vertices, dtype=np.float64).tobytes(), digest_size=16)
+            h.update(np.ascontiguousarray(self.mesh.faces, dtype=np.int64).tobytes())
+            return f"{len(self.mesh.vertices)}v{len(self.mesh.faces)}f{h.hexdigest()}"
+
+        return self.cached("digest", build)
+
+    @property
     def face_areas(self) -> np.ndarray:
         """Area of every face, mm² (read-only; trimesh's ``area_faces`` values)."""
         return self.cached("face_areas", lambda: face_areas(self.mesh))

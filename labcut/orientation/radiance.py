@@ -54,6 +54,8 @@ _SKY: dict[str, float] = {}  # sky_schiller per material key
 #: the same directions (a scenario resolved again, a rough plan's candidates) find theirs here
 _PEAKS: dict[str, float] = {}
 _PEAKS_KEPT = 256
+#: scene peaks kept in the user cache file (the newest; a scenario's variants and rough plans add a few each)
+PEAKS_ON_DISK = 512
 
 
 def fresnel_dielectric(cos_i: np.ndarray, eta: float) -> np.ndarray:
@@ -165,9 +167,32 @@ def scene_peak(material: Labradorite, lights: Lights) -> float:
         if content not in _PEAKS:
             if len(_PEAKS) >= _PEAKS_KEPT:
                 _PEAKS.pop(next(iter(_PEAKS)))
-            _PEAKS[content] = _scene_peak(material, lights)
+            _PEAKS[content] = _kept_peak(material, lights, content)
         kept[key] = _PEAKS[content]
     return kept[key]
+
+
+def _kept_peak(material: Labradorite, lights: Lights, content: str) -> float:
+    """:func:`_scene_peak`, kept in labcut's user cache (``scene-peaks.json``, :func:`labcut.fileio.calibrations`)
+    under the lights' and material's content, labcut's, numpy's and SciPy's versions and a hash of this
+    module's code: a new process asks the same lights (every CLI call) and reads the peak back, the
+    same float, instead of searching again."""
+    import scipy
+
+    from .. import __version__
+    from ..fileio import calibrations, code_hash
+
+    key = f"scene peak | labcut {__version__} numpy {np.__version__} scipy {scipy.__version__} | code {code_hash(__file__)} | {content}"
+    value = calibrations("scene-peaks.json", [key], lambda missing: [{"peak": _scene_peak(material, lights)}],
+                         check=_check_peak, keep=PEAKS_ON_DISK)[0]
+    return float(value["peak"])
+
+
+def _check_peak(value: dict[str, Any]) -> None:
+    """Refuse a kept peak that is not a number in (0, 1] (a damaged or foreign file is searched again)."""
+    peak = value["peak"]
+    if isinstance(peak, bool) or not isinstance(peak, float) or not 0.0 < peak <= 1.0:
+        raise ValueError(f"not a scene peak: {peak!r}")
 
 
 def _content_key(lights: Lights, material: str) -> str:

@@ -44,7 +44,7 @@ Directions are unit vectors in the mesh frame, lengths in mm.
 from __future__ import annotations
 
 import math
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from types import SimpleNamespace
 from typing import Any
@@ -368,6 +368,8 @@ def _paths(rays: VolumeRays, law: Any, table: tuple[np.ndarray, np.ndarray], eta
 EXPOSURE_POINTS = 600
 #: faces whose normal turn :func:`depth_exposure` averages on a mesh too big to copy (drawn by area)
 EXPOSURE_FACES = 20_000
+#: depth exposures kept in the user cache file (the newest stones')
+EXPOSURES_ON_DISK = 256
 
 
 def volume_paths(settings: list[Setting], surface_points: int, depths: int = DEPTHS) -> float:
@@ -427,4 +429,29 @@ def depth_exposure(mesh: Any, material: Labradorite) -> dict[str, float]:
         return {"thin_share": round(thin, 4), "turn_deg": round(turn_deg, 3), "flash_depth_mm": round(flash, 4),
                 "stack_depth_mm": round(law.depth_mm, 4)}
 
-    return dict(stone.cached(key, build))
+    return dict(stone.cached(key, lambda: _kept_exposure(stone, key, build)))
+
+
+def _kept_exposure(stone: Stone, key: str, build: Callable[[], dict[str, float]]) -> dict[str, float]:
+    """``build()`` (:func:`depth_exposure`'s figures), kept in labcut's user cache
+    (``depth-exposure.json``) under the stone's geometry, its convexity and shading angle, the
+    material's depths, the sampling's sizes, labcut's, numpy's and trimesh's versions and a hash of
+    this module's and the depth law's code: the planner's depth decision in a new process for a stone
+    it has seen is a read, not 600 thickness rays and a pass over every face."""
+    import trimesh
+
+    from .. import __version__
+    from ..fileio import calibrations, code_hash
+    from ..physics import depth as depth_module
+
+    full = (f"{key} | labcut {__version__} numpy {np.__version__} trimesh {trimesh.__version__} | "
+            f"code {code_hash(__file__, depth_module.__file__)} | stone {stone.digest} convex {stone.convex} "
+            f"angle {stone.shading_angle_deg!r} | points {EXPOSURE_POINTS} faces {EXPOSURE_FACES} "
+            f"copied up to {FAST_SMOOTH_FACES}")
+    fields = ("thin_share", "turn_deg", "flash_depth_mm", "stack_depth_mm")
+
+    def check(value: dict[str, Any]) -> None:
+        if sorted(value) != sorted(fields) or not all(isinstance(value[f], float) and math.isfinite(value[f]) for f in fields):
+            raise ValueError("not a depth exposure")
+
+    return calibrations("depth-exposure.json", [full], lambda missing: [build()], check=check, keep=EXPOSURES_ON_DISK)[0]
