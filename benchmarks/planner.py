@@ -10,8 +10,8 @@ warm, then timed):
 * the estimator: samples vs render where both apply (a convex stone), and the plan's
   predicted seconds of each next to the measured ones;
 * renders: direct lighting vs a path tracer for a convex stone, and RGB vs spectral vs mono;
-* an environment map seen past a carving's parts: the sample estimator's answer against the
-  render estimator's (the planner's choice), and the same for a convex oval;
+* (an environment map seen past a carving's parts: ``benchmarks/planner_off_check.py
+  --only-environment``, its own table in docs/planner.md);
 * the planner's own cost: the pilot renders from a cold cache, the self-view rays, and each
   calibration of the predicted seconds, measured from nothing;
 * the predicted seconds of evaluate, render and a zoned recommendation against measured ones;
@@ -110,7 +110,6 @@ def main() -> None:
     import labcut.planner as planner
     from labcut.planner import evaluate_timing, render_command_timing
     from labcut.rendering.rays import self_view_fraction
-    from labcut.scene import resolve_scene
 
     labcut.recommend_orientation(labcut.cabochon(outline="oval", length=16, width=12, dome="medium"), quality="draft")  # warm
     own: list[str] = []  # the planner's own cost
@@ -189,40 +188,8 @@ def main() -> None:
         p = plan.predicted_seconds
         pred_rows.append(f"| biplane carving, {scen} | {p['samples']:.2f} s | {t_s:.2f} s | {p['render']:.1f} s | (row above: depth 4) |")
 
-    # 3b. an environment map seen past the parts of a carving -----------------------------
-    cases = [("biplane carving", biplane, "ring", q), ("biplane carving", biplane, "outdoor", q), ("oval cabochon", oval, "ring", q)]
-    if q != "standard":
-        cases.append(("biplane carving", biplane, "ring", "standard"))
-    for name, stone, scen, mq in cases:
-        if mq != q:  # the same row at standard quality, run once (its times are not warm)
-            name = f"{name} ({mq} quality, run once)"
-            plan = plan_effects(stone, lab, scenario=scen, quality=mq)
-            main = resolve_scene(scen, quality=mq).main_setting()
-            n_map = len(main.lights) - main.lights.n_lamps
-            t = time.perf_counter()
-            a = labcut.recommend_orientation(stone, lab, scenario=scen, quality=mq, estimator="samples")
-            t_s = time.perf_counter() - t
-            t = time.perf_counter()
-            b = labcut.recommend_orientation(stone, lab, scenario=scen, quality=mq, estimator="render")
-            t_r = time.perf_counter() - t
-            at_a = labcut.evaluate_orientation(stone, a.normal, lab, scenario=scen, quality=mq, estimator="render").flash_energy
-            rows.append(f"| map past the parts, {name}, {scen} ({n_map} map directions) | render (planner) | {t_r:.2f} s "
-                        f"| samples | {t_s:.2f} s | {t_s / t_r:.1f}x | {angle(a.normal, b.normal):.2f}° | {1 - at_a / b.score:.2%} † |")
-            continue
-        plan = plan_effects(stone, lab, scenario=scen, quality=q)
-        main = resolve_scene(scen, quality=q).main_setting()
-        n_map = len(main.lights) - main.lights.n_lamps
-        t_s, a = timed(lambda: labcut.recommend_orientation(stone, lab, scenario=scen, quality=q, estimator="samples"))
-        t_r, b = timed(lambda: labcut.recommend_orientation(stone, lab, scenario=scen, quality=q, estimator="render"))
-        at_a = labcut.evaluate_orientation(stone, a.normal, lab, scenario=scen, quality=q, estimator="render").flash_energy
-        rows.append(f"| map past the parts, {name}, {scen} ({n_map} map directions) "
-                    f"| {plan.estimator} (planner) | {t_r if plan.estimator == 'render' else t_s:.2f} s "
-                    f"| {'samples' if plan.estimator == 'render' else 'render'} | {t_s if plan.estimator == 'render' else t_r:.2f} s "
-                    f"| {(t_s / t_r) if plan.estimator == 'render' else (t_r / t_s):.1f}x | {angle(a.normal, b.normal):.2f}° "
-                    f"| {1 - at_a / b.score:.2%} † |")
-        if plan.estimator == "render":
-            pred_rows.append(f"| {name}, {scen} (recommend) | {plan.predicted_seconds['samples']:.2f} s | {t_s:.2f} s "
-                             f"| {plan.predicted_seconds['render']:.1f} s | {t_r:.1f} s |")
+    # (an environment map seen past a carving's parts: benchmarks/planner_off_check.py --only-environment,
+    # the still scenes' table of docs/planner.md)
     # predicted against measured: evaluate, and a zoned recommendation
     for name, stone, scen in (("oval cabochon", oval, "display"), ("biplane carving", biplane, "ring")):
         plan = plan_effects(stone, lab, command="evaluate", scenario=scen, quality=q)

@@ -43,10 +43,11 @@ Effects (all directions in the mesh frame, mm, +Z face-up):
 
 The estimator (``recommend``, ``evaluate``; ``compare`` always ranks with the samples and says
 what that leaves out): ``render`` where the scene needs what the surface samples cannot carry
-(inter-reflection on, a zoned stone, or an environment map seen past the parts of a non-convex
-stone: the samples see the map through a few directions shared by every surface point, each
-blocked or not, which misses the light a carving's parts let through from the rest of the map),
-``samples`` otherwise.
+(inter-reflection on, a zoned stone), ``volume`` where the stack's depth matters, ``samples``
+otherwise. An environment map seen past the parts of a non-convex stone is drawn through more
+directions than the quality's (:func:`env_samples_enough`): the samples see the map through
+directions shared by every surface point, each blocked or not, and a few of them miss the light a
+carving's parts let through from the rest of the map.
 """
 
 from __future__ import annotations
@@ -54,7 +55,7 @@ from __future__ import annotations
 import functools
 import time
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -72,12 +73,17 @@ COMMANDS = ("render", "recommend", "evaluate", "compare")
 #: and scenarios against it, and docs/planner.md ("The tolerance") gives the seed-to-seed
 #: spread of a recommendation's score it is set against (benchmarks/planner.py measures it)
 INTERREFLECTION_TOLERANCE = 0.02
-#: a map seen past a carving's parts is left to the surface samples where the stone, moving through a
-#: scenario's poses, sees at least this many of the map's directions in its own frame (the map's
-#: sampled directions x the poses: each pose turns them): docs/planner.md measures the biplane under
-#: the moving scenarios (224 and more) against the renders; still under the ceiling (32 and 64
-#: directions) the two were 9° and 2.7° apart
+#: a map seen past a carving's parts is seen by the surface samples through at least this many of its
+#: directions in the stone's own frame (the map's sampled directions x the poses: each pose turns
+#: them; a still stone gets more drawn, :func:`env_samples_enough`): docs/planner.md measures the
+#: biplane under the moving scenarios (224 and more) and the still ones (256) against the renders;
+#: still under the ceiling through the quality's 32 and 64 directions the two were 9° and 2.7° apart
 ENV_DIRECTIONS_ENOUGH = 96
+#: where a map seen past a carving's parts has fewer (a still stone), the sample estimator draws at least
+#: this many directions from it (:func:`env_samples_enough`): the biplane under the still office ceiling
+#: (``ring-diffuse``, the whole light a map) at draft lands 4.6° from the renders' answer through 128
+#: and 0.55° through 256 (docs/planner.md measures every still map-lit scenario)
+ENV_SAMPLES_PAST_PARTS = 256
 #: the light is carried through the stone's volume (the ``volume`` estimator) where at least this
 #: share of the surface lies over less stone than the material's stack is deep
 #: (:func:`labcut.orientation.volume.depth_exposure`): there the surface model lets thin parts mirror
@@ -123,6 +129,10 @@ class EffectPlan:
     #: wall seconds this plan spent on pilot renders (0 when they were cached: a stone's first plan
     #: pays them); not part of the plan's answer (nor of :meth:`to_dict`), for time budgets
     pilot_seconds: float = field(default=0.0, compare=False)
+    #: the directions the sample (or volume) estimator draws from the scene's environment map, where
+    #: the planner asks for more than the quality's (a map seen past a carving's parts,
+    #: :func:`env_samples_enough`); None: the scene's own
+    env_samples: int | None = None
 
     def __getitem__(self, effect: str) -> Decision:
         for d in self.decisions:
@@ -139,6 +149,7 @@ class EffectPlan:
             "estimator": self.estimator,
             "estimator_why": self.estimator_why,
             "predicted_seconds": {k: round(v, 3) for k, v in self.predicted_seconds.items()},
+            "env_samples": self.env_samples,
             "convex": self.convex,
             "facts": self.facts,
             "effects": {d.effect: d.to_dict() for d in self.decisions},
@@ -746,10 +757,14 @@ def plan_effects(
     # directions shared by every surface point, each blocked or not (docs/planner.md measures it)
     env_seen = n_map * len(scene.poses())  # the map's directions in the stone's frame, over the motion
     past_parts = bool(envs) and occ_on and not convex
-    env_occ = past_parts and env_seen < ENV_DIRECTIONS_ENOUGH
+    env_occ = past_parts and env_samples_enough(n_map, len(scene.poses())) > n_map
+    dense = env_samples_enough(n_map, len(scene.poses())) if env_occ else None
     if past_parts:
         facts["map_directions"] = n_map
         facts["map_directions_over_poses"] = env_seen
+    seen_through = (f"the environment map is seen past the stone's parts through {dense} sampled directions instead "
+                    f"of the quality's {n_map} (fewer miss the light the parts let through from the rest of the map, "
+                    "docs/planner.md)") if dense else ""
     if not rendering:
         if estimator == "render":
             chosen, est_why = "render", "asked for"
@@ -759,27 +774,24 @@ def plan_effects(
             chosen, est_why = "volume", "asked for"
             if ir_on:
                 est_why += f"; it cannot carry inter-reflection (up to {bound:.1%} of the energy is left out)"
-            if env_occ:
-                est_why += f"; it sees the environment map past the stone's parts through {n_map} directions only (approximate)"
+            if dense:
+                est_why += f"; {seen_through}"
         elif estimator == "samples":
             chosen, est_why = "samples", "asked for"
             if depth_on:
                 est_why += "; it mirrors the light where it enters (the stack's depth is left out)"
             if ir_on:
                 est_why += f"; it cannot carry inter-reflection (up to {bound:.1%} of the energy is left out)"
-            if env_occ:
-                est_why += f"; it sees the environment map past the stone's parts through {n_map} directions only (approximate)"
+            if dense:
+                est_why += f"; {seen_through}"
         elif zoning is not None:
             chosen, est_why = "render", "a zoned stone: each point flashes with its own lamella stack, which only renders carry"
         elif ir_on:
             chosen, est_why = "render", "inter-reflection is on and only renders carry it"
-        elif env_occ:
-            chosen, est_why = "render", (f"an environment map seen past the parts of a non-convex stone: the surface samples see "
-                                         f"it through {n_map} directions, each blocked or not for every point; renders trace "
-                                         "what each point sees of the whole map")
         elif depth_on or past_parts:
             chosen = "volume" if depth_on else "samples"
             parts = (["the stack's depth matters here and the volume estimator carries it"] if depth_on else []) + (
+                [seen_through] if dense else
                 [f"an environment map seen past the parts of a non-convex stone, but the moving stone sees {n_map} map "
                  f"directions in each of {len(scene.poses())} poses, {env_seen} in its own frame (at least "
                  f"{ENV_DIRECTIONS_ENOUGH}): the samples follow the map as the renders do (docs/planner.md)"]
@@ -793,12 +805,11 @@ def plan_effects(
             check_compare_estimator(estimator)
             chosen = "samples"
             missing = ([f"inter-reflection (up to {bound:.1%} of the flash energy)"] if ir_on else []) + (
-                [f"the environment map past the stone's parts beyond its {n_map} sampled directions"] if env_occ else []) + (
                 ["the stack's depth (thin parts mirroring less)"] if depth_on else [])
-            how = " or ".join((["--estimator render"] if ir_on or env_occ else []) + (["--estimator volume"] if depth_on else []))
+            how = " or ".join((["--estimator render"] if ir_on else []) + (["--estimator volume"] if depth_on else []))
             est_why = (f"compare ranks many cuts with the sample estimator; {' and '.join(missing)} "
                        f"{'are' if len(missing) > 1 else 'is'} left out: "
-                       f"recommend-orientation {how} per cut carries it")
+                       f"recommend-orientation {how} per cut carries it") + (f"; {seen_through}" if dense else "")
             decisions = [Decision(d.effect, False, "", f"left out: compare ranks with the sample estimator ({d.why})",
                                   d.forced, d.bound) if d.effect in ("inter_reflection", "depth") and d.on else d
                          for d in decisions]
@@ -810,8 +821,27 @@ def plan_effects(
             integrator = "path" if ir_on or max_depth is not None else "direct"
             predicted = _predicted_render_seconds(facts["mode"], polarizer_deg is not None, integrator, *size, look)
         else:
-            predicted = estimator_seconds(scene, command, occ_on, ir_on, convex, zoning is not None)
-    return EffectPlan(command, tuple(decisions), chosen, est_why, predicted, convex, facts, pilot_seconds)
+            predicted = estimator_seconds(scene, command, occ_on, ir_on, convex, zoning is not None, env_samples=dense)
+    if dense and chosen in ("samples", "volume"):
+        facts["map_directions_sampled"] = dense
+        decisions = [replace(d, how=f"{dense} directions importance-sampled from the map (the quality's {n_map}, "
+                                    "doubled past the stone's parts)") if d.effect == "environment" else d
+                     for d in decisions]
+    return EffectPlan(command, tuple(decisions), chosen, est_why, predicted, convex, facts, pilot_seconds,
+                      env_samples=dense if chosen in ("samples", "volume") else None)
+
+
+def env_samples_enough(n_map: int, poses: int) -> int:
+    """How many directions the sample estimator draws from an environment map seen past a stone's parts:
+    the scene's ``n_map`` where the stone moves through ``poses`` (more than one) that turn them to at
+    least :data:`ENV_DIRECTIONS_ENOUGH` in its own frame; otherwise ``n_map`` doubled until it reaches
+    :data:`ENV_SAMPLES_PAST_PARTS` (a still stone at any bundled quality: 256)."""
+    n = max(int(n_map), 1)
+    if int(poses) > 1 and n * int(poses) >= ENV_DIRECTIONS_ENOUGH:
+        return n
+    while n < ENV_SAMPLES_PAST_PARTS:
+        n *= 2
+    return n
 
 
 #: the estimators compare does not run (it ranks many cuts with the surface samples)
@@ -827,7 +857,7 @@ def check_compare_estimator(estimator: str) -> None:
 
 
 def estimator_seconds(scene: Any, command: str, occlusion: bool, inter_reflection: bool, convex: bool,
-                      zoned: bool = False) -> dict[str, float]:
+                      zoned: bool = False, *, env_samples: int | None = None) -> dict[str, float]:
     """Predicted seconds of each estimator on this machine (calibrated:
     :func:`predict_sample_seconds`, :func:`evaluate_timing`,
     :func:`labcut.orientation.render_estimator.predict_render_seconds`).
@@ -846,7 +876,7 @@ def estimator_seconds(scene: Any, command: str, occlusion: bool, inter_reflectio
     from .orientation.render_estimator import RenderQuality, predict_render_seconds
     from .orientation.volume import volume_paths
 
-    settings = scene.settings()
+    settings = scene.with_env_samples(env_samples).settings()  # the samples' scene (the renders see the map itself)
     q = scene.quality
     rq = RenderQuality.of(q)
     n_views = sum(len(st.views) for st in settings)

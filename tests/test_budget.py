@@ -181,6 +181,7 @@ class _PlanWithPilots:
     """An effect plan of the sample estimator that spent ``pilot_seconds`` on pilot renders."""
 
     estimator = "samples"
+    env_samples = None  # the scene's own map directions
 
     def __init__(self, pilot_seconds: float) -> None:
         self.pilot_seconds = pilot_seconds

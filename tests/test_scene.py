@@ -354,3 +354,32 @@ def test_tilt_azimuth_takes_a_unit_vector_as_it_is():
         assert tilt_azimuth(n) == (tilt, az)
         assert tilt_azimuth(3.0 * n) == pytest.approx((tilt, az), abs=1e-12)
     assert tilt_azimuth([0.0, 0.0, 2.0]) == (0.0, 0.0)
+
+
+def test_lights_drawn_again_from_their_map_keep_the_lamps_and_the_maps_share():
+    """``with_env_samples``: the map drawn through more directions, the lamps as they were, the map's
+    share of the irradiance as it was (a scene's parts keep their weights)."""
+    sc = labcut.Scenario.preset("pendant-diffuse", "draft")
+    lights = sc.lights
+    k = lights.n_lamps
+    more = lights.with_env_samples(128)
+    assert more.n_lamps == k and more.environment is lights.environment and more.name == lights.name
+    assert np.array_equal(more.directions[:k], lights.directions[:k]) and np.array_equal(more.weights[:k], lights.weights[:k])
+    assert 64 < len(more) - k <= 128 and len(lights) - k == 32
+    assert more.weights[k:].sum() == pytest.approx(lights.weights[k:].sum(), rel=1e-12)
+    assert more.total_irradiance == pytest.approx(lights.total_irradiance, rel=1e-12)
+    lamp = labcut.Lights.lamp([0, 0, 1], 5.0, 1.0, 7)
+    assert lamp.with_env_samples(128) is lamp
+    assert sc.with_env_samples(None) is sc and labcut.Scenario.preset("bench", "draft").with_env_samples(128).lights.environment is None
+    denser = sc.with_env_samples(128)
+    assert all(len(st.lights) == len(more) for st in denser.settings())
+
+
+@pytest.mark.parametrize("n_map, poses, want", [(32, 1, 256), (64, 1, 256), (128, 1, 256), (16, 1, 256), (32, 2, 256),
+                                                (48, 1, 384), (32, 3, 32), (32, 7, 32), (1, 1, 256), (96, 1, 384),
+                                                (256, 1, 256), (512, 1, 512), (96, 2, 96), (47, 2, 376)])
+def test_a_map_seen_past_the_parts_is_drawn_densely_where_the_poses_see_too_few(n_map, poses, want):
+    from labcut.planner import ENV_DIRECTIONS_ENOUGH, ENV_SAMPLES_PAST_PARTS, env_samples_enough
+
+    assert (ENV_DIRECTIONS_ENOUGH, ENV_SAMPLES_PAST_PARTS) == (96, 256)
+    assert env_samples_enough(n_map, poses) == want

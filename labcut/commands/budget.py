@@ -248,7 +248,7 @@ def choose(budget: Any, scene_spec: tuple[Any, Any, Any], occlusion: bool, *, pl
     cold = not is_warm(kind)
     extra = float(learnt.get(_first_key(kind), 0.0)) if cold else 0.0
     rungs = []
-    from ..planner import estimator_seconds
+    from ..planner import env_samples_enough, estimator_seconds
 
     for q in ladder():
         if renders and q.name not in QUALITIES:
@@ -258,6 +258,8 @@ def choose(budget: Any, scene_spec: tuple[Any, Any, Any], occlusion: bool, *, pl
             t = estimator_seconds(scene, "recommend", plan.on("occlusion"), plan.on("inter_reflection"), plan.convex,
                                   plan.on("zoning"))["render"]
         else:
+            if plan is not None and plan.env_samples:  # the map seen past the parts: as densely at this rung
+                scene = scene.with_env_samples(env_samples_enough(len(scene.lights) - scene.lights.n_lamps, len(scene.poses())))
             t = predict_sample_seconds(scene.settings(), q.surface_points, occlusion)
         rungs.append((q, factor * t + extra))
     return pick(rungs, seconds, "the cheapest setting's", pilot_seconds=pilots, correction=factor, occlusion=occlusion,

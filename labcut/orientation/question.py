@@ -122,18 +122,21 @@ class FlashQuestion:
         :mod:`labcut.scene.variants`), kept as the object it is at every quality."""
         return replace(self, scenario=scenario, scene_spec=(scenario, None, None))
 
-    def scorer(self, mesh: Any, *, occlusion: bool, volume: bool = False) -> Scorer:
+    def scorer(self, mesh: Any, *, occlusion: bool, volume: bool = False, env_samples: int | None = None) -> Scorer:
         """The sample estimator's scorer of this question about ``mesh`` (a checked trimesh): its
         flash problem over every pose of the scenario, with occlusion rays or not (the effect
         planner's choice), the question's kernel options; with ``volume``, the light carried
         through the stone (:func:`~labcut.orientation.volume.build_volume_problem`, the volume
-        estimator's problem) instead of mirrored where it entered."""
+        estimator's problem) instead of mirrored where it entered; with ``env_samples``, the
+        scenario's environment map seen through that many directions
+        (:meth:`~labcut.Scenario.with_env_samples`, the planner's choice past a carving's parts)."""
+        settings = self.scenario.with_env_samples(env_samples).settings()
         if volume:
             problem = build_volume_problem(mesh, self.material, quality=self.quality, tau=self.tau, seed=self.seed,
-                                           settings=self.scenario.settings(), occlusion=occlusion, kernels=self.kernels)
+                                           settings=settings, occlusion=occlusion, kernels=self.kernels)
         else:
             problem = build_problem(mesh, self.material, quality=self.quality, tau=self.tau, seed=self.seed,
-                                    settings=self.scenario.settings(), occlusion=occlusion, kernels=self.kernels)
+                                    settings=settings, occlusion=occlusion, kernels=self.kernels)
         return Scorer(problem, self.objective)
 
     @property

@@ -370,9 +370,10 @@ def question(setup: FlashQuestion | None = None, **asked: Any) -> FlashQuestion:
 def build_scorer(mesh: Any, setup: FlashQuestion, plan: Any) -> Scorer:
     """The sample estimator's scorer of the question ``setup`` about ``mesh`` (a checked trimesh),
     its flash problem built as ``plan`` (an :class:`~labcut.planner.EffectPlan`) says: occlusion
-    rays or not, through the stone's volume where the plan's estimator is ``volume``, the setup's
-    kernel options."""
-    return setup.scorer(mesh, occlusion=plan.on("occlusion"), volume=volume_problem(plan.estimator))
+    rays or not, through the stone's volume where the plan's estimator is ``volume``, the map seen
+    through the plan's ``env_samples`` directions where it sets them, the setup's kernel options."""
+    return setup.scorer(mesh, occlusion=plan.on("occlusion"), volume=volume_problem(plan.estimator),
+                        env_samples=plan.env_samples)
 
 
 def answer_recommendation(mesh: Any, ask: FlashQuestion, scorer: Scorer, plan: Any, *, optimizer: str = "nlopt",
@@ -414,11 +415,12 @@ def answer_recommendation(mesh: Any, ask: FlashQuestion, scorer: Scorer, plan: A
     report("error bars", 0.95)
     volume = volume_problem(plan.estimator)
     bars = uncertainty_for(mesh, ask, scorer.problem, normal, occlusion=plan.on("occlusion"), tolerance_deg=float(tol),
-                           volume=volume)
+                           volume=volume, env_samples=plan.env_samples)
     robust = None
     if variation is not None:
         report("scenario variants", 0.96)
-        robust = scenario_robustness(mesh, ask, sample_normal, occlusion=plan.on("occlusion"), volume=volume, variation=variation,
+        robust = scenario_robustness(mesh, ask, sample_normal, occlusion=plan.on("occlusion"), volume=volume,
+                                     env_samples=plan.env_samples, variation=variation,
                                      bar_deg=bars.angle_deg if bars is not None else 0.0, tolerance_deg=float(tol),
                                      optimizer=optimizer,
                                      progress=lambda f: report("scenario variants", 0.96 + 0.03 * f))

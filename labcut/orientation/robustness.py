@@ -120,11 +120,12 @@ def _angle(a: np.ndarray, b: np.ndarray) -> float:
 
 def scenario_robustness(mesh: Any, ask: FlashQuestion, normal: Any, *, occlusion: bool, variation: Variation | int,
                         bar_deg: float, tolerance_deg: float, optimizer: str = "nlopt",
-                        progress: Callable[[float], None] | None = None, volume: bool = False) -> Robustness:
+                        progress: Callable[[float], None] | None = None, volume: bool = False,
+                        env_samples: int | None = None) -> Robustness:
     """Answer question ``ask`` about ``mesh`` (a checked trimesh) under each variant of its scenario
     (:func:`labcut.scene.variants.scenario_variants`) with the sample estimator (occlusion rays as
     the answer's plan had them; through the stone's volume with ``volume``, as the answer's
-    estimator), and measure the variants' best normals against ``normal`` (the
+    estimator; an environment map through ``env_samples`` directions where the answer's plan set them), and measure the variants' best normals against ``normal`` (the
     sample estimator's answer, unit, mesh frame). ``bar_deg`` and ``tolerance_deg``: the answer's
     error bar and tolerance, which the verdict compares the spread with. ``progress``: called with
     the fraction of variants done."""
@@ -138,7 +139,7 @@ def scenario_robustness(mesh: Any, ask: FlashQuestion, normal: Any, *, occlusion
     for k, variant in enumerate(drawn):
         row: dict[str, Any] = {"name": variant.scenario.name, "changes": variant.changes}
         try:
-            scorer = ask.with_scenario(variant.scenario).scorer(mesh, occlusion=occlusion, volume=volume)
+            scorer = ask.with_scenario(variant.scenario).scorer(mesh, occlusion=occlusion, volume=volume, env_samples=env_samples)
             found = search_best(scorer, ask.constraint, ask.quality, optimizer)
             if not found.score > 0.0:
                 raise ParameterError("no orientation flashes")

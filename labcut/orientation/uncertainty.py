@@ -442,7 +442,7 @@ def discretisation(directions_angle_deg: float = 0.0, directions_score_rel: floa
 
 
 def uncertainty_for(mesh: Any, setup: Any, problem: FlashProblem, normal: Any, *, occlusion: bool | None,
-                    tolerance_deg: float | None, volume: bool = False) -> Uncertainty:
+                    tolerance_deg: float | None, volume: bool = False, env_samples: int | None = None) -> Uncertainty:
     """:func:`estimate_uncertainty` of a recommendation asked as ``setup`` (a
     :class:`~labcut.orientation.question.FlashQuestion`) whose sample problem is ``problem``: the
     finer-direction problem of the same question (:meth:`FlashQuestion.at_quality
@@ -454,21 +454,22 @@ def uncertainty_for(mesh: Any, setup: Any, problem: FlashProblem, normal: Any, *
     terms and sums of whole problems' (:func:`build_problem`) without their triples. With
     ``volume`` (the volume estimator's answer) both are volumetric problems
     (:func:`~labcut.orientation.volume.build_volume_problem`), so that the bars measure the
-    discretisation of the same model."""
+    discretisation of the same model. With ``env_samples`` (the answer's map seen through that many
+    directions, the planner's choice past a carving's parts) the finer-direction problem sees it
+    through twice as many, the finer-pose one through as many."""
     from .pairs import build_pairs
 
-    def build(q: Quality) -> Any:
+    def build(q: Quality, env: int | None) -> Any:
         other = setup.at_quality(q)
+        settings = other.scenario.with_env_samples(env).settings()
         if volume:
             return build_volume_problem(mesh, setup.material, other.quality, setup.tau, setup.seed,
-                                        settings=other.scenario.settings(), occlusion=occlusion,
-                                        path_budget=BAR_PATH_BUDGET)
-        return build_pairs(mesh, setup.material, other.quality, setup.tau, setup.seed, other.scenario.settings(),
-                           occlusion=occlusion)
+                                        settings=settings, occlusion=occlusion, path_budget=BAR_PATH_BUDGET)
+        return build_pairs(mesh, setup.material, other.quality, setup.tau, setup.seed, settings, occlusion=occlusion)
 
-    dense = build(finer_directions(setup.quality))
+    dense = build(finer_directions(setup.quality), None if env_samples is None else 2 * env_samples)
     rocks = setup.scenario.rock_deg > 0.0 or setup.scenario.sway_deg > 0.0
-    fine = build(finer_poses(setup.quality)) if rocks else None
+    fine = build(finer_poses(setup.quality), env_samples) if rocks else None
     return estimate_uncertainty(problem, normal, setup.objective, dense=dense, fine=fine, tolerance_deg=tolerance_deg,
                                 seed=setup.seed)
 

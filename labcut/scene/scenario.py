@@ -145,6 +145,13 @@ class Scenario:
     def with_views(self, views: Views) -> Scenario:
         return replace(self, views=views)
 
+    def with_env_samples(self, n: int | None) -> Scenario:
+        """This scenario with its environment map seen through ``n`` sampled directions
+        (:meth:`Lights.with_env_samples`); ``None``, or lights without a map: itself."""
+        if n is None or self.lights.environment is None:
+            return self
+        return replace(self, lights=self.lights.with_env_samples(n))
+
     # ------------------------------------------------------------------ use
     @property
     def worn_upright(self) -> bool:

@@ -195,6 +195,22 @@ class Lights(DirectionSet):
         w = np.concatenate(lamps_w + env_w)
         return cls._make(d, w, name, env, sum(len(x) for x in lamps_w))
 
+    def with_env_samples(self, n: int) -> Lights:
+        """The same lights with the environment map sampled by ``n`` directions (importance-sampled
+        as :meth:`from_envmap` does) instead of the ones it holds: the lamps are kept, and the map's
+        directions carry the irradiance the map carried here (so a scene's parts keep their shares).
+        Lights without a map are returned as they are. The effect planner asks for more directions
+        where a carving sees the map past its parts (docs/planner.md)."""
+        env = self.environment
+        if env is None:
+            return self
+        k = self.n_lamps
+        d, w = env.sample(int(n))
+        carried = float(self.weights[k:].sum())
+        w = w * (carried / float(w.sum())) if w.sum() > 0 else w
+        return Lights._make(np.concatenate([self.directions[:k], d]), np.concatenate([self.weights[:k], w]),
+                            self.name, env, k)
+
     # ------------------------------------------------------------------ use
     @property
     def total_irradiance(self) -> float:
