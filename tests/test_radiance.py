@@ -143,3 +143,33 @@ def test_lights_built_again_find_their_peak_by_content(monkeypatch, fresh_user_c
     rad.scene_peak(lab, labcut.Lights.preset("room", "standard"))  # more window directions: other content
     rad.scene_peak(labcut.Labradorite.preset("gold"), labcut.Lights.preset("room", "draft"))
     assert calls == ["room", "room", "room"]
+
+
+def test_the_compass_search_finds_a_lobes_peak_from_nearby_starts_and_across_the_pole():
+    from labcut.orientation.radiance import PEAK_TOL_DEG, polish_peak
+    from labcut.scene.directions import direction
+
+    for centre in (direction(0.0, 0.0), direction(37.0, 123.0), direction(179.0, 10.0)):
+        f = lambda d, c=centre: np.exp(400.0 * (d @ c - 1.0))  # a lobe about 3° wide, peak 1 at c  # noqa: E731
+        starts = np.array([direction(90.0, 0.0), direction(8.0, 45.0), direction(60.0, 200.0)])
+        # rotate the starts so that the nearest lies 6° from the centre
+        near = centre * math.cos(math.radians(6.0)) + np.cross(centre, [0.3, 0.4, 0.5]) / np.linalg.norm(np.cross(centre, [0.3, 0.4, 0.5])) * math.sin(math.radians(6.0))
+        starts[1] = near / np.linalg.norm(near)
+        got = polish_peak(f, starts, f(starts))
+        # within the stopping step of the peak: 1 - exp(-400 (1 - cos tol)) of the value
+        assert 1.0 - 400.0 * (1.0 - math.cos(math.radians(PEAK_TOL_DEG))) <= got <= 1.0
+        assert got > f(starts).max() + 0.5  # it moved
+
+
+def test_the_scene_peak_is_the_brightest_face_of_a_fine_sphere():
+    """P against brute force: the largest flat-face schiller over 40,000 face directions (about 1°
+    apart), near which P must lie and which it must not fall below by more than the grid's miss."""
+    from labcut.orientation.radiance import _scene_peak
+    from labcut.scene.directions import direction, spherical_cap
+
+    faces = spherical_cap([0.0, 0.0, 1.0], 180.0, 40000)
+    for lights in (Lights.lamp(direction(40.0, 30.0), 8.0, 1.0, 13), Lights.preset("room", "draft"),
+                   Lights.lamp(direction(20.0, 250.0), 0.0, 1.0, 1)):
+        brute = float(flat_face_schiller(LAB, lights, faces).max())
+        peak = _scene_peak(LAB, lights)
+        assert brute * (1 - 1e-9) <= peak <= brute * 1.01, (lights.name, peak, brute)

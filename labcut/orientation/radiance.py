@@ -30,7 +30,6 @@ import math
 from typing import Any
 
 import numpy as np
-from scipy.optimize import minimize
 
 from ..colour import luminance_table, material_key
 from ..errors import ParameterError
@@ -45,6 +44,10 @@ from ..scene.envmap import direction_to_pixel, pixel_directions
 PEAK_GRID = 512
 #: the polished starts: the best face directions of the grid and of the lights
 PEAK_STARTS = 3
+#: the compass search's first step and the step it stops below (degrees; :func:`polish_peak`): the
+#: grid's spacing is about 9°, a lamella lobe's width a few degrees
+PEAK_STEP_DEG = 4.0
+PEAK_TOL_DEG = 0.002
 #: the cap (degrees around the face's normal) and directions over which :func:`sky_schiller` sums the lobe
 SKY_CAP_DEG = 70.0
 SKY_CAP_SAMPLES = 20000
@@ -229,13 +232,41 @@ def _scene_peak(material: Labradorite, lights: Lights) -> float:
     if not best > 0.0:
         raise ParameterError(f"the lights {lights.name!r} give no schiller to any face: no flash threshold can be set")
 
-    def negative(angles: np.ndarray) -> float:
-        return -float(flat_face_schiller(material, lights, direction(float(angles[0]), float(angles[1])))[0])
-
-    for k in np.argsort(values)[::-1][:PEAK_STARTS]:
-        f = faces[k]
-        start = np.array([math.degrees(math.acos(float(np.clip(f[2], -1.0, 1.0)))), math.degrees(math.atan2(f[1], f[0]))])
-        found = minimize(negative, start, method="Nelder-Mead",
-                         options={"xatol": 0.01, "fatol": 1e-9, "initial_simplex": start + np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]])})
-        best = max(best, -float(found.fun))
+    starts = np.argsort(values)[::-1][:PEAK_STARTS]
+    best = max(best, polish_peak(lambda d: flat_face_schiller(material, lights, d), faces[starts], values[starts]))
     return min(best, 1.0)
+
+
+def polish_peak(f: Any, starts: np.ndarray, values: np.ndarray, step_deg: float = PEAK_STEP_DEG,
+                tol_deg: float = PEAK_TOL_DEG) -> float:
+    """The largest ``f`` (a function of unit directions, (n, 3) -> (n,)) found by a compass search
+    from each of ``starts`` (unit, (k, 3); ``values``: ``f`` there): each start tries the eight
+    directions ``step`` away in its tangent plane (along two orthogonal axes and their diagonals),
+    moves to the best of them where it is brighter, halves its step where none is, and stops
+    below ``tol_deg``. All starts go together, one call of ``f`` per round; no chart of the sphere
+    (no pole where steps shrink)."""
+    d = np.array(starts, dtype=np.float64, copy=True)
+    best = np.array(values, dtype=np.float64, copy=True)
+    step = np.full(len(d), math.radians(step_deg))
+    pattern = np.array([(a, b) for a in (-1.0, 0.0, 1.0) for b in (-1.0, 0.0, 1.0) if (a, b) != (0.0, 0.0)])
+    tol = math.radians(tol_deg)
+    active = step > tol
+    while active.any():
+        dk = d[active]
+        helper = np.where(np.abs(dk[:, 2:3]) < 0.9, [[0.0, 0.0, 1.0]], [[1.0, 0.0, 0.0]])
+        u = np.cross(dk, helper)
+        u /= np.linalg.norm(u, axis=1, keepdims=True)
+        v = np.cross(dk, u)
+        offsets = pattern[None, :, 0:1] * u[:, None, :] + pattern[None, :, 1:2] * v[:, None, :]  # (k, 8, 3)
+        cand = dk[:, None, :] + step[active][:, None, None] * offsets
+        cand /= np.linalg.norm(cand, axis=2, keepdims=True)
+        vals = np.asarray(f(cand.reshape(-1, 3)), dtype=np.float64).reshape(len(dk), len(pattern))
+        j = np.argmax(vals, axis=1)
+        top = vals[np.arange(len(dk)), j]
+        idx = np.flatnonzero(active)
+        up = top > best[idx]
+        d[idx[up]] = cand[np.flatnonzero(up), j[up]]
+        best[idx[up]] = top[up]
+        step[idx[~up]] *= 0.5
+        active = step > tol
+    return float(best.max(initial=0.0))
