@@ -185,11 +185,20 @@ def convex_thickness(mesh: Any, points: np.ndarray, dirs: np.ndarray, chunk: int
     return out
 
 
-def depth_strata(n: int, depths: int, salt: int) -> np.ndarray:
-    """(n, depths) quantiles in (0, 1): stratum ``k`` of path group ``i`` at ``(k + frac(i φ + salt φ²)) /
-    depths`` (φ the golden ratio): stratified within a group, rotated between groups."""
-    phi = (math.sqrt(5.0) - 1.0) / 2.0
-    shift = np.mod(np.arange(n, dtype=np.float64) * phi + salt * phi * phi, 1.0)
+#: the rotations of :func:`depth_strata`: the golden ratio's for the depths, √2's for the lights a pair
+#: draws. Two sequences of one index with the same rotation are one number shifted (the light drawn
+#: would decide the depth): 1, φ and √2 are rationally independent, so the pairs (depth, light) of
+#: successive paths fill the unit square
+DEPTH_ROTATION = (math.sqrt(5.0) - 1.0) / 2.0
+LIGHT_ROTATION = math.sqrt(2.0) - 1.0
+
+
+def depth_strata(n: int, depths: int, salt: int, rotation: float = DEPTH_ROTATION) -> np.ndarray:
+    """(n, depths) quantiles in (0, 1): stratum ``k`` of path group ``i`` at ``(k + frac(i α + salt α²)) /
+    depths`` (``α``: ``rotation``, the golden ratio's by default): stratified within a group, rotated
+    between groups."""
+    a = float(rotation)
+    shift = np.mod(np.arange(n, dtype=np.float64) * a + salt * a * a, 1.0)
     return (np.arange(depths)[None, :] + shift[:, None]) / depths
 
 
@@ -316,7 +325,7 @@ def _paths(rays: VolumeRays, law: Any, table: tuple[np.ndarray, np.ndarray], eta
             light = np.tile(np.repeat(np.arange(n_lights), depths), g1 - g0)
             e = E[light]
         else:
-            slot = depth_strata(g1 - g0, draws, salt + 7919)  # (pairs, draws): stratified in (0, 1)
+            slot = depth_strata(g1 - g0, draws, salt, LIGHT_ROTATION)  # (pairs, draws): stratified in (0, 1)
             light = np.repeat(np.minimum(np.searchsorted(cdf, slot.ravel()), len(E) - 1), depths)
             e = np.full(len(light), float(E.sum()) / draws)
         u = depth_strata((g1 - g0) * n_lights, depths, salt).ravel()
