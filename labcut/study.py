@@ -39,6 +39,7 @@ from .planner import plan_question
 from .scene.directions import lamella_normal
 from .scene.scenario import SCENARIOS
 from .scene.quality import Quality
+from .validation import check_number
 
 
 class Study:
@@ -51,7 +52,10 @@ class Study:
     already built. ``plan``: the effect plan already made for this question (as a comparison
     makes them all first), used as it is. ``kernels``: which steps of the sample estimator run as Dr.Jit kernels
     (:class:`~labcut.orientation.kernels.KernelOptions`; how, not what: the answers agree to
-    float32 rounding).
+    float32 rounding). ``pilot_seconds_max``: the most seconds the plan's pilot renders (light between
+    a carving's parts, measured once per stone and scene) may take when they are not cached; over it
+    they are not rendered and the plan leaves inter-reflection off, saying so (a live view's Study:
+    0).
 
     ``builds`` counts what this Study and the Studies it was derived from made (``plan``,
     ``problem``, ``recommendation``): a re-ask that reuses something does not count it again.
@@ -61,7 +65,7 @@ class Study:
                  lighting: Any = None, viewing: Any = None, objective: str = "energy", tau: float = 0.1, seed: int = 0,
                  max_tilt: float = 90.0, tilt_axis: Any = None, estimator: str = "auto",
                  effects: Mapping[str, Any] | None = None, zoning: Any = None, question: FlashQuestion | None = None,
-                 kernels: KernelOptions = DEFAULT_KERNELS, plan: Any = None) -> None:
+                 kernels: KernelOptions = DEFAULT_KERNELS, plan: Any = None, pilot_seconds_max: float | None = None) -> None:
         self.stone = Stone.of(stone, "stone").validate("stone")
         if question is None:
             question = FlashQuestion.build(material, scenario, lighting, viewing, objective=objective, quality=quality, tau=tau,
@@ -74,7 +78,12 @@ class Study:
         self.question = replace(question, kernels=kernels)
         self.builds: dict[str, int] = {"plan": 0, "problem": 0, "recommendation": 0}
         self._plan: Any = plan  # an effect plan made elsewhere for this very question (a comparison's), or None
+        #: the most seconds the plan's pilot renders may take when not cached (None: no limit; 0: a live
+        #: view's plan, which leaves inter-reflection unmeasured rather than wait for them)
+        self.pilot_seconds_max = None if pilot_seconds_max is None else float(
+            check_number(pilot_seconds_max, "pilot_seconds_max", 0.0, 86_400.0, unit="s"))
         self._scorer: Scorer | None = None
+        self._surface: Scorer | None = None
         self._recommendations: dict[str, Recommendation] = {}
 
     # ------------------------------------------------------------------ the question
@@ -104,7 +113,7 @@ class Study:
         which estimator answers; made once."""
         if self._plan is None:
             with serial_blas():  # as recommend_orientation plans: the same numbers to the last bit
-                self._plan = plan_question(self.stone.mesh, self.question, "recommend")
+                self._plan = plan_question(self.stone.mesh, self.question, "recommend", pilot_seconds_max=self.pilot_seconds_max)
             self.builds["plan"] += 1
         return self._plan
 
@@ -117,6 +126,22 @@ class Study:
                 self._scorer = build_scorer(self.stone.mesh, self.question, plan)
             self.builds["problem"] += 1
         return self._scorer
+
+    @property
+    def surface_scorer(self) -> Scorer:
+        """The surface samples' scorer of this question (the plan's occlusion and map, the light
+        mirrored where it enters), whatever estimator the plan chose: what a live view answers from
+        (the explorer), where the volume estimator's problem, the plan's choice for a carving's thin
+        parts, costs a second or two. The same object as :attr:`scorer` where the plan's estimator
+        is the surface samples'; made once."""
+        plan = self.plan()
+        if plan.estimator in (None, "samples", "render"):  # render: its scorer is the samples' already
+            return self.scorer
+        if self._surface is None:
+            with serial_blas():
+                self._surface = build_scorer(self.stone.mesh, self.question, replace(plan, estimator="samples"))
+            self.builds["problem"] += 1
+        return self._surface
 
     # ------------------------------------------------------------------ questions
     def recommend(self, optimizer: str = "nlopt", progress: Callable[[str, float], None] | None = None) -> Recommendation:
@@ -147,14 +172,15 @@ class Study:
         with serial_blas():
             return evaluation_metrics(self.stone.mesh, self.question, scorer, plan, m)
 
-    def score_map(self, spacing_deg: float | None = None) -> tuple[np.ndarray, np.ndarray]:
+    def score_map(self, spacing_deg: float | None = None, *, surface: bool = False) -> tuple[np.ndarray, np.ndarray]:
         """``(normals, scores)``: the objective over the allowed hemisphere, normals ``spacing_deg``
-        apart (default: the quality's map spacing), from the sample estimator."""
+        apart (default: the quality's map spacing), from the sample estimator's scorer (:attr:`scorer`;
+        with ``surface``, :attr:`surface_scorer`)."""
         spacing = self.quality.map_spacing_deg if spacing_deg is None else float(spacing_deg)
         if not (spacing > 0 and np.isfinite(spacing)):
             raise ParameterError(f"spacing_deg must be a positive number of degrees, got {spacing_deg!r}")
         normals = hemisphere_grid(spacing, self.question.constraint)
-        scorer = self.scorer
+        scorer = self.surface_scorer if surface else self.scorer
         with serial_blas():
             return normals, score_map(scorer, normals)
 
@@ -180,8 +206,10 @@ class Study:
         other.stone = self.stone
         other.question = question
         other.builds = self.builds  # one count for a Study and all derived from it
+        other.pilot_seconds_max = self.pilot_seconds_max
         other._plan = self._plan if keep_plan else None
         other._scorer = self._scorer if keep_problem else None
+        other._surface = None
         other._recommendations = {}
         return other
 

@@ -132,6 +132,40 @@ def test_a_normal_change_makes_nothing_new_and_a_lamp_seen_before_is_kept(sessio
     session.reset()
 
 
+def test_a_carvings_live_view_renders_no_pilots_and_answers_from_the_surface_samples(monkeypatch):
+    """A lamp move on a carving must not wait for pilot renders (light between its parts, about
+    0.8 s a new lamp) nor for the volume estimator's problem (1-1.5 s): the live Study's plan leaves
+    the pilots unrendered and its map and metrics come from the surface samples. "recommend here"
+    plans as ``labcut recommend-orientation`` does, pilots included, and answers through the volume."""
+    import labcut.planner as planner
+
+    asked = []
+
+    def pilots(mesh, material, scene, timing=None, max_seconds=None):  # as if never rendered for this lamp
+        asked.append(max_seconds)
+        if max_seconds == 0.0:
+            timing["pilot_seconds_skipped"] = 0.8
+            return None
+        return 0.012
+
+    monkeypatch.setattr(planner, "measured_interreflection", pilots)
+    live = ExploreSession("meshes/carving-biplane.ply", scenario="bench", quality="draft")
+    live.set({"lamp_elevation": 63.0})
+    view = live.view()
+    study = live.study()
+    assert asked == [0.0] and study.plan().estimator == "volume"
+    assert study.surface_scorer is not study._scorer and "volume" not in study.surface_scorer.problem.info
+    ref = labcut.evaluate_orientation(live.stone, live.normal(), scenario="bench", lighting=live.lights(), quality="draft",
+                                      estimator="samples")
+    assert view["metrics"]["flash_energy"] == pytest.approx(ref.flash_energy, rel=1e-9)
+    assert view["estimator"] == "samples (live); recommend: volume (light between the parts measured when asked)"
+    assert live.recommendation() is None
+    rec = live.recommend()
+    assert asked[0] == 0.0 and len(asked) > 1 and set(asked[1:]) == {None} and rec.estimator == "volume"
+    assert live.view()["estimator"] == "samples (live); recommend: volume"
+    assert live.view()["recommendation"]["tilt_deg"] == pytest.approx(rec.tilt_deg)
+
+
 def test_the_material_control(session):
     session.reset()
     assert session.material() is session.given_material

@@ -142,3 +142,13 @@ def test_recommended_is_the_recommendation_once_made_and_nothing_before():
     assert study.recommended() is None and study.builds["recommendation"] == 0
     rec = study.recommend()
     assert study.recommended() is rec and study.recommended("grid") is None
+
+
+def test_the_surface_scorer_is_the_scorer_where_the_plan_samples_the_surface():
+    study = labcut.Study(labcut.Stone.load(OVAL), scenario="bench", quality="draft")
+    assert study.plan().estimator == "samples" and study.surface_scorer is study.scorer
+    normals, scores = study.score_map(surface=True)
+    assert np.array_equal(scores, study.score_map()[1])
+    with pytest.raises(ParameterError, match="pilot_seconds_max"):
+        labcut.Study(labcut.Stone.load(OVAL), pilot_seconds_max=-1.0)
+    assert labcut.Study(labcut.Stone.load(OVAL), pilot_seconds_max=0).pilot_seconds_max == 0.0

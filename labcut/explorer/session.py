@@ -86,6 +86,7 @@ class ExploreSession:
         self.state = start
         self.lock = threading.RLock()
         self._studies: OrderedDict[tuple[Any, ...], Study] = OrderedDict()
+        self._answers: dict[tuple[Any, ...], Study] = {}
         self._stones: OrderedDict[tuple[str, float], Stone] = OrderedDict()
         self._maps: dict[int, tuple[np.ndarray, np.ndarray]] = {}
         self._rasters: dict[bytes, DiscRaster] = {}
@@ -156,21 +157,41 @@ class ExploreSession:
         samples = Quality.coerce(s.quality).lamp_samples
         return Lights.lamp(direction(90.0 - s.lamp_elevation, s.lamp_azimuth), s.lamp_size, 1.0, samples, "lamp")
 
-    def study(self, state: ExploreState | None = None) -> Study:
-        """The :class:`~labcut.Study` answering ``state`` (made once per stone, scenario, lights,
-        material and quality, and kept)."""
-        s = self.state if state is None else state
+    def _key(self, s: ExploreState) -> tuple[Any, ...]:
         lamp = None if s.lights == "scenario" else (s.lamp_elevation, s.lamp_azimuth, s.lamp_size)
         peak = s.peak_nm if s.material == "peak" else None
-        key = (s.outline, s.dome if s.outline != "as loaded" else None, s.scenario, lamp, s.material, peak, s.quality)
+        return (s.outline, s.dome if s.outline != "as loaded" else None, s.scenario, lamp, s.material, peak, s.quality)
+
+    def study(self, state: ExploreState | None = None) -> Study:
+        """The live :class:`~labcut.Study` of ``state`` (made once per stone, scenario, lights,
+        material and quality, and kept): the score map and metrics come from its surface samples
+        (:attr:`~labcut.Study.surface_scorer`), and its plan renders no pilots (a carving's light
+        between its parts is measured when a recommendation asks: :meth:`answer_study`)."""
+        s = self.state if state is None else state
+        key = self._key(s)
         hit = self._studies.get(key)
         if hit is None:
-            hit = Study(self._stone_for(s), self.material(s), s.scenario, s.quality, lighting=self.lights(s), seed=self.seed)
+            hit = Study(self._stone_for(s), self.material(s), s.scenario, s.quality, lighting=self.lights(s), seed=self.seed,
+                        pilot_seconds_max=0.0)
             self._studies[key] = hit
             while len(self._studies) > STUDIES_KEPT:
-                old = self._studies.popitem(last=False)[1]
+                old_key, old = self._studies.popitem(last=False)
                 self._maps.pop(id(old), None)
+                self._answers.pop(old_key, None)
         self._studies.move_to_end(key)
+        return hit
+
+    def answer_study(self, state: ExploreState | None = None, *, make: bool = True) -> Study | None:
+        """The :class:`~labcut.Study` that recommends for ``state`` as ``labcut recommend-orientation``
+        does (its full plan, pilots included, and the planned estimator), made when first asked
+        (``make``) and kept while its live Study is; None when not made and ``make`` is False."""
+        s = self.state if state is None else state
+        key = self._key(s)
+        hit = self._answers.get(key)
+        if hit is None and make:
+            live = self.study(s)
+            hit = Study(live.stone, live.material, s.scenario, s.quality, lighting=self.lights(s), seed=self.seed)
+            self._answers[key] = hit
         return hit
 
     def normal(self, state: ExploreState | None = None) -> np.ndarray:
@@ -182,8 +203,9 @@ class ExploreSession:
         return _stone_name(self._stone_for(self.state))
 
     def recommendation(self) -> Recommendation | None:
-        """The current Study's recommendation, when "recommend here" has made it."""
-        return self.study().recommended()
+        """The current state's recommendation, when "recommend here" has made it."""
+        answer = self.answer_study(make=False)
+        return None if answer is None else answer.recommended()
 
     # ------------------------------------------------------------------ answers
     def score_map(self) -> tuple[np.ndarray, np.ndarray]:
@@ -191,7 +213,7 @@ class ExploreSession:
         study = self.study()
         hit = self._maps.get(id(study))
         if hit is None:
-            hit = study.score_map()
+            hit = study.score_map(surface=True)
             self._maps[id(study)] = hit
         return hit
 
@@ -211,7 +233,7 @@ class ExploreSession:
             times: dict[str, float] = {}
             t0 = time.perf_counter()
             state, study = self.state, self.study()
-            scorer = study.scorer
+            scorer = study.surface_scorer
             times["study"] = _ms(t0)
             t = time.perf_counter()
             normals, scores = self.score_map()
@@ -241,7 +263,7 @@ class ExploreSession:
                 "stone": {"name": _stone_name(stone), "kind": stone.kind, "triangles": int(len(stone.mesh.faces)),
                           "size_mm": [round(float(x), 2) for x in np.ptp(stone.mesh.vertices, axis=0)]},
                 "material": self.material(state).name or "labradorite",
-                "estimator": "samples (live); recommend: " + study.plan().estimator,
+                "estimator": "samples (live); recommend: " + _planned(study, self.answer_study(make=False)),
                 "timings_ms": {**times, "total": _ms(t0)},
             }
 
@@ -249,7 +271,7 @@ class ExploreSession:
         """"Recommend here": the current Study's recommendation (the planned estimator, as
         ``labcut recommend-orientation`` answers the same question); the normal control moves to it."""
         with self.lock:
-            rec = self.study().recommend()
+            rec = self.answer_study().recommend()
             self.state = changed(self.state, {"normal_tilt": rec.tilt_deg, "normal_azimuth": rec.azimuth_deg})
             return rec
 
@@ -317,7 +339,7 @@ class ExploreSession:
                 "material": self.material(state).to_dict(),
                 "scenario": study.scenario.to_dict(),
                 "normal": [float(x) for x in self.normal()],
-                "metrics": metrics_dict(study.scorer.metrics(self.normal())),
+                "metrics": metrics_dict(study.surface_scorer.metrics(self.normal())),
                 "recommendation": None if rec is None else rec.to_dict(),
             }
 
@@ -343,6 +365,16 @@ class ExploreSession:
             path = Path(tmp) / "report.html"
             comparison.save_html(path)
             return path.read_bytes()
+
+
+def _planned(live: Study, answer: Study | None) -> str:
+    """The estimator a recommendation answers with: the answer Study's plan once made, else the live
+    plan's, saying when that plan left a carving's light between its parts unmeasured."""
+    if answer is not None:
+        return answer.plan().estimator
+    plan = live.plan()
+    unmeasured = "interreflection_pilots_skipped_seconds" in plan.facts
+    return plan.estimator + (" (light between the parts measured when asked)" if unmeasured else "")
 
 
 def _stone_name(stone: Stone) -> str:
