@@ -320,6 +320,22 @@ def luminance_table(material: Any) -> tuple[np.ndarray, np.ndarray]:
                            shape=(LUMINANCE_TABLE_SIZE,), dtype=np.float64)
 
 
+@functools.lru_cache(maxsize=16)
+def luminance_sp_table(material: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(cos θ grid over [0, 1], ``Y_s``, ``Y_p``): :func:`reflectance_luminance_sp` of a material on
+    the grid of :func:`luminance_table`, computed once per material and kept on disk like it. The
+    planner's polarisation bias reads it by linear interpolation (within about 1e-5 of the exact
+    bias, relative: a decision against a 2 % tolerance, not a number an answer carries), so that a
+    new light's plan does not evaluate the stack's spectra at every light and view pair."""
+    from .fileio import cached_array
+
+    c = np.linspace(0.0, 1.0, LUMINANCE_TABLE_SIZE)
+    both = cached_array("luminance-sp", _table_key(material, "luminance-sp", None),
+                        lambda: np.stack(reflectance_luminance_sp(material, c)), shape=(2, LUMINANCE_TABLE_SIZE),
+                        dtype=np.float64)
+    return c, both[0], both[1]
+
+
 def reflectance_luminance(material: Any, cos_theta: Any, illuminant: str = "D65", polarization: str | None = None) -> np.ndarray:
     """Luminance Y (...) of ``material``'s reflectance (unpolarised, or ``'s'`` / ``'p'``): the mono variants' table."""
     return stack_table(material.stack, cos_theta, "mono", illuminant, polarization)[..., 0]

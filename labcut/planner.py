@@ -282,8 +282,9 @@ def _planner_code() -> str:
 def _polarisation_bias(material: Any, sets: Sequence[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]]) -> list[float]:
     """:func:`polarisation_bias` of each ``(L, wl, V, wv)`` of ``sets``: light directions ``L``
     (n, 3) with weights ``wl`` and view directions ``V`` (m, 3) with weights ``wv``, computed; the
-    stack's s and p reflectances of every set's half-vector cosines in one call each."""
-    from .colour import reflectance_luminance_sp
+    stack's s and p luminance reflectances of every set's half-vector cosines read from the material's
+    table (:func:`labcut.colour.luminance_sp_table`)."""
+    from .colour import luminance_sp_table
 
     eta = float(material.n_surface)
 
@@ -302,7 +303,8 @@ def _polarisation_bias(material: Any, sets: Sequence[tuple[np.ndarray, np.ndarra
         cos_half = np.clip(np.einsum("ijk,ijk->ij", a[:, None, :].repeat(len(V), 1), h) / np.maximum(np.linalg.norm(h, axis=2), 1e-12), 0.0, 1.0)
         parts.append((cl, cv, wl, wv, cos_half))
     flat = np.concatenate([p[4].ravel() for p in parts]) if parts else np.zeros(0)
-    rs_all, rp_all = reflectance_luminance_sp(material, flat) if flat.size else (flat, flat)
+    grid, ys, yp = luminance_sp_table(material)
+    rs_all, rp_all = np.interp(flat, grid, ys), np.interp(flat, grid, yp)
     out, start = [], 0
     for cl, cv, wl, wv, cos_half in parts:
         n = cos_half.size

@@ -96,3 +96,15 @@ def test_the_s_and_p_luminances_from_one_evaluation_are_each_polarisations_own()
     assert np.array_equal(y_s, reflectance_luminance(m, c, polarization="s"))
     assert np.array_equal(y_p, reflectance_luminance(m, c, polarization="p"))
     assert not np.allclose(y_s, y_p)  # away from normal incidence the two differ
+
+
+def test_the_s_and_p_luminance_table_is_the_stacks_on_its_grid():
+    from labcut.colour import luminance_sp_table, reflectance_luminance_sp
+
+    lab = Labradorite.preset("green")
+    c, ys, yp = luminance_sp_table(lab)
+    assert c.shape == ys.shape == yp.shape == (1024,) and c[0] == 0.0 and c[-1] == 1.0
+    pick = np.array([0, 100, 511, 900, 1023])
+    es, ep = reflectance_luminance_sp(lab, c[pick])
+    assert np.allclose(ys[pick], es, rtol=1e-12, atol=0) and np.allclose(yp[pick], ep, rtol=1e-12, atol=0)
+    assert not np.allclose(ys, yp)  # two polarisations, not one twice

@@ -227,7 +227,9 @@ def test_polarisation_left_off_is_within_the_tolerance_and_matches_a_direct_comp
     rp = float(reflectance_luminance(mat, np.array([cos_half]), polarization="p")[0])
     exact = 0.5 * (tsl * rs * tsv + tpl * rp * tpv)
     averaged = 0.5 * (tsl + tpl) * 0.5 * (rs + rp) * 0.5 * (tsv + tpv)
-    assert polarisation_bias(mat, L, V) == pytest.approx(abs(averaged - exact) / exact, rel=1e-6)
+    # the planner reads Y_s and Y_p from the material's 1024-cosine table (colour.luminance_sp_table):
+    # linear interpolation, within 1e-4 of the exact bias
+    assert polarisation_bias(mat, L, V) == pytest.approx(abs(averaged - exact) / exact, rel=1e-4)
     # the unpolarised transmission the estimators use is the s/p mean
     assert schiller.transmission(np.array([math.cos(tilt_l)]), eta)[0] == pytest.approx(0.5 * (tsl + tpl), rel=1e-9)
     # below the tolerance for every bundled scenario but the upright worn ones, whose faces catch the
