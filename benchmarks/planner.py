@@ -71,10 +71,12 @@ def moving(quality: str, out: Path) -> None:
                     f"±{b.tolerance_deg:.1f}° |")
         print(rows[-1], flush=True)
     text = out.read_text()
-    if MOVING_BEGIN in text and MOVING_END in text:
-        head, rest = text.split(MOVING_BEGIN, 1)
-        _, tail = rest.split(MOVING_END, 1)
-        out.write_text(head + MOVING_BEGIN + "\n" + "\n".join(rows) + "\n" + MOVING_END + tail)
+    begin, end = ((MOVING_BEGIN, MOVING_END) if quality == "draft" else
+                  (MOVING_BEGIN.replace("MOVING", f"MOVING-{quality.upper()}"), MOVING_END.replace("MOVING", f"MOVING-{quality.upper()}")))
+    if begin in text and end in text:
+        head, rest = text.split(begin, 1)
+        _, tail = rest.split(end, 1)
+        out.write_text(head + begin + "\n" + "\n".join(rows) + "\n" + end + tail)
     print("\n".join(rows))
 
 
