@@ -92,10 +92,14 @@ class Worker(threading.Thread):
         #: set while the worker has nothing to do (no job queued, the pictures of the current state
         #: done): :meth:`wait_idle`
         self.idle = threading.Event()
+        # held while a job is queued and while the loop decides it is idle: a job queued between that
+        # decision and the flag could otherwise leave "idle" set with work waiting
+        self._idle_lock = threading.Lock()
 
     def submit(self, job: _Job) -> None:
-        self.idle.clear()
-        self.jobs.put(job)
+        with self._idle_lock:
+            self.jobs.put(job)
+            self.idle.clear()
 
     def wait_idle(self, timeout: float) -> bool:
         """Wait until the worker has answered every job and drawn the pictures of the current state
@@ -118,8 +122,9 @@ class Worker(threading.Thread):
     # ------------------------------------------------------------------ the loop
     def run(self) -> None:
         while not self.stopped.is_set():
-            if self._render_state == self.session.state and self.jobs.empty():
-                self.idle.set()
+            with self._idle_lock:
+                if self._render_state == self.session.state and self.jobs.empty():
+                    self.idle.set()
             try:
                 job = self.jobs.get(timeout=0.05 if self._render_state != self.session.state else 1.0)
             except queue.Empty:
