@@ -335,3 +335,25 @@ def test_recommend_tells_the_budget_whether_it_is_the_first_of_its_kind(monkeypa
     monkeypatch.setattr(budget_module, "_WARM", set())
     labcut.recommend_orientation(mesh, "blue", scenario="bench", quality="draft")  # no budget: still warms the process
     assert budget_module.is_warm(False)
+
+
+def test_a_plan_that_draws_the_map_densely_is_predicted_so(monkeypatch):
+    """Where the plan has the map drawn through more directions (a carving's parts hide part of it),
+    every rung is predicted with that many map directions: the seconds follow the lights."""
+    seen = []
+
+    def predict(settings, points, occlusion):
+        seen.append(len(settings[0].lights))
+        return 1e-6 * points * len(settings[0].lights)
+
+    monkeypatch.setattr("labcut.planner.predict_sample_seconds", predict)
+
+    class Dense(_PlanWithPilots):
+        env_samples = 256
+
+    plain = choose(5.0, ("ring-diffuse", None, None), True, plan=_PlanWithPilots(0.0))
+    lights_plain = list(seen)
+    seen.clear()
+    dense = choose(5.0, ("ring-diffuse", None, None), True, plan=Dense(0.0))
+    assert max(lights_plain) <= 128 and min(seen) > 128  # every rung's map drawn past the quality's count
+    assert all(d > p for (_, d), (_, p) in zip(dense.rungs, plain.rungs))
