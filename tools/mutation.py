@@ -43,6 +43,8 @@ MODULE_TESTS: dict[str, list[str]] = {
                                    "tests/test_bsdf.py"],
     "labcut/physics/material.py": ["tests/test_material.py", "tests/test_physics_bragg.py", "tests/test_physics_hardcases.py",
                                    "tests/test_colour.py", "tests/test_cli_spectrum.py"],
+    # not tests/test_batch.py: its 2-worker clusters cost about a minute a mutant, for the runner, not the catalogue
+    "labcut/batch/catalog.py": ["tests/test_batch_catalog.py", "tests/test_catalog_pinned.py"],
     "labcut/explorer/hemisphere.py": ["tests/test_explore.py"],
     "labcut/explorer/state.py": ["tests/test_explore.py"],
 }
