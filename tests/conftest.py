@@ -90,6 +90,21 @@ def fresh_pilot_cache(tmp_path_factory):
 
 
 @pytest.fixture
+def catalogue_folder(tmp_path):
+    """A folder for the batch catalogue tests: ``m/`` holds a 10 mm cube, a step cut and the SRB
+    GemCad design (copies of the bundled meshes); returns the folder."""
+    import shutil
+    from pathlib import Path
+
+    meshes = Path(__file__).resolve().parents[1] / "meshes"
+    (tmp_path / "m").mkdir()
+    shutil.copy(meshes / "cube-10.ply", tmp_path / "m" / "cube.ply")
+    shutil.copy(meshes / "step-cut-12x10.ply", tmp_path / "m" / "step.ply")
+    shutil.copy(meshes / "designs" / "SRB.asc", tmp_path / "m" / "SRB.asc")
+    return tmp_path
+
+
+@pytest.fixture
 def fresh_user_cache(tmp_path, monkeypatch):
     """labcut's user cache as a new user's: an empty folder of its own, nothing kept in this
     process (the calibration files' and the scene peaks' memos); returns the folder."""

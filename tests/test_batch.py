@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import json
 import os
-import shutil
 from pathlib import Path
 
 import numpy as np
@@ -16,8 +15,6 @@ import labcut
 from labcut.batch import Defaults, read_catalog, run
 from labcut.batch.store import ResultStore
 
-ROOT = Path(__file__).resolve().parents[1]
-MESHES = ROOT / "meshes"
 
 CATALOG = """name,cut,material,scenario,quality,seed
 cube,m/cube.ply,blue,bench,draft,0
@@ -42,13 +39,9 @@ def client():
 
 
 @pytest.fixture
-def folder(tmp_path: Path) -> Path:
-    (tmp_path / "m").mkdir()
-    shutil.copy(MESHES / "cube-10.ply", tmp_path / "m" / "cube.ply")
-    shutil.copy(MESHES / "step-cut-12x10.ply", tmp_path / "m" / "step.ply")
-    shutil.copy(MESHES / "designs" / "SRB.asc", tmp_path / "m" / "SRB.asc")
-    (tmp_path / "c.csv").write_text(CATALOG)
-    return tmp_path
+def folder(catalogue_folder: Path) -> Path:
+    (catalogue_folder / "c.csv").write_text(CATALOG)
+    return catalogue_folder
 
 
 def direct(row):

@@ -3,7 +3,6 @@ Parquet store (parts, latest record per key, compaction, lock), and the CLI's ex
 
 from __future__ import annotations
 
-import shutil
 from pathlib import Path
 
 import pytest
@@ -13,17 +12,12 @@ from labcut.batch.store import ResultStore, read_results
 from labcut.errors import LabcutError, OutputError
 
 ROOT = Path(__file__).resolve().parents[1]
-MESHES = ROOT / "meshes"
 
 
 @pytest.fixture
-def folder(tmp_path: Path) -> Path:
+def folder(catalogue_folder: Path) -> Path:
     """A catalogue folder with two small meshes and a GemCad design next to it."""
-    (tmp_path / "m").mkdir()
-    shutil.copy(MESHES / "cube-10.ply", tmp_path / "m" / "cube.ply")
-    shutil.copy(MESHES / "step-cut-12x10.ply", tmp_path / "m" / "step.ply")
-    shutil.copy(MESHES / "designs" / "SRB.asc", tmp_path / "m" / "SRB.asc")
-    return tmp_path
+    return catalogue_folder
 
 
 def write(path: Path, text: str) -> Path:

@@ -25,19 +25,14 @@ from labcut.errors import LabcutError, LabcutWarning, ParameterError
 from labcut.geometry.stone import Stone
 from labcut.physics.material import Labradorite
 
-ROOT = Path(__file__).resolve().parents[1]
-MESHES = ROOT / "meshes"
 BACKLIT = {"name": "backlit", "lighting": {"directions": [[0.0, 0.998, -0.06]]},
            "viewing": {"directions": [[0.0, -0.99, 0.14]]}}
 
 
 @pytest.fixture
-def folder(tmp_path: Path) -> Path:
+def folder(catalogue_folder: Path) -> Path:
     """A catalogue folder: a 10 mm cube, a step cut, the SRB design, a scenario file, a material file."""
-    (tmp_path / "m").mkdir()
-    shutil.copy(MESHES / "cube-10.ply", tmp_path / "m" / "cube.ply")
-    shutil.copy(MESHES / "step-cut-12x10.ply", tmp_path / "m" / "step.ply")
-    shutil.copy(MESHES / "designs" / "SRB.asc", tmp_path / "m" / "SRB.asc")
+    tmp_path = catalogue_folder
     (tmp_path / "backlit.json").write_text(json.dumps(BACKLIT))
     (tmp_path / "gold.json").write_text(json.dumps(Labradorite.preset("gold").to_dict()))
     shutil.copy(tmp_path / "gold.json", tmp_path / "Gold.JSON")
@@ -161,6 +156,9 @@ def test_name_defaults_and_labels(folder):
     assert [r.name for r in cat.rows] == ["cube.ply", "SRB.asc", "cab:round,8,low,res=32", "named", "7"]
     assert [r.cut for r in cat.rows] == ["m/cube.ply", "m/SRB.asc", "cab:round,8,low,res=32", "m/step.ply", "m/step.ply"]
     assert [r.index for r in cat.rows] == [1, 2, 3, 4, 5]
+    # a file or design given with spaces around it (YAML, Python rows) is named without them, as a cabochon is
+    spaced = read_catalog([{"cut": " m/SRB.asc "}, {"cut": "\tm/cube.ply"}], base=folder)
+    assert [r.name for r in spaced.rows] == ["SRB.asc", "cube.ply"]
 
 
 # ---------------------------------------------------------------------- cut: files, designs, cabochons
