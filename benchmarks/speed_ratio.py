@@ -106,18 +106,32 @@ def child(code: str, *args: str, env: dict | None = None) -> dict:
     return json.loads(out.stdout.strip().splitlines()[-1])
 
 
+#: what labcut keeps per stone in its user cache (a never-seen stone has none of it): the planner's
+#: pilot renders, its depth exposure, the smooth-shaded split copy (under tables/)
+PER_STONE = ("planner-pilot.json", "depth-exposure.json")
+PER_STONE_TABLES = ("smooth-split-",)
+
+
 def cold_pilot_env(folder: Path) -> dict:
     """The environment of a process whose labcut cache (XDG_CACHE_HOME) holds everything this
-    machine's does (calibrations, Dr.Jit's kernels) but the planner's pilot renders: a stone's
-    first plan."""
+    machine's does (calibrations, material tables, Dr.Jit's kernels) but what labcut keeps per stone
+    (:data:`PER_STONE`: the pilot renders, the depth exposure, the smooth split): a stone's first
+    plan."""
     from platformdirs import user_cache_dir
 
     real = Path(user_cache_dir("labcut"))
     mine = folder / "cache" / "labcut"
     mine.mkdir(parents=True, exist_ok=True)
     for entry in real.iterdir() if real.exists() else ():
-        if entry.name != "planner-pilot.json" and not (mine / entry.name).exists():
-            (mine / entry.name).symlink_to(entry)
+        if entry.name in PER_STONE or (mine / entry.name).exists():
+            continue
+        if entry.name == "tables" and entry.is_dir():
+            (mine / "tables").mkdir(exist_ok=True)
+            for table in entry.iterdir():
+                if not table.name.startswith(PER_STONE_TABLES):
+                    (mine / "tables" / table.name).symlink_to(table)
+            continue
+        (mine / entry.name).symlink_to(entry)
     return {**user_env(), "XDG_CACHE_HOME": str(folder / "cache")}
 
 

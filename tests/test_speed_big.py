@@ -70,6 +70,53 @@ def test_corner_normals_equal_the_split_copy_where_the_definitions_agree(name):
         assert mesh.area_faces[orig[off.any(axis=1)]].sum() < 0.002 * mesh.area  # a cabochon, a carving: (almost) nowhere
 
 
+@pytest.mark.parametrize("name", ["carving-biplane.ply", "step-cut-12x10.ply"])
+def test_the_corners_found_through_the_incidence_index_are_the_same_to_the_bit(name):
+    """A big stone's split corner normals found through its vertex -> corner index (the volume
+    estimator's ray hits, many times over) are those of the pass over every face, for any face set
+    (repeated faces, one face, all of them)."""
+    from labcut.geometry.surface import corner_incidence
+
+    mesh = labcut.load_mesh(MESHES / name)
+    angle = Stone.of(mesh).shading_angle_deg
+    index = corner_incidence(np.asarray(mesh.faces), len(mesh.vertices))
+    rng = np.random.default_rng(3)
+    for idx in (rng.integers(0, len(mesh.faces), 700), np.array([5]), np.arange(len(mesh.faces)), np.array([9, 9, 2, 9])):
+        assert np.array_equal(smooth_corner_normals(mesh, angle, idx, index), smooth_corner_normals(mesh, angle, idx))
+
+
+def test_a_big_stones_ray_hits_keep_each_faces_corners_once(monkeypatch):
+    """The volume estimator's casts on a stone too big to copy compute each met face's corner normals
+    once and keep them: the normals at the hits are those computed for the hit faces alone."""
+    import mitsuba as mi
+
+    from labcut.orientation import volume
+
+    monkeypatch.setattr(volume, "FAST_SMOOTH_FACES", 1000)
+    mesh = labcut.load_mesh(MESHES / "carving-biplane.ply")
+    rays = volume.VolumeRays(mesh)
+    assert rays.big
+    calls = []
+    real = volume.smooth_corner_normals
+    monkeypatch.setattr(volume, "smooth_corner_normals", lambda m, a, f, i=None: calls.append(len(f)) or real(m, a, f, i))
+    rng = np.random.default_rng(1)
+    lo, hi = mesh.bounds
+    for _ in range(3):
+        origins = lo + (hi - lo) * (0.3 + 0.4 * rng.random((400, 3)))
+        dirs = rng.normal(size=(400, 3))
+        dirs /= np.linalg.norm(dirs, axis=1, keepdims=True)
+        hits = rays.cast(origins, dirs)
+        hit = np.isfinite(hits.t)
+        pi = rays.scene.ray_intersect_preliminary(mi.Ray3f(mi.Point3f(*origins.T), mi.Vector3f(*dirs.T)))
+        face = np.asarray(pi.prim_index, dtype=np.int64)[hit]
+        uv = np.asarray(pi.prim_uv, dtype=np.float64)[:, hit]
+        bary = np.stack([1.0 - uv[0] - uv[1], uv[0], uv[1]], axis=1)
+        want = np.einsum("ij,ijk->ik", bary, real(mesh, Stone.of(mesh).shading_angle_deg, face))
+        want /= np.linalg.norm(want, axis=1, keepdims=True)
+        assert np.array_equal(hits.n_sh[hit], want)
+    assert sum(calls) == rays._n_kept == len(np.unique(rays._slot[rays._slot >= 0]))  # no face computed twice
+
+
 @pytest.mark.parametrize("name", ["carving-biplane.ply", "oval-16x12-low.ply"])
 def test_surface_sample_and_areas_are_trimeshs(name):
     mesh = labcut.load_mesh(MESHES / name)

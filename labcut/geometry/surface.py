@@ -117,7 +117,30 @@ def unit_normals(tri: np.ndarray) -> np.ndarray:
     return out
 
 
-def smooth_corner_normals(mesh: Any, angle_deg: float, face_idx: Any) -> np.ndarray:
+def corner_incidence(faces: np.ndarray, n_vertices: int) -> tuple[np.ndarray, np.ndarray]:
+    """``(order, starts)``: the mesh's corners (flat indices ``face * 3 + corner`` into ``faces``) sorted
+    by vertex, and where each vertex's run starts (``n_vertices + 1`` entries): the corners at vertex
+    ``v`` are ``order[starts[v]:starts[v + 1]]``, in ascending order. Made once per big stone so that
+    :func:`smooth_corner_normals` finds the corners around a few faces without a pass over all of them."""
+    flat = np.asarray(faces, dtype=np.int64).ravel()
+    order = np.argsort(flat, kind="stable")
+    starts = np.zeros(int(n_vertices) + 1, dtype=np.int64)
+    np.cumsum(np.bincount(flat, minlength=int(n_vertices)), out=starts[1:])
+    return order, starts
+
+
+def _corners_at(need: np.ndarray, incidence: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
+    """The flat corner indices (ascending) of every corner at the vertices ``need`` (unique)."""
+    order, starts = incidence
+    lo, hi = starts[need], starts[need + 1]
+    counts = hi - lo
+    total = int(counts.sum())
+    offsets = np.repeat(lo - np.concatenate([[0], np.cumsum(counts)[:-1]]), counts)
+    return np.sort(order[offsets + np.arange(total)])
+
+
+def smooth_corner_normals(mesh: Any, angle_deg: float, face_idx: Any,
+                          incidence: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
     """(k, 3, 3) smooth shading normals at the three corners of the faces ``face_idx`` of ``mesh``
     (in its own face order), split along edges sharper than ``angle_deg``, without building a split
     copy of the whole mesh (:func:`smooth_split`), for a mesh of millions of triangles.
@@ -130,7 +153,9 @@ def smooth_corner_normals(mesh: Any, angle_deg: float, face_idx: Any) -> np.ndar
     sharp edges meet and the sectors they part around the vertex are one patch further away
     (trimesh then smooths across those edges there), and at the rims of such large facets. On
     the bundled cabochons they agree at every corner, on the carving at all but 0.03 % of its
-    area (``tests/test_speed_big.py`` compares them)."""
+    area (``tests/test_speed_big.py`` compares them). ``incidence``: the mesh's
+    :func:`corner_incidence`, when made already (a stone that asks many times: the volume
+    estimator's ray hits); without it the corners are found by a pass over every face."""
     import trimesh
     from scipy.sparse import coo_matrix
     from scipy.sparse.csgraph import connected_components
@@ -139,10 +164,14 @@ def smooth_corner_normals(mesh: Any, angle_deg: float, face_idx: Any) -> np.ndar
     verts = np.asarray(mesh.vertices, dtype=np.float64)
     face_idx = np.asarray(face_idx, dtype=np.int64).ravel()
     nv = len(verts)
-    need = np.zeros(nv, dtype=bool)
-    need[faces[face_idx].ravel()] = True
-    # every corner at a needed vertex: (face g, corner c), sorted by face then corner
-    g, c = np.nonzero(need[faces])
+    if incidence is None:
+        need = np.zeros(nv, dtype=bool)
+        need[faces[face_idx].ravel()] = True
+        # every corner at a needed vertex: (face g, corner c), sorted by face then corner
+        g, c = np.nonzero(need[faces])
+    else:
+        flat = _corners_at(np.unique(faces[face_idx].ravel()), incidence)
+        g, c = flat // 3, flat % 3
     v = faces[g, c]
     w1, w2 = faces[g, (c + 1) % 3], faces[g, (c + 2) % 3]
     inc = np.unique(g)  # incident faces: their normals and corner angles

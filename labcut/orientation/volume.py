@@ -54,7 +54,7 @@ import numpy as np
 from ..colour import luminance_table
 from ..errors import ParameterError
 from ..geometry.stone import Stone
-from ..geometry.surface import FAST_SMOOTH_FACES, smooth_corner_normals, unit_normals
+from ..geometry.surface import FAST_SMOOTH_FACES, corner_incidence, smooth_corner_normals, unit_normals
 from ..physics import schiller as lobe
 from ..physics.depth import depth_law
 from ..physics.material import Labradorite
@@ -115,6 +115,12 @@ class VolumeRays:
         self.face_normals = unit_normals(self.vertices[self.faces])  # once, not per hit
         if not self.big:
             self.corners = corner_normals(self.stone)
+        else:  # the hits' split normals: the corners around them found through an index, not a pass per cast,
+            # and each face's computed once (a face's corner normals depend on its own vertices' fans alone)
+            self.incidence = corner_incidence(self.faces, len(self.vertices))
+            self._slot = np.full(len(self.faces), -1, dtype=np.int64)
+            self._kept = np.empty((0, 3, 3))
+            self._n_kept = 0
 
     @classmethod
     def of(cls, mesh: Any) -> VolumeRays:
@@ -125,6 +131,24 @@ class VolumeRays:
         stone = Stone.of(mesh)
         ray_variant()
         return stone.cached(f"volume_rays_{mi.variant()}", lambda: cls(stone.mesh))
+
+    def _big_corners(self, face: np.ndarray) -> np.ndarray:
+        """(k, 3, 3) split corner normals of ``face`` on a mesh too big to copy: those of faces not met
+        before computed (:func:`~labcut.geometry.surface.smooth_corner_normals`) and kept, only for the
+        faces the rays meet."""
+        uniq = np.unique(face)
+        new = uniq[self._slot[uniq] < 0]
+        if new.size:
+            made = smooth_corner_normals(self.stone.mesh, self.stone.shading_angle_deg, new, self.incidence)
+            need = self._n_kept + len(new)
+            if need > len(self._kept):  # grow by doubling: each face copied a bounded number of times
+                grown = np.empty((max(need, 2 * len(self._kept)), 3, 3))
+                grown[: self._n_kept] = self._kept[: self._n_kept]
+                self._kept = grown
+            self._kept[self._n_kept:need] = made
+            self._slot[new] = np.arange(self._n_kept, need)
+            self._n_kept = need
+        return self._kept[self._slot[face]]
 
     def cast(self, origins: np.ndarray, dirs: np.ndarray) -> _Hits:
         """The first surface hit of each ray (``origins`` and unit ``dirs``, (N, 3))."""
@@ -142,7 +166,7 @@ class VolumeRays:
         bary = np.stack([1.0 - uv[0] - uv[1], uv[0], uv[1]], axis=1)
         n_geo = self.face_normals[face]
         if self.big:
-            corners = smooth_corner_normals(self.stone.mesh, self.stone.shading_angle_deg, face)
+            corners = self._big_corners(face)
         else:
             corners = self.corners[face]
         n_sh = np.einsum("ij,ijk->ik", bary, corners)
