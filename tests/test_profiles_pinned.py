@@ -347,3 +347,48 @@ def test_profile_is_frozen():
     p = Profile("elliptic", 2.0, 5.0)
     with pytest.raises(AttributeError):
         p.height = 3.0  # type: ignore[misc]
+
+
+# ------------------------------------------------------------------ found by the mutation run (docs/testing.md)
+@pytest.mark.parametrize("n", [2.0, 4.0])
+def test_tallow_closed_form_holds_for_its_exponent(monkeypatch, n):
+    # the closed form A H (2/n) B(2/n, 1 + 1/n) for any superellipse exponent; n = 2 is the elliptic 2/3 H
+    monkeypatch.setattr(prof_mod, "TALLOW_EXPONENT", n)
+    p = Profile("tallow", 2.0, 5.0)
+    assert p.volume_factor() == approx(quad_factor(p), rel=1e-9, abs=0)
+    if n == 2.0:
+        assert p.volume_factor() == approx(4.0 / 3.0)
+        assert float(p.z(0.6)) == approx(1.6)
+
+
+def test_rings_edge_nearest_the_first_target():
+    # elliptic t = 0.9: arc acos(0.9) = 0.451 then the table's 0.9; of the targets 0, 0.338, 0.675, ... the
+    # second is the nearest to the edge: it moves there, the others stay
+    p = Profile("elliptic", 1.0, 5.0, 0.9)
+    s, z = p.rings(4)
+    edge = math.acos(0.9)
+    targets = np.linspace(0.0, edge + 0.9, 5)
+    want = [1.0, 0.9, 0.9 - (targets[2] - edge), 0.9 - (targets[3] - edge), 0.0]
+    assert s == approx(want, rel=0, abs=2e-7)
+    assert list(z[1:]) == [1.0] * 4
+
+
+@pytest.mark.parametrize("count", [2, 4])
+def test_rings_small_table_edge_is_still_a_ring(count):
+    # t = 0.05: the edge lies nearest the apex's target; the target before the apex moves there
+    p = Profile("elliptic", 1.0, 5.0, 0.05)
+    s, z = p.rings(count)
+    edge = math.acos(0.05)
+    targets = np.linspace(0.0, edge + 0.05, count + 1)
+    want = [math.cos(x) for x in targets[:-2]] + [0.05, 0.0]
+    assert s == approx(want, rel=0, abs=2e-7)
+    assert list(z[-2:]) == [1.0, 1.0]
+
+
+def test_spherical_buff_top_within_the_rounding_tolerance():
+    # a height over the limit a sqrt(1 - t^2) by less than 1e-12 (rounding) is accepted: its virtual dome
+    # is the hemisphere (hv = a), the bisection's upper end
+    for H, a, t in ((4.0 * (1 + 5e-13), 5.0, 0.6), (5.0 * math.sqrt(0.75) * (1 + 9e-13), 5.0, 0.5)):
+        p = Profile("spherical", H, a, t)
+        assert p.virtual_height == approx(a, rel=1e-9)
+        assert float(p.z(0.0)) == H
