@@ -40,6 +40,7 @@ from .surface import (
     SurfaceSamples,
     draw_samples,
     face_areas,
+    mesh_digest,
     smooth_split,
 )
 
@@ -289,15 +290,9 @@ class Stone:
     @property
     def digest(self) -> str:
         """A hash of the mesh's vertices (float64) and faces (int64), 32 hex digits: the key under which
-        what is derived from this geometry is kept between processes (labcut's user cache)."""
-        def build() -> str:
-            import hashlib
-
-            h = hashlib.blake2b(np.ascontiguousarray(self.mesh.vertices, dtype=np.float64).tobytes(), digest_size=16)
-            h.update(np.ascontiguousarray(self.mesh.faces, dtype=np.int64).tobytes())
-            return f"{len(self.mesh.vertices)}v{len(self.mesh.faces)}f{h.hexdigest()}"
-
-        return self.cached("digest", build)
+        what is derived from this geometry is kept between processes (labcut's user cache;
+        :func:`labcut.geometry.surface.mesh_digest`, made once per stone)."""
+        return self.cached("digest", lambda: mesh_digest(self.mesh))
 
     @property
     def face_areas(self) -> np.ndarray:
@@ -308,7 +303,7 @@ class Stone:
         """The mesh split along edges sharper than ``angle_deg`` (default :attr:`shading_angle_deg`),
         whose vertex normals shade it as the renderer does (:func:`labcut.geometry.surface.smooth_split`)."""
         angle = self.shading_angle_deg if angle_deg is None else float(angle_deg)
-        return self.cached(f"smooth_split_{angle:.6g}", lambda: smooth_split(self.mesh, angle))
+        return self.cached(f"smooth_split_{angle:.6g}", lambda: smooth_split(self.mesh, angle, digest=self.digest))
 
     def surface_samples(self, count: int, seed: int) -> SurfaceSamples:
         """``count`` area-uniform samples of the smooth-shaded surface drawn from

@@ -24,7 +24,16 @@ SMOOTH_ANGLE_DEG = 30.0  # edges sharper than this keep flat shading
 FACETED_ANGLE_DEG = 0.5  # a faceted design (GemCad) is flat-shaded at every facet junction
 
 
-def smooth_split(mesh: Any, angle_deg: float, *, cache: bool = True) -> Any:
+def mesh_digest(mesh: Any) -> str:
+    """A hash of a mesh's vertices (float64) and faces (int64) with their counts: the key under which
+    what is derived from its geometry is kept between processes (labcut's user cache). A stone's is
+    kept by it (:attr:`labcut.geometry.stone.Stone.digest`)."""
+    h = hashlib.blake2b(np.ascontiguousarray(mesh.vertices, dtype=np.float64).tobytes(), digest_size=16)
+    h.update(np.ascontiguousarray(mesh.faces, dtype=np.int64).tobytes())
+    return f"{len(mesh.vertices)} vertices {len(mesh.faces)} faces {h.hexdigest()}"
+
+
+def smooth_split(mesh: Any, angle_deg: float, *, cache: bool = True, digest: str | None = None) -> Any:
     """``trimesh.graph.smooth_shade`` of ``mesh`` at ``angle_deg``: a copy split along edges sharper
     than it, whose vertex normals are the smooth shading normals the renderer and the flash
     estimator use. Built once per stone by :meth:`labcut.geometry.stone.Stone.smooth_split`.
@@ -32,7 +41,7 @@ def smooth_split(mesh: Any, angle_deg: float, *, cache: bool = True) -> Any:
     With ``cache`` the copy's vertices, faces and normals are kept in labcut's user cache,
     keyed by the mesh's bytes, the angle and labcut's and trimesh's versions
     (:func:`labcut.fileio.cached_arrays`): the stone's next process reads them back instead of
-    splitting again. Either way the copy is built from those arrays, so a cached and a fresh
+    splitting again (``digest``: the mesh's :func:`mesh_digest`, when known). Either way the copy is built from those arrays, so a cached and a fresh
     split are the same to the last bit."""
     import trimesh
 
@@ -49,10 +58,8 @@ def smooth_split(mesh: Any, angle_deg: float, *, cache: bool = True) -> Any:
         from .. import __version__
         from ..fileio import cached_arrays
 
-        digest = hashlib.blake2b(np.ascontiguousarray(mesh.vertices, dtype=np.float64).tobytes(), digest_size=16)
-        digest.update(np.ascontiguousarray(mesh.faces, dtype=np.int64).tobytes())
         key = (f"smooth split v2 | labcut {__version__} trimesh {trimesh.__version__} | angle {float(angle_deg)!r} | "
-               f"{len(mesh.vertices)} vertices {len(mesh.faces)} faces {digest.hexdigest()}")
+               f"{digest or mesh_digest(mesh)}")
         arrays = cached_arrays("smooth-split", key, split)
     else:
         arrays = split()
