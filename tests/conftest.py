@@ -130,3 +130,28 @@ def _let_go_of_the_modules_scenes():
     import gc
 
     gc.collect()
+
+
+def _explorer_threads() -> set[int]:
+    import threading
+
+    return {t.ident for t in threading.enumerate() if t.name.startswith("labcut-explore") and t.ident is not None}
+
+
+@pytest.fixture(autouse=True)
+def _no_explorer_left_running(request):
+    """Fail the test that leaves an explorer running, not the one it hurts: an explorer's worker
+    draws its pictures in Mitsuba, whose variant is the process's, so one left running by a test
+    (the README's snippet, which starts one) switched tests/test_backend.py's variant to rgb under
+    it on the same xdist worker, in CI. tests/test_explore.py's module-wide explorer is exempt
+    while its tests use it (its fixture stops it and checks its threads ended)."""
+    before = _explorer_threads()
+    yield
+    if "explorer" in request.fixturenames:
+        return
+    import time
+
+    deadline = time.monotonic() + 30.0  # an explorer stopping: its threads end in moments
+    while (left := _explorer_threads() - before) and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert not left, f"{request.node.nodeid} left a labcut explorer running (call Explorer.stop())"

@@ -324,3 +324,7 @@ def test_readme_api_snippet_runs_as_written(tmp_path, monkeypatch):
     namespace: dict = {}
     exec(compile(block, "README.md", "exec"), namespace)
     assert namespace["img"].image.shape[-1] == 3 and namespace["rec"].normal[2] > 0
+    # the snippet ends by stopping the explorer it started: one left running would render (and so
+    # switch Mitsuba's variant, the process's) under the next test on this worker
+    ex = namespace["ex"]
+    assert not ex.worker.is_alive() and not ex._thread.is_alive()

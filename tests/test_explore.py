@@ -302,6 +302,7 @@ def explorer():
     ex = labcut.explore(OVAL, quality="draft")
     yield ex
     ex.stop()
+    assert not ex.worker.is_alive() and not ex._thread.is_alive()  # nothing renders after stop()
 
 
 @pytest.fixture(autouse=True)
