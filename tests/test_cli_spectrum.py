@@ -55,6 +55,7 @@ def test_explicit_layers_and_material_file(cli, tmp_path):
         ["--material", "/no/such/file.json"],
         ["--bogus-option"],
         ["--pairs", "many"],
+        ["--peak", "250", "--sigma-a", "40", "--sigma-b", "40"],  # no period puts a peak there (was a ValueError)
     ],
 )
 def test_bad_input_is_one_line_and_exit_2(cli, tmp_path, args):

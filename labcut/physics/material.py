@@ -146,16 +146,8 @@ class Labradorite:
         """
         target = _check_number("peak wavelength (nm)", nm, 250.0, 2500.0)
         base = cls(**params)
-        period = target / (base.n_a + base.n_b)  # λ = 2 (n_a + n_b) d with d = period / 2
-        fitted = period
-        # the fit iterates on bare stacks: a trial period is no material, and warns of nothing
-        for _ in range(6):
-            fitted = period
-            peak = _first_order_peak(base.stack._replace(d_a=period / 2.0, d_b=period / 2.0), 1.0)
-            if abs(peak - target) < 0.01:
-                break
-            period *= target / peak
-        return dataclasses.replace(base, d_a=fitted / 2.0, d_b=fitted / 2.0)
+        period = _fit_period(base.stack, target)
+        return dataclasses.replace(base, d_a=period / 2.0, d_b=period / 2.0)
 
     @classmethod
     def from_anorthite(cls, an_percent: float, **params: Any) -> Labradorite:
@@ -407,6 +399,50 @@ class Labradorite:
         if np.any(np.abs(c) > 1.0):
             raise ParameterError(f"cos_theta must lie in [-1, 1], got {float(np.max(np.abs(c))):g}")
         return wl, c
+
+
+#: rounds of :func:`_fit_period`: rescaling by target / peak for the first, secant steps after
+_RESCALE_ROUNDS, _FIT_ROUNDS = 6, 40
+#: how close (nm) the fitted period's first-order peak lies to the peak asked for
+PEAK_FIT_NM = 0.01
+
+
+def _fit_period(stack: lamella.Stack, target: float) -> float:
+    """The period (nm, equal phases) of ``stack`` whose face-on first-order peak lies within
+    :data:`PEAK_FIT_NM` of ``target``, or a :class:`ParameterError` when there is none.
+
+    Starts at the Bragg estimate and rescales the period by ``target / peak``: the peak lies a
+    little above the estimate, by about the same fraction at nearby periods, so a few rounds
+    suffice at the presets' sigma of 16 nm. A larger thickness spread moves the peak further
+    above the estimate, and by a fraction that grows as the period shrinks: the rescaling then
+    converges slowly (by a factor of about 0.37 a round at sigma 40 nm), so after
+    ``_RESCALE_ROUNDS`` rounds the fit takes secant steps. A trial period that has no
+    first-order maximum (the spread washes it out at short periods) is stepped back halfway to
+    the last period that had one. The trials are bare stacks: a trial is no material and warns
+    of nothing."""
+    period = target / (stack.n_a + stack.n_b)  # λ = 2 (n_a + n_b) d with d = period / 2
+    trials: list[tuple[float, float]] = []  # (period, peak - target) of each trial with a peak
+    for k in range(_FIT_ROUNDS):
+        peak = _first_order_peak(stack._replace(d_a=period / 2.0, d_b=period / 2.0), 1.0)
+        if math.isnan(peak):
+            if not trials:
+                break
+            period = 0.5 * (period + trials[-1][0])
+            continue
+        trials.append((period, peak - target))
+        if abs(peak - target) < PEAK_FIT_NM:
+            return period
+        if k < _RESCALE_ROUNDS or len(trials) < 2 or trials[-1][1] == trials[-2][1]:
+            period *= target / peak
+        else:
+            (p0, e0), (p1, e1) = trials[-2], trials[-1]
+            period = p1 - e1 * (p1 - p0) / (e1 - e0)
+            if not period > 0.0:
+                period = p1 * target / peak
+    raise ParameterError(
+        f"no lamella period puts the first-order flash peak at {target:g} nm with thickness spreads of "
+        f"sigma_a {stack.sigma_a:g} nm and sigma_b {stack.sigma_b:g} nm: the spread washes the peak out at the "
+        f"periods that would place it there; ask for a longer peak wavelength or smaller spreads")
 
 
 def _maker_stacklevel() -> int:
