@@ -41,8 +41,8 @@ MODULE_TESTS: dict[str, list[str]] = {
                                   "tests/test_tmm_reference.py", "tests/test_material.py"],
     "labcut/physics/schiller.py": ["tests/test_physics_montecarlo.py", "tests/test_physics_hardcases.py",
                                    "tests/test_bsdf.py"],
-    "labcut/physics/material.py": ["tests/test_material.py", "tests/test_physics_bragg.py", "tests/test_physics_hardcases.py",
-                                   "tests/test_colour.py", "tests/test_cli_spectrum.py"],
+    "labcut/physics/material.py": ["tests/test_material.py", "tests/test_material_pinned.py", "tests/test_physics_bragg.py",
+                                   "tests/test_physics_hardcases.py", "tests/test_colour.py", "tests/test_cli_spectrum.py"],
     # not tests/test_batch.py: its 2-worker clusters cost about a minute a mutant, for the runner, not the catalogue
     "labcut/batch/catalog.py": ["tests/test_batch_catalog.py", "tests/test_catalog_pinned.py"],
     # not tests/test_geometry_cli.py: it reaches every Profile through the CLI and a console script
