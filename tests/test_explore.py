@@ -96,6 +96,34 @@ def test_the_overhead_lamp_recommends_as_the_bench_does(session):
     session.reset()
 
 
+def test_the_view_runs_numpy_blas_on_one_thread(session, monkeypatch):
+    """The view's bootstrap products run with numpy's BLAS on one thread (beside Dr.Jit's pool;
+    under load on two cores OpenBLAS's own threads made them 10x slower), and the caller's thread
+    count comes back after."""
+    from threadpoolctl import threadpool_info, threadpool_limits
+
+    from labcut.explorer import session as module
+
+    def blas_threads():
+        return [i["num_threads"] for i in threadpool_info() if i["user_api"] == "blas"]
+
+    seen = []
+
+    def spy(*args, **kwargs):
+        seen.append(blas_threads())
+        return sampling_error(*args, **kwargs)
+
+    monkeypatch.setattr(module, "sampling_error", spy)
+    with threadpool_limits(limits=2, user_api="blas"):
+        if not blas_threads():
+            pytest.skip("numpy has no BLAS that threadpoolctl controls")
+        session.set({"normal_tilt": session.state.normal_tilt + 1.0})
+        session.view()
+        assert seen and set(seen[0]) == {1}
+        assert set(blas_threads()) == {2}
+    session.reset()
+
+
 def test_each_number_is_the_librarys(session):
     session.reset()
     session.set({"lamp_elevation": 50, "lamp_azimuth": 300, "lamp_size": 4, "normal_tilt": 12, "normal_azimuth": 80,

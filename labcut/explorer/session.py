@@ -33,6 +33,7 @@ from typing import Any
 
 import numpy as np
 
+from ..backend import serial_blas
 from ..commands.render import render
 from ..errors import ParameterError
 from ..geometry.cabochon import cabochon
@@ -228,8 +229,11 @@ class ExploreSession:
         """Everything the page shows but the picture, as plain JSON: the state, the metrics of the
         normal with their sampling error, the score map (a PNG ``data:`` URL, with its highest
         score), the recommendation when made, the normal in a cutter's words, the lights and the
-        stone, and the milliseconds each part took."""
-        with self.lock:
+        stone, and the milliseconds each part took. numpy's BLAS runs on one thread meanwhile
+        (:func:`~labcut.backend.serial_blas`, as in a recommendation): the metrics' bootstrap is a
+        few small products, which OpenBLAS's own threads, contending with Dr.Jit's pool, made
+        several times slower on two cores."""
+        with self.lock, serial_blas():
             times: dict[str, float] = {}
             t0 = time.perf_counter()
             state, study = self.state, self.study()
