@@ -71,7 +71,7 @@ def test_maker_stacklevel_counts_frames_from_post_init():
     """Asked from a frame outside the module (here), the level is 1: nothing to skip, so the
     warning names the frame that calls ``warnings.warn`` (stacklevel 1), the asker itself."""
     def post_init_stand_in() -> int:
-        return material._maker_stacklevel()
+        return material._maker_stacklevel(sys._getframe())
 
     assert post_init_stand_in() == 1
 

@@ -107,7 +107,7 @@ class Labradorite:
         note = self.visibility_note()
         if note is not None and self.stack not in _NOTED_STACKS:
             _NOTED_STACKS.add(self.stack)
-            warnings.warn(note, LabcutWarning, stacklevel=_maker_stacklevel())
+            warnings.warn(note, LabcutWarning, stacklevel=_maker_stacklevel(sys._getframe()))
 
     def _validate(self) -> None:
         """Check and normalise every parameter; a bad one is a :class:`ParameterError`."""
@@ -445,12 +445,14 @@ def _fit_period(stack: lamella.Stack, target: float) -> float:
         f"periods that would place it there; ask for a longer peak wavelength or smaller spreads")
 
 
-def _maker_stacklevel() -> int:
-    """``stacklevel`` for a warning issued in :meth:`Labradorite.__post_init__` that names the code
-    which made the material: the first caller outside this module, ``dataclasses`` (``replace``)
-    and generated code (the dataclass ``__init__``)."""
+def _maker_stacklevel(frame: Any) -> int:
+    """``stacklevel`` for a warning that ``frame`` (:meth:`Labradorite.__post_init__`'s) issues,
+    naming the code which made the material: the first caller outside this module, ``dataclasses``
+    (``replace``) and generated code (the dataclass ``__init__``). The frame is passed, not found
+    by depth, so that a wrapper around either function (a profiler's, a mutation tool's) does not
+    shift the count."""
     internal = (__file__, dataclasses.__file__)
-    frame, level = sys._getframe(1), 1  # level 1: __post_init__, which calls warnings.warn
+    level = 1  # level 1: the frame that calls warnings.warn
     while frame.f_back is not None and (frame.f_code.co_filename in internal or frame.f_code.co_filename.startswith("<")):
         frame, level = frame.f_back, level + 1
     return level
