@@ -37,6 +37,13 @@ def _made_here() -> tuple[list[warnings.WarningMessage], int]:
 
 
 # ---------------------------------------------------------------------- the line a warning names
+#: mutmut's trampolines (tools/mutation.py) put frames of their own file between the maker and
+#: the warning: the end-to-end checks of the named line hold without them;
+#: test_maker_stacklevel_skips_this_module_dataclasses_and_generated_code checks the walk itself
+frames_as_python_makes_them = pytest.mark.skipif("mutmut" in sys.modules, reason="mutmut's trampolines add frames")
+
+
+@frames_as_python_makes_them
 def test_the_note_names_the_line_that_made_the_material(notes_again):
     """The visibility note points at the caller's line, past the dataclass's generated
     ``__init__`` ("<string>") and this module: the line a user can change."""
@@ -46,6 +53,7 @@ def test_the_note_names_the_line_that_made_the_material(notes_again):
     assert notes[0].filename == __file__ and notes[0].lineno == line
 
 
+@frames_as_python_makes_them
 def test_the_note_names_the_caller_of_replace_and_of_a_constructor(notes_again):
     """Through ``dataclasses.replace`` (``Labradorite.replace``) and through a class method of
     the module (``from_anorthite`` refuses such stacks, so ``replace`` after a preset), the
@@ -65,6 +73,30 @@ def test_a_note_is_issued_once_per_stack(notes_again):
         Labradorite(**UV)
         Labradorite(**UV, name="again")  # the same stack
     assert len([w for w in caught if issubclass(w.category, LabcutWarning)]) == 1
+
+
+def test_maker_stacklevel_skips_this_module_dataclasses_and_generated_code():
+    """The walk from the warning frame: frames of this module's file, of ``dataclasses`` and of
+    generated code ("<string>") are skipped and counted; the first other frame is the maker's.
+    Built here from code compiled under those file names, called from this test: levels 1-4."""
+    import dataclasses
+
+    def chain(*files: str) -> int:
+        """Call through one function per file name (outermost first) from here; the innermost is
+        the warning frame and asks."""
+        namespace = {"ask": material._maker_stacklevel, "sys": sys}
+        body = "ask(sys._getframe())"
+        for k, name in enumerate(reversed(files)):
+            exec(compile(f"def f{k}():\n    return {body}\n", name, "exec"), namespace)  # noqa: S102
+            body = f"f{k}()"
+        return namespace[f"f{len(files) - 1}"]()
+
+    assert chain(__file__) == 1  # the warning frame is the maker's
+    assert chain(material.__file__) == 2  # this test's frame, above it
+    assert chain(material.__file__, "<string>") == 3
+    assert chain(dataclasses.__file__, "<string>", material.__file__) == 4
+    assert chain(__file__, material.__file__) == 2  # stops at the first frame outside, with more above
+    assert chain(material.__file__, __file__, material.__file__) == 2
 
 
 def test_maker_stacklevel_counts_frames_from_post_init():
