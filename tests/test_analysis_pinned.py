@@ -61,7 +61,8 @@ def test_tilt_axes_of_a_viewer_on_the_right():
     assert np.allclose(axes["side_to_side"], [-0.8, 0.0, 0.6], atol=1e-15)
 
 
-@pytest.mark.parametrize("x, expected", [(5e-7, [1.0, 0.0, 0.0]), (2e-6, [0.0, 1.0, 0.0]), (0.5, [0.0, 1.0, 0.0])])
+@pytest.mark.parametrize("x, expected", [(5e-7, [1.0, 0.0, 0.0]), (8e-7, [1.0, 0.0, 0.0]), (2e-6, [0.0, 1.0, 0.0]),
+                                         (0.5, [0.0, 1.0, 0.0])])
 def test_a_viewer_within_1e_6_of_the_vertical_counts_as_straight_above(x, expected):
     """Only a horizontal part below 1e-6 falls back to +X; a viewer 2e-6 off the vertical towards +X
     already has its own axis ``Z x v`` = +Y."""
@@ -93,6 +94,21 @@ def test_tilt_angles_span_plus_minus_30_degrees_in_the_quality_step():
     angles, _, _ = A.tilt_settings(sc)  # default: standard
     assert len(angles) == 9
     assert A.TILT_POINTS == {"draft": 1000, "standard": 2000, "high": 5000}
+
+
+@pytest.mark.parametrize("step, count, last", [(0.5, 121, 30.0), (7.0, 9, 28.0), (12.0, 5, 24.0), (25.0, 3, 25.0),
+                                               (30.0, 3, 30.0)])
+def test_tilt_angles_of_any_step_are_whole_steps_from_the_rest_pose(step, count, last):
+    """A quality given as a dict may take any step: the angles are whole steps either side of 0
+    (the rest pose, which :meth:`TiltCurve.at_rest` reads) and stay within +-30 degrees: step 7 gives
+    -28 ... 28 (the range's arange gave -30 ... 33 without 0), 12 gives -24 ... 24 (not -30, -18,
+    -6, 6, ...), 0.5 the 121 angles -30 ... 30."""
+    q = Quality.PRESETS["draft"].to_dict()
+    q["tilt_step_deg"] = step
+    angles, settings, _ = A.tilt_settings(scenario([0.0, 0.0, 1.0]), q)
+    assert len(angles) == count and len(settings) == 2 * count
+    assert angles[-1] == last and angles[0] == -last and 0.0 in angles
+    assert np.allclose(np.diff(angles), step, rtol=1e-12)
 
 
 def test_tilt_settings_views_poses_and_lights_by_hand():
@@ -172,6 +188,17 @@ def test_per_view_flash_in_float64_from_float32_terms():
     assert energy[0] == 0.5 * 2.0 * float(np.float32(0.1))
 
 
+def test_per_view_flash_reads_a_float32_normal_in_float64():
+    """A float32 normal is made unit in float64: the answer is the float64 one of the same numbers
+    (normalised in float32 it differs in the eighth digit)."""
+    p = np.array([0.3, 0.4, 0.866], dtype=np.float32)
+    p32 = toy_problem()
+    p32.h = np.array([[0.6, 0.0, 0.8], [0.0, 0.6, 0.8], [0.0, 0.0, 1.0]])
+    e32, _ = A.per_view_flash(p32, p)
+    e64, _ = A.per_view_flash(p32, p.astype(np.float64))
+    assert np.allclose(e32, e64, rtol=1e-14, atol=0)
+
+
 # ---------------------------------------------------------------------- TiltCurve
 def curve(**kw) -> A.TiltCurve:
     base = dict(angles_deg=np.array([-10.0, 0.0, 10.0]),
@@ -218,8 +245,11 @@ def fake_problem(monkeypatch):
         return kw["settings"]
 
     monkeypatch.setattr(A, "build_problem", build)
-    monkeypatch.setattr(A, "per_view_flash", lambda settings, normal: (np.arange(len(settings), dtype=float),
-                                                                       100.0 + np.arange(len(settings))))
+    def flash(settings, normal):
+        calls.append(("normal", normal))
+        return np.arange(len(settings), dtype=float), 100.0 + np.arange(len(settings))
+
+    monkeypatch.setattr(A, "per_view_flash", flash)
     return calls
 
 
@@ -229,8 +259,10 @@ def test_tilt_curve_builds_one_problem_of_every_tilted_pose(fake_problem):
     (-30 front-back for a viewer 60 degrees out) NaN, with the note saying how many."""
     t = math.radians(60.0)
     sc = scenario([0.0, -math.sin(t), math.cos(t)], rock=4.0, sway=3.0)
-    tc = A.tilt_curve("mesh", "material", np.array([0.0, 0.0, 1.0]), sc, "draft", tau=0.2, seed=7)
-    (mesh, material, kw), = fake_problem
+    normal = np.array([0.0, 0.6, 0.8])
+    tc = A.tilt_curve("mesh", "material", normal, sc, "draft", tau=0.2, seed=7)
+    (mesh, material, kw), (_, given) = fake_problem
+    assert given is normal
     assert (mesh, material) == ("mesh", "material")
     assert kw["quality"].name == "draft" and kw["tau"] == 0.2 and kw["seed"] == 7 and kw["n_points"] == 1000
     assert len(kw["settings"]) == 14
@@ -248,7 +280,7 @@ def test_tilt_curve_defaults_and_a_curve_seen_everywhere(fake_problem):
     """Defaults: standard quality (2000 samples, 9 angles), tau 0.1, seed 0; no note when every pose
     is seen."""
     tc = A.tilt_curve("m", "x", np.array([0.0, 0.0, 1.0]), scenario([0.0, 0.0, 1.0]))
-    (_, _, kw), = fake_problem
+    (_, _, kw), _ = fake_problem
     assert kw["quality"].name == "standard" and kw["tau"] == 0.1 and kw["seed"] == 0 and kw["n_points"] == 2000
     assert tc.notes == [] and tc.surface_points == 2000
     assert np.array_equal(tc.flash_energy["front_back"], np.arange(9.0))
@@ -329,6 +361,85 @@ def test_compromise_of_one_scenario_is_its_optimum_with_tolerances_by_hand():
     assert cp.tolerance_by_axis["front_back_deg"] == pytest.approx(y, abs=0.05)
     assert cp.tolerance_deg == pytest.approx(y, abs=0.05)
     assert cp.parallel_within_deg == cp.tolerance_deg
+
+
+class Local:
+    """A toy energy map peaked at the unit normal ``p``: ``exp(-(a u^2 + b w^2))`` in the tangent
+    coordinates u = n.tu, w = n.tw of two unit tangents at ``p``; ``a`` and ``b`` may be pairs
+    (towards +tu, -tu), (towards +tw, -tw) for a lopsided peak."""
+
+    def __init__(self, p, tu, tw, a, b):
+        self.p, self.tu, self.tw = (np.asarray(x, float) for x in (p, tu, tw))
+        self.a, self.b = (x if isinstance(x, tuple) else (x, x) for x in (a, b))
+
+    def energy_map(self, normals):
+        n = np.atleast_2d(normals)
+        u, w = n @ self.tu, n @ self.tw
+        a = np.where(u >= 0, self.a[0], self.a[1])
+        b = np.where(w >= 0, self.b[0], self.b[1])
+        return np.exp(-(a * u ** 2 + b * w ** 2))
+
+
+def side_tol(alpha):
+    """Degrees from the peak along a tangent where ``exp(-alpha sin^2 d)`` falls to 0.9."""
+    return math.degrees(math.asin(math.sqrt(-LN09 / alpha)))
+
+
+@pytest.mark.parametrize("towards", ["x", "y"])
+def test_tolerance_by_axis_off_the_pole_is_along_the_world_axes(towards):
+    """At a normal 30 degrees off the pole, "front/back" leans it towards world +-Y and "left/right"
+    towards +-X, each along the tangent plane: at (sin 30, 0, cos 30) the tangents (0, 1, 0) and
+    (cos 30, 0, -sin 30); at (0, sin 30, cos 30) the tangents (0, cos 30, -sin 30) and (1, 0, 0).
+    The peak falls with a = 10 across X and b = 40 across Y: 5.892 and 2.942 degrees."""
+    s, c = 0.5, math.sqrt(3.0) / 2.0
+    if towards == "x":
+        p, tx, ty = [s, 0.0, c], [c, 0.0, -s], [0.0, 1.0, 0.0]
+    else:
+        p, tx, ty = [0.0, s, c], [1.0, 0.0, 0.0], [0.0, c, -s]
+    cp = A.compromise([Local(p, tx, ty, 10.0, 40.0)], ["a"], [np.array(p)], "draft")
+    assert cp.tolerance_by_axis["left_right_deg"] == pytest.approx(side_tol(10.0), abs=0.05)
+    assert cp.tolerance_by_axis["front_back_deg"] == pytest.approx(side_tol(40.0), abs=0.05)
+    assert cp.parallel_within_deg is None  # the pole keeps exp(-10 x 0.25) or exp(-40 x 0.25): far below 90 %
+
+
+def test_tolerance_by_axis_looks_both_ways():
+    """A lopsided peak at the pole: towards +Y it keeps 90 % out to 5.892 degrees, towards -Y only to
+    2.942; towards +X to 4.162 (a = 20), towards -X to 1.471 (a = 160). Each axis's tolerance is the
+    nearer side's; in any direction the least of all."""
+    cp = A.compromise([Local([0, 0, 1.0], [1.0, 0, 0], [0, 1.0, 0], (20.0, 160.0), (10.0, 40.0))], ["a"],
+                      [np.array([0.0, 0.0, 1.0])], "draft")
+    assert cp.tolerance_by_axis["front_back_deg"] == pytest.approx(side_tol(40.0), abs=0.05)
+    assert cp.tolerance_by_axis["left_right_deg"] == pytest.approx(side_tol(160.0), abs=0.05)
+    assert cp.tolerance_deg == pytest.approx(side_tol(160.0), abs=0.05)
+
+
+def test_parallel_of_a_compromise_whose_score_is_below_95_percent():
+    """Two lobes (k = 20) at 8 degrees towards +X and 4 towards -X: the best mean sits about 2 degrees
+    towards +X (more than half a degree off the pole), where each keeps about exp(20 (cos 6 - 1)):
+    score 0.896. The pole keeps 0.5 (exp(20 (cos 8 - 1)) + exp(20 (cos 4 - 1))) = 0.888, above
+    90 % of the score (not of 1), so "parallel" holds as far from the pole as the mean keeps 0.9 x
+    the score in the worst of the 16 directions: 4.668 degrees (bisection on the formula below)."""
+    k = 20.0
+    pa, pb = tilted(8.0), tilted(-4.0)
+    cp = A.compromise([Lobe(pa, k), Lobe(pb, k)], ["a", "b"], [pa, pb], "draft")
+    assert 1.5 < math.degrees(math.acos(cp.normal[2])) < 2.5 and cp.score == pytest.approx(0.896, abs=1e-3)
+
+    def mean(n):
+        return 0.5 * (math.exp(k * (n @ pa - 1)) + math.exp(k * (n @ pb - 1)))
+
+    pole = np.array([0.0, 0.0, 1.0])
+    assert mean(pole) == pytest.approx(0.888, abs=1e-3) and mean(pole) >= 0.9 * cp.score
+    worst = 90.0
+    for phi in np.linspace(0.0, 2.0 * math.pi, 16, endpoint=False):  # tolerance_deg's 16 directions from the pole
+        lo, hi = 0.0, 30.0
+        for _ in range(50):
+            mid = 0.5 * (lo + hi)
+            t = math.radians(mid)
+            n = np.array([math.sin(t) * math.cos(phi), math.sin(t) * math.sin(phi), math.cos(t)])
+            lo, hi = (mid, hi) if mean(n) >= 0.9 * cp.score else (lo, mid)
+        worst = min(worst, lo)
+    assert worst == pytest.approx(4.668, abs=1e-3)
+    assert cp.parallel_within_deg == pytest.approx(worst, abs=0.05)
 
 
 @pytest.mark.parametrize("tilt, parallel", [(0.4, "tolerance"), (0.6, "around the pole")])

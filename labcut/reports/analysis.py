@@ -116,12 +116,16 @@ def tilted_pose(scenario: Scenario, axis: str, angle_deg: float) -> np.ndarray:
 
 
 def tilt_settings(scenario: Scenario, quality: Quality | str = "standard") -> tuple[np.ndarray, list[Setting], list[bool]]:
-    """The tilt curve's angles (degrees, the quality's ``tilt_step_deg`` over ±:data:`TILT_RANGE_DEG`)
+    """The tilt curve's angles (degrees: whole multiples of the quality's ``tilt_step_deg`` within
+    ±:data:`TILT_RANGE_DEG`, 0 among them)
     and its settings (mesh frame), front-back tilts then side-to-side, each the scenario's lights
     with its main viewer alone; and whether that viewer sees the face at each (False: edge-on or from
     behind, a placeholder view straight at the face stands in)."""
     step = Quality.coerce(quality).tilt_step_deg
-    angles = np.arange(-TILT_RANGE_DEG, TILT_RANGE_DEG + 0.5 * step, step)
+    # whole steps either side of the rest pose (0 among the angles, none beyond the range, also for a
+    # step that does not divide it: 7 gives -28 ... 28)
+    count = int(math.floor(TILT_RANGE_DEG / step + 1e-9))
+    angles = step * np.arange(-count, count + 1, dtype=np.float64)
     axes = tilt_axes(scenario)
     main = _unit(scenario.views.main)
     settings: list[Setting] = []
