@@ -476,3 +476,25 @@ def test_volume_centroid_of_a_flat_mesh_is_the_vertex_mean():
     out = orient._volume_centroid(v, f)
     assert out.shape == (3,)
     assert out == pytest.approx([3.0, 2.5, 1.0], abs=1e-12)
+
+
+def test_walls_within_the_tolerance_are_not_base_area():
+    """A pyramid on a plinth 0.005 mm high (within the base tolerance, 0.5 % of its 2 mm height):
+    the plinth's vertical walls lie within the tolerance of the base plane but face sideways, so
+    only the base itself counts: exactly the whole outline, not the outline plus the walls' 0.4 mm^2."""
+    pts = [(x, y, z) for x in (-10, 10) for y in (-10, 10) for z in (-1.0, -0.995)] + [(0.0, 0.0, 1.0)]
+    v, f = hull(pts)
+    n, a = normals_areas(v, f)
+    sides = orient._side_fractions(v, f, n, a)
+    assert sides["+Z"] == pytest.approx((0.0, 1.0), rel=1e-12, abs=1e-12)
+    assert guess((v, f)) == ("+Z", "a flat base facing -Z")
+
+
+def test_faces_of_any_number_type():
+    """Faces as int32 or uint32 (as PLY files store them) or as floats holding whole numbers (as
+    ``np.loadtxt`` reads an index list) index the same vertices."""
+    v, f = pyramid()
+    want = ("+Z", "a flat base facing -Z")
+    for faces in (f.astype(np.int32), f.astype(np.uint32), f.astype(np.float64)):
+        g = detect_up_axis(v, faces, True)
+        assert (g.axis, g.reason) == want
