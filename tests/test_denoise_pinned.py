@@ -27,8 +27,11 @@ RHO = 0.5  # the diffuse plane's reflectance
 
 
 @pytest.fixture
-def mi(variant):
+def mi(variant, monkeypatch):
+    """Mitsuba in its rgb variant, with the guide integrator defined afresh for the test (a guide
+    registered earlier in the process, e.g. before mutation testing forks, is not reused)."""
     variant("rgb")
+    monkeypatch.setattr(D, "_GUIDES", {})
     import mitsuba
 
     return mitsuba
