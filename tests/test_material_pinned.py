@@ -354,3 +354,90 @@ def test_the_note_of_a_material_made_through_the_api_is_the_module_docstrings(no
     assert labcut.Labradorite is Labradorite
     note = Labradorite(**UV).visibility_note()
     assert note.startswith("the face-on flash peak, ") and "in the ultraviolet" in note
+
+
+# ---------------------------------------------------------------------- the period fit's steps
+def _fit_with(monkeypatch, peak_of_period, target=470.0):
+    """Run the period fit on a stand-in peak search ``peak_of_period(period)`` (nm; NaN: no
+    first-order maximum at that period); returns the fitted period (or the ParameterError) and
+    the periods tried, in order."""
+    tried: list[float] = []
+
+    def stand_in(stack, c):
+        assert c == 1.0 and stack.d_a == stack.d_b
+        tried.append(2.0 * stack.d_a)
+        return peak_of_period(2.0 * stack.d_a)
+
+    monkeypatch.setattr(material, "_first_order_peak", stand_in)
+    try:
+        return material._fit_period(Labradorite().stack, target), tried
+    except ParameterError as exc:
+        return exc, tried
+
+
+S = 1.555 + 1.562  # the Bragg estimate of an equal-phase period p is S p
+
+
+def test_six_rescalings_then_a_secant_step_exact_on_a_line(monkeypatch):
+    """A peak 200 nm above the estimate, ``S p + 200``: the rescaling ``p T / peak`` converges by
+    a factor 200/470 a round, leaving 200 x 0.43^6 = 1.3 nm after the start and six rescalings;
+    the next trial is the secant through the last two, exact on a line: (470 - 200) / S, the
+    eighth and last trial."""
+    period, tried = _fit_with(monkeypatch, lambda p: S * p + 200.0)
+    expected = [470.0 / S]
+    for _ in range(6):
+        p = expected[-1]
+        expected.append(p * 470.0 / (S * p + 200.0))
+    assert np.allclose(tried[:7], expected, rtol=1e-14, atol=0)
+    assert abs(S * tried[6] + 200.0 - 470.0) > 0.5  # not yet within 0.01 nm after the rescalings
+    assert len(tried) == 8 and tried[7] == pytest.approx(270.0 / S, rel=1e-12)
+    assert period == tried[7]
+
+
+def test_a_trial_without_a_peak_steps_back_halfway(monkeypatch):
+    """A steep peak, ``470 (p / 140)^3``, with no first-order maximum below a period of 130 nm:
+    the first rescaling, 150.79 x 470 / 587.2 = 120.7, lands where there is none, so the next
+    trial is halfway back, (120.7 + 150.79) / 2; the fit then reaches 140 within its rounds
+    (the rescaling alone would oscillate about 140: its slope there is -2)."""
+    def peak(p):
+        return math.nan if p < 130.0 else 470.0 * (p / 140.0) ** 3
+
+    period, tried = _fit_with(monkeypatch, peak)
+    p0 = 470.0 / S
+    p1 = p0 * 470.0 / peak(p0)
+    assert p1 < 130.0 and tried[:3] == pytest.approx([p0, p1, 0.5 * (p0 + p1)], rel=1e-14)
+    assert not isinstance(period, Exception) and abs(peak(period) - 470.0) < 0.01 and len(tried) <= 12
+
+
+def test_no_peak_at_the_first_trial_gives_up_at_once(monkeypatch):
+    result, tried = _fit_with(monkeypatch, lambda p: math.nan)
+    assert isinstance(result, ParameterError) and len(tried) == 1
+
+
+def test_a_secant_step_to_a_period_below_zero_rescales_instead(monkeypatch):
+    """A peak 50 nm above the target that hardly moves with the period (0.001 nm per nm): the
+    secant would step 50 / 0.001 nm back, below zero, so the fit rescales instead; it never gets
+    within 0.01 nm, and after its 40 rounds says so. Every period tried is positive, each
+    ``p T / peak`` of the one before."""
+    def peak(p):
+        return 520.0 + 0.001 * (p - 150.0)
+
+    result, tried = _fit_with(monkeypatch, peak)
+    assert isinstance(result, ParameterError) and len(tried) == material._FIT_ROUNDS == 40
+    assert all(p > 0 for p in tried)
+    assert tried[1:] == pytest.approx([p * 470.0 / peak(p) for p in tried[:-1]], rel=1e-14)
+
+
+def test_two_trials_with_the_same_peak_rescale_instead_of_a_secant_step(monkeypatch):
+    """Where the last two trials' peaks are equal (a flat stretch: 480 nm for periods 100-150 nm)
+    the secant would divide by zero: the fit rescales instead (x 470/480 a round) until it
+    leaves the stretch, then finds the peak below it (``S p + 170``: 470 nm at 96.2)."""
+    def peak(p):
+        return S * p + 50.0 if p >= 150.0 else 480.0 if p >= 100.0 else S * p + 170.0
+
+    period, tried = _fit_with(monkeypatch, peak)
+    flat = [k for k, p in enumerate(tried) if 100.0 <= p < 150.0]
+    assert len(flat) > 8 and flat[-1] > 7  # rounds past the sixth on the stretch
+    for k in flat[1:]:
+        assert tried[k + 1] == pytest.approx(tried[k] * 470.0 / 480.0, rel=1e-14)
+    assert not isinstance(period, Exception) and period == pytest.approx(300.0 / S, abs=0.01 / S)
