@@ -48,6 +48,7 @@ MODULE_TESTS: dict[str, list[str]] = {
     # not tests/test_geometry_cli.py: it reaches every Profile through the CLI and a console script
     # (about 13 s a surviving mutant: the 474 mutants would take half an hour on two cores)
     "labcut/geometry/profiles.py": ["tests/test_profiles_pinned.py", "tests/test_geometry_cabochon.py"],
+    "labcut/geometry/gemcad.py": ["tests/test_gemcad.py", "tests/test_gemcad_pinned.py"],
     "labcut/explorer/hemisphere.py": ["tests/test_explore.py"],
     "labcut/explorer/state.py": ["tests/test_explore.py"],
 }
