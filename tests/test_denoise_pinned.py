@@ -125,6 +125,41 @@ def test_the_lamps_nodes_are_not_the_sky_s(mi):
     assert D.trace_guide(s, 4, lamp_nodes=3, env_nodes=1)[0, 0, 0] == pytest.approx(lamp_quadrature(3) + sky_quadrature(1), rel=1e-4)
 
 
+def test_the_sun_adds_to_the_lights_before_it(mi):
+    """A square lamp and a sun (the auxiliary scene lists the lamp first), or a sky then a sun: the
+    guide is the sum of each one's light, whatever the order."""
+    T = mi.ScalarTransform4f
+    sun = {"type": "directional", "direction": [0, 0, -1], "irradiance": {"type": "rgb", "value": 1.0}}
+    lamp = {"type": "rectangle", "to_world": T().translate([0, 0, 1]) @ T().rotate([1, 0, 0], 180),
+            "emitter": {"type": "area", "radiance": {"type": "rgb", "value": 1.0}}}
+    s = scene(mi, plane=plane(mi), lamp=lamp, sun=sun)
+    assert D.trace_guide(s, 4)[0, 0, 0] == pytest.approx(lamp_quadrature(2) + RHO / math.pi, rel=1e-4)
+    s = scene(mi, plane=plane(mi), env=sky(mi), sun=sun)
+    assert D.trace_guide(s, 4)[0, 0, 0] == pytest.approx(sky_quadrature(4) + RHO / math.pi, rel=1e-4)
+
+
+def test_guide_keeps_the_colour(mi):
+    """A plane of reflectance (0.2, 0.4, 0.6) under a white sun: (0.2, 0.4, 0.6) / pi, channel by
+    channel (an rgb film, not a luminance one repeated), for one pixel and for a row of two."""
+    bsdf = {"type": "diffuse", "reflectance": {"type": "rgb", "value": [0.2, 0.4, 0.6]}}
+    sun = {"type": "directional", "direction": [0, 0, -1], "irradiance": {"type": "rgb", "value": 1.0}}
+    for res in (1, 2):
+        g = D.trace_guide(scene(mi, plane=plane(mi, bsdf), sun=sun, sensor=look_down(mi, res=res)), 4)
+        assert g.shape == (res, res, 3)
+        assert np.allclose(g, np.array([0.2, 0.4, 0.6]) / math.pi, rtol=1e-4), res
+
+
+def test_guide_of_the_stone_s_polish_is_its_fresnel_mirror(mi):
+    """labcut's own BSDF (the ``labradorite`` plugin) under the sky, its diffuse parts left out
+    (``env_nodes=0``): the polish's mirror image alone, the sky times the Fresnel reflectance at
+    normal incidence ``((n - 1) / (n + 1))^2`` of the stone's surface index (1.56: 0.0479)."""
+    import labcut
+
+    n = labcut.Labradorite().n_surface
+    s = scene(mi, plane=plane(mi, {"type": "labradorite"}), env=sky(mi))
+    assert D.trace_guide(s, 4, env_nodes=0)[0, 0, 0] == pytest.approx(SKY * ((n - 1) / (n + 1)) ** 2, rel=1e-4)
+
+
 @pytest.mark.parametrize("reflectance", [1.0, 0.25])
 def test_guide_of_a_mirror_is_the_sky_it_reflects(mi, reflectance):
     """A polished plane (a delta reflection of reflectance R) under the sky: no diffuse part for the
@@ -162,10 +197,12 @@ def test_guide_of_a_monochrome_render_has_three_equal_channels(mi, variant):
     variant("mono")
     import mitsuba
 
-    s = scene(mitsuba, plane=plane(mitsuba, {"type": "diffuse", "reflectance": {"type": "spectrum", "value": RHO}}),
-              sun={"type": "directional", "direction": [0, 0, -1], "irradiance": {"type": "spectrum", "value": 1.0}})
-    g = D.trace_guide(s, 4)
-    assert g.shape == (1, 1, 3) and np.allclose(g, RHO / math.pi, rtol=1e-5)
+    for res in (1, 2):
+        s = scene(mitsuba, plane=plane(mitsuba, {"type": "diffuse", "reflectance": {"type": "spectrum", "value": RHO}}),
+                  sun={"type": "directional", "direction": [0, 0, -1], "irradiance": {"type": "spectrum", "value": 1.0}},
+                  sensor=look_down(mitsuba, res=res))
+        g = D.trace_guide(s, 4)
+        assert g.shape == (res, res, 3) and np.allclose(g, RHO / math.pi, rtol=1e-4), res
 
 
 def test_register_guide_is_idempotent(mi):
@@ -174,6 +211,7 @@ def test_register_guide_is_idempotent(mi):
     D.register_guide()
     assert D._GUIDES[mi.variant()] is cls
     integrator = mi.load_dict({"type": "labcut_guide"})
+    assert type(integrator) is cls  # registered under the name trace_guide asks for
     assert (integrator.lamp_nodes, integrator.env_nodes) == (2, 4) and integrator.aov_names() == []
     integrator = mi.load_dict({"type": "labcut_guide", "lamp_nodes": 5, "env_nodes": 0})
     assert (integrator.lamp_nodes, integrator.env_nodes) == (5, 0)
@@ -235,7 +273,8 @@ def test_passes_average_one_render_per_pass(monkeypatch):
 def fake_passes(monkeypatch, channels=7):
     """``aux_scene``, ``_camera`` and ``_passes`` replaced by recorders; the image an arange."""
     seen = {}
-    monkeypatch.setattr(D, "aux_scene", lambda scene, integrator, sensor=None: seen.update(integrator=integrator, sensor=sensor) or "aux")
+    monkeypatch.setattr(D, "aux_scene", lambda scene, integrator, sensor=None:
+                        seen.update(scene=scene, integrator=integrator, sensor=sensor) or "aux")
     monkeypatch.setattr(D, "_camera", lambda sensor, sampler: seen.update(camera=(sensor, sampler)) or "camera")
 
     def passes(scene, spp, per, seed):
@@ -255,6 +294,7 @@ def test_aov_passes_take_their_own_low_discrepancy_camera(monkeypatch):
     img = D.trace_albedo_normal(scene, 5, seed=2)
     assert seen["camera"] == ("sensor0", {"type": "ldsampler", "sample_count": 16})
     assert seen["integrator"] == {"type": "aov", "aovs": "albedo:albedo,nn:sh_normal"} and seen["sensor"] == "camera"
+    assert seen["scene"] is scene
     assert seen["passes"] == ("aux", 16, 16, 2 * 7919 + 1_000_003)
     assert img.dtype == np.float32 and img.shape == (2, 2, 6) and img[0, 0].tolist() == [-3, -2, -1, 0, 1, 2]
     D.trace_albedo_normal(scene)
@@ -272,6 +312,7 @@ def test_guide_pass_seeds_and_clipping(monkeypatch):
     assert seen["integrator"] == {"type": "labcut_guide", "lamp_nodes": 3, "env_nodes": 1}
     assert type(seen["integrator"]["lamp_nodes"]) is int and type(seen["integrator"]["env_nodes"]) is int
     assert seen["camera"] == ("sensor0", {"type": "ldsampler", "sample_count": 4})
+    assert seen["scene"] is scene and seen["sensor"] == "camera"
     assert seen["passes"] == ("aux", 4, 4, 3 * 7919 + 2_000_003)
     assert g.dtype == np.float32 and g.shape == (2, 2, 3) and g[0, 0].tolist() == [0.0, 0.0, 0.0] and g[0, 1].tolist() == [1, 2, 3]
     D.trace_guide(scene)
@@ -286,10 +327,12 @@ def test_trace_aux_is_the_guide_then_the_normal(monkeypatch):
 
     def aovs(scene, aovs, spp, seed):
         calls["aovs"] = (aovs, spp, seed)
+        calls.setdefault("scenes", []).append(scene)
         return np.full((1, 1, 4), 7.0, dtype=np.float32)
 
     def guide(scene, spp, seed):
         calls["guide"] = (spp, seed)
+        calls.setdefault("scenes", []).append(scene)
         return np.full((1, 1, 3), 1.0, dtype=np.float32)
 
     monkeypatch.setattr(D, "_trace_aovs", aovs)
@@ -299,9 +342,10 @@ def test_trace_aux_is_the_guide_then_the_normal(monkeypatch):
     assert D._pixels(scene) == 512 * 256
     out = D.trace_aux(scene, 8, seed=4)
     assert out.tolist() == [[[1.0, 1.0, 1.0, 7.0, 7.0, 7.0]]]
-    assert calls == {"aovs": ("nn:sh_normal", 8, 4), "guide": (16, 4)}
+    assert calls == {"aovs": ("nn:sh_normal", 8, 4), "guide": (16, 4), "scenes": [scene, scene]}
+    del calls["scenes"]
     D.trace_aux(scene, guide_spp=4.0)
-    assert calls == {"aovs": ("nn:sh_normal", 64, 0), "guide": (4, 0)}
+    assert calls["aovs"] == ("nn:sh_normal", 64, 0) and calls["guide"] == (4, 0)
     film.crop_size = lambda: (256, 256)
     D.trace_aux(scene)
     assert calls["guide"] == (64, 0)
