@@ -18,6 +18,9 @@ from labcut.errors import LabcutWarning, ParameterError
 from labcut.commands import budget as B
 from labcut.scene.quality import Quality
 
+#: the module's own corrections_path (each test below replaces it with a file of its own)
+CORRECTIONS_PATH = B.corrections_path
+
 
 @pytest.fixture(autouse=True)
 def own_cache(monkeypatch, tmp_path):
@@ -33,6 +36,14 @@ def own_cache(monkeypatch, tmp_path):
 
 def stored(path) -> dict:
     return json.loads(path.read_text())
+
+
+def test_the_corrections_file_is_named_as_documented():
+    """docs/architecture.md names it: ``time-budget-corrections.json`` in labcut's user cache."""
+    from labcut.fileio import cache_path
+
+    path = CORRECTIONS_PATH()
+    assert path.name == "time-budget-corrections.json" and path.parent == cache_path("x").parent
 
 
 # ---------------------------------------------------------------------- the ladder
@@ -123,6 +134,8 @@ def test_the_correction_stays_within_0_2_and_5(actual, expected):
 def test_nonsense_runs_are_not_learnt(own_cache, predicted, actual):
     """A prediction or a time that is not a positive finite number: the correction as it was, the
     file not written."""
+    assert B.record(False, predicted, actual) == 1.0  # nothing learnt yet: no correction
+    assert not own_cache.exists()
     B.record(False, 1.0, 4.0)  # 2
     before = own_cache.read_text()
     assert B.record(False, predicted, actual) == pytest.approx(2.0)
@@ -191,8 +204,15 @@ def test_the_corrections_belong_to_one_calibration(own_cache, monkeypatch):
     for bad in ("2", None, math.nan, math.inf):
         labcut.fileio._CACHE_WARNED.clear()
         own_cache.write_text(json.dumps({"key": "k2", "plain": 2.0, "occlusion": bad}))
-        with pytest.warns(LabcutWarning, match="a correction is not a number"):
+        with pytest.warns(LabcutWarning) as caught:
             assert B.correction(False) == 1.0
+        assert [str(w.message) for w in caught] == [
+            f"labcut's cache file {own_cache} is damaged (a correction is not a number): ignored, and what it held is "
+            "computed again"]
+    with pytest.warns(LabcutWarning):  # the damaged file starts again from the calibration's key alone
+        labcut.fileio._CACHE_WARNED.clear()
+        assert B.record(False, 1.0, 4.0) == pytest.approx(2.0)
+    assert stored(own_cache) == {"key": "k2", "plain": pytest.approx(2.0)}
     own_cache.write_text(json.dumps({"key": "k2", "plain": 3, "occlusion": 0.5}))  # an int is a number
     assert B.correction(False) == 3.0 and B.correction(True) == 0.5
 
@@ -238,6 +258,7 @@ def test_pick_below_the_cheapest_says_so_word_for_word():
     rungs = rungs_of(1.234, 2.0)
     c = B.pick(rungs, 0.5, "the cheapest setting's", correction=1.5)
     assert c.quality.name == "budget-0" and c.predicted_seconds == 1.234 and c.correction == 1.5
+    assert c.budget_seconds == 0.5 and c.rungs == (("budget-0", 1.234), ("draft", 2.0)) and c.pilot_seconds == 0.0
     assert c.note == ("a time budget of 0.5 s is below the cheapest setting's predicted 1.2 s on this machine: "
                       "running that (budget-0) anyway")
     c = B.pick(rungs, 0.5, "the cheapest setting's", " (3 renders)")
@@ -352,8 +373,8 @@ def test_choose_with_the_render_estimator(monkeypatch, own_cache):
         return {"render": {"draft": 1.0, "standard": 2.0, "high": 4.0}[scene.quality.name], "samples": 99.0}
 
     monkeypatch.setattr(labcut.planner, "estimator_seconds", seconds)
-    plan = SimpleNamespace(estimator="render", pilot_seconds=0.0, convex=True, on=lambda k: k == "occlusion")
+    plan = SimpleNamespace(estimator="render", pilot_seconds=0.0, convex="convex?", on=lambda k: f"{k} on?")
     c = B.choose(3.0, ("bench", None, None), True, plan=plan)
     assert c.rungs == (("draft", 1.5), ("standard", 3.0), ("high", 6.0))
     assert c.quality.name == "standard" and c.estimator == "render" and c.correction == 1.5
-    assert calls == [("recommend", True, False, True, False)] * 3
+    assert calls == [("recommend", "occlusion on?", "inter_reflection on?", "convex?", "zoning on?")] * 3
