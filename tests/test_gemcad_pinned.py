@@ -340,3 +340,174 @@ def test_a_gem_files_preform_is_ignored_with_a_note_and_a_broken_file_is_named()
     with pytest.raises(MeshError) as info:
         parse_gem(bytes(good), "z.gem")
     assert str(info.value) == "z.gem is corrupt: facet record 1 has a polygon marker 5 at byte 29 (0 or 1 expected)"
+
+
+# ---------------------------------------------------------------------- the solid of a design
+BOX = ("GemCad 5.0\ng 96 0\nI 1.54\nH box\n"
+       "a 0 0.5 96 n T\n"          # table 0.5 above the girdle plane
+       "a -0 1 96 n K\n"           # culet plane 1 below
+       "a 90 1 24 48 72 96 n G\n")  # four girdle facets 1 from the axis: x, y in [-1, 1]
+
+
+def _box(extra: str = "", name: str = "box.asc"):
+    return parse_asc(BOX + extra, name)
+
+
+def test_a_box_designs_polyhedron_by_hand():
+    """Table 0.5 up, culet plane 1 down, girdle 1 out: a 2 x 2 x 1.5 box, 8 corners, 12
+    triangles; the table and culet 4 units² each, each girdle facet 2 x 1.5 = 3."""
+    poly = gemcad.design_polyhedron(_box())
+    assert len(poly.vertices) == 8 and len(poly.faces) == 12
+    assert sorted(map(tuple, np.round(poly.vertices, 12).tolist())) == sorted(
+        (x, y, z) for x in (-1.0, 1.0) for y in (-1.0, 1.0) for z in (-1.0, 0.5))
+    assert poly.facet_area.tolist() == pytest.approx([4.0, 4.0, 3.0, 3.0, 3.0, 3.0], abs=1e-12)
+    assert np.bincount(poly.face_facet, minlength=6).tolist() == [2] * 6
+    # outward winding: each triangle's normal along its facet's
+    v, f = poly.vertices, poly.faces
+    n = np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]])
+    facet_n = np.array([fc.normal for fc in _box().facets])[poly.face_facet]
+    assert np.all(np.einsum("ij,ij->i", n, facet_n) > 0)
+
+
+def test_two_facets_in_one_plane_the_first_listed_takes_it_and_the_other_is_noted():
+    d = _box("a 90 1 24 n Twin\n")
+    poly = gemcad.design_polyhedron(d)
+    assert poly.facet_area[6] == 0.0 and poly.facet_area[3] == pytest.approx(3.0)  # index 24: +X
+    mesh = gemcad.design_solid(d, size=10.0)
+    report = mesh.metadata["labcut"]
+    assert "1 listed facet does not reach the surface (Twin at index 24)" in report["notes"]
+    assert report["design"]["facets"] == 6 and report["design"]["facets_listed"] == 7
+
+
+def test_facets_that_miss_the_stone_are_counted_and_the_first_three_named():
+    far = "".join(f"a 45 9 {i} n F{i}\n" for i in (6, 18, 30, 42))
+    notes = gemcad.design_solid(_box(far), size=10.0).metadata["labcut"]["notes"]
+    assert "4 listed facets do not reach the surface (F6 at index 6, F18 at index 18, F30 at index 30, ...)" in notes
+
+
+def test_the_solid_of_a_box_scaled_centred_and_described():
+    mesh = gemcad.design_solid(_box(), size=10.0)
+    assert mesh.is_watertight and mesh.volume == pytest.approx(10.0 * 10.0 * 7.5)
+    lo, hi = mesh.bounds
+    assert lo.tolist() == pytest.approx([-5.0, -5.0, 0.0]) and hi.tolist() == pytest.approx([5.0, 5.0, 7.5])
+    meta = mesh.metadata["labcut"]
+    assert meta["kind"] == "design" and meta["faceted"] is True and meta["units"] == "mm"
+    assert meta["scale_to_mm"] == pytest.approx(5.0) and meta["up_axis"] == "+Z"
+    assert meta["up_axis_source"] == "design: the crown (positive facet angles) is face-up"
+    assert meta["translation_mm"] == pytest.approx([0.0, 0.0, 5.0])  # the culet plane, 1 x 5 mm down, to z = 0
+    assert meta["notes"][:2] == [
+        "GemCad design 'box' (asc): 6 facets in 3 tiers, gear 96, scaled to a girdle width of 10 mm (as given)",
+        "the design was made for a refractive index of 1.54; labcut uses the material's own index"]
+    d = meta["design"]
+    assert (d["size_mm"], d["size_source"], d["width_design_units"]) == (10.0, "given", pytest.approx(2.0))
+    assert d["length_to_width"] == pytest.approx(1.0) and d["height_to_width"] == pytest.approx(0.75)
+    assert d["refractive_index_applied"] is False and d["refractive_index"] == 1.54
+    areas = {fc["name"] + str(int(fc["index"])): fc["area_mm2"] for fc in d["facet_list"]}
+    assert areas == pytest.approx({"T96": 100.0, "K96": 100.0, "G24": 75.0, "G48": 75.0, "G72": 75.0, "G96": 75.0})
+    assert [fc["part"] for fc in d["facet_list"]] == ["table", "culet", "girdle", "girdle", "girdle", "girdle"]
+    assert d["facet_list"][2]["normal"] == [1.0, 0.0, 0.0] and d["facet_list"][0]["normal"] == [0.0, 0.0, 1.0]
+    assert len(d["face_facet"]) == 12 and sorted(set(d["face_names"])) == ["G", "K", "T"]
+    assert d["tier_list"][2]["indices"] == [24.0, 48.0, 72.0, 96.0]
+
+
+def test_the_default_size_and_no_recentring():
+    mesh = gemcad.design_solid(_box())
+    assert gemcad.DEFAULT_SIZE_MM == 10.0 and mesh.metadata["labcut"]["design"]["size_source"] == "default"
+    assert mesh.metadata["labcut"]["notes"][0].endswith("(the default; --size MM (size=) sets it)")
+    lo, hi = gemcad.design_solid(_box(), size=4.0, recentre=False).bounds
+    assert lo.tolist() == pytest.approx([-2.0, -2.0, -2.0]) and hi.tolist() == pytest.approx([2.0, 2.0, 1.0])
+
+
+def test_another_up_axis_turns_the_stone_with_a_warning():
+    with pytest.warns(Warning) as caught:
+        mesh = gemcad.design_solid(_box(), size=10.0, up_axis="+X")
+    messages = [str(w.message) for w in caught]
+    assert ("box.asc: you gave up axis +X, but a GemCad design's crown (+Z) is its face-up side; "
+            "--up-axis auto (up_axis='auto') keeps the crown up") in messages
+    meta = mesh.metadata["labcut"]
+    assert meta["up_axis"] == "+X" and meta["up_axis_source"] == "given"
+    assert np.ptp(mesh.vertices, axis=0)[2] == pytest.approx(10.0)  # the girdle width now upright
+    assert meta["design"]["facet_list"][2]["normal"] == [0.0, 0.0, 1.0]  # the +X girdle facet faces up
+    assert gemcad.design_solid(_box(), size=10.0, up_axis="+Z").metadata["labcut"]["up_axis_source"] == "given"
+
+
+def test_sizes_at_and_beyond_the_limits():
+    assert gemcad.design_size(None) == (10.0, False) and gemcad.design_size(2) == (2.0, True)
+    assert gemcad.design_size(0.5) == (0.5, True) and gemcad.design_size(500) == (500.0, True)
+    for bad in (0.49, 500.1, float("nan"), "big"):
+        with pytest.raises(Exception) as info:
+            gemcad.design_size(bad)
+        assert str(info.value).startswith("the girdle width (--size, size=) must ")
+    tall = parse_asc("GemCad 5.0\ng 96 0\na 0 3 96\na -0 1 96\na 90 1 24 48 72 96\n", "tall.asc")  # 2 wide, 4 high
+    with pytest.raises(Exception) as info:
+        gemcad.design_solid(tall, size=300.0)
+    assert str(info.value) == ("tall.asc would be 600 mm long at a girdle width of 300 mm, more than the 500 mm of a "
+                               "stone; give a smaller --size (size=)")
+    assert np.ptp(gemcad.design_solid(tall, size=250.0).vertices, axis=0)[2] == pytest.approx(500.0)
+
+
+@pytest.mark.parametrize("text, message", [
+    ("a 0 1 96\na 90 1 24 48\n", "x.asc: 3 facets cannot close a stone (at least 4 are needed)"),
+    ("a 0 1 96\n", "x.asc: 1 facet cannot close a stone (at least 4 are needed)"),
+    ("a 90 1 24 48 72 96 12\n", "x.asc: its facets do not close a stone: every facet is parallel to one direction "
+                                "(only girdle facets, or only crown and pavilion facets in one plane)"),
+    ("a 0 0.5 96\na 90 1 24 48 72 96\n", "x.asc: its facets do not close the stone: it is open towards below "
+                                         "(no pavilion facets close it)"),
+    ("a -0 0.5 96\na 90 1 24 48 72 96\n", "x.asc: its facets do not close the stone: it is open towards above "
+                                          "(no crown facets close it)"),
+    ("a 0 0.5 96\na -0 1 96\na 90 1 48 72 96\n", "x.asc: its facets do not close the stone: it is open towards the "
+                                                  "side at azimuth 0 deg (no girdle or facet closes it there)"),
+])
+def test_designs_that_close_no_stone(text, message):
+    with pytest.raises(MeshError) as info:
+        gemcad.design_polyhedron(parse_asc("GemCad 5.0\ng 96 0\n" + text, "designs/x.asc"))
+    assert str(info.value) == message
+
+
+def test_vertices_closer_than_the_weld_tolerance_are_one(monkeypatch):
+    """Four facets meeting at one corner give Qhull two copies of the corner, a rounding apart:
+    welded (WELD_RTOL of the size), the box keeps 8 corners; without welding it would keep both
+    copies, whichever the hull then uses."""
+    assert gemcad.WELD_RTOL == 1e-7 and gemcad.ON_PLANE_TOL == 1e-6
+    # a corner facet through the box's corner (1, 1, 0.5): pole . corner = 1
+    pole = np.array([1.0, 1.0, 0.5]) / (1.0 + 1.0 + 0.25)
+    d = _box()
+    d.facets.append(gemcad.Facet(4, "corner", "corner", 45.0, 12.0, 45.0, 1.0, pole))
+    poly = gemcad.design_polyhedron(d)
+    assert len(poly.vertices) == 8 and poly.facet_area[-1] == 0.0
+
+
+def test_load_design_checks_the_size_before_reading(tmp_path):
+    with pytest.raises(Exception, match="girdle width"):
+        gemcad.load_design(tmp_path / "missing.asc", size=-1)
+    (tmp_path / "box.asc").write_text(BOX)
+    stages = []
+    mesh = gemcad.load_design(tmp_path / "box.asc", size=6.0, progress=lambda s, x: stages.append((s, x)))
+    assert stages[0] == ("reading box.asc", 0.0) and stages[-1] == ("loaded", 1.0)
+    assert [s for s, _ in stages[1:-1]] == ["intersecting the facet planes", "certifying the solid"]
+    assert np.ptp(mesh.vertices, axis=0)[0] == pytest.approx(6.0)
+    prov = gemcad.design_provenance(mesh.metadata["labcut"]["design"])
+    assert list(prov) == list(gemcad.PROVENANCE_KEYS) and prov["size_mm"] == 6.0 and prov["tiers"] == 3
+
+
+def test_the_summary_and_poles():
+    d = _box()
+    assert d.poles().shape == (6, 3) and d.poles()[0].tolist() == [0.0, 0.0, 2.0]
+    assert gemcad.Design("s", "asc", "t", [], [], 96, 0.0, None, None, None, [], []).poles().shape == (0, 3)
+    s = d.summary()
+    assert {k: s[k] for k in ("name", "format", "gear", "gear_location", "symmetry", "mirror", "refractive_index",
+                              "tiers", "facets_listed", "headers", "footnotes")} == {
+        "name": "box", "format": "asc", "gear": 96, "gear_location": 0.0, "symmetry": None, "mirror": None,
+        "refractive_index": 1.54, "tiers": 3, "facets_listed": 6, "headers": ["box"], "footnotes": []}
+    assert [t["name"] for t in s["tier_list"]] == ["T", "K", "G"]
+
+
+def test_the_open_sides_words_by_the_directions_height():
+    """Steeper than 0.7 (about 44 deg from the girdle plane) is below or above; else the side, by
+    its azimuth (degrees from +X, 0-360)."""
+    words = gemcad._direction_words
+    assert words(np.array([0.6, 0.0, -0.71])) == "below (no pavilion facets close it)"
+    assert words(np.array([0.0, 0.6, 0.71])) == "above (no crown facets close it)"
+    assert words(np.array([0.0, -0.7, -0.7])) == "the side at azimuth 270 deg (no girdle or facet closes it there)"
+    assert words(np.array([-0.7, 0.0, 0.7])) == "the side at azimuth 180 deg (no girdle or facet closes it there)"
+    assert words(np.array([0.5, 0.5, 0.0])) == "the side at azimuth 45 deg (no girdle or facet closes it there)"
