@@ -19,7 +19,6 @@ from labcut.reports import analysis as A
 from labcut.scene import Lights, Scenario, Views
 from labcut.scene.quality import Quality
 
-S3 = math.sqrt(3.0)
 LN09 = math.log(0.9)
 
 
