@@ -444,3 +444,118 @@ def test_is_convex_polygon():
     assert is_convex_polygon([[0, 0], [1, 1e-10], [2, 0], [2, 2], [0, 2]])
     assert not is_convex_polygon([[0, 0], [1, 1e-8], [2, 0], [2, 2], [0, 2]])
     assert is_convex_polygon([[0, 0], [1, 1e-8], [2, 0], [2, 2], [0, 2]], rtol=1e-7)
+
+
+# ------------------------------------------------------------------ second round: what the first run left
+def test_dense_lengths_and_the_rectangles_tangent_points():
+    """Each dense curve has 4 x 4096 points (a marquise too); the rounded rectangle's quarter is
+    (a, 0), (a, b - r), the corner's 4095 inner points, (a - r, b), (0, b), whatever the length of
+    the straight runs (0.5 mm here: still a vertex)."""
+    assert len(ol._marquise_dense(8.0, 3.0)[0]) == 4 * 4096
+    pts, keys = ol._rounded_rectangle_dense(5.0, 3.0, 1.0)
+    assert len(pts) == 4 * 4098 and keys == [0, 4098, 8196, 12294]
+    assert pts[1].tolist() == [5.0, 2.0] and pts[4097].tolist() == [4.0, 3.0]
+    pts, keys = ol._rounded_rectangle_dense(5.0, 3.0, 2.5)  # straight runs of 0.5 (up) and 2.5 (across)
+    assert pts[1].tolist() == [5.0, 0.5] and [2.5, 3.0] in pts.tolist()
+    pts, keys = ol._rounded_rectangle_dense(5.0, 4.5, 4.5)  # no run up the side, 0.5 across the top
+    assert [0.5, 4.5] in pts.tolist() and len(pts) == 4 * 4097
+
+
+def test_resample_exactly_n_points_is_kept():
+    """A curve of exactly n points is returned as it is (not moved by the resampling)."""
+    dense = np.array([[5, 0], [5, 3], [0, 3], [-5, 3], [-5, 0], [-5, -3], [0, -3], [5, -3]], dtype=float)
+    assert resample(dense, [0], 8).tolist() == dense.tolist()
+
+
+def test_resample_drops_only_near_duplicates():
+    """A repeated first point is dropped without dropping the last; a last point within 1e-9 of
+    the first (a closed curve) is dropped."""
+    dense = np.array([[1.0, 0.0], [1.0, 1e-10], [0.0, 1.0], [-1.0, 0.0], [0.0, -1.0]])
+    assert resample(dense, [0, 1, 2, 3, 4], 4).tolist() == [[1.0, 0.0], [0.0, 1.0], [-1.0, 0.0], [0.0, -1.0]]
+    dense = np.array([[1.0, 0.0], [0.0, 1.0], [-1.0, 0.0], [0.0, -1.0], [1.0, -1e-10]])
+    assert resample(dense, [0, 1, 2, 3, 4], 4).tolist() == [[1.0, 0.0], [0.0, 1.0], [-1.0, 0.0], [0.0, -1.0]]
+
+
+def test_default_n_is_256_and_rounded_rectangles_are_resampled():
+    assert np.array_equal(make_outline("oval", 16, 12), make_outline("oval", 16, 12, n=256))
+    for r in (1, 1.0, 0.5, 3):
+        assert abs(len(make_outline("rectangle", 10, 6, n=64, corner_radius=r)) - 64) <= 4
+
+
+def test_segments_intersect_touching_a_vertical_or_horizontal_edge():
+    """A vertex exactly on a vertical edge (its x the edge's x): the bounding-box test includes its
+    ends; the lower-numbered edge's own vertex on the other edge is found as well."""
+    p = np.array([[0, 0], [10, 0], [10, 10], [0, 10], [10, 5]], dtype=float)
+    assert segments_intersect(p) == (1, 3)
+    assert segments_intersect(p[:, ::-1][::-1].copy()) is not None  # the same on a horizontal edge
+    q = np.array([[10, 5], [0, 0], [10, 0], [10, 10], [0, 10]], dtype=float)
+    assert segments_intersect(q) == (0, 2)
+    # a vertex 1e-12 mm off an edge of a 10 mm polygon touches it (tolerance 1e-12 x size^2 on the cross product)
+    assert segments_intersect(np.array([[0, 0], [10, 0], [10, 10], [5, 1e-12], [0, 10]])) == (0, 2)
+
+
+def test_segments_intersect_every_chunk():
+    """Edges 256 and 600 of a 700-gon: a crossing in each chunk is found."""
+    t = np.linspace(0, 2 * math.pi, 700, endpoint=False)
+    for k in (256, 257, 600):
+        p = np.column_stack([np.cos(t), np.sin(t)]) * 10
+        p[[k, k + 1]] = p[[k + 1, k]]
+        assert segments_intersect(p) == (k - 1, k + 1)
+
+
+def test_star_centre_anywhere_any_size():
+    """The dart's kernel centroid moved with the dart (1000 mm along X or Y) and scaled with it
+    (0.01: clipping must not depend on the size of the cross products)."""
+    want = np.array([242 / 27, 5.0])
+    for shift in ([1000.0, 0.0], [0.0, 1000.0], [-1000.0, 500.0]):
+        assert star_centre(DART + shift) == pytest.approx(want + shift, abs=1e-7)
+    assert star_centre(DART * 0.01) == pytest.approx(want * 0.01, abs=1e-11)
+    # an edge split in two collinear halves clips nothing more: the same kernel
+    split = np.array([[0.0, 0.0], [5.0, 2.5], [10.0, 5.0], [0.0, 10.0], [8.0, 5.0]])
+    assert star_centre(split) == pytest.approx(want, abs=1e-9)
+
+
+def test_centroid_of_a_small_polygon():
+    """Under 1 mm^2 the centroid is still the area centroid, not the vertex mean."""
+    assert ol._centroid(DART * 0.1) == pytest.approx([0.6, 0.5], abs=1e-12)
+
+
+def test_validate_default_name_and_closing_point_tolerance():
+    with pytest.raises(ParameterError) as info:
+        validate_outline([[0, 0], [1, 0]])
+    assert str(info.value) == "outline needs at least 3 distinct points, got 2"
+    # a last point 1e-9 from the first is a point of its own (only 1e-12 closes the outline), as
+    # is one 0.001 from the first of a 2000 mm outline (no relative tolerance)
+    assert len(validate_outline([[0, 0], [2, 0], [2, 2], [0, 2], [0, 1e-9]])) == 5
+    assert len(validate_outline([[1000, 1000], [2000, 1000], [2000, 2000], [1000, 2000], [1000, 1000.001]])) == 5
+
+
+def test_validate_small_outlines():
+    """A 0.5 mm triangle is an outline, kept counter-clockwise as given."""
+    tri = [[0, 0], [0.5, 0], [0, 0.4]]
+    assert validate_outline(tri).tolist() == tri
+    assert validate_outline(tri[::-1]).tolist() == [[0, 0.4], [0.5, 0], [0, 0]][::-1]
+
+
+def test_densify_remainders_by_hand():
+    """Edges 3, 1, sqrt(10), 2 to 10 points: 6 new by length 1.96, 0.65, 2.07, 1.31: whole parts
+    1, 0, 2, 1, the 2 left over to the largest remainders (edges 0 and 1): 2, 1, 2, 1."""
+    p = np.array([[0, 0], [3, 0], [3, 1], [0, 2]], dtype=float)
+    want = [[0, 0], [1, 0], [2, 0], [3, 0], [3, 0.5], [3, 1], [2, 4 / 3], [1, 5 / 3], [0, 2], [0, 1]]
+    assert densify(p, 10) == pytest.approx(np.array(want), abs=1e-12)
+    r = np.array([[0, 0], [4, 0], [4, 1], [0, 1]], dtype=float)
+    assert len(densify(r, 9)) == 9  # one left over
+    r3 = np.array([[0, 0], [3, 0], [3, 1], [0, 1]], dtype=float)
+    assert len(densify(r3, 11)) == 11  # 2.625, 0.875, 2.625, 0.875: three left over
+    assert densify([[0, 0], [2, 0], [2, 2], [0, 2]], 4).dtype == np.float64
+
+
+def test_is_convex_polygon_more():
+    for name, W in (("round", 10), ("oval", 6), ("cushion", 6), ("pear", 6), ("marquise", 6), ("rectangle", 6)):
+        assert is_convex_polygon(make_outline(name, 10, W, n=64))
+    assert is_convex_polygon([[0, 0], [2, 0], [2, 0], [2, 2], [0, 2]])  # a repeated vertex
+    assert not is_convex_polygon([[0, 0], [10, 0], [10, 10], [5, 4], [0, 10]])
+    assert not is_convex_polygon([[0, 0], [4, 0], [4, 1], [1, 1], [1, 4], [0, 4]])  # an L
+    # the tolerance is relative to the edges' lengths: a 1e-8 dent over 100 mm edges is convex
+    assert is_convex_polygon([[0, 0], [100, 1e-8], [200, 0], [200, 200], [0, 200]])
+    assert not is_convex_polygon([[0, 0], [100, 1e-4], [200, 0], [200, 200], [0, 200]])
