@@ -49,6 +49,11 @@ MODULE_TESTS: dict[str, list[str]] = {
     # (about 13 s a surviving mutant: the 474 mutants would take half an hour on two cores)
     "labcut/geometry/profiles.py": ["tests/test_profiles_pinned.py", "tests/test_geometry_cabochon.py"],
     "labcut/geometry/gemcad.py": ["tests/test_gemcad.py", "tests/test_gemcad_pinned.py"],
+    # not tests/test_compare.py: its comparison renders (about 10 s a mutant; the "before" run took an hour)
+    "labcut/reports/analysis.py": ["tests/test_analysis_pinned.py"],
+    # not tests/test_render_look.py: a recommendation and studio renders, about 20 s a mutant
+    "labcut/rendering/denoise.py": ["tests/test_denoise_pinned.py"],
+    "labcut/commands/budget.py": ["tests/test_budget_pinned.py"],
     "labcut/explorer/hemisphere.py": ["tests/test_explore.py"],
     "labcut/explorer/state.py": ["tests/test_explore.py"],
 }
