@@ -527,3 +527,28 @@ def test_grid_mesh_by_hand():
 def test_module_names():
     assert cab_mod._article("oval") == "an" and cab_mod._article("Elliptic") == "an"
     assert cab_mod._article("pear") == "a"
+
+
+@pytest.mark.parametrize("outline, L, W", [("pear", 14, 9), ("oval", 16, 12), ("rectangle", 20, 15)])
+def test_base_ring_is_the_named_outline_itself(outline, L, W):
+    # the foot ring is make_outline's polygon, centred on its bounding box: not mirrored, not rotated
+    # (the pear's point at +X, its round end at -X)
+    p = ol.make_outline(outline, L, W, n=32)
+    p = p - (p.min(axis=0) + p.max(axis=0)) / 2
+    ring = _base_ring(cabochon(outline, L, W, dome=2, resolution=32))
+    assert len(ring) == len(p) + 1  # and the centre
+    assert np.all(_has_points(ring, p))
+    if outline == "pear":
+        tip = ring[np.argmax(ring[:, 0])]
+        assert tip[:2] == approx([7.0, 0.0], rel=0, abs=1e-9)
+        # the round end: a half circle of radius 4.5 about (-2.5, 0)
+        back = ring[ring[:, 0] < -2.6]
+        assert np.hypot(back[:, 0] + 2.5, back[:, 1]) == approx(np.full(len(back), 4.5), abs=1e-6)
+
+
+def test_grid_mesh_cone_foot_ring_then_apex():
+    # a foot ring straight into the top apex (s = 1 then s = 0): a pyramid, two fans
+    sq = np.array([[1.0, -1.0], [1.0, 1.0], [-1.0, 1.0], [-1.0, -1.0]])
+    V, F = _grid_mesh(sq, np.zeros(2), [(0.0, 0.0), (1.0, 0.0), (0.0, 2.0)])
+    assert len(V) == 6 and V[-1].tolist() == [0.0, 0.0, 2.0]
+    assert F.tolist() == [[0, 2, 1], [0, 3, 2], [0, 4, 3], [0, 1, 4], [1, 2, 5], [2, 3, 5], [3, 4, 5], [4, 1, 5]]
