@@ -552,3 +552,11 @@ def test_grid_mesh_cone_foot_ring_then_apex():
     V, F = _grid_mesh(sq, np.zeros(2), [(0.0, 0.0), (1.0, 0.0), (0.0, 2.0)])
     assert len(V) == 6 and V[-1].tolist() == [0.0, 0.0, 2.0]
     assert F.tolist() == [[0, 2, 1], [0, 3, 2], [0, 4, 3], [0, 1, 4], [1, 2, 5], [2, 3, 5], [3, 4, 5], [4, 1, 5]]
+
+
+@pytest.mark.parametrize("outline, L, W", [("marquise", 20, 8), ("pear", 13.7, 9.1), ("oval", 16.3, 12.7)])
+def test_named_outline_bounding_box_exact_to_the_last_bit(outline, L, W):
+    # the resampled outline is rescaled and recentred so the size is exactly what was asked
+    # (make_outline's marquise is 3.6e-15 mm short, its 13.7 mm pear 4.4e-16 mm off centre)
+    m = cabochon(outline, L, W, dome=2, resolution=32)
+    assert m.bounds.tolist() == [[-L / 2, -W / 2, 0.0], [L / 2, W / 2, 2.0]]
