@@ -511,3 +511,154 @@ def test_the_open_sides_words_by_the_directions_height():
     assert words(np.array([0.0, -0.7, -0.7])) == "the side at azimuth 270 deg (no girdle or facet closes it there)"
     assert words(np.array([-0.7, 0.0, 0.7])) == "the side at azimuth 180 deg (no girdle or facet closes it there)"
     assert words(np.array([0.5, 0.5, 0.0])) == "the side at azimuth 45 deg (no girdle or facet closes it there)"
+
+
+# ---------------------------------------------------------------------- .gem details
+_POLE = facet_pole(41.0, 24, 1.0, 96, 0.0)[0]
+
+
+def test_a_truncated_gem_file_says_where_it_ends():
+    """The message names the part the data ends in: each facet record's pole, tier, text and
+    polygon, the trailer, the header and footnote lines."""
+    tri = [(0.0, 0.0, 1.0)]
+    good = _gem([(_POLE, 1, "ab", tri)])
+    # byte offsets: pole 0-24, tier 24-28, text 28-31, marker 31-35, point 35-59, end marker 59-63,
+    # sentinel 63-71, trailer 71-103, the eight texts 103-...
+    cases = {8: "facet record 1", 20: "facet record 1", 26: "facet record 1", 28: "the text of facet record 1",
+             30: "the text of facet record 1", 33: "the polygon of facet record 1", 40: "the polygon of facet record 1",
+             61: "the polygon of facet record 1", 65: "facet record 2", 75: "the trailer", 85: "the trailer",
+             90: "the trailer", 97: "the trailer", 102: "the trailer", 104: "the header and footnote lines"}
+    for cut, where in cases.items():
+        with pytest.raises(MeshError) as info:
+            parse_gem(good[:cut], "t.gem")
+        assert str(info.value) == f"t.gem is a truncated GemCad .gem file: it ends at byte {cut} inside {where}", cut
+
+
+def test_a_gem_files_limits():
+    def one(pole=_POLE, tier=1, **kw):
+        return parse_gem(_gem([(pole, tier, "", [])], **kw), "l.gem")
+
+    assert one(tier=100000).tiers[0].number == 1
+    for bad in (0, 100001, -1):
+        with pytest.raises(MeshError, match="facet record 1 at byte 0 holds no facet plane"):
+            one(tier=bad)
+    unit = np.asarray(_POLE) / np.linalg.norm(_POLE)
+    assert one(pole=unit * 1.0000001e-9).facets[0].distance == pytest.approx(1 / 1.0000001e-9)
+    assert one(pole=unit * 0.9999999e9).facets[0].distance == pytest.approx(1 / 0.9999999e9)
+    for scale in (1e-9 * 0.999, 1e9 * 1.001):
+        with pytest.raises(MeshError, match="holds no facet plane"):
+            one(pole=unit * scale)
+    with pytest.raises(MeshError, match="holds no facet plane"):
+        one(pole=(np.nan, 0.0, 1.0))
+    assert one(gear=10000).gear == 10000 and one(gear=-10000).gear == -10000
+    with pytest.raises(MeshError, match="its trailer holds gear 10001"):
+        one(gear=10001)
+    with pytest.raises(MeshError, match="its trailer holds gear 96, mirror flag 1"):
+        one(location=float("inf"))
+    assert one(ri=1.0).refractive_index == 1.0 and one(ri=0.99).refractive_index is None
+    assert one(ri=float("inf")).refractive_index is None
+    # a negative polygon marker is named as written (signed)
+    data = bytearray(_gem([(_POLE, 1, "", [])]))
+    data[29:33] = struct.pack("<i", -1)
+    with pytest.raises(MeshError) as info:
+        parse_gem(bytes(data), "l.gem")
+    assert str(info.value) == "l.gem is corrupt: facet record 1 has a polygon marker -1 at byte 29 (0 or 1 expected)"
+
+
+def test_a_gem_files_names_default_and_texts_in_windows_1252():
+    d = parse_gem(_gem([(_POLE, 1, "Caf\u00e9\tpolish \u00e0 la main", [])], texts=("",) * 8))
+    assert d.source == "design.gem" and d.title == "design" and d.headers == [] and d.footnotes == []
+    assert d.facets[0].own_name == "Caf\u00e9" and d.tiers[0].instructions == "polish \u00e0 la main"
+    assert parse_gem(_gem([(_POLE, 1, "", [])]), "a.gem", "/x/a.gem").source == "/x/a.gem"
+    # a byte Windows-1252 leaves undefined (0x81) is replaced, not an error
+    raw = _gem([(_POLE, 1, "", [])])
+    k = raw.index(b"Title")
+    raw = raw[:k] + b"T\x81tle" + raw[k + 5:]
+    assert parse_gem(raw, "a.gem").title == "T\ufffdtle"
+    # a text of 200 bytes: the length byte is unsigned
+    long = "x" * 200
+    assert parse_gem(_gem([(_POLE, 1, "", [])], texts=(long, "", "", "", "", "", "", "")), "a.gem").title == long
+
+
+def test_a_gem_files_angles_indices_and_distances_are_rounded_as_documented():
+    """Angles to 6 decimals, indices to 6 decimals of the gear (0 written as the gear), tier
+    distances to 9; the table's and culet's index is the gear, their azimuth from it."""
+    tilt, az = 41.12345678, 10.0
+    a, p = math.radians(tilt), math.radians(az)
+    pole = np.array([math.sin(a) * math.cos(p), math.sin(a) * math.sin(p), math.cos(a)]) / 0.81234567891
+    d = parse_gem(_gem([(pole, 1, "", []), ((0.0, 0.0, 2.0), 2, "", [])], gear=80, location=1.5), "r.gem")
+    f = d.facets[0]
+    assert f.angle_deg == round(tilt, 6) == 41.123457 and d.tiers[0].angle_deg == 41.123457
+    assert d.tiers[0].distance == 0.812345679 and f.distance == pytest.approx(0.81234567891)
+    assert f.index == round(1.5 + (90.0 - az) * 80 / 360.0, 6) == 19.277778
+    table = d.facets[1]
+    assert table.index == 80.0 and table.azimuth_deg == pytest.approx(96.75)  # (90 - 78.5 x 4.5 + 180) % 360 - 180
+    at_zero = facet_pole(30.0, 20, 1.0, 80, 0.0)[0]  # azimuth 0: index 20 on an 80 gear
+    assert parse_gem(_gem([(at_zero, 1, "", [])], gear=80), "z.gem").facets[0].index == 20.0
+    full = facet_pole(30.0, 80, 1.0, 80, 0.0)[0]  # index 0 is written as the gear
+    assert parse_gem(_gem([(full, 1, "", [])], gear=80), "z.gem").facets[0].index == 80.0
+
+
+def test_a_gem_tiers_instructions_come_from_its_first_facet_that_has_some():
+    p2 = facet_pole(41.0, 48, 1.0, 96, 0.0)[0]
+    d = parse_gem(_gem([(_POLE, 4, "A", []), (p2, 4, "B\tsecond", []), (_POLE, 5, "C\tfirst", []),
+                        (p2, 5, "D\tnot this", [])]), "i.gem")
+    assert [(t.number, t.angle_deg, t.indices, t.instructions) for t in d.tiers] == [
+        (1, pytest.approx(41.0), [pytest.approx(24.0), pytest.approx(48.0)], "second"),
+        (2, pytest.approx(41.0), [pytest.approx(24.0), pytest.approx(48.0)], "first")]
+    assert [f.name for f in d.facets] == ["A", "B", "C", "D"] and [t.name for t in d.tiers] == ["A", "C"]
+
+
+def test_each_facets_entry_and_the_load_report_whole():
+    mesh = gemcad.design_solid(_box("a 45 9 24 n Far\na 45 9 0.333333333\n"), size=10.0)
+    meta = mesh.metadata["labcut"]
+    fl = meta["design"]["facet_list"]
+    assert fl[2] == {"id": 2, "tier": 3, "name": "G", "own_name": "", "part": "girdle", "angle_deg": 90.0, "index": 24.0,
+                     "azimuth_deg": 0.0, "distance": 1.0, "normal": [1.0, 0.0, 0.0], "area_mm2": pytest.approx(75.0),
+                     "on_stone": True}
+    assert fl[5]["own_name"] == "G" and fl[0]["own_name"] == "T"
+    assert fl[6] == {"id": 6, "tier": 4, "name": "Far", "own_name": "Far", "part": "crown", "angle_deg": 45.0,
+                     "index": 24.0, "azimuth_deg": 0.0, "distance": 9.0, "normal": [0.707106781187, 0.0, 0.707106781187],
+                     "area_mm2": 0.0, "on_stone": False}
+    assert fl[7]["azimuth_deg"] == 88.750000001  # 90 - 0.333333333 x 3.75, to 9 decimals
+    assert {k: meta[k] for k in ("source", "format", "units_source", "rotation", "convex", "watertight", "triangles",
+                                  "vertices", "bodies", "repairs", "warnings")} == {
+        "source": "box.asc", "format": "asc", "units_source": "design",
+        "rotation": [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]], "convex": True, "watertight": True,
+        "triangles": 12, "vertices": 8, "bodies": 1, "repairs": [], "warnings": []}
+    assert meta["dimensions_mm"] == pytest.approx([10.0, 10.0, 7.5])
+    assert "2 listed facets do not reach the surface (Far at index 24, tier 5 at index 0.333333)" in meta["notes"]
+    three = gemcad.design_solid(_box("".join(f"a 45 9 {i}\n" for i in (6, 18, 30))), size=10.0)
+    assert ("3 listed facets do not reach the surface (tier 4 at index 6, tier 5 at index 18, tier 6 at index 30)"
+            in three.metadata["labcut"]["notes"])
+
+
+def test_a_longer_than_wide_design_and_the_stages():
+    rect = parse_asc("GemCad 5.0\ng 96 0\na 0 0.5 96\na -0 1 96\na 90 1 24 72\na 90 1.5 48 96\n", "rect.asc")
+    stages = []
+    mesh = gemcad.design_solid(rect, size=4.0, progress=lambda s, x: stages.append((s, x)))
+    d = mesh.metadata["labcut"]["design"]
+    assert d["length_to_width"] == pytest.approx(1.5) and d["height_to_width"] == pytest.approx(0.75)
+    assert np.ptp(mesh.vertices, axis=0).tolist() == pytest.approx([4.0, 6.0, 3.0])
+    assert stages == [("intersecting the facet planes", 0.2), ("certifying the solid", 0.6), ("loaded", 1.0)]
+
+
+def test_the_up_axis_warning_names_the_line_that_loaded_the_design(tmp_path):
+    (tmp_path / "box.asc").write_text(BOX)
+    with pytest.warns(Warning) as caught:
+        gemcad.load_design(tmp_path / "box.asc", up_axis="-Y")
+    ours = [w for w in caught if "GemCad design's crown" in str(w.message)]
+    assert len(ours) == 1 and ours[0].filename == __file__
+    with pytest.warns(Warning) as caught:
+        mesh = gemcad.design_solid(_box(), up_axis="-Y")
+    assert mesh.metadata["labcut"]["warnings"] == [str(w.message) for w in caught if "crown" in str(w.message)]
+
+
+def test_four_facets_close_a_stone_and_a_big_designs_corners_weld():
+    tetra = parse_asc("GemCad 5.0\ng 96 0\na 0 1 96\na -60 1 0 32 64\n", "t.asc")
+    poly = gemcad.design_polyhedron(tetra)
+    assert len(poly.vertices) == 4 and len(poly.faces) == 4
+    big = parse_asc("GemCad 5.0\ng 96 0\na 0 500 96\na -0 1000 96\na 90 1000 24 48 72 96\n", "big.asc")
+    pole = np.array([1.0, 1.0, 0.5]) / (1000.0 * (1.0 + 1.0 + 0.25))  # through the corner (1000, 1000, 500)
+    big.facets.append(gemcad.Facet(4, "corner", "corner", 45.0, 12.0, 45.0, 1.0, pole))
+    assert len(gemcad.design_polyhedron(big).vertices) == 8
