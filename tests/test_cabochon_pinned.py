@@ -560,3 +560,31 @@ def test_named_outline_bounding_box_exact_to_the_last_bit(outline, L, W):
     # (make_outline's marquise is 3.6e-15 mm short, its 13.7 mm pear 4.4e-16 mm off centre)
     m = cabochon(outline, L, W, dome=2, resolution=32)
     assert m.bounds.tolist() == [[-L / 2, -W / 2, 0.0], [L / 2, W / 2, 2.0]]
+
+
+def _egg(points=400, shift=37):
+    """A traced outline with no symmetry: four quarter ellipses (8 and 5 mm to +X and -X, 4 and 3 mm
+    to +Y and -Y); its extreme points are samples, none of them the first point."""
+    t = np.linspace(0, 2 * np.pi, points, endpoint=False)
+    c, s = np.cos(t), np.sin(t)
+    egg = np.column_stack([np.where(c > 0, 8 * c, 5 * c), np.where(s > 0, 4 * s, 3 * s)])
+    return np.roll(egg, shift, axis=0)
+
+
+def test_traced_asymmetric_outline_keeps_its_four_extremes():
+    # resampled to about 20 points: each of the four extreme points is kept, so the size is exact
+    m = cabochon(_egg(), dome=2, resolution=20)
+    assert m.extents.tolist() == approx([13.0, 7.0, 2.0], rel=0, abs=1e-12)
+    ring = _base_ring(m)
+    assert np.all(_has_points(ring, [[6.5, -0.5], [-6.5, -0.5], [-1.5, 3.5], [-1.5, -3.5]]))
+    assert len(m.faces) < faces(40, 8)
+
+
+def test_traced_smooth_polygon_turns_measured_vertex_by_vertex():
+    # a 32-gon (turns of 11.25 degrees, under 15) at n = 20: no vertex is a corner, resampled to
+    # about 20 points; measured over two edges its turns would be 22.5 degrees, all 32 kept
+    k = np.arange(32)
+    poly = 5 * np.column_stack([np.cos(2 * np.pi * k / 32), np.sin(2 * np.pi * k / 32)])
+    m = cabochon(poly, dome=1, resolution=20)
+    assert len(_base_ring(m)) - 1 < 26
+    assert len(m.faces) < faces(26, 8)
