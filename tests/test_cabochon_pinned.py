@@ -482,7 +482,7 @@ def test_buff_top_accepted(given, table):
         assert len(top) == 1
 
 
-@pytest.mark.parametrize("given", [1, 1.2, -0.1, 0.9500001, float("nan"), float("inf"), "lots", [0.5]])
+@pytest.mark.parametrize("given", [1, 1.2, -0.1, 0.9500001, float("nan"), float("inf"), "lots", [0.5], "0", "0.0", -1e-9])
 def test_buff_top_refused(given):
     refused(f"buff_top must be False or a table fraction in (0, 0.95], got {given!r}", outline="round", length=10,
             dome=2, buff_top=given, resolution=16)
