@@ -54,6 +54,15 @@ MODULE_TESTS: dict[str, list[str]] = {
     # not tests/test_render_look.py: a recommendation and studio renders, about 20 s a mutant
     "labcut/rendering/denoise.py": ["tests/test_denoise_pinned.py"],
     "labcut/commands/budget.py": ["tests/test_budget_pinned.py"],
+    # not tests/test_batch.py: its Dask clusters
+    "labcut/batch/store.py": ["tests/test_store_pinned.py", "tests/test_batch_catalog.py"],
+    # test_intake.py's up-axis tests only: the rest runs the CLI and recommendations (43 s a mutant)
+    "labcut/geometry/orient.py": ["tests/test_orient_pinned.py"] + [
+        f"tests/test_intake.py::{name}" for name in (
+            "test_every_up_axis_is_found_from_the_flat_base", "test_dome_down_file_warns_and_is_scored_on_its_dome",
+            "test_y_up_gltf_is_upright_and_in_mm_without_a_warning", "test_tables_and_domes_say_which_side_is_up",
+            "test_bundled_meshes_stay_as_they_are", "test_shapes_that_do_not_say_keep_the_file_convention")],
+    "labcut/geometry/outlines.py": ["tests/test_outlines_pinned.py", "tests/test_geometry_cabochon.py"],
     "labcut/explorer/hemisphere.py": ["tests/test_explore.py"],
     "labcut/explorer/state.py": ["tests/test_explore.py"],
 }
