@@ -664,3 +664,87 @@ def test_four_facets_close_a_stone_and_a_big_designs_corners_weld():
     pole = np.array([1.0, 1.0, 0.5]) / (1000.0 * (1.0 + 1.0 + 0.25))  # through the corner (1000, 1000, 500)
     big.facets.append(gemcad.Facet(4, "corner", "corner", 45.0, 12.0, 45.0, 1.0, pole))
     assert len(gemcad.design_polyhedron(big).vertices) == 8
+
+
+# ---------------------------------------------------------------------- what the second run left
+def test_undecodable_bytes_are_replaced_not_an_error(tmp_path):
+    """Bytes that are no UTF-8 after a byte-order mark, and the five bytes Windows-1252 leaves
+    undefined, read as U+FFFD: a design file is never refused for its text."""
+    (tmp_path / "bom.asc").write_bytes(b"\xef\xbb\xbfGemCad 5.0\ng 96 0\nH caf\xe9\na 0 1 96\n")
+    assert read_design(tmp_path / "bom.asc").title == "caf\ufffd"
+    (tmp_path / "w.asc").write_bytes(b"GemCad 5.0\ng 96 0\nH a\x81b\x8dc\na 0 1 96\n")
+    assert read_design(tmp_path / "w.asc").title == "a\ufffdb\ufffdc"
+
+
+def test_parse_asc_names_lines_as_the_file_numbers_them():
+    """Line numbers count CRLF as one line break and a record continued on later lines by its
+    first line; default names."""
+    with pytest.raises(MeshError) as info:
+        parse_asc("GemCad 5.0\r\ng 96 0\r\na x 1 3\r\n")
+    assert str(info.value) == "design.asc, line 3: a tier record must start 'a ANGLE DISTANCE', got 'a x 1 3'"
+    assert parse_asc("a 0 1 96\n").title == "design" and parse_asc("a 0 1 96\n").source == "design.asc"
+    with pytest.raises(MeshError) as info:
+        parse_asc("GemCad 5.0\ng 96 0\nH t\na 41 1 3\n 15 x\n", "c.asc")
+    assert str(info.value) == "c.asc, line 4: 'x' is not a gear index, a name ('n NAME') or instructions ('G ...')"
+    d = parse_asc("GemCad 5.0\ng 96 0\nH t\na 41 1\nG cut\na 0 1 96\n", "c.asc")
+    assert d.notes == ["line 4: the tier at 41 deg lists no index and was skipped"]
+    long = "a " + "y" * 70
+    with pytest.raises(MeshError) as info:
+        parse_asc(f"GemCad 5.0\n{long}\n", "c.asc")
+    assert str(info.value) == f"c.asc, line 2: a tier record must start 'a ANGLE DISTANCE', got {long[:60]!r}"
+
+
+def test_records_written_without_a_space_and_lines_that_only_look_like_continuations():
+    d = parse_asc("GemCad 5.0\ng 96 0\nHTitle\nFNote\na 0 1 96\nXYZ\n", "s.asc")
+    assert d.title == "Title" and d.footnotes == ["Note"]
+    assert d.notes == ["ignored 1 unrecognised line (line 6: 'XYZ')"]
+
+
+def test_without_a_gear_record_the_location_is_zero():
+    d = parse_asc("a 41 1 24\n", "n.asc")
+    assert d.location == 0.0 and d.facets[0].azimuth_deg == pytest.approx(0.0)
+
+
+def test_a_gem_poles_length_limits_are_open():
+    for pole in ((0.0, 0.0, 1e9), (0.0, 0.0, 1e-9)):
+        with pytest.raises(MeshError, match="holds no facet plane"):
+            parse_gem(_gem([(pole, 1, "", [])]), "p.gem")
+    good = _gem([(_POLE, 1, "", [])])
+    with pytest.raises(MeshError) as info:
+        parse_gem(good[:63], "p.gem")  # the record 0-33, sentinel 33-41, trailer 41-73: the reserved int32 61-65
+    assert str(info.value) == "p.gem is a truncated GemCad .gem file: it ends at byte 63 inside the trailer"
+
+
+def test_read_design_passes_the_files_name_and_path(tmp_path):
+    path = tmp_path / "plain.gem"
+    path.write_bytes(_gem([(_POLE, 1, "", [])], texts=("",) * 8))
+    d = read_design(path)
+    assert d.title == "plain" and d.source == str(path)
+    (tmp_path / "cut.gem").write_bytes(_gem([(_POLE, 1, "", [])])[:50])
+    with pytest.raises(MeshError) as info:
+        read_design(tmp_path / "cut.gem")
+    assert str(info.value).startswith("cut.gem is a truncated GemCad .gem file")
+    (tmp_path / "bad.asc").write_text("GemCad 5.0\ng 0 0\na 0 1 96\n")
+    with pytest.raises(MeshError) as info:
+        read_design(tmp_path / "bad.asc")
+    assert str(info.value) == "bad.asc, line 2: the gear must be a non-zero whole number of teeth, got '0'"
+
+
+def test_the_size_message_whole_and_the_up_axis_given_as_the_crown():
+    with pytest.raises(Exception) as info:
+        gemcad.design_size(0.49)
+    assert str(info.value) == "the girdle width (--size, size=) must lie in [0.5, 500] mm, got 0.49"
+    meta = gemcad.design_solid(_box(), size=10.0, up_axis="+Z").metadata["labcut"]
+    assert meta["warnings"] == [] and meta["up_axis_source"] == "given"
+    kept = gemcad.design_solid(_box(), size=10.0, recentre=False).metadata["labcut"]
+    assert kept["translation_mm"] == [0.0, 0.0, 0.0]
+
+
+def test_another_up_axis_is_in_the_report(tmp_path):
+    with pytest.warns(Warning):
+        meta = gemcad.design_solid(_box(), size=10.0, up_axis="+X").metadata["labcut"]
+    assert len(meta["warnings"]) == 1 and meta["warnings"][0].startswith("box.asc: you gave up axis +X")
+    assert np.allclose(meta["rotation"], gemcad.up_rotation("+X")) and not np.allclose(meta["rotation"], np.eye(3))
+    (tmp_path / "box.asc").write_text(BOX)
+    lo, hi = gemcad.load_design(tmp_path / "box.asc", size=4.0, recentre=False).bounds
+    assert lo.tolist() == pytest.approx([-2.0, -2.0, -2.0]) and hi.tolist() == pytest.approx([2.0, 2.0, 1.0])
