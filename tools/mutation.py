@@ -63,6 +63,7 @@ MODULE_TESTS: dict[str, list[str]] = {
             "test_y_up_gltf_is_upright_and_in_mm_without_a_warning", "test_tables_and_domes_say_which_side_is_up",
             "test_bundled_meshes_stay_as_they_are", "test_shapes_that_do_not_say_keep_the_file_convention")],
     "labcut/geometry/outlines.py": ["tests/test_outlines_pinned.py", "tests/test_geometry_cabochon.py"],
+    "labcut/geometry/cabochon.py": ["tests/test_cabochon_pinned.py", "tests/test_geometry_cabochon.py"],
     "labcut/explorer/hemisphere.py": ["tests/test_explore.py"],
     "labcut/explorer/state.py": ["tests/test_explore.py"],
 }
