@@ -475,7 +475,8 @@ def check_row(values: Mapping[str, Any], index: int, where: str, base: Path, def
         raise _fail(f"{where}, column 'units'", "a GemCad design has no unit; give its girdle width in mm as size")
     if kind == "file" and size is not None:
         raise _fail(f"{where}, column 'size'", "size is a GemCad design's girdle width; a mesh file takes units")
-    name = str(cell.get("name") or (Path(str(cell["cut"]).strip()).name if kind != "cabochon" else str(cell["cut"]).strip()))
+    cut_text = str(cell["cut"]).strip()
+    name = str(cell.get("name") or (cut_text if kind == "cabochon" else Path(cut_text).name))
     inputs = {"labcut": __version__, "cut": cut_key, "material": material_key, "scenario": scenario_key,
               "quality": quality, "objective": objective, "seed": seed, "units": units, "up_axis": up_axis,
               "size": size, "max_tilt": max_tilt}
