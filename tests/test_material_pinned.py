@@ -349,7 +349,7 @@ def test_a_peak_at_either_end_of_the_visible_range_is_visible(monkeypatch, peak)
     assert note is not None and f"{peak + (-0.05 if peak < 500 else 0.05):.1f} nm" in note
 
 
-def test_the_note_of_a_material_made_through_the_api_is_the_module_docstrings(notes_again):
+def test_the_api_material_is_this_class_and_notes_an_ultraviolet_peak(notes_again):
     """labcut.Labradorite is this class: the note is what the API user sees."""
     assert labcut.Labradorite is Labradorite
     note = Labradorite(**UV).visibility_note()
@@ -441,3 +441,14 @@ def test_two_trials_with_the_same_peak_rescale_instead_of_a_secant_step(monkeypa
     for k in flat[1:]:
         assert tried[k + 1] == pytest.approx(tried[k] * 470.0 / 480.0, rel=1e-14)
     assert not isinstance(period, Exception) and period == pytest.approx(300.0 / S, abs=0.01 / S)
+
+
+def test_the_shortest_peak_a_spread_of_40_nm_allows():
+    """docs/testing.md's figure: at sigma 40 nm no period's first-order peak lies below 361 nm (a
+    scan of periods 40-260 nm), so 360 nm is refused and 362 nm is fitted to 0.01 nm."""
+    stack = Labradorite(sigma_a=40.0, sigma_b=40.0).stack
+    peaks = [material._first_order_peak(stack._replace(d_a=p / 2, d_b=p / 2), 1.0) for p in np.arange(40.0, 262.0, 2.0)]
+    assert 361.0 < np.nanmin(peaks) < 361.5
+    with pytest.raises(ParameterError, match="no lamella period puts the first-order flash peak at 360 nm"):
+        Labradorite.from_peak_wavelength(360.0, sigma_a=40.0, sigma_b=40.0)
+    assert abs(Labradorite.from_peak_wavelength(362.0, sigma_a=40.0, sigma_b=40.0).peak_wavelength() - 362.0) < 0.01
