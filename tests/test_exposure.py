@@ -119,3 +119,13 @@ def test_a_bad_exposure_is_a_parameter_error(bad):
 def test_exposure_modes_parse():
     assert ex.check_mode(None) == ex.check_mode(" Reference ") == "reference"
     assert ex.check_mode("AUTO") == "auto" and ex.check_mode(2) == 2.0
+
+
+def test_a_studio_without_its_tent_renders_under_its_lamps(oval):
+    """``Studio(tent_share=0)`` is in the look's documented range: lamps in a dark room. It once
+    failed with "environment map 'tent' is black" (a map of zeros refused) for every scene
+    without a map of its own."""
+    r = labcut.render(oval, "blue", (0, 0, 1), scenario="bench", look=Studio(tent_share=0.0), resolution=16, spp=1,
+                      check_flash=False)
+    assert r.exposure == ex.reference_exposure(Studio(tent_share=0.0)) and np.isfinite(r.image).all()
+    assert r.image.max() > 0.0

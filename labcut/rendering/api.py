@@ -428,7 +428,7 @@ def studio_record(setting: Setting, studio: Any, views: Sequence[CameraView], pa
         **studio.to_dict(),
         "lamps": [{"direction": list(lamp.direction), "radius_deg": lamp.radius_deg, "point_lamp": lamp.point,
                    "irradiance": lamp.irradiance * scale} for lamp in parts.lamps],
-        "environment": parts.environment.name,
+        "environment": None if parts.environment is None else parts.environment.name,
         "irradiance_at_camera": irradiance_at_camera(parts.lamps, parts.environment, views[0].direction, scale),
     }
 

@@ -226,10 +226,13 @@ def irradiance_towards(env: Environment, normal: np.ndarray) -> float:
     return float((env.luminance().ravel() * cos * sa).sum())
 
 
-def studio_environment(setting: Any, studio: Studio, scale: float) -> Environment:
+def studio_environment(setting: Any, studio: Studio, scale: float) -> Environment | None:
     """The environment a studio render is lit by (frame of use = mesh frame): the scenario's map
-    (if any) plus the tent, both times ``scale`` (the render's irradiance scale)."""
+    (if any) plus the tent, both times ``scale`` (the render's irradiance scale); None where
+    there is neither (lamps without a map, ``tent_share`` 0: a dark room around the lamps)."""
     lights = setting.lights
+    if lights.environment is None and studio.tent_share == 0.0:
+        return None
     pose = np.eye(3) if setting.pose is None else np.asarray(setting.pose, dtype=np.float64)
     env = lights.environment
     if env is None:
@@ -248,7 +251,7 @@ def studio_environment(setting: Any, studio: Studio, scale: float) -> Environmen
     e_tent = irradiance_towards(tent_env, up)
     k = studio.tent_share * float(np.sum(lights.weights)) / max(e_tent, 1e-12)
     radiance = base.astype(np.float64) + k * tent
-    name = "tent" if env is None else f"{env.name}+tent"
+    name = "tent" if env is None else f"{env.name}+tent" if studio.tent_share > 0.0 else env.name
     return Environment((radiance * scale).astype(np.float32), grid_rot, name)
 
 
@@ -259,10 +262,11 @@ def bounding_sphere(mesh: Any) -> tuple[np.ndarray, float]:
 
 
 def studio_emitters(mesh: Any, setting: Any, studio: Studio,
-                    total_irradiance: float = RENDER_IRRADIANCE) -> tuple[dict[str, Any], list[Lamp], Environment]:
+                    total_irradiance: float = RENDER_IRRADIANCE) -> tuple[dict[str, Any], list[Lamp], Environment | None]:
     """Mitsuba emitters (lamp discs and the environment) and the table of a studio render.
 
-    Returns (scene entries, the lamps, the environment used), all in the mesh frame."""
+    Returns (scene entries, the lamps, the environment used or None: :func:`studio_environment`),
+    all in the mesh frame."""
     import mitsuba as mi
 
     lights = setting.lights
@@ -286,8 +290,9 @@ def studio_emitters(mesh: Any, setting: Any, studio: Studio,
                             "sampling_weight": radiance * math.pi * math.sin(alpha) ** 2},
             }
     env = studio_environment(setting, studio, scale)
-    out["environment"] = env.emitter(1.0)
-    out["environment"]["sampling_weight"] = irradiance_towards(env, np.array([0.0, 0.0, 1.0]))
+    if env is not None:
+        out["environment"] = env.emitter(1.0)
+        out["environment"]["sampling_weight"] = irradiance_towards(env, np.array([0.0, 0.0, 1.0]))
     zmin = float(mesh.bounds[0][2])
     half = TABLE_HALF_RADII * radius
     out["table"] = {
@@ -330,12 +335,15 @@ def lamp_discs(lamp: Lamp, irradiance: float, core: float) -> dict[str, tuple[fl
     }
 
 
-def irradiance_at_camera(lamps: list[Lamp], env: Environment, camera_direction: Any, scale: float) -> float:
+def irradiance_at_camera(lamps: list[Lamp], env: Environment | None, camera_direction: Any, scale: float) -> float:
     """Irradiance (render units) on a card at the stone facing the camera: the lamps (``scale``
-    times their relative irradiance) and the environment (already scaled), ignoring the table."""
+    times their relative irradiance) and the environment (already scaled; None for none),
+    ignoring the table."""
     v = np.asarray(camera_direction, dtype=np.float64)
     v = v / np.linalg.norm(v)
     e = sum(lamp.irradiance * scale * max(0.0, float(np.asarray(lamp.direction) @ v)) for lamp in lamps)
+    if env is None:
+        return float(e)
     # the table hides what lies below the base plane (mesh -Z): leave that half of the map out
     d = pixel_directions(env.width, env.height).reshape(-1, 3) @ env.rotation.T
     cos = np.clip(d @ v, 0.0, None) * (d[:, 2] > 0.0)
