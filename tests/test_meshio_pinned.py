@@ -1321,3 +1321,74 @@ def test_save_mesh_refuses_other_suffixes(tmp_path, name):
     assert refusal(ParameterError, save_mesh, _tm(*tet()), tmp_path / name) == (
         f"output file {name!r} must end in one of .ply, .stl, .obj, .off, .glb, .3mf")
     assert not (tmp_path / name).exists()
+
+
+# ------------------------------------------------------------------ more forms and refusals
+def test_two_square_holes_get_a_centre_each():
+    v, f = box((20.0, 4.0, 4.0))
+    ends = [i for i, t in enumerate(f.tolist()) if len({v[k][0] for k in t}) == 1]  # the two 4 x 4 ends
+    assert ends == [0, 2, 10, 11]
+    v2, f2, repairs, *_ = validated(v, np.delete(f, ends, axis=0))
+    assert repairs == ["closed 2 holes (8 open edges) with fan patches"]  # 32 of 352 units²: 9 %
+    assert len(v2) == 10 and len(f2) == 16 and volume(v2, f2) == pytest.approx(320.0)
+    assert [-10.0, 0.0, 0.0] in v2.tolist() and [10.0, 0.0, 0.0] in v2.tolist()
+
+
+def test_a_non_orientable_surface_is_refused():
+    # the six-vertex projective plane (a hemi-icosahedron): closed, every edge in two faces, no consistent winding
+    v = np.asarray(trimesh.creation.icosahedron().vertices[:6]) * 5.0
+    f = [(0, 1, 2), (0, 2, 3), (0, 3, 4), (0, 4, 5), (0, 5, 1), (1, 2, 4), (2, 3, 5), (3, 4, 1), (4, 5, 2), (5, 1, 3)]
+    assert meshio._edge_table(np.array(f))[:2] == (0, 0)
+    assert refusal(MeshError, validated, v, f) == (
+        "s has a winding that cannot be made consistent (a non-orientable surface?)")
+    assert refusal(MeshError, validated, v, f, repair=False) == "s: its faces are not consistently wound (repair disabled)"
+
+
+@pytest.mark.parametrize("big", [False, True])
+def test_bodies_too_far_apart_for_their_volume(monkeypatch, big):
+    # two unit-corner tetrahedra (1/6 each) apart along the diagonal: the volume against the bounding box's,
+    # (1/3) / 481³ = 3.0e-9 is kept, (1/3) / 2001³ = 4.2e-11 is under 1e-9: "no volume"
+    if big:
+        monkeypatch.setattr(meshio, "MANIFOLD_CHECK_FACES", 0)
+    v, f = tet(1.0, 1.0, 1.0)
+    near = validated(np.vstack([v, v + 480.0]), np.vstack([f, f + 4]))
+    assert near[4] == 2 and volume(near[0], near[1]) == pytest.approx(1.0 / 3.0)
+    assert refusal(MeshError, validated, np.vstack([v, v + 2000.0]), np.vstack([f, f + 4])) == (
+        "s encloses no volume (a flat or empty surface)")
+
+
+def test_near_zero_area_is_relative_to_the_size():
+    # the sliver's corner off the edge by h: its double area is 10 h; the limit is 1e-12 x 10² = 1e-10
+    v, f = sliver_tet()
+    for h, notes in ((4e-12, ["kept 1 near-zero-area triangles"]), (2e-11, [])):
+        w = v.copy()
+        w[4, 2] = -h
+        assert validated(w, f)[3] == notes, h
+    big = v * 1000.0  # the sliver 1000 times larger: the limit is 1e-12 x 10000² = 1e-4, its double area 4e-5
+    big[4, 2] = -4e-9
+    assert validated(big, f)[3] == ["kept 1 near-zero-area triangles"]
+
+
+def test_gltf_without_units_is_metres(tmp_path):
+    v, f = box()
+    files = trimesh.Trimesh(vertices=v / 1000.0, faces=f, process=False).export(file_type="gltf")
+    for name, data in files.items():
+        (tmp_path / name).write_bytes(data)
+    (gltf,) = [n for n in files if n.endswith(".gltf")]
+    m = load_mesh(tmp_path / gltf)
+    r = report(m)
+    assert (r["units"], r["units_source"], r["scale_to_mm"], r["format"]) == ("m", "file", 1000.0, "gltf")
+    assert r["notes"] == ["read in metres: glTF lengths are metres by specification"]
+    assert r["dimensions_mm"] == pytest.approx([10.0, 6.0, 8.0]) and r["up_axis"] == "+Y"
+
+
+def test_save_mesh_leaves_the_report_out_of_the_file(tmp_path):
+    v, f = tet()
+    stone = _tm(v, f)
+    stone.metadata["labcut"] = {"kind": "loaded", "source": "SECRET-SOURCE-NAME"}
+    for suffix in (".glb", ".ply", ".obj", ".off", ".stl", ".3mf"):
+        data = save_mesh(stone, tmp_path / f"t{suffix}").read_bytes()
+        if suffix == ".3mf":
+            with zipfile.ZipFile(tmp_path / "t.3mf") as z:
+                data = b"".join(z.read(n) for n in z.namelist())
+        assert b"SECRET-SOURCE-NAME" not in data, suffix
