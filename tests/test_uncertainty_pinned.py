@@ -86,6 +86,7 @@ def test_finer_directions_by_hand_on_draft():
     assert h.rock_steps == (5, 2) and h.nlopt_evals == q.nlopt_evals and h.map_spacing_deg == q.map_spacing_deg
     # a quarter of the points, at least 500
     assert unc.finer_directions(q.replace(surface_points=2004)).surface_points == 501
+    assert unc.finer_directions(q.replace(surface_points=2007)).surface_points == 501  # rounded down
     assert unc.finer_directions(q.replace(surface_points=2000)).surface_points == 500
     assert unc.finer_directions(q.replace(surface_points=1999)).surface_points == 500
     assert unc.finer_directions(q.replace(surface_points=100)).surface_points == 500
@@ -101,6 +102,7 @@ def test_finer_poses_doubles_the_moved_poses_about_the_rest_pose():
     for steps, want in cases.items():
         assert unc.finer_poses(q.replace(rock_steps=steps)).rock_steps == want, steps
     assert unc.finer_poses(q.replace(surface_points=2004)).surface_points == 501
+    assert unc.finer_poses(q.replace(surface_points=2006)).surface_points == 501
     assert unc.finer_poses(q.replace(surface_points=1000)).surface_points == 500
 
 
@@ -122,7 +124,8 @@ def test_tangent_basis_by_hand():
     assert np.allclose(e1, [0, 1, 0], atol=1e-15) and np.allclose(e2, [-0.8, 0, 0.6], atol=1e-15)
     m = np.array([0.3, -0.5, 0.6])
     m /= np.linalg.norm(m)
-    e1, e2 = unc.tangent_basis(m)
+    e1, e2 = unc.tangent_basis(m)  # helper X: m x X = (0, m_z, -m_y), made unit
+    np.testing.assert_allclose(e1, np.array([0.0, 0.6, 0.5]) / math.sqrt(0.61), rtol=0, atol=1e-15)
     for v in (e1, e2):
         assert np.linalg.norm(v) == pytest.approx(1.0, abs=1e-15) and abs(v @ m) < 1e-15
     assert abs(e1 @ e2) < 1e-15 and np.allclose(np.cross(e1, e2), m, atol=1e-15)  # right-handed
@@ -249,15 +252,18 @@ class Quadratics:
         self.pair_alpha = np.full(n, 1.0 / n)
         self.calls: list = []
 
-    def pair_radiance(self, normals, reach):
-        self.calls.append((np.array(normals), reach))
+    def values(self, normals):
         xy = coords(normals)
         d2 = (xy[None, :, 0] - self.peaks[:, None, 0]) ** 2 + (xy[None, :, 1] - self.peaks[:, None, 1]) ** 2
         return self.top - self.curv * d2
 
+    def pair_radiance(self, normals, reach):
+        self.calls.append((np.asarray(normals), reach))
+        return self.values(normals)
+
     def launch_pair_radiance(self, normals, reach):
         self.launched = (np.array(normals), reach, normals.dtype)
-        return SimpleNamespace(value=self.pair_radiance(normals, reach))
+        return SimpleNamespace(value=self.values(normals))
 
 
 class Landscape(Quadratics):
@@ -267,8 +273,7 @@ class Landscape(Quadratics):
         super().__init__([(0.0, 0.0)], kappa=kappa)
         self.f = f
 
-    def pair_radiance(self, normals, reach):
-        self.calls.append((np.array(normals), reach))
+    def values(self, normals):
         return np.array([[self.f(n) for n in np.atleast_2d(normals)]])
 
 
@@ -337,6 +342,8 @@ def test_pair_radiance_asks_within_the_stencils_spread_plus_five_lobe_widths():
     sent, reach = p.calls[0]
     assert got.shape == (1, 17)
     assert isinstance(sent, np.ndarray) and sent.dtype == np.float64
+    unc.pair_radiance(p, [[0, 0, 1], [0, 1, 0]])  # whole numbers: asked as float64 normals
+    assert p.calls[1][0].dtype == np.float64
     assert reach == pytest.approx(0.25 + math.radians(2.0), abs=1e-12)
     assert unc._reach(400.0, normals) == pytest.approx(0.25 + math.radians(2.0), abs=1e-12)
     # the farthest normal counts, measured from the first
@@ -422,6 +429,16 @@ def test_a_view_of_weight_only_and_a_scale_of_the_weights():
     p = Pairs(views=(0.0, 1.0))
     np.testing.assert_allclose(unc.objective_values(p, p.radiance, ROWS[:1], "all")[:, 0],
                                [[0.3, 0.9], [0.0, 1.0], [0.0, 0.9]], rtol=2e-7, atol=1e-12)
+
+
+def test_the_replicates_sums_are_float32_products():
+    """The weighted sums per view are float32 matrix products (the weights are small whole
+    numbers, exact in float32; objective_values' docstring): 1 + 1e-8 sums to 1 in float32, so the
+    view's mean of the two pairs is exactly 0.5 (1.000000005 in float64)."""
+    p = Pairs(views=(1.0,))
+    p.pair_weight, p.pair_view, p.info = np.array([1.0, 1.0]), np.array([0, 0]), {"pair_point": np.array([0, 1])}
+    got = unc.objective_values(p, np.array([[1.0], [1e-8]]), np.ones((1, 2)), "energy")
+    assert got[0, 0] == 0.5
 
 
 def test_without_points_the_bootstrap_weighs_pairs():
@@ -581,6 +598,11 @@ def test_bad_normals_and_replicates_are_one_line_errors(call):
             call(p, Z, replicates=bad)
         assert str(err.value) == f"replicates must be a whole number >= 4, got {bad!r}"
     call(p, Z, replicates=4)  # the least
+    # a missing coordinate (JSON null) is not a number either: the same one-line error
+    with pytest.raises(ParameterError, match="normal must be three finite numbers, not all zero, got "):
+        call(p, [None, 0.0, 1.0])
+    # numbers as text are read as numbers
+    assert call(p, ["0", "0", "1"]) == call(p, Z)
 
 
 # --- the combination --------------------------------------------------------------------------
@@ -666,7 +688,9 @@ def test_the_bars_of_a_two_cluster_problem_by_hand():
                                                   + u.fit_angle_deg ** 2), rel=1e-5)
     assert u.score_rel == pytest.approx(math.hypot(2 * sd, u.discretisation_score_rel), rel=1e-4)
     assert (u.radius_deg, u.replicates) == (1.5, 32)
-    # every problem's stencil sums were launched at the answer's 17 normals
+    # every problem's stencil sums were launched at the answer's 17 normals, and those sums used:
+    # the finer problems' peaks lie inside their first stencils, nothing asked again
+    assert p.calls == dense.calls == fine.calls == []
     for q in (p, dense, fine):
         sent, reach, dtype = q.launched
         np.testing.assert_allclose(sent, unc.stencil(Z, 1.5)[0], atol=1e-15)
@@ -681,8 +705,26 @@ def test_the_bars_of_a_two_cluster_problem_by_hand():
     alone = unc.estimate_uncertainty(p, Z, seed=3)
     assert alone.angle_deg == pytest.approx(math.hypot(2 * spread, u.fit_angle_deg), rel=1e-4)
     assert alone.score_rel == pytest.approx(2 * sd, rel=1e-3)
-    # another seed: another draw, another spread
+    # another seed: another draw, another spread; no seed: seed 0's
     assert unc.estimate_uncertainty(p, Z, seed=4).sampling_angle_deg != pytest.approx(alone.sampling_angle_deg, rel=1e-3)
+    zero = unc.estimate_uncertainty(p, Z, seed=0)
+    assert unc.estimate_uncertainty(p, Z) == zero
+    assert unc.estimate_uncertainty(p, Z, seed=1).sampling_angle_deg != pytest.approx(zero.sampling_angle_deg, rel=1e-3)
+
+
+def test_the_same_peak_is_no_difference_even_when_its_dot_rounds_above_one(monkeypatch):
+    """The answer's fitted peak at the stencil's centre and a finer problem that keeps its centre
+    (its best point): both normals are the answer's own, whose dot with itself rounds to 1 + 2e-16."""
+    monkeypatch.setattr(unc, "fit_peaks", lambda xy, values, radius: (np.zeros((len(values), 2)), np.ones(len(values))))
+    m = np.array([1.0, 1.0, 1.0]) / np.linalg.norm([1.0, 1.0, 1.0])
+    assert float(m @ m) > 1.0
+
+    def top(n):  # best at the centre, a fit that is not concave (as in test_a_best_centre_stays...)
+        t = angle(n, m)
+        return 1.0 if t < 0.1 else (0.9 if t > 1.2 else 0.0)
+
+    u = unc.estimate_uncertainty(Quadratics([(0.0, 0.0)] * 3), [1.0, 1.0, 1.0], dense=Landscape(top), replicates=4)
+    assert u.directions_angle_deg == 0.0 and u.directions_score_rel == 0.0 and u.angle_deg == 0.0
 
 
 def test_a_finer_problems_peak_beyond_the_stencil_is_followed_and_the_objective_passed_on():
@@ -693,7 +735,7 @@ def test_a_finer_problems_peak_beyond_the_stencil_is_followed_and_the_objective_
     dense = Quadratics([(5.0, 0.0)], top=1.0, curv=0.01)
     u = unc.estimate_uncertainty(p, Z, dense=dense, tolerance_deg=2.0)
     assert u.directions_angle_deg == pytest.approx(5.0, abs=2e-3)
-    assert len(dense.calls) >= 2
+    assert len(dense.calls) >= 1  # stencils beyond the first
     # "area": every value above the threshold 0.5 flashes, the area is 1 at every normal: a flat
     # top, the centre kept, no difference
     v = unc.estimate_uncertainty(p, Z, "area", dense=Quadratics([(5.0, 0.0)], top=1.0, curv=0.01), tolerance_deg=2.0)
