@@ -30,6 +30,9 @@ import pytest
 
 import distributed
 
+#: the real one (a test puts it back where a run must not reach it: without a client it raises)
+REAL_AS_COMPLETED = distributed.as_completed
+
 import labcut
 from labcut.batch import runner as rn
 from labcut.batch.catalog import Catalog, Defaults, read_catalog
@@ -159,12 +162,11 @@ class FakeAsCompleted:
 
     order: list[int] | None = None
     sizes: list[int] | None = None
-    repeat: list[int] = []
 
     def __init__(self, futures) -> None:
         futures = list(futures)
-        idx = list(range(len(futures))) if self.order is None else list(self.order)
-        self.seq = [futures[i] for i in idx] + [futures[i] for i in self.repeat]
+        idx = list(range(len(futures))) if self.order is None else list(self.order)  # an index twice: answered twice
+        self.seq = [futures[i] for i in idx]
 
     def __iter__(self):
         return iter(self.seq)
@@ -182,7 +184,6 @@ def completed(monkeypatch):
     class AC(FakeAsCompleted):
         order = None
         sizes = None
-        repeat = []
 
     monkeypatch.setattr(distributed, "as_completed", AC)
     return AC
@@ -225,6 +226,14 @@ def test_memory_is_mib_now_and_peak(monkeypatch):
     assert rn._memory() == (5.0, 3.0)  # ru_maxrss is KiB on Linux
 
 
+def test_memory_without_resource_or_psutil(monkeypatch):
+    import sys
+
+    monkeypatch.setitem(sys.modules, "resource", None)  # importing it raises ImportError (not on Windows)
+    monkeypatch.setitem(sys.modules, "psutil", None)
+    assert rn._memory() == (None, None)
+
+
 def test_plain_json_values():
     assert rn._plain(np.float32(0.5)) == 0.5 and type(rn._plain(np.float32(0.5))) is float
     assert rn._plain(np.int64(7)) == 7 and type(rn._plain(np.int64(7))) is int
@@ -263,7 +272,7 @@ def test_trim_key():
     ("tcp://127.0.0.1:40001", True), ("tcp://127.9.8.7:1", True), ("tcp://localhost:8786", True),
     ("tcp://[::1]:40002", True), ("127.0.0.1:8786", True), ("tls://node7.cluster:1", False),
     ("tcp://10.1.2.3:4", False), ("tcp://localhost.example:4", False), ("tcp://1127.0.0.1:4", False),
-    ("tcp://[::2]:4", False),
+    ("tcp://[::2]:4", False), ("tcp://X127.0.0.1:4", False),
 ])
 def test_is_loopback(address, loopback):
     assert rn._is_loopback(address) is loopback
@@ -392,6 +401,15 @@ def test_row_warnings_are_labcuts_each_on_one_line(catalogue_folder, recommend):
     assert record["warnings"] == "units guessed; units guessed; second"
 
 
+def test_other_warnings_follow_the_callers_filters(catalogue_folder, recommend):
+    """Only labcut's warnings are always recorded; a ``UserWarning`` under the caller's ``error`` filter fails the row."""
+    recommend.warn = [(LabcutWarning, "ours"), (UserWarning, "not\n ours")]
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", UserWarning)
+        record = rn.run_row(cube_rows(catalogue_folder, 0)[0])
+    assert (record["status"], record["error"], record["warnings"]) == ("error", "UserWarning: not ours", None)
+
+
 def test_recommend_passes_the_rows_settings(catalogue_folder, recommend):
     [row] = cube_rows(catalogue_folder, 5, objective="balanced")
     mesh = row.load_mesh()
@@ -518,6 +536,11 @@ def test_catalogue_table_keeps_this_catalogues_rows_in_its_order(catalogue_folde
     assert table.column("row").to_pylist() == [1, 3] and table.schema.field("row").type == pa.int64()
     assert table.column("status").to_pylist() == ["error", "ok"]
     assert table.schema == store.read().schema
+    none = rn._catalogue_table(ResultStore(catalogue_folder / "empty.parquet"), Catalog(None, rows))  # nothing stored
+    assert none.num_rows == 0 and none.schema == store.read().schema
+    other = ResultStore(catalogue_folder / "other.parquet")
+    other.write([{"key": "other", "row": 1, "status": "ok"}])
+    assert rn._catalogue_table(other, Catalog(None, rows)).schema == store.read().schema
 
 
 # ---------------------------------------------------------------------- the cluster
@@ -620,8 +643,8 @@ def test_the_embedded_cluster_is_closed_after_an_error(monkeypatch):
 def test_set_up_workers(monkeypatch):
     from labcut.batch.plugin import LabcutWorkerPlugin
 
-    monkeypatch.setattr(rn, "time", Clock(0.0, 1.5))
-    addresses = [f"tcp://10.0.0.{1 + i % 2}:{4000 + i}" for i in range(7)] + ["tcp://[::1]:9"]
+    monkeypatch.setattr(rn, "time", Clock(10.0, 1.5))
+    addresses = [f"tcp://10.0.0.{1 + i % 2}:{4000 + i}" for i in range(6)] + ["10.0.0.1:4006", "tcp://[::1]:9"]
     fake = FakeClient(addresses, info={"tcp://b:2": {"threads": 3}, "tcp://a:1": {"threads": 4, "host": "h"}})
     info, seconds = rn._set_up_workers(fake, 6)
     assert info == [{"address": "tcp://a:1", "threads": 4, "host": "h"}, {"address": "tcp://b:2", "threads": 3}]
@@ -655,9 +678,13 @@ def test_dashboard_link(monkeypatch):
     assert rn._dashboard(Broken(services={"dashboard": 1}, bokeh=True)) is None
 
 
-def test_serves_bokeh_on_the_scheduler():
-    from bokeh.server.tornado import BokehTornado
+def test_serves_bokeh_on_the_scheduler(monkeypatch):
+    import sys
 
+    class BokehTornado:  # bokeh's application class, without importing bokeh's server (a second)
+        pass
+
+    monkeypatch.setitem(sys.modules, "bokeh.server.tornado", types.SimpleNamespace(BokehTornado=BokehTornado))
     found = []
 
     class Capture(FakeClient):
@@ -667,13 +694,28 @@ def test_serves_bokeh_on_the_scheduler():
 
     rn._dashboard(Capture(services={"dashboard": 1}))
     [serves] = found
-    app = BokehTornado.__new__(BokehTornado)
+    app = BokehTornado()
     sched = lambda apps: types.SimpleNamespace(http_application=types.SimpleNamespace(applications=apps))  # noqa: E731
     assert serves(sched([object(), app])) is True
     assert serves(sched([object()])) is False
     assert serves(sched(None)) is False
     assert serves(types.SimpleNamespace()) is False
     assert serves(types.SimpleNamespace(http_application=object())) is False
+
+
+def test_a_scheduler_without_bokeh_serves_no_dashboard(monkeypatch):
+    import sys
+
+    found = []
+
+    class Capture(FakeClient):
+        def run_on_scheduler(self, fn):
+            found.append(fn)
+            return True
+
+    rn._dashboard(Capture(services={"dashboard": 1}))
+    monkeypatch.setitem(sys.modules, "bokeh.server.tornado", None)  # bokeh not installed there
+    assert found[0](types.SimpleNamespace(http_application=types.SimpleNamespace(applications=[object()]))) is False
 
 
 def test_connect(monkeypatch):
@@ -712,7 +754,7 @@ def stub_row(row):
 def test_run_rows_submits_stores_and_counts(catalogue_folder, completed, monkeypatch):
     monkeypatch.setattr(rn, "run_row", stub_row)
     rows = cube_rows(catalogue_folder, 0, 1, 2, 3)
-    completed.order, completed.sizes, completed.repeat = [3, 1, 0, 2], [2, 1, 1, 1], [3]
+    completed.order, completed.sizes = [3, 1, 0, 3, 2], [2, 1, 2]  # row 4 answered twice, then row 3 in the same batch
     store = ResultStore(catalogue_folder / "r.parquet")
     written, done = [], []
     original = ResultStore.write
@@ -724,8 +766,8 @@ def test_run_rows_submits_stores_and_counts(catalogue_folder, completed, monkeyp
     assert re.fullmatch(r"[0-9a-f]{8}", token)
     assert keys == [f"labcut-row-{r.key}-{token}" for r in rows] and all(f.pure is False for f in fake.submitted)
     assert [f.args for f in fake.submitted] == [(r,) for r in rows]
-    assert written == [[rows[3].key, rows[1].key], [rows[0].key], [rows[2].key], []]  # the repeat of row 4 is not written
-    assert done == [2, 3, 4, 4]
+    assert written == [[rows[3].key, rows[1].key], [rows[0].key], [rows[2].key]]  # the repeat of row 4 is not written
+    assert done == [2, 3, 4]
     assert all(f.released for f in fake.submitted) and not any(f.cancelled for f in fake.submitted)
     got = {r["key"]: r for r in store.read().to_pylist()}
     lost = got[rows[1].key]
@@ -734,7 +776,7 @@ def test_run_rows_submits_stores_and_counts(catalogue_folder, completed, monkeyp
     assert {k: lost[k] for k in rn._base_record(rows[1])} == rn._base_record(rows[1])
     assert got[rows[3].key]["seconds"] == 3.0 and got[rows[2].key]["status"] == "error"
     fresh = FakeClient()
-    completed.order, completed.sizes, completed.repeat = None, None, []
+    completed.order, completed.sizes = None, None
     rn._run_rows(fresh, rows[:1], store, lambda n: None)
     assert fresh.submitted[0].key.rsplit("-", 1)[1] != token  # a run's own task keys
 
@@ -820,7 +862,7 @@ def batch(catalogue_folder, completed, monkeypatch, recommend):
     return catalogue_folder
 
 
-def test_run_counts_rows_and_resumes(batch, monkeypatch):
+def test_run_counts_rows_and_resumes(batch, completed, monkeypatch):
     out = batch / "r.parquet"
     cat = catalogue(batch, 0, 1, 2)
     fake = FakeClient()
@@ -833,13 +875,16 @@ def test_run_counts_rows_and_resumes(batch, monkeypatch):
     assert started == [{"dashboard": None, "workers": [{"address": "tcp://127.0.0.1:40001", "threads": 2}],
                         "to_run": 3, "skipped": 0, "startup_seconds": result.startup_seconds}]
     assert result.workers == started[0]["workers"] and len(ResultStore(out).parts()) == 1  # compacted
+    assert result.reports == [] and result.report_errors == []
     # again: everything is stored, the failed row too: no cluster
     progress.clear()
     never = types.SimpleNamespace()  # any use of the client fails
+    monkeypatch.setattr(distributed, "as_completed", REAL_AS_COMPLETED)  # no client: raises if reached
     again = rn.run(cat, never, out=out, progress=lambda d, t: progress.append((d, t)))
     assert (again.ran, again.skipped, again.failed, again.startup_seconds, again.workers, again.dashboard) == (0, 3, 1, 0.0, [], None)
     assert progress == [(0, 0)]
     # retry_failed: only the failed row runs again, and fails again
+    monkeypatch.setattr(distributed, "as_completed", completed)
     fake2 = FakeClient()
     third = rn.run(cat, fake2, out=out, retry_failed=True)
     assert (third.ran, third.skipped, third.failed) == (1, 2, 1)
@@ -872,7 +917,7 @@ def test_run_settings_reach_the_cluster(batch, monkeypatch):
 
     monkeypatch.setattr(rn, "_client", client)
     monkeypatch.setattr(rn, "_set_up_workers", lambda cl, threads: (seen.setdefault("threads", threads), ([{"address": "w"}], 0.5))[1])
-    monkeypatch.setattr(rn, "_dashboard", lambda cl: "http://dash/status")
+    monkeypatch.setattr(rn, "_dashboard", lambda cl: "http://dash/status" if isinstance(cl, FakeClient) else None)
     import labcut.batch.plugin as plugin
 
     monkeypatch.setattr(plugin, "cores", lambda: 8)
@@ -884,6 +929,26 @@ def test_run_settings_reach_the_cluster(batch, monkeypatch):
     monkeypatch.setattr(plugin, "cores", lambda: 1)
     rn.run(catalogue(batch, 4, 5, 6), out=batch / "r3.parquet")
     assert seen["client"][1] == 1
+
+
+def test_a_report_alone_on_the_embedded_cluster_takes_one_worker(batch, monkeypatch):
+    import labcut.batch.plugin as plugin
+
+    seen = []
+
+    @contextlib.contextmanager
+    def client(cl, workers, node_cache):
+        seen.append(workers)
+        yield FakeClient(), True, 0.0
+
+    monkeypatch.setattr(rn, "_client", client)
+    monkeypatch.setattr(plugin, "cores", lambda: 8)
+    monkeypatch.setattr(rn, "compare_cut", lambda row, name, s: name)
+    monkeypatch.setattr(rn, "merge_comparisons", Page)
+    cat = catalogue(batch, 0, 1)
+    rn.run(cat, out=batch / "r.parquet")
+    rn.run(cat, out=batch / "r.parquet", html=batch / "rep.html")  # nothing to run: the report's cluster
+    assert seen == [2, 1]
 
 
 def test_a_given_client_does_not_count_worker_set_up_as_start_up(batch, monkeypatch):
@@ -921,6 +986,7 @@ def test_run_checks_its_arguments_before_any_work(batch, monkeypatch):
         (dict(workers=1.5), "workers must be a whole number, got 1.5"),
         (dict(threads_per_worker=0), "threads per worker must lie in [1, 4096], got 0"),
         (dict(threads_per_worker=4097), "threads per worker must lie in [1, 4096], got 4097"),
+        (dict(threads_per_worker=1.5), "threads per worker must be a whole number, got 1.5"),
         (dict(html=batch / "rep.txt"), "output file 'rep.txt' must end in one of .html, .htm"),
     ]
     for kwargs, message in cases:
@@ -949,6 +1015,18 @@ def test_run_defaults_fill_empty_cells(batch, recommend):
     assert result.catalog.rows[0].material_label == "gold"
 
 
+def test_run_defaults(batch, recommend, monkeypatch):
+    """Without settings: the default material, bench, standard quality, energy, seed 0, into ./results.parquet."""
+    from labcut.physics.material import Labradorite
+
+    monkeypatch.chdir(batch)
+    result = rn.run([{"cut": "m/cube.ply"}], FakeClient())
+    assert recommend.calls[0][1] == {"material": Labradorite.coerce(None), "scenario": "bench", "quality": "standard",
+                                     "objective": "energy", "seed": 0, "max_tilt": 90.0}
+    assert result.store == Path("results.parquet") and (batch / "results.parquet").is_dir()
+    assert len(ResultStore(batch / "results.parquet").statuses()) == 1
+
+
 def test_run_reads_a_catalogue_file(batch, recommend):
     (batch / "c.csv").write_text("cut,seed\nm/cube.ply,0\nm/cube.ply,1\n")
     result = rn.run(batch / "c.csv", FakeClient(), out=batch / "r.parquet")
@@ -960,18 +1038,20 @@ def test_run_with_a_report_counts_its_cuts(batch, monkeypatch):
     monkeypatch.setattr(rn, "compare_cut", lambda row, name, s: name)
     monkeypatch.setattr(rn, "merge_comparisons", Page)
     out, html = batch / "r.parquet", batch / "rep.html"
-    # stored before: seed 0 ok, seed 3 failed; now: seeds 1 (ok) and 2 (fails)
-    rows = cube_rows(batch, 0, 1, 2, 3)
-    ResultStore(out).write([{**rn._base_record(rows[0]), "status": "ok"}, {**rn._base_record(rows[3]), "status": "error"}])
+    # stored before: seeds 0 and 4 ok, seed 3 failed; now: seeds 1 (ok) and 2 (fails)
+    rows = cube_rows(batch, 0, 1, 2, 3, 4)
+    ResultStore(out).write([{**rn._base_record(rows[0]), "status": "ok"}, {**rn._base_record(rows[3]), "status": "error"},
+                            {**rn._base_record(rows[4]), "status": "ok"}])
     progress = []
     result = rn.run(Catalog(None, rows), FakeClient(), out=out, html=html, progress=lambda d, t: progress.append((d, t)))
-    # planned: 2 rows + the report's cuts of the rows ok or to run (seeds 0, 1, 2: three groups of one cut)
-    # after the rows: seed 2 failed, so 2 rows + 2 cuts
-    assert progress == [(0, 5), (1, 5), (2, 5), (3, 4), (4, 4)]
-    assert (result.ran, result.skipped, result.failed) == (2, 2, 2)
+    # planned: 2 rows + the report's cuts of the rows ok or to run (seeds 0, 1, 2, 4: four groups of one cut)
+    # after the rows: seed 2 failed, so 2 rows + 3 cuts
+    assert progress == [(0, 6), (1, 6), (2, 6), (3, 5), (4, 5), (5, 5)]
+    assert (result.ran, result.skipped, result.failed) == (2, 3, 2)
     assert result.reports == [(html, "material default, standard quality, seed 0"),
-                              (batch / "rep-2.html", "material default, standard quality, seed 1")]
-    assert result.report_errors == [] and [p for p, _ in Page.saved] == [html, batch / "rep-2.html"]
+                              (batch / "rep-2.html", "material default, standard quality, seed 1"),
+                              (batch / "rep-3.html", "material default, standard quality, seed 4")]
+    assert result.report_errors == [] and [p for p, _ in Page.saved] == [html, batch / "rep-2.html", batch / "rep-3.html"]
 
 
 def test_a_report_alone_still_starts_the_cluster(batch, monkeypatch):
