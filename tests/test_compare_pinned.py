@@ -14,6 +14,7 @@ from __future__ import annotations
 import json
 import math
 import sys
+import time
 import warnings
 from pathlib import Path
 from types import SimpleNamespace
@@ -516,7 +517,8 @@ def toy_json():
                          "metrics": metrics, "map": {"tilt_deg": [0.0, 10.0], "azimuth_deg": [0.0, 90.0],
                                                      "score": [0.2, 0.1]}},
                 "normalised": {"flash_energy": 1.5, "coverage": None},
-                "compromise": {"metrics": {"flash_energy": 0.19, "flash_area": None, "per_view": {"x": [1.0]}}},
+                "compromise": {"metrics": {"flash_energy": 0.19, "flash_area": None, "per_view": {"x": [1.0]},
+                                           "made_up": 0.5}},
                 "flash_colour": {k: 10.0 + i for i, k in enumerate(COLOUR_UNITS)},
                 "tilt_curve": {"angles_deg": [-10.0, 10.0], "flash_energy": {"front_back": [0.1, 0.2]},
                                "flash_area": {"side_to_side": [0.3, 0.4]}},
@@ -559,6 +561,7 @@ def test_the_csv_rows_of_a_toy_comparison_by_hand():
                 *[row("A", "bench", "best", k, float(i + 1), u) for i, (k, u) in enumerate(METRIC_UNITS.items())],
                 row("A", "bench", "best", "flash_energy_normalised", 1.5, "ratio"),
                 row("A", "bench", "compromise", "flash_energy", 0.19, "L_ref"),
+                row("A", "bench", "compromise", "made_up", 0.5),  # a metric of no known unit: none
                 *[row("A", "bench", "best", f"colour_{k}", 10.0 + i, u) for i, (k, u) in enumerate(COLOUR_UNITS.items())],
                 row("A", "bench", "best", "tilt_flash_energy_front_back", 0.1, "L_ref", -10.0, "deg"),
                 row("A", "bench", "best", "tilt_flash_energy_front_back", 0.2, "L_ref", 10.0, "deg"),
@@ -597,7 +600,7 @@ def test_the_csv_skips_what_is_no_number():
 def test_rows_are_the_csv_rows_of_the_json_and_save_csv_writes_them(tmp_path):
     cmp = comparison(three())
     cmp.to_dict = toy_json
-    assert cmp.rows() == C.csv_rows(toy_json()) and len(cmp.rows()) == 71
+    assert cmp.rows() == C.csv_rows(toy_json()) and len(cmp.rows()) == 72
     cmp.rows = lambda: [row("A", "bench", "best", "n", 3), row("A", "", "", "x", 0.1, "L_ref", 2.0, "deg", None, "")]
     path = cmp.save_csv(tmp_path / "c.csv")
     assert path == tmp_path / "c.csv" and isinstance(path, Path)
@@ -782,7 +785,7 @@ def fakes(monkeypatch, exposures):
     """Every expensive part of run_comparison replaced by a fake that records its arguments:
     cut X under scenario S recommends an energy ENERGY[X][S] at normal N[X][S]."""
     log = {k: [] for k in ("study", "tilt", "render", "warm", "colour", "compromise", "describe", "workshop",
-                           "summarize", "radiance", "record", "rest")}
+                           "summarize", "radiance", "record", "rest", "metrics")}
     energy = {"A": {"bench": 0.5, "pendant": 0.25, "display": 0.5}, "B": {"bench": 0.25, "pendant": 0.5, "display": 0.5}}
     state = {"rest": 0.25, "parallel": 1.5}
 
@@ -791,6 +794,7 @@ def fakes(monkeypatch, exposures):
             self.cut, self.sc = cut, sc
 
         def metrics(self, normal):
+            log["metrics"].append((self.cut, self.sc, normal))
             return fm(energy[self.cut][self.sc] / 2)
 
     class Study:
@@ -805,6 +809,7 @@ def fakes(monkeypatch, exposures):
             return self._scorer
 
         def recommend(self):
+            time.sleep(0.002)  # each (cut, scenario) takes measurable time
             e = energy[self.cut][self.sc]
             return SimpleNamespace(metrics=fm(e), uncertainty=None, tolerance_deg=4.0, normal=("normal", self.cut, self.sc),
                                    misorientation=("mis", self.cut, self.sc), map_normals=("mn", self.cut, self.sc),
@@ -892,12 +897,14 @@ def test_run_comparison_wires_every_part(fakes):
     assert log["describe"] == [(("cp", n), None, 1.5) for n in "AB"]
     assert log["workshop"] == [(("cp", "A"), a.mesh, None, True), (("cp", "B"), b.mesh, None, True)]
     assert log["summarize"] == [(a.mesh, "A"), (b.mesh, "B")] and log["record"] == []
+    # each scenario's compromise metrics are its own scorer's at the compromise normal
+    assert log["metrics"] == [(n, s, ("cp", n)) for n in "AB" for s in ("bench", "pendant")]
     assert [c.name for c in cmp.cuts] == ["A", "B"] and cmp.scenarios == plan.scenarios
     assert (cmp.material, cmp.reference, cmp.quality, cmp.tau, cmp.seed, cmp.budget) == ("lab", 1, "quality", 0.2, 5, {})
     assert cmp.exposures == {"bench": 1.5, "pendant": 1.5}
     assert cmp.render == {"resolution": 24, "spp": 6, "strip_spp": 3, "strip_angles_deg": [-4.0, 4.0], "l_ref": 2.0,
                           "irradiance": 3.0}
-    assert 0.0 <= cmp.seconds < 60.0
+    assert 0.008 <= cmp.seconds < 60.0
     for c in cmp.cuts:
         assert c.compromise_description == f"said {('cp', c.name)}" and c.compromise_workshop == {"shop": ("cp", c.name)}
         assert c.summary.name == c.name and c.compromise.normal == ("cp", c.name) and c.cut in plan.cuts
@@ -909,7 +916,7 @@ def test_run_comparison_wires_every_part(fakes):
             assert r.renders.plan == {"integrator": f"int-{s}"} and r.colour.stats == {"estimator_flash_area": 0.25}
             assert r.compromise_metrics.flash_energy == {"A": {"bench": 0.5, "pendant": 0.25},
                                                          "B": {"bench": 0.25, "pendant": 0.5}}[c.name][s] / 2
-            assert r.compromise_relative == 0.5 + i / 4 and 0.0 <= r.seconds < 60.0
+            assert r.compromise_relative == 0.5 + i / 4 and 0.002 <= r.seconds < 60.0
     # ranked and normalised over B, the reference: A 2x B on bench, half on pendant
     ra, rb = cmp.cuts
     assert ra.scenarios["bench"].normalised["flash_energy"] == 2.0 and ra.scenarios["pendant"].rank == 2
