@@ -1007,6 +1007,8 @@ def test_the_unit_a_refusal_names():
     assert refusal(ParameterError, _check, 2.0, 0.1, "x0.1", "given").endswith("pass --units cm (units='cm')")
     # 200 units read in microns (0.2 mm): only mm puts it at 2-200 mm, exactly 200
     assert refusal(ParameterError, _check, 200.0, 1e-3, "um", "given").endswith("pass --units mm (units='mm')")
+    # 200.5 units read in microns: mm would make it 200.5 mm, just over: nothing is named
+    assert refusal(ParameterError, _check, 200.5, 1e-3, "um", "given").endswith("give its unit with --units (units=)")
     # 0.002 units read in mm: only metres make it 2-200 mm, exactly 2
     assert refusal(ParameterError, _check, 0.002).endswith("pass --units m (units='m')")
     # 0.0019 units: nothing makes 2-200 mm (metres: 1.9)
@@ -1392,3 +1394,88 @@ def test_save_mesh_leaves_the_report_out_of_the_file(tmp_path):
             with zipfile.ZipFile(tmp_path / "t.3mf") as z:
                 data = b"".join(z.read(n) for n in z.namelist())
         assert b"SECRET-SOURCE-NAME" not in data, suffix
+
+
+def _loops_cover_the_open_edges(faces, loops):
+    """Each loop visits a vertex once; together the loops walk every open edge once, in the direction
+    of the face that leaves it open."""
+    f = np.asarray(faces)
+    directed = [(int(a), int(b)) for t in f.tolist() for a, b in ((t[0], t[1]), (t[1], t[2]), (t[2], t[0]))]
+    undirected = [tuple(sorted(e)) for e in directed]
+    open_edges = sorted(e for e, u in zip(directed, undirected) if undirected.count(u) == 1)
+    walked = sorted((lp[i], lp[(i + 1) % len(lp)]) for lp in loops for i in range(len(lp)))
+    assert all(len(set(lp)) == len(lp) >= 3 for lp in loops)
+    assert walked == open_edges
+
+
+def test_holes_that_touch_at_several_vertices():
+    # icosahedra with faces taken away, their vertices renumbered: holes that meet at one or more vertices
+    first = [[3, 2, 8], [3, 1, 5], [8, 2, 7], [1, 11, 4], [2, 5, 0], [10, 4, 9], [7, 9, 8], [11, 8, 9], [4, 6, 1],
+             [9, 4, 11], [3, 8, 11], [10, 0, 6]]
+    loops = meshio._boundary_loops(np.array(first))
+    _loops_cover_the_open_edges(first, loops)
+    assert sorted(_cyclic(lp) for lp in loops) == [(0, 2, 7, 9, 10), (0, 6, 1, 11, 3, 2, 5), (1, 5, 3), (4, 6, 10)]
+    second = [[11, 9, 0], [9, 2, 8], [2, 1, 5], [11, 2, 9], [0, 9, 6], [3, 5, 7], [8, 6, 9], [3, 4, 6], [11, 10, 1],
+              [10, 0, 4], [6, 4, 0], [5, 8, 2]]
+    loops = meshio._boundary_loops(np.array(second))
+    _loops_cover_the_open_edges(second, loops)
+    assert sorted(_cyclic(lp) for lp in loops) == [(0, 11, 2, 1, 5, 7, 3, 4, 10), (1, 11, 10), (3, 5, 8, 6)]
+
+
+def test_a_binary_stl_count_is_four_bytes(tmp_path):
+    v, f = tet()
+    data = _stl_bytes(v, f[[3, 0, 1, 2]])  # the slanted face first: its normal's first byte (offset 84) is not 0
+    assert data[84] != 0 and len(data) == 84 + 4 * 50
+    (tmp_path / "t.stl").write_bytes(data)
+    assert quiet(tmp_path / "t.stl").volume == pytest.approx(80.0)
+
+
+def test_validate_arrays_repairs_by_default():
+    v, f = box()
+    v2, f2, repairs, notes, bodies = validate_arrays(v, f[:, ::-1], "b")
+    assert repairs == ["inverted all faces: the normals pointed inward"] and volume(v2, f2) == pytest.approx(480.0)
+    assert refusal(MeshError, validate_arrays, v, f[:, ::-1], "b", False) == (
+        "b: inverted all faces: the normals pointed inward (repair disabled)")
+
+
+def test_validate_mesh_edge_cases():
+    v, f = box()
+    assert refusal(MeshError, validate_mesh, _tm(np.zeros((0, 3)), f)) == "mesh is empty: it has no triangles"
+    assert refusal(MeshError, validate_mesh, _tm([[0.0, 0.0, 0.0]], [[0, 0, 0]])) == "mesh has only degenerate triangles"
+    small = _tm(*tet(1.0, 1.0, 1.0))  # a volume of 1/6: any positive volume will do
+    validate_mesh(small)
+    assert small._labcut_valid == meshio._fingerprint(small)
+    # a box whose corner 0 is split in two copies (a crack) and a degenerate face: the mesh is judged as it is,
+    # never merged
+    split = np.vstack([v, v[:1]])
+    g = f.copy()
+    g[1] = [4, 1, 8]
+    assert "is not closed (watertight)" in refusal(MeshError, validate_mesh, _tm(split, np.vstack([g, [[0, 0, 1]]])))
+    square = _tm([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], [[0, 1, 2], [0, 2, 3], [1, 0, 3], [1, 3, 2]])
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # trimesh's centre of mass of a zero volume
+        assert refusal(MeshError, validate_mesh, square) == (
+            "mesh encloses no positive volume (normals point inward, or it is flat); load it with labcut.load_mesh")
+
+
+def test_one_triangle_and_one_vertex_files(tmp_path):
+    (tmp_path / "one.obj").write_text("v 0 0 0\nv 10 0 0\nv 0 8 0\nf 1 2 3\n")
+    assert refusal(MeshError, load_mesh, tmp_path / "one.obj") == (
+        "one.obj is too open to repair: closing its 1 holes would make up 50 % of its surface")
+    (tmp_path / "point.obj").write_text("v 0 0 0\nf 1 1 1\n")
+    assert refusal(MeshError, load_mesh, tmp_path / "point.obj") == "point.obj has only degenerate triangles"
+
+
+def test_a_plain_ply_is_read_without_the_general_loader(tmp_path, monkeypatch):
+    """A PLY of triangles comes straight from trimesh's PLY reader (no scene, no copies of a big mesh)."""
+    v, f = box()
+    path = write(tmp_path / "b.ply", v, f)
+
+    def general(*args, **kwargs):
+        raise AssertionError("the general loader")
+
+    monkeypatch.setattr(trimesh, "load", general)
+    assert load_mesh(path).volume == pytest.approx(480.0)
+    assert meshio._read(path, "ply")[2] is None
+    with pytest.raises(MeshError, match=r"^cannot read b\.off as OFF \(the general loader\)$"):
+        load_mesh(write(tmp_path / "b.off", v, f))
