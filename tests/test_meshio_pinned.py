@@ -1479,3 +1479,11 @@ def test_a_plain_ply_is_read_without_the_general_loader(tmp_path, monkeypatch):
     assert meshio._read(path, "ply")[2] is None
     with pytest.raises(MeshError, match=r"^cannot read b\.off as OFF \(the general loader\)$"):
         load_mesh(write(tmp_path / "b.off", v, f))
+
+
+def test_faces_that_share_only_a_corner_are_one_component():
+    # (0, 1, 2) and (3, 4, 2) meet only at their third corner; (5, 6, 7) is a lone triangle of its own
+    labels, count = meshio._face_components(np.array([[0, 1, 2], [3, 4, 2], [5, 6, 7]]), 8)
+    assert count == 2 and labels.tolist() == [0, 0, 1]
+    labels, count = meshio._face_components(np.array([[5, 6, 7]]), 8)
+    assert count == 1 and labels.tolist() == [0]
