@@ -196,6 +196,8 @@ def test_row_hash_by_hand():
     assert got.dtype == np.uint64
     assert [int(h) for h in got] == [_reference_hash(r) for r in rows.tolist()]
     assert int(meshio._row_hash(np.array([[0, 0, 1]]))[0]) == 0x165667B19E3779F9
+    small = np.array([[1, 2, 3], [-7, 0, 2**30]], dtype=np.int32)  # any integer type: the same hashes
+    assert meshio._row_hash(small).tolist() == meshio._row_hash(small.astype(np.int64)).tolist()
 
 
 def test_all_distinct_tells_rows_that_differ_in_any_column():
