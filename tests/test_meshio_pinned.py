@@ -1489,3 +1489,12 @@ def test_faces_that_share_only_a_corner_are_one_component():
     assert count == 2 and labels.tolist() == [0, 0, 1]
     labels, count = meshio._face_components(np.array([[5, 6, 7]]), 8)
     assert count == 1 and labels.tolist() == [0]
+
+
+def test_the_size_is_the_used_vertices_after_degenerate_faces_go():
+    # a vertex far away used only by a degenerate face: once the face goes, it is no part of the stone's size
+    # (read with it, 1e8 mm across, every face of the box would be "near-zero area")
+    v, f = box()
+    far = validated(np.vstack([v, [[1e8, 0.0, 0.0]]]), np.vstack([f, [[8, 8, 0]]]))
+    assert far[2] == ["removed 1 degenerate faces (repeated vertices)"] and far[3] == []
+    assert len(far[0]) == 8 and float(np.abs(far[0]).max()) == 5.0 and volume(far[0], far[1]) == pytest.approx(480.0)
