@@ -1498,3 +1498,32 @@ def test_the_size_is_the_used_vertices_after_degenerate_faces_go():
     far = validated(np.vstack([v, [[1e8, 0.0, 0.0]]]), np.vstack([f, [[8, 8, 0]]]))
     assert far[2] == ["removed 1 degenerate faces (repeated vertices)"] and far[3] == []
     assert len(far[0]) == 8 and float(np.abs(far[0]).max()) == 5.0 and volume(far[0], far[1]) == pytest.approx(480.0)
+
+
+def test_a_hole_of_a_slanted_face():
+    # the tetrahedron without its slanted face: 55.7 of 149.7 units², 37 % (not 38)
+    v, f = tet()
+    assert refusal(MeshError, validated, v, f[:3]) == (
+        "s is too open to repair: closing its 1 holes would make up 37 % of its surface")
+
+
+def test_a_flat_closed_surface_without_repair():
+    v = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], dtype=float)
+    f = [[0, 1, 2], [0, 2, 3], [1, 0, 3], [1, 3, 2]]
+    # no volume is neither inward nor outward: nothing to invert, the refusal is the flatness
+    assert refusal(MeshError, validated, v, f, repair=False) == "s encloses no volume (a flat or empty surface)"
+
+
+@pytest.mark.parametrize("big", [False, True])
+def test_any_size_is_a_solid_in_validation(monkeypatch, big):
+    """validate_arrays has no size limit (load_mesh's is in mm): a 1 µm tetrahedron is a solid."""
+    if big:
+        monkeypatch.setattr(meshio, "MANIFOLD_CHECK_FACES", 0)
+    v, f = tet(1e-3, 1e-3, 1e-3)
+    v2, f2, repairs, notes, bodies, vol, cross = validated(v, f)
+    assert (repairs, notes, bodies) == ([], [], 1) and volume(v2, f2) == pytest.approx(1e-9 / 6)
+    if big:
+        assert vol == pytest.approx(1e-9 / 6) and cross.shape == (4, 3)
+    unit = validated(*tet(1.0, 1.0, 1.0))
+    if big:  # a volume under 1 is kept as it is, with its cross products
+        assert unit[5] == pytest.approx(1.0 / 6.0) and unit[6].tolist() == meshio._face_measures(*tet(1.0, 1.0, 1.0), keep=True)[2].tolist()
