@@ -9,7 +9,8 @@ row (every column by hand, its warnings, its one-line error, memory and time); n
 written twice (a lost task stored as failed, a key answered twice written once, an interrupted run
 cancelling only what has not finished); resume and ``retry_failed``; progress counts with and
 without the report; the summary figures; the report's groups, cuts, pages and errors; the embedded
-cluster's settings; the worker set-up; every message word for word. Under two seconds.
+cluster's settings; the worker set-up; every message word for word. No cluster, no recommendation:
+65 tests in a few seconds (under 3 s of CPU).
 """
 
 from __future__ import annotations
