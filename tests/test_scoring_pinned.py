@@ -853,3 +853,320 @@ def test_random_maps_equal_the_dense_sum_on_every_path():
             w = sm.a * np.exp(kappa * (np.abs(sm.h @ m[k]) - 1))
             g = sm.norm * kappa * (w * np.sign(sm.h @ m[k])) @ sm.h
             assert np.allclose(grad, g, rtol=1e-7, atol=1e-8 * np.abs(g).max())
+
+
+# ---------------------------------------------------------------------- survivors of the first mutation run
+def test_float32_normals_are_read_in_float64():
+    """A float32 normal is made unit in float64: the answer is the float64 one of the same numbers
+    (in float32 it differs in the eighth digit)."""
+    n32 = np.array([0.3, 0.4, 0.866], dtype=np.float32)
+    assert normal_to_stereo(n32) == normal_to_stereo(n32.astype(np.float64))
+    s = Scorer(random_problem(REFERENCE, n=300, kappa=40.0), "area")
+    assert s.metrics(n32).to_dict() == s.metrics(n32.astype(np.float64)).to_dict()
+
+
+def test_padded_rows_edge_cases(monkeypatch):
+    """No rows at all; owners not sorted though each is at least the first (the sorted path must not
+    take them); sorted owners placed without a sort; unsorted ones keep each row in triple order
+    (a stable sort: the sums run in the same order whatever the sort's algorithm)."""
+    from labcut.backend import ad_types
+
+    _, t = ad_types()
+    index, valid, width = S._padded_rows(np.zeros(0, dtype=np.int64), 0, t)
+    assert (width, len(index), len(valid)) == (1, 0, 0)
+    index, valid, width = S._padded_rows(np.array([0, 2, 1]), 3, t)
+    assert width == 1 and np.asarray(index).tolist() == [0, 2, 1] and np.asarray(valid).all()
+    owner = np.random.default_rng(0).integers(0, 3, 1000)
+    index, valid, width = S._padded_rows(owner, 3, t)
+    index, valid = np.asarray(index).reshape(3, width), np.asarray(valid).reshape(3, width)
+    for r in range(3):
+        assert index[r][valid[r]].tolist() == np.flatnonzero(owner == r).tolist()
+
+    def no_sort(*a, **k):
+        raise AssertionError("sorted owners need no sort")
+
+    monkeypatch.setattr(S.np, "argsort", no_sort)
+    index, valid, width = S._padded_rows(np.array([0, 0, 1, 1, 1, 3]), 4, t)
+    assert width == 3 and np.asarray(index).tolist() == [0, 1, 0, 2, 3, 4, 0, 0, 0, 5, 0, 0]
+
+
+def test_per_view_values_are_floats():
+    """Whole-number inputs give float per-view lists (the JSON writes 1.0, not 1)."""
+    fm = FlashMetrics.from_views([1, 0], [2, 0], [3, 0], [1, 0])
+    assert all(type(x) is float for values in fm.per_view.values() for x in values)
+
+
+def random_small(kernels: KernelOptions = DEFAULT_KERNELS) -> FlashProblem:
+    return random_problem(kernels, n=400, kappa=30.0, seed=11, zeros=False)
+
+
+@pytest.mark.parametrize("which", list(KERNELS))
+@pytest.mark.parametrize("objective", ["area", "intensity", "balanced"])
+def test_scores_and_gradients_of_a_random_problem(which, objective):
+    """Triples in every direction (h_y too): the Dr.Jit objectives equal the numpy one written out,
+    at normals off every axis, hard and smooth, with the gradient of the smooth one."""
+    p = random_small(KERNELS[which])
+    p = replace(p, threshold=float(np.median(p.pair_radiance(np.array([[0.0, 0.3, 0.95]]))[:, 0])))
+    s = Scorer(p, objective)
+    eps = 1e-6
+    for uv in [(0.05, 0.15), (-0.3, 0.4), (0.2, -0.6)]:
+        m = stereo_to_normal(*uv)
+        assert s.score_uv(*uv) == pytest.approx(objective_np(p, m, objective, False), rel=1e-5, abs=1e-7)
+        value, grad = s.value_and_grad_uv(*uv)
+        assert value == pytest.approx(objective_np(p, m, objective, True), rel=1e-5, abs=1e-7)
+        fd = [(objective_np(p, stereo_to_normal(uv[0] + eps * du, uv[1] + eps * dv), objective, True)
+               - objective_np(p, stereo_to_normal(uv[0] - eps * du, uv[1] - eps * dv), objective, True)) / (2 * eps)
+              for du, dv in ((1, 0), (0, 1))]
+        assert np.allclose(grad, fd, rtol=5e-3, atol=1e-3 * max(1.0, np.abs(fd).max())), (uv, grad, fd)
+
+
+@pytest.mark.parametrize("which", list(KERNELS))
+def test_energy_of_a_random_problem_on_every_path(which):
+    """The energy at normals off every axis: score, value (float64, the sparse map's), the dense
+    device map and the batch (float32) against Σ alpha_t q(h_t·m) written out."""
+    p = random_small(KERNELS[which])
+    s = Scorer(p)
+    uvs = np.array([[0.05, 0.15], [-0.3, 0.4], [0.2, -0.6], [0.0, 0.9]])
+    normals = np.array([stereo_to_normal(*uv) for uv in uvs])
+    want = np.array([objective_np(p, m, "energy", False) for m in normals])
+    # the binning moves each triple by at most a cell (1/8 of the lobe's width): 1e-3 of the energy
+    assert np.allclose([s.score_uv(*uv) for uv in uvs], want, rtol=1e-3)
+    sparse = np.array([s.sparse_map(m[None, :])[0] for m in normals])  # float64, one normal at a time
+    assert np.array([s.score_uv(*uv) for uv in uvs]) == pytest.approx(sparse, rel=1e-13)
+    assert np.array([s.value_and_grad_uv(*uv)[0] for uv in uvs]) == pytest.approx(sparse, rel=1e-13)
+    assert s.scores(normals) == pytest.approx(sparse, rel=1e-8)  # the map's relative accuracy
+    assert s.energy_map_dense(normals) == pytest.approx(sparse, rel=1e-5)  # float32 terms
+    values, grads = s.energy_batch_value_and_grad(uvs[:, 0], uvs[:, 1])
+    assert values.dtype == np.float64 and grads.dtype == np.float64 and grads.shape == (4, 2)
+    assert values == pytest.approx(sparse, rel=1e-5)
+    for (u, v), g in zip(uvs, grads):
+        assert g == pytest.approx(s.value_and_grad_uv(u, v)[1], rel=1e-4, abs=1e-5 * np.abs(g).max())
+
+
+def test_the_dense_map_writes_every_entry(monkeypatch):
+    """energy_map_dense fills a fresh array block by block: poisoned, nothing of it is left."""
+    real_empty = np.empty
+
+    def poisoned(shape, dtype=float, **k):
+        out = real_empty(shape, dtype, **k)
+        if np.dtype(dtype).kind == "f":
+            out.fill(np.nan)
+        return out
+
+    s = Scorer(problem())
+    monkeypatch.setattr(S.np, "empty", poisoned)
+    got = s.energy_map_dense(np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.6, 0.0, 0.8]]))
+    assert got == pytest.approx([1.1, 1.0, 0.4 * 2 ** 0.8 + 0.3 * 2 ** 0.6], rel=1e-6)
+
+
+def test_scores_of_the_energy_objective_are_one_map(monkeypatch):
+    s = Scorer(problem())
+    calls = spy(monkeypatch, s, "energy_map")
+    s.scores(np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0]]))
+    assert calls == [2]
+
+
+@pytest.mark.parametrize("which", list(KERNELS))
+def test_a_view_flash_area_of_1e_12_counts_as_none(which):
+    """The intensity's guard: a view whose flash area is at most 1e-12 has intensity 0 (no division
+    by a vanishing area); just above it, its mean radiance. Pair 0 flashes with radiance 5."""
+    for weight, intensity in [(float(np.float32(1e-12)), 0.0), (float(np.float32(2e-12)), 5.0)]:
+        p = problem(KERNELS[which], pair_weight=np.array([weight, 2.0, 4.0]), view_weight=np.array([1.0, 0.0, 0.0]))
+        assert Scorer(p).metrics(np.array([0.0, 0.0, 1.0])).flash_intensity == pytest.approx(intensity, rel=1e-12)
+        assert Scorer(p, "intensity").score_uv(0.0, 0.0) == pytest.approx(intensity, rel=1e-6)
+
+
+def test_float32_normals_in_the_map_are_read_in_float64():
+    sm = two_tile_map(energy_map=False)
+    m32 = near([0.01, 0.002, 1], [1, 0.003, 0.01]).astype(np.float32)
+    m64 = m32.astype(np.float64)
+    for path in ("union", "tiles"):
+        assert sm(m32, path=path).tolist() == sm(m64, path=path).tolist()
+    assert sm.dense(m32).tolist() == sm.dense(m64).tolist()
+    v32, g32 = sm.value_and_grad(m32[1])
+    v64, g64 = sm.value_and_grad(m64[1])
+    assert v32 == v64 and g32.tolist() == g64.tolist()
+
+
+def test_a_normal_exactly_at_the_reach_gets_its_term():
+    """|m·centre| equal to the tile's reach (cos_reach, for the kernel cos_reach_device) counts:
+    m = (sqrt(1 - r²), 0, r) against the pole's bin gives m·centre = r exactly."""
+    kappa = 100.0
+    sm = SparseLobeMap(np.array([[0.0, 0.0, 1.0]]), np.ones(1), kappa, 1.0)
+    for reach, paths in [(sm.cos_reach[0], ("union", "tiles")), (sm.cos_reach_device[0], ("device",))]:
+        m = np.array([[math.sqrt(1 - reach * reach), 0.0, reach]])
+        assert float(S._cos_matrix(sm.centre, m.T)[0, 0]) == reach
+        want = math.exp(kappa * (reach - 1.0))
+        for path in paths:
+            assert sm(m, path=path)[0] == pytest.approx(want, rel=1e-5), path
+        if paths != ("device",):
+            assert sm.value_and_grad(m[0])[0] == pytest.approx(want, rel=1e-12)
+
+
+def test_forced_paths_take_their_path(monkeypatch):
+    m = near([0, 0, 1], [1, 0, 0.01], [0.01, 0, 1])
+    sm = two_tile_map(energy_map=False)
+    union = spy(monkeypatch, sm, "_union")
+    device = spy(monkeypatch, sm, "_launch_device_sums")
+    sm(m, path="union")
+    assert len(union) == 1 and device == []
+    sm(m, path="tiles")
+    assert len(union) == 1 and device == []
+    sm(m, path="device")
+    assert len(union) == 1 and device == [3]
+
+
+def edge_problem(kernels: KernelOptions) -> FlashProblem:
+    """Triples in the grid's edge cells at 512 cells (κ = ln 2) and in the cells next to them: -x in
+    cell (0, 256), one at u = -1 + 1.5/256 in (1, 256); +x in (511, 256) and u = 1 - 1.5/256 in
+    (510, 256); the same for ±y; and one at (u, v) = (1.5/256, -0.9999) in cell (257, 0), the cell an
+    unclipped +y key (256 x 512 + 512) would fall into. Weights 1, 2, 4, ... tell them apart."""
+    d = 1.5 / 256
+    uv = [(-1.0, 0.0), (-1 + d, 0.0), (1.0, 0.0), (1 - d, 0.0), (0.0, -1.0), (0.0, -1 + d), (0.0, 1.0), (0.0, 1 - d),
+          (d, -0.9999)]
+    h = np.array([stereo_to_normal(u, v) for u, v in uv], dtype=np.float32)
+    h[:, 2] = np.maximum(h[:, 2], 0.0)
+    n = len(uv)
+    return problem(kernels, h=h, c=np.ones(n, dtype=np.float32), pair=np.arange(n, dtype=np.int32),
+                   pair_view=np.zeros(n, dtype=np.int64), pair_weight=2.0 ** np.arange(n), view_weight=np.array([1.0]))
+
+
+@pytest.mark.parametrize("which", ["numpy", "keys", "drjit"])
+def test_edge_cells_by_hand(which):
+    """Each of the nine triples alone in its bin, in ascending cell order:
+    (0,256) (1,256) (256,0) (256,1) (256,510) (256,511) (257,0) (510,256) (511,256)."""
+    options = {"numpy": REFERENCE, "keys": KernelOptions(bins=False), "drjit": DEFAULT_KERNELS}[which]
+    hb, ab = Scorer(edge_problem(options))._bin_triples()
+    assert ab.tolist() == [1.0, 2.0, 16.0, 32.0, 128.0, 64.0, 256.0, 8.0, 4.0]
+
+
+def test_the_device_bins_up_to_the_dense_key_limit(monkeypatch):
+    """The fixed-point device sums serve grids up to DENSE_KEY_LIMIT cells (a bin of 2^-64 dropped);
+    one cell more, the float64 host sums (that bin kept)."""
+    h = np.array([[0, 0, 1], [1, 0, 0], [0, 1, 0]], dtype=np.float32)
+    p = problem(DEFAULT_KERNELS, h=h, c=np.ones(3, dtype=np.float32), pair=np.arange(3, dtype=np.int32),
+                pair_view=np.zeros(3, dtype=np.int64), pair_weight=np.array([0.5, 0.25, 2.0 ** -64]),
+                view_weight=np.array([1.0]))
+    monkeypatch.setattr(S, "DENSE_KEY_LIMIT", 512 * 512)
+    assert Scorer(p)._bin_triples()[1].tolist() == [0.5, 0.25]
+    monkeypatch.setattr(S, "DENSE_KEY_LIMIT", 512 * 512 - 1)
+    assert Scorer(p)._bin_triples()[1].tolist() == [0.5, 2.0 ** -64, 0.25]
+
+
+def test_the_host_bins_sort_only_past_the_dense_key_limit(monkeypatch):
+    calls = []
+    real = np.unique
+
+    def counted(*a, **k):
+        calls.append(1)
+        return real(*a, **k)
+
+    p = problem(REFERENCE)
+    monkeypatch.setattr(S.np, "unique", counted)
+    monkeypatch.setattr(S, "DENSE_KEY_LIMIT", 512 * 512)
+    assert Scorer(p)._bin_triples()[1].tolist() == pytest.approx([0.4, 0.3], rel=1e-15)
+    assert calls == []
+    monkeypatch.setattr(S, "DENSE_KEY_LIMIT", 512 * 512 - 1)
+    assert Scorer(p)._bin_triples()[1].tolist() == pytest.approx([0.4, 0.3], rel=1e-15)
+    assert calls != []
+
+
+@pytest.mark.parametrize("limit", [S.DENSE_KEY_LIMIT, 10])
+def test_a_problem_without_triples_has_one_empty_bin(limit, monkeypatch):
+    monkeypatch.setattr(S, "DENSE_KEY_LIMIT", limit)
+    p = problem(DEFAULT_KERNELS, h=np.zeros((0, 3), dtype=np.float32), c=np.zeros(0, dtype=np.float32),
+                pair=np.zeros(0, dtype=np.int32))
+    hb, ab = Scorer(p)._bin_triples()
+    assert hb.tolist() == [[0.0, 0.0, 1.0]] and ab.tolist() == [0.0]
+
+
+def test_fixed_point_bins_too_light_for_a_direction():
+    """A bin whose weight rounds to a unit but whose direction's sums each round to zero (0.6 units
+    along (1, 1, 1)/sqrt 3: 0.35 each) has no direction: dropped. Every bin dropped: the one empty
+    bin at the pole; one bin left: that bin. A zero weight (c = 0) does not count towards the total
+    that sets the units."""
+    unit = 2.0 ** -61
+    s3 = 1 / math.sqrt(3)
+    h = np.array([[0, 0, 1], [s3, s3, s3], [1, 0, 0], [0, 1, 0]], dtype=np.float32)
+    c = np.array([1.0, 1.0, 1.0, 0.0], dtype=np.float32)
+
+    def bins(weights):
+        p = problem(DEFAULT_KERNELS, h=h, c=c, pair=np.arange(4, dtype=np.int32),
+                    pair_view=np.zeros(4, dtype=np.int64), pair_weight=np.array(weights), view_weight=np.array([1.0]))
+        return Scorer(p)._bin_triples()
+
+    hb, ab = bins([0.5, 0.6 * unit, 0.25, 1.0])
+    assert ab.tolist() == [0.5, 0.25] and hb.tolist() == [[0, 0, 1], [1, 0, 0]]
+    hb, ab = bins([0.75 * unit, 0.6 * unit, 0.0, 1.0])  # total below 1: S = 61; the pole's 0.75 units -> 1
+    assert ab.tolist() == [unit] and hb.tolist() == [[0, 0, 1]]
+    hb, ab = bins([0.25 * unit, 0.6 * unit, 0.0, 1.0])
+    assert ab.tolist() == [0.0] and hb.tolist() == [[0, 0, 1]]
+
+
+def test_float32_bins_are_read_in_float64():
+    rng = np.random.default_rng(6)
+    h = rng.normal(size=(200, 3)).astype(np.float32)
+    h /= np.linalg.norm(h, axis=1, keepdims=True)
+    h[:, 2] = np.abs(h[:, 2])
+    a = rng.random(200).astype(np.float32)
+    m = near([0.1, 0.2, 1], [0.5, -0.2, 0.4])
+    one = SparseLobeMap(h, a, 300.0, 2.0, kernels=REFERENCE)
+    other = SparseLobeMap(h.astype(np.float64), a.astype(np.float64), 300.0, 2.0, kernels=REFERENCE)
+    assert one(m).tolist() == other(m).tolist() and one.dense(m).tolist() == other.dense(m).tolist()
+    assert one.cos_cut == other.cos_cut and one.cos_reach.tolist() == other.cos_reach.tolist()
+
+
+def test_a_bin_a_hair_longer_than_unit_still_counts():
+    """A bin whose length rounds to just above 1 (1 + 1e-15): its cosine to its tile's centre is
+    clipped to 1 (not an arccos of NaN that would cull the tile from every normal)."""
+    sm = SparseLobeMap(np.array([[0.0, 0.0, 1.0 + 1e-15]]), np.ones(1), 100.0, 1.0)
+    assert np.isfinite(sm.cos_reach).all()
+    assert sm(near([0.01, 0, 1]), path="union")[0] == pytest.approx(math.exp(100 * (1 / math.sqrt(1.0001) - 1)), rel=1e-9)
+
+
+def test_a_cut_short_of_a_quarter_turn():
+    """κ = 20, one bin at the pole: T = ln 1e8, cos_cut = 1 - T/20 = 0.079 (cut 1.49 rad, short of π/2):
+    a normal 1.2 rad away keeps its term, one 1.52 rad away (|cos| 0.05 < 0.079) loses it."""
+    kappa = 20.0
+    sm = SparseLobeMap(np.array([[0.0, 0.0, 1.0]]), np.ones(1), kappa, 1.0)
+    cos_cut = 1 - math.log(1e8) / kappa
+    assert sm.cos_reach == pytest.approx([math.cos(math.acos(cos_cut) + 1e-6)], rel=1e-9)
+    for theta, inside in [(1.2, True), (1.52, False)]:
+        m = np.array([[math.sin(theta), 0.0, math.cos(theta)]])
+        want = math.exp(kappa * (math.cos(theta) - 1)) if inside else 0.0
+        assert sm(m, path="union")[0] == pytest.approx(want, rel=1e-12, abs=0)
+
+
+def test_tiles_are_cells_of_a_clipped_grid():
+    """ceil(16/cut) cells across for a cut short of 128 cells; the grid's last cells hold the
+    equator's ±x and ±y (clipped, not a cell of their own beyond the grid)."""
+    rng = np.random.default_rng(7)
+    h = rng.normal(size=(20000, 3))
+    h /= np.linalg.norm(h, axis=1, keepdims=True)
+    h[:, 2] = np.abs(h[:, 2])
+    sm = SparseLobeMap(h, np.ones(len(h)), 1000.0, 1.0)
+    cut = math.acos(sm.cos_cut)
+    g = math.ceil(16 / cut)
+    assert 6 < g < 128 and math.ceil(17 / cut) > g
+
+    def cells(points, g):
+        u, v = points[:, 0] / (1 + points[:, 2]), points[:, 1] / (1 + points[:, 2])
+        iu, iv = (np.clip(((w + 1) * 0.5 * g).astype(int), 0, g - 1) for w in (u, v))
+        return len(set(zip(iu.tolist(), iv.tolist())))
+
+    assert sm.n_tiles == cells(h, g) != cells(h, math.ceil(17 / cut))
+    d = 0.5 / g  # the cells next to the equator's four points
+    edge = np.array([stereo_to_normal(u, v) for u, v in
+                     [(1, 0), (1 - d, 0), (-1, 0), (-1 + d, 0), (0, 1), (0, 1 - d), (0, -1), (0, -1 + d)]])
+    edge[:, 2] = np.maximum(edge[:, 2], 0.0)
+    small = SparseLobeMap(edge, np.ones(8), 1000.0, 1.0)
+    g = math.ceil(16 / math.acos(small.cos_cut))
+    assert small.n_tiles == cells(edge, g) == 4
+
+
+def test_the_gradient_of_a_normal_given_as_a_row():
+    sm = two_tile_map()
+    m = near([0.01, 0, 1])
+    value, grad = sm.value_and_grad(m)
+    assert (value, grad.tolist()) == (sm.value_and_grad(m[0])[0], sm.value_and_grad(m[0])[1].tolist())
+    assert value == pytest.approx(math.exp(1000 * (m[0, 2] - 1)), rel=1e-12)
