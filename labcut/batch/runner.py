@@ -81,13 +81,12 @@ def run_row(row: Row) -> dict[str, Any]:
 
     start = time.perf_counter()
     record = _base_record(row)
-    notes: list[str] = []
+    caught: list[warnings.WarningMessage] = []
     try:
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always", LabcutWarning)
             mesh = row.load_mesh()
             rec = _recommend(mesh, row)
-        notes = [" ".join(str(w.message).split()) for w in caught if issubclass(w.category, LabcutWarning)]
         in_flash, _ = energy_parts(rec.metrics)
         m = rec.metrics
         record.update({
@@ -102,6 +101,8 @@ def run_row(row: Row) -> dict[str, Any]:
         })
     except Exception as exc:  # a row's failure is recorded; the batch goes on
         record.update({"status": "error", "error": _one_line(exc)})
+    # labcut's warnings before a failure are kept too: "units guessed" may say why the row failed
+    notes = [" ".join(str(w.message).split()) for w in caught if issubclass(w.category, LabcutWarning)]
     now, peak = _memory()
     record.update({"warnings": "; ".join(notes) or None, "seconds": time.perf_counter() - start, "worker": _worker_name(),
                    "worker_rss_mib": now, "worker_peak_rss_mib": peak,
