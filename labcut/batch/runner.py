@@ -367,7 +367,8 @@ def run(
         workers once, when they do not have it yet: :class:`~labcut.batch.plugin.NodeKernelCache`);
         None (default): when some worker is not on this machine's loopback address.
     progress: ``callback(done, total)`` over the rows to run (and the report's cuts).
-    on_start: ``callback(info)`` once the cluster is up: ``dashboard``, ``workers``, ``to_run``, ``skipped``.
+    on_start: ``callback(info)`` once the cluster is up: ``dashboard``, ``workers``, ``to_run``, ``skipped``,
+        ``startup_seconds`` (the cluster's start and the workers' set-up).
 
     Returns a :class:`BatchResult`. Ctrl-C (``KeyboardInterrupt``) stops the batch; every row
     finished before is already stored, and the same call again runs only the rest.
