@@ -25,22 +25,31 @@ def check_number(value: Any, name: str, low: float = -math.inf, high: float = ma
     of = f" of {unit}" if unit else ""
     if isinstance(value, bool):
         raise ParameterError(f"{name} must be a number{of}, got {value!r}", parameter=name)
+    # a whole number given as one is checked and kept exactly: through a float, seeds above 2**53
+    # would be rounded (two seeds running as one) and 2**63 - 1 read as 2**63
+    exact = integer and isinstance(value, int | np.integer)
     try:
-        x = float(value)
+        x = int(value) if exact else float(value)
     except (TypeError, ValueError):
         raise ParameterError(f"{name} must be a number{of}, got {value!r}", parameter=name) from None
-    if not math.isfinite(x):
+    if not exact and not math.isfinite(x):
         raise ParameterError(f"{name} must be a finite number{of}, got {value!r}", parameter=name)
+
+    def shown(b: float) -> str:  # a bound or the value as the message prints it: whole numbers in full
+        if integer and -2**64 < b < 2**64 and b == int(b):
+            return str(int(b))
+        return f"{b:g}" if not isinstance(b, int) else f"{b:.6g}" if abs(b) < 10**300 else "a number too large to use"
+
     if (x <= low if low_open else x < low) or x > high:
         unit_s = f" {unit}" if unit else ""
         if high == math.inf:
-            bound = f"{'greater than' if low_open else 'at least'} {low:g}{unit_s}"
+            bound = f"{'greater than' if low_open else 'at least'} {shown(low)}{unit_s}"
         elif low == -math.inf:
-            bound = f"at most {high:g}{unit_s}"
+            bound = f"at most {shown(high)}{unit_s}"
         else:
-            bound = f"lie in {'(' if low_open else '['}{low:g}, {high:g}]{unit_s}"
+            bound = f"lie in {'(' if low_open else '['}{shown(low)}, {shown(high)}]{unit_s}"
         bound = bound if bound.startswith("lie") else f"be {bound}"
-        raise ParameterError(f"{name} must {bound}{f' ({why})' if why else ''}, got {x:g}", parameter=name)
+        raise ParameterError(f"{name} must {bound}{f' ({why})' if why else ''}, got {shown(x)}", parameter=name)
     if integer:
         if x != int(x):
             raise ParameterError(f"{name} must be a whole number, got {value!r}", parameter=name)
