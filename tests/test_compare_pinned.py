@@ -643,6 +643,12 @@ def plans(monkeypatch):
     return calls
 
 
+def test_the_largest_seed_is_kept_to_the_last_unit(plans):
+    """Not rounded through a float: 2**63 - 1 and 2**53 + 1 are themselves."""
+    for seed in (2**63 - 1, 2**53 + 1):
+        assert C.plan_comparison([SMALL], "green", ["bench"], 0, "draft", seed=seed).seed == seed
+
+
 def test_plan_comparison_defaults(plans):
     plan = C.plan_comparison([SMALL, ("other", SMALL)])
     assert plan.quality.name == "standard" and plan.seed == 0 and plan.reference == 0 and plan.budget is None
