@@ -64,6 +64,14 @@ MODULE_TESTS: dict[str, list[str]] = {
             "test_bundled_meshes_stay_as_they_are", "test_shapes_that_do_not_say_keep_the_file_convention")],
     "labcut/geometry/outlines.py": ["tests/test_outlines_pinned.py", "tests/test_geometry_cabochon.py"],
     "labcut/geometry/cabochon.py": ["tests/test_cabochon_pinned.py", "tests/test_geometry_cabochon.py"],
+    "labcut/orientation/uncertainty.py": ["tests/test_uncertainty_pinned.py", "tests/test_uncertainty.py"],
+    # not tests/test_compare.py, test_rankings.py, test_compare_budget.py, test_compare_cli.py: real comparisons,
+    # renders and CLI runs (about 10 s a mutant, 1930 mutants)
+    "labcut/reports/compare.py": ["tests/test_compare_pinned.py"],
+    # not tests/test_batch.py: its 2-worker Dask clusters (about a minute a mutant)
+    "labcut/batch/runner.py": ["tests/test_runner_pinned.py"],
+    # not tests/test_exposure.py: its renders (a render per mutant reached)
+    "labcut/rendering/exposure.py": ["tests/test_exposure_pinned.py"],
     "labcut/explorer/hemisphere.py": ["tests/test_explore.py"],
     "labcut/explorer/state.py": ["tests/test_explore.py"],
 }
