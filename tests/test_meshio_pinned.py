@@ -1527,3 +1527,12 @@ def test_any_size_is_a_solid_in_validation(monkeypatch, big):
     unit = validated(*tet(1.0, 1.0, 1.0))
     if big:  # a volume under 1 is kept as it is, with its cross products
         assert unit[5] == pytest.approx(1.0 / 6.0) and unit[6].tolist() == meshio._face_measures(*tet(1.0, 1.0, 1.0), keep=True)[2].tolist()
+
+
+def test_the_share_of_a_hole_rounds_to_the_nearest_percent():
+    # a 1 x 1 x 0.32 box without its top: 1 of 3.28 units², 30.49 %: "30" (31 would be 101 % of it)
+    v, f = box((1.0, 1.0, 0.32))
+    top = [i for i, t in enumerate(f.tolist()) if all(v[k][2] == 0.16 for k in t)]
+    assert len(top) == 2
+    assert refusal(MeshError, validated, v, np.delete(f, top, axis=0)) == (
+        "s is too open to repair: closing its 1 holes would make up 30 % of its surface")
