@@ -1189,3 +1189,8 @@ def test_bins_keep_their_order_within_a_tile():
     for s0, c in zip(sm.starts, sm.counts):
         assert np.all(np.diff(sm.a[s0:s0 + c]) > 0)
     assert np.array_equal(sm.h, h[(sm.a - 1).astype(int)])
+    # and the tiles in ascending cell order iu g + iv of a g x g grid (cut = π here: g = ceil(16/π) = 6)
+    first = sm.h[sm.starts]
+    u, v = first[:, 0] / (1 + first[:, 2]), first[:, 1] / (1 + first[:, 2])
+    iu, iv = (np.clip(((w + 1) * 0.5 * 6).astype(int), 0, 5) for w in (u, v))
+    assert np.all(np.diff(iu * 6 + iv) > 0) and sm.n_tiles == 36
