@@ -875,6 +875,9 @@ def test_adam_steps_each_start_alone_for_other_objectives():
             per_start.append(current)
             current = []
     assert len(per_start) == len(inits) + 1  # and the polish's gradients, then its point scored
+    ends = [x for k, x in s.log if k == "score"][:len(inits)]
+    best_end = ends[int(np.argmax([s._f(e)[0] for e in ends]))]
+    assert np.array(per_start[-1][0]) == pytest.approx(np.array(normal_to_stereo(best_end)), abs=1e-12)  # polished from the best end
     per_start = per_start[:len(inits)]
     x0 = np.array([p[0] for p in per_start])
     assert x0 == pytest.approx(np.array([normal_to_stereo(n) for n in inits]), abs=1e-15)
@@ -1258,3 +1261,42 @@ def test_search_best_polishes_the_map_only_when_it_beats_the_optimiser_by_1e_4(m
     monkeypatch.setattr(op, "run_optimizer", lambda *a, **k: op.OptimumResult(tilted(10.0), 1.0, 0, "stub"))
     out = op.search_best(Fixed([map_best]), op.Constraint(), "draft")
     assert out.score == (2.0 if polished else 1.0)
+
+
+def test_the_two_rings_keep_a_quarter_step_inside_a_wide_bracket():
+    # a slow fall to 1 deg, 4 deg and ~7.7 deg, a near-flat stretch predicting far beyond the 30 deg limit
+    # (asked: fails just under 90 %), then regula falsi between 7.73 and 30 (22 deg wide) predicts
+    # 29.99998: the upper ring is pulled a quarter step (0.0125 deg) inside the failing one
+    nodes, values = [0, 0.25, 1, 4, 8, 29.99, 30], [1, 0.9999, 0.999, 0.9711, 0.9710, 0.95, 0.8999999]
+    s = Rings([0, 0, 1.0], lambda a: np.interp(a, nodes, values))
+    tol = op.tolerance_deg(s, np.array([0, 0, 1.0]), 1.0, op.Constraint())
+    assert s.calls[:3] == [[0.0, 0.25], [1.0], [4.0]] and s.calls[4] == [30.0]
+    assert 7.6 < s.calls[3][0] < 7.8
+    assert s.calls[5][1] == 30.0 - 0.0125 and tol == 29.9875
+
+
+def test_a_cell_whose_polish_lands_near_a_taken_optimum_is_skipped_and_the_search_goes_on():
+    z = np.array([0.0, 0.0, 1.0])
+    p, q = tilted(13.0, 0.0), tilted(40.0, 180.0)
+    # the map's cell at 13 deg is a local maximum there, but its polish climbs the best peak's slope
+    # to 11 deg, within the 12 deg separation: dropped; the cell at 40 deg is still found
+    s = Lobes([z, q], [50.0, 300.0], [1.0, 0.5])
+    out = op.distinct_optima(s, op.Constraint(), np.array([p, q]), np.array([0.9, 0.5]), z, 1.0, floor=0.1)
+    assert len(out) == 1 and angle_deg(out[0][0], q) < 0.25
+
+
+def test_adam_on_a_plateau_keeps_its_first_start():
+    c = op.Constraint(60.0)
+    s = Recorder([[0, 0, 1.0]], [0.0], objective="area")  # 1 everywhere, no gradient: every start ties
+    res = op.optimize_gradient(s, c, starts=4, iterations=5)
+    first = s.kinds("grad")[0]
+    assert res.normal == pytest.approx(stereo_to_normal(*first), abs=1e-15) and res.score == 1.0
+
+
+def test_lbfgs_returns_the_first_of_equally_good_points():
+    class Tilted(Lobes):  # a flat value with a gradient that leads L-BFGS on to points no better
+        def value_and_grad_uv(self, u, v):
+            return 1.0, np.array([1.0, 0.0])
+
+    s = Tilted([[0, 0, 1.0]], [0.0])
+    assert op._local_lbfgs(s, 0.1, -0.2, op.Constraint()) == (0.1, -0.2, 1.0)
