@@ -26,6 +26,10 @@ from labcut.errors import LabcutWarning, ParameterError
 from labcut.scene import Lights, Views, resolve_scene
 
 
+#: the module's own pilot cache path (each test below replaces it with a file of its own)
+PILOT_CACHE_PATH = P._pilot_cache_path
+
+
 @pytest.fixture(autouse=True)
 def own_caches(monkeypatch, tmp_path):
     """Every user cache file in this test's folder, nothing kept in this process."""
@@ -63,15 +67,25 @@ class Stand:
 
         self.f, self.rho, self.thin, self.bias = 0.0, 0.5, 0.1, None
         self.measured, self.skip = 0.0, None
-        self.pilots, self.pairs, self.seconds, self.renders = [], [], [], []
-        mp.setattr(rays, "self_view_fraction", lambda mesh: self.f)
-        mp.setattr(P, "return_albedo", lambda material: self.rho)
-        mp.setattr(volume, "depth_exposure", lambda mesh, material: {
+        self.pilots, self.pairs, self.seconds, self.renders, self.materials = [], [], [], [], []
+        mp.setattr(rays, "self_view_fraction", lambda mesh: self._mesh(mesh) and self.f)
+        mp.setattr(P, "return_albedo", lambda material: self._material(material) and self.rho)
+        mp.setattr(volume, "depth_exposure", lambda mesh, material: self._mesh(mesh) and self._material(material) and {
             "thin_share": self.thin, "turn_deg": 11.24, "flash_depth_mm": 0.4336, "stack_depth_mm": 0.93})
         mp.setattr(P, "polarisation_biases", self._biases)
         mp.setattr(P, "measured_interreflection", self._pilot)
         mp.setattr(P, "estimator_seconds", self._seconds)
         mp.setattr(P, "_predicted_render_seconds", self._render)
+
+    @staticmethod
+    def _mesh(mesh):
+        assert len(mesh.faces) in (4798, 22016) and len(mesh.vertices) > 2000, mesh  # the biplane or the oval
+        return True
+
+    def _material(self, material):
+        assert isinstance(material, labcut.Labradorite), material
+        self.materials.append(material)
+        return True
 
     def _biases(self, material, pairs):
         self.pairs.append((material, pairs))
@@ -225,6 +239,13 @@ def test_the_measured_share_at_the_tolerance_is_below_it(biplane, stand):
     assert p.estimator == "samples"  # thin share 10 %, lamps only
 
 
+def test_the_facts_are_rounded_as_documented(biplane, stand):
+    stand.f, stand.rho, stand.measured = 0.123456, 0.456789, 0.0312345678
+    p = plan(biplane)
+    assert p.facts["self_view_fraction"] == 0.1235 and p.facts["return_albedo"] == 0.4568
+    assert p.facts["interreflection_bound"] == 0.0564 and p.facts["interreflection_measured"] == 0.03123
+
+
 def test_a_bound_at_the_tolerance_needs_no_pilots(biplane, stand):
     stand.f, stand.rho = 0.04, 0.5  # exactly 0.02
     p = plan(biplane)
@@ -353,6 +374,7 @@ def test_asked_estimators_past_a_still_map(biplane, stand):
     p = plan(biplane, scenario="ring-diffuse", estimator="volume")
     assert p.estimator_why == ("asked for; it cannot carry inter-reflection (up to 5.0% of the energy is left out); "
                                + seen) and p.env_samples == 256
+    assert p.facts["map_directions_sampled"] == 256 and p["environment"].how.startswith("256 directions")
     p = plan(biplane, scenario="ring-diffuse", estimator="samples")
     assert p.estimator_why == ("asked for; it cannot carry inter-reflection (up to 5.0% of the energy is left out); "
                                + seen) and p.env_samples == 256
@@ -373,6 +395,7 @@ def test_a_still_map_past_a_carving_s_parts_is_drawn_through_more_directions(bip
     assert env.on is True and env.forced is False and env.bound is None
     assert env.how == "256 directions importance-sampled from the map (the quality's 32, doubled past the stone's parts)"
     assert env.why == "the lights include the map 'ceiling'"
+    assert p["occlusion"].how == OCC_HOW and p["depth"].how == DEPTH_HOW and p["colour"].how == "luminance"
     assert p.facts["map_directions"] == 32 and p.facts["map_directions_over_poses"] == 32
     assert p.facts["map_directions_sampled"] == 256
     # with depth on: the volume estimator, both reasons
@@ -442,6 +465,16 @@ def test_compare_ranks_with_the_samples_and_says_what_it_leaves_out(biplane, sta
     assert p.env_samples == 256
 
 
+def test_compare_leaves_a_forced_inter_reflection_out_and_says_it_was_forced(biplane, stand):
+    stand.f, stand.rho = 0.01, 0.4
+    p = plan(biplane, command="compare", effects={"inter_reflection": True})
+    ir = p["inter_reflection"]
+    assert ir.on is False and ir.forced is True and ir.bound == pytest.approx(0.004)
+    assert ir.why == ("left out: compare ranks with the sample estimator (switched on (1% of the sky above the surface is "
+                      "the stone itself, which sends back at most 40%: at most 0.4% of the flash energy))")
+    assert p.estimator_why.endswith("is left out: recommend-orientation --estimator render per cut carries it")
+
+
 def test_compare_refuses_the_render_and_volume_estimators(biplane, stand):
     for est in ("render", "volume"):
         with pytest.raises(ParameterError) as info:
@@ -490,7 +523,7 @@ def test_a_render_s_plan(biplane, oval, stand):
     assert depth.on is False and depth.why == ("renders mirror the schiller where the light meets the surface (the BSDF); "
                                                "recommend --estimator volume carries the depth")
     assert p["polarisation"].why == "no polariser: the eye and the camera see unpolarised light"
-    assert p["polarisation"].on is False and stand.pairs == []
+    assert p["polarisation"].on is False and p["polarisation"].how == "" and stand.pairs == []
     assert p["colour"].to_dict() == {"effect": "colour", "on": True, "how": "rgb", "forced": False, "bound": None,
                                      "why": "RGB: the BSDF's colour table integrates the spectrum at every angle"}
     assert p.facts["mode"] == "rgb"
@@ -555,6 +588,38 @@ def test_the_predicted_seconds_of_the_estimators_are_asked_with_the_plan_s_choic
     assert stand.seconds[-1][1:] == ("recommend", False, True, False, False, None)
 
 
+def test_the_material_and_the_lights_and_views_asked_for(biplane, stand):
+    stand.f, stand.rho, stand.measured = 0.25, 0.4, 0.05
+    blue = labcut.Labradorite.preset("blue")
+    p = plan(biplane, material="blue", scenario="bench", lighting="office", viewing="front")
+    assert (p.facts["scenario"], p.facts["lighting"], p.facts["viewing"], p.facts["poses"]) == ("bench", "office", "front", 7)
+    assert stand.pairs[-1][0] == blue and stand.pilots[-1].material == blue and blue != labcut.Labradorite()
+    assert stand.materials == [blue, blue]  # the return albedo's and the depth exposure's
+    assert stand.pilots[-1].scene.lights.name == "office" and stand.pilots[-1].scene.views.name == "front"
+    plan(biplane, scenario="display")  # the pilots' scene: the scenario's, at the standard quality
+    assert stand.pilots[-1].scene.name == "display" and stand.pilots[-1].scene.lights.name == "shop"
+    assert str(stand.pilots[-1].scene.quality) == "standard"
+    p = plan(biplane, scenario=None, lighting="room", viewing="above")
+    assert (p.facts["scenario"], p.facts["lighting"], p.facts["viewing"]) == ("custom", "room", "above")
+
+
+def test_a_render_of_a_carving_traces_occlusion_even_switched_off(biplane, stand):
+    """A renderer traces every ray: occlusion on (forced off or not), so the map is seen past the parts."""
+    p = plan(biplane, command="render", scenario="ring-diffuse", effects={"occlusion": False})
+    assert p["occlusion"].on is True and p["occlusion"].forced is True and p.estimator is None
+    assert p.facts["map_directions"] == 32 and p.facts["map_directions_over_poses"] == 32
+    assert "map_directions_sampled" not in p.facts and p.env_samples is None
+    assert p["environment"].how == "an envmap emitter"
+
+
+def test_the_defaults_a_standard_recommendation_with_its_seconds(oval, stand):
+    p = P.plan_effects(oval, scenario="bench")
+    assert p.command == "recommend" and p.facts["poses"] == 13 and str(stand.seconds[-1][0].quality) == "standard"
+    assert p.predicted_seconds == {"samples": 1.0, "volume": 2.0, "render": 30.0} and p.estimator == "samples"
+    r = P.plan_effects(oval, command="render")
+    assert stand.renders[-1] == ("rgb", False, "direct", 512, 64, 1, "diagram") and r.predicted_seconds == {"render": 4.5}
+
+
 def test_bad_requests_are_one_line_errors(oval, stand):
     cases = [
         (dict(command="explain"), "command must be one of render, recommend, evaluate, compare, got 'explain'"),
@@ -578,10 +643,16 @@ def test_bad_requests_are_one_line_errors(oval, stand):
     # the image size and views: their ranges, ends included
     plan(oval, command="render", resolution=8, spp=1, views=1)
     plan(oval, command="render", resolution=8192, spp=1 << 30, views=10_000)
-    for kw in (dict(resolution=7), dict(resolution=8193), dict(spp=0), dict(spp=(1 << 30) + 1), dict(views=0),
-               dict(views=10_001), dict(resolution=64.5)):
-        with pytest.raises(ParameterError):
+    for kw, message in ((dict(resolution=7), "resolution must lie in [8, 8192], got 7"),
+                        (dict(resolution=8193), "resolution must lie in [8, 8192], got 8193"),
+                        (dict(spp=0), "spp (samples per pixel) must lie in [1, 1073741824], got 0"),
+                        (dict(spp=(1 << 30) + 1), "spp (samples per pixel) must lie in [1, 1073741824], got 1073741825"),
+                        (dict(views=0), "views must lie in [1, 10000], got 0"),
+                        (dict(views=10_001), "views must lie in [1, 10000], got 10001"),
+                        (dict(resolution=64.5), "resolution")):
+        with pytest.raises(ParameterError) as info:
             plan(oval, command="render", **kw)
+        assert str(info.value).startswith(message), kw
     # a zoned stone with the render or volume estimator, and any estimator under compare, are fine
     assert plan(oval, zoning="natural", estimator="render").estimator == "render"
     assert plan(oval, zoning="natural", estimator="auto").estimator == "render"
@@ -611,8 +682,9 @@ def test_the_plan_s_lines_repr_and_dict(biplane, stand):
     assert d["estimator_why"] == "inter-reflection is on and only renders carry it"
     assert list(d["effects"]) == list(EFFECTS) and d["effects"]["occlusion"]["forced"] is True
     assert p.on("inter_reflection") is True and p.on("depth") is False
-    with pytest.raises(KeyError):
+    with pytest.raises(KeyError) as info:
         p["shadows"]
+    assert info.value.args == ("shadows",)
     html = p._repr_html_()
     assert html.startswith("<table><thead><tr><th>effect</th><th></th><th>why</th></tr></thead><tbody>")
     assert "<tr><td>occlusion</td><td>on</td><td>" + OCC_ON + "</td></tr>" in html
@@ -631,8 +703,15 @@ def test_lines_without_an_estimator_or_a_prediction():
     assert repr(p) == "EffectPlan(render: on=[])"
     assert p._repr_html_() == ("<table><thead><tr><th>effect</th><th></th><th>why</th></tr></thead><tbody><tr><td>zoning"
                                "</td><td>off</td><td>none &lt;asked&gt;</td></tr></tbody></table>")
-    q = P.EffectPlan("render", (d,), None, "", {"render": 2.0})
-    assert q.lines()[-1] == "predicted         render ~2.0 s"
+    q = P.EffectPlan("render", (d,), None, "", {"render": 2.0, "volume": 0.25})
+    assert q.lines()[-1] == "predicted         render ~2.0 s, volume ~0.2 s"
+    two = P.EffectPlan("x", (d, P.Decision("depth", True, "h", "w")), "samples", "a & b")
+    assert two._repr_html_() == (
+        "<table><thead><tr><th>effect</th><th></th><th>why</th></tr></thead><tbody><tr><td>zoning</td><td>off</td><td>"
+        "none &lt;asked&gt;</td></tr><tr><td>depth</td><td>on</td><td>w</td></tr><tr><td>estimator</td><td>samples</td>"
+        "<td>a &amp; b</td></tr></tbody></table>")
+    assert two.lines() == ["zoning            off  none <asked>", "depth             ON   h — w",
+                           "estimator         samples  — a & b"]
     assert P.EffectPlan("render", (d,), None, "").lines() == ["zoning            off  none <asked>"]
     e = P.EffectPlan("compare", (P.Decision("depth", True, "volume", "thin", True, 0.5),), "samples", "why",
                      {"volume": 3.0})
@@ -692,12 +771,17 @@ def test_the_s_and_p_transmissions():
         rs, rp = textbook_fresnel_sp(c, 1.56)
         assert s == pytest.approx(1.0 - rs, abs=1e-12) and p == pytest.approx(1.0 - rp, abs=1e-12), c
     assert ts[0] == pytest.approx(1 - (0.56 / 2.56) ** 2, abs=1e-12) and ts[4] == pytest.approx(0.0, abs=1e-12)
+    for eta, c in ((1.2, 0.1), (1.2, 0.6), (1.05, 0.3)):  # below sqrt(2): eta² - sin² under 1
+        ts_, tp_ = P._fresnel_sp(np.array([c]), eta)
+        rs, rp = textbook_fresnel_sp(c, eta)
+        assert ts_[0] == pytest.approx(1.0 - rs, abs=1e-12) and tp_[0] == pytest.approx(1.0 - rp, abs=1e-12), (eta, c)
     ts32, _ = P._fresnel_sp(np.float32(0.5), 1.56)
     assert float(ts32) == pytest.approx(ts[2], abs=1e-15)  # float32 read in float64
     assert P._fresnel_sp([0.5], 1.56)[0][0] == pytest.approx(ts[2], abs=1e-15)
 
 
 def stack_table(m):
+    assert m.n_surface == 1.56, m  # the material's own table
     grid = np.linspace(0.0, 1.0, 2049)
     return grid, 0.2 * grid ** 2 + 0.01, 0.05 + 0.1 * grid
 
@@ -743,16 +827,19 @@ def test_the_polarisation_bias_against_a_pair_by_pair_reference(monkeypatch):
     grazing = np.array([math.sqrt(1 - 1e-6), 0.0, 1e-3])  # exactly at the face's cut-off: skipped
     L1 = np.array([unit(0.6, 0.0, 0.8), unit(-0.3, 0.5, 0.8), grazing, unit(0.2, 0.1, -0.5)])
     wl1 = np.array([0.5, 0.3, 5.0, 3.0])
-    V1 = np.array([unit(-0.7, 0.1, 0.7), unit(0.0, 0.0, 1.0), unit(0.05, -0.9, 0.4)])
-    wv1 = np.array([0.2, 0.5, 0.3])
+    V1 = np.array([unit(-0.7, 0.1, 0.7), unit(0.0, 0.0, 1.0), unit(0.05, -0.9, 0.4), -grazing * [1, 1, -1]])
+    wv1 = np.array([0.2, 0.5, 0.3, 4.0])
     L2, wl2 = np.array([unit(0.95, 0.0, 0.3)]), np.array([1.0])
     V2, wv2 = np.array([unit(-0.95, 0.0, 0.3)]), np.array([2.0])
     below = (np.array([unit(0.3, 0.0, -0.9)]), np.array([1.0]), V2, wv2)
     weightless = (L2, np.array([0.0]), V2, wv2)
-    got = P._polarisation_bias(mat, [(L1, wl1, V1, wv1), (L2, wl2, V2, wv2), below, weightless])
+    L3, wl3 = np.array([unit(0.0, 0.5, 0.85)]), np.array([1.0])
+    V3, wv3 = np.array([unit(0.1, -0.2, 0.97)]), np.array([1.0])
+    got = P._polarisation_bias(mat, [(L1, wl1, V1, wv1), (L2, wl2, V2, wv2), below, weightless, (L3, wl3, V3, wv3)])
     assert got[0] == pytest.approx(reference_bias(L1, wl1, V1, wv1, eta), rel=1e-6)
     assert got[1] == pytest.approx(reference_bias(L2, wl2, V2, wv2, eta), rel=1e-6)
-    assert got[2] == 0.0 and got[3] == 0.0 and len(got) == 4
+    assert got[4] == pytest.approx(reference_bias(L3, wl3, V3, wv3, eta), rel=1e-6)
+    assert got[2] == 0.0 and got[3] == 0.0 and len(got) == 5
     assert got[0] > 1e-3 and got[1] > 1e-3 and got[0] != pytest.approx(got[1], rel=1e-3)
     # each set alone as in a batch; no set, no bias
     assert P._polarisation_bias(mat, [(L2, wl2, V2, wv2)]) == [pytest.approx(got[1], rel=1e-12)]
@@ -769,13 +856,23 @@ def test_polarisation_biases_are_kept_in_the_user_cache_under_a_documented_key(m
     from labcut.fileio import code_hash
     from pathlib import Path
 
-    calls = []
-    monkeypatch.setattr(P, "_polarisation_bias", lambda m, sets: calls.append(len(sets)) or [0.01 * (i + 1) for i in range(len(sets))])
+    calls, sets_seen = [], []
+
+    def measure(m, sets):
+        assert m == blue
+        sets_seen.append(sets)
+        calls.append(len(sets))
+        return [0.01 * (i + 1) for i in range(len(sets))]
+
+    monkeypatch.setattr(P, "_polarisation_bias", measure)
     blue = labcut.Labradorite.preset("blue")
     L = Lights([[0.3, 0.0, 0.95], [0.0, 0.2, 0.98]], weights=[0.7, 0.3])
     V = Views([[-0.2, 0.0, 0.98]])
     V2 = Views([[-0.3, 0.1, 0.95]])
     assert P.polarisation_biases(blue, [(L, V), (L, V2), (L, V)]) == [0.01, 0.02, 0.01] and calls == [2]
+    (Ls, wls, Vs, wvs), (_, _, V2s, _) = sets_seen[0]
+    assert np.array_equal(Ls, L.directions) and np.array_equal(wls, [0.7, 0.3]) and np.array_equal(Vs, V.directions)
+    assert np.array_equal(wvs, V.weights) and np.array_equal(V2s, V2.directions)
     assert P.polarisation_bias(blue, L, V2) == 0.02 and calls == [2]
     stored = json.loads((own_caches / "planner-polarisation.json").read_text())
 
@@ -789,18 +886,39 @@ def test_polarisation_biases_are_kept_in_the_user_cache_under_a_documented_key(m
 
     assert stored == {key(L, V): {"bias": 0.01}, key(L, V2): {"bias": 0.02}}
     assert P._planner_code() == code_hash(Path(P.__file__))
-    # another material measures again; the file keeps the latest 256
+    # a later process reads them back, as kept (no warning, nothing computed)
     from labcut import fileio
+    import warnings
 
+    monkeypatch.setattr(fileio, "_CALIBRATIONS", {})
+    monkeypatch.setattr(fileio, "_STORES", {})
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert P.polarisation_biases(blue, [(L, V2), (L, V)]) == [0.02, 0.01] and calls == [2]
+    # the same directions and weights in float32 are the same key
+    def rounded(x, dtype):
+        return np.asarray(x, dtype=np.float32).astype(dtype)
+
+    wide = [(SimpleNamespace(directions=rounded(d.directions, np.float64), weights=rounded(d.weights, np.float64)),
+             SimpleNamespace(directions=rounded(V.directions, np.float64), weights=rounded(V.weights, np.float64)))
+            for d in (L,)]
+    narrow = [(SimpleNamespace(directions=rounded(d.directions, np.float32), weights=rounded(d.weights, np.float32)),
+               SimpleNamespace(directions=rounded(V.directions, np.float32), weights=rounded(V.weights, np.float32)))
+              for d in (L,)]
+    assert P.polarisation_biases(blue, wide) == [0.01] and calls == [2, 1]
+    assert P.polarisation_biases(blue, narrow) == [0.01] and calls == [2, 1]
+    # another material measures again; the file keeps the latest 256
     monkeypatch.setattr(fileio, "_CALIBRATIONS", {})
     monkeypatch.setattr(fileio, "_STORES", {})
     (own_caches / "planner-polarisation.json").write_text(json.dumps({f"old {i}": {"bias": 0.5} for i in range(300)}
                                                                       | {key(L, V): {"bias": "damaged"}}))
     with pytest.warns(LabcutWarning, match="is not what labcut keeps there"):
-        assert P.polarisation_bias(blue, L, V) == 0.01 and calls == [2, 1]
+        assert P.polarisation_bias(blue, L, V) == 0.01 and calls == [2, 1, 1]
     stored = json.loads((own_caches / "planner-polarisation.json").read_text())
     assert len(stored) == 256 and list(stored)[-1] == key(L, V) and "old 44" not in stored and "old 45" in stored
-    assert P.polarisation_bias(labcut.Labradorite.from_peak_wavelength(620.0), L, V) == 0.01 and calls == [2, 1, 1]
+    monkeypatch.setattr(P, "_polarisation_bias", lambda m, sets: calls.append(m) or [0.07])
+    red = labcut.Labradorite.from_peak_wavelength(620.0)
+    assert P.polarisation_bias(red, L, V) == 0.07 and calls[-1] == red
 
 
 # ---------------------------------------------------------------------- the pilot renders
@@ -875,6 +993,22 @@ def test_pilot_renders_are_measured_once_and_kept(oval, pilots, monkeypatch, own
     assert P.pilot_seconds_predicted(4) == 1.5 and P.pilot_seconds_predicted(9) == 1.875
 
 
+def test_the_pilot_key_reads_the_mesh_in_float64_and_int64_and_names_a_copy(oval, pilots, monkeypatch, own_caches):
+    mat = labcut.Labradorite.preset("blue")
+    scene = resolve_scene("display", quality="draft")
+    v32 = np.asarray(oval.vertices, dtype=np.float32)
+    wide = SimpleNamespace(vertices=v32.astype(np.float64), faces=np.asarray(oval.faces, dtype=np.int64))
+    narrow = SimpleNamespace(vertices=v32, faces=np.asarray(oval.faces, dtype=np.int32))
+    assert P.measured_interreflection(wide, mat, scene) == 0.031
+    assert P.measured_interreflection(narrow, mat, scene) == 0.031 and len(pilots) == 1
+    assert list(json.loads((own_caches / "planner-pilot.json").read_text()))[0] == pilot_key(wide, mat, scene.settings())
+    # a stone piloted on its clustered copy: the key says so (a copy's share is not the mesh's)
+    monkeypatch.setattr(P, "pilots_on_copy", lambda mesh: True)
+    monkeypatch.setattr(P, "pilot_mesh", lambda mesh: mesh)
+    assert P.measured_interreflection(wide, mat, scene) == 0.047 and len(pilots) == 2
+    assert pilot_key(wide, mat, scene.settings(), " copy 256 v2") in json.loads((own_caches / "planner-pilot.json").read_text())
+
+
 def test_pilot_poses_are_at_most_five_evenly_spaced(oval, pilots, monkeypatch):
     mat = labcut.Labradorite.preset("blue")
     for quality, picked in (("standard", [0, 3, 6, 9, 12]), ("draft", [0, 2, 4, 6])):
@@ -918,6 +1052,10 @@ def test_the_pilot_file_keeps_the_latest_512_and_survives_damage(oval, pilots, m
     assert json.loads(path.read_text()) == {pilot_key(oval, mat, scene.settings()): 0.047, "seconds per pose": 0.8}
 
 
+def test_the_pilot_cache_file_is_named_as_documented(own_caches):
+    assert PILOT_CACHE_PATH() == own_caches / "planner-pilot.json"
+
+
 def test_the_pilots_predicted_seconds(own_caches):
     assert P.pilot_seconds_predicted(3) == pytest.approx(1.2) and P.pilot_seconds_predicted(7) == pytest.approx(2.0)
     assert P.pilot_seconds_predicted(5) == pytest.approx(2.0) and P.pilot_seconds_predicted(0) == 0.0
@@ -954,13 +1092,13 @@ def test_a_question_s_plan_and_its_pilots_scene(monkeypatch):
 
     got = []
     monkeypatch.setattr(P, "plan_effects", lambda mesh, material, **kw: got.append((mesh, material, kw)) or "plan")
-    monkeypatch.setattr(P, "pilot_scene", lambda setup: "pilots' scene")
+    monkeypatch.setattr(P, "pilot_scene", lambda setup: f"pilots' scene of {setup.scenario}")
     setup = SimpleNamespace(material="m", scenario="s", quality="q", estimator="e", effect_overrides={"depth": True},
                             zoning="z")
     assert P.plan_question("mesh", setup, "evaluate", predict=False, pilot_seconds_max=3.0) == "plan"
     assert got[-1] == ("mesh", "m", dict(command="evaluate", scenario="s", quality="q", estimator="e",
                                          effects={"depth": True}, zoning="z", predict=False,
-                                         pilot_scene="pilots' scene", pilot_seconds_max=3.0))
+                                         pilot_scene="pilots' scene of s", pilot_seconds_max=3.0))
     P.plan_question("mesh", setup)
     assert got[-1][2]["command"] == "recommend" and got[-1][2]["predict"] is True
     assert got[-1][2]["pilot_seconds_max"] is None
@@ -1023,7 +1161,8 @@ def test_each_estimator_s_seconds_against_its_formula(timing_stand, monkeypatch)
     got = P.estimator_seconds(scene, "evaluate", True, True, False)
     one, two = r(7, 48, 4, False, 1, 0, 4), r(7, 48, 4, False, 2, 0, 4)
     assert got == pytest.approx({"samples": 0.5, "volume": 3.0, "render": 0.5 + one - (two - one)}, rel=1e-12)
-    assert t.evaluate[-1] == (scene.settings(), 3000, True) and t.render[-2:] == [(7, 48, 4, False, 1, 0, 4),
+    assert t.evaluate[-1] == (scene.settings(), 3000, True) and t.paths[-1] == (scene.settings(), 3000)
+    assert t.render[-2:] == [(7, 48, 4, False, 1, 0, 4),
                                                                                    (7, 48, 4, False, 2, 0, 4)]
     assert P.estimator_seconds(scene, "compare", True, False, False) == {"samples": 2.0}
     # the map's directions the samples draw; the renders see the map itself
@@ -1148,6 +1287,10 @@ def test_the_render_calibration_times_three_sizes_and_fits_them(monkeypatch):
     assert [(r[3], r[4]) for r in rendered] == [(96, 4), (96, 4), (256, 4), (256, 4), (256, 32), (256, 32)]
     assert all(r[6] for r in rendered)
     mesh, material, normal, _, _, kw, _ = rendered[0]
+    assert all(r[0] is mesh and r[1] is material and r[2] is normal and r[5] == kw for r in rendered)
+    from labcut.geometry.stone import Stone
+
+    assert Stone.of(mesh).convex is True
     assert kw == dict(scenario="bench", mode="rgb", polarizer_deg=30.0, max_depth=4, look="studio")
     assert np.allclose(np.linalg.norm(mesh.vertices, axis=1), 5.0) and len(mesh.faces) == 1280
     assert material == labcut.Labradorite()
@@ -1156,8 +1299,10 @@ def test_the_render_calibration_times_three_sizes_and_fits_them(monkeypatch):
     assert name == "planner-render-timing.json" and refresh is True
     assert key == (f"rgb polarised path studio | mitsuba {mi.__version__} labcut {labcut.__version__} "
                    f"cpus {os.cpu_count()} v3")
-    with pytest.raises(KeyError):
-        check({"fixed": 1.0, "per_sample": 2.0})
+    check({"fixed": 1.0, "per_sample": 2.0, "per_pixel": "3"})
+    for bad in ({"fixed": 1.0, "per_sample": 2.0}, {"per_sample": 2.0, "per_pixel": 3.0}, {"fixed": 1.0, "per_pixel": 3.0}):
+        with pytest.raises(KeyError):
+            check(bad)
     rendered.clear()
     P.render_command_timing("mono", False, "direct")
     assert rendered[0][5] == dict(scenario="bench", mode="mono", polarizer_deg=None, max_depth=None, look="diagram")
@@ -1180,7 +1325,7 @@ def test_one_calibration_render_by_the_render_command_s_steps(monkeypatch):
 
 
 def test_the_linear_fits_on_hand_data():
-    assert P.linear_fit([(4, 1.0), (8, 1.5), (32, 4.5)]) == {"fixed": 0.5, "per_sample": 0.125}  # first and last
+    assert P.linear_fit([(4, 1.0), (8, 2.5), (32, 4.5)]) == {"fixed": 0.5, "per_sample": 0.125}  # first and last
     assert P.linear_fit([(4, 2.0), (8, 1.0)]) == {"fixed": 2.0, "per_sample": 0.0}  # no negative slope
     assert P.linear_fit([(10, 1.0), (20, 3.0)]) == {"fixed": 0.0, "per_sample": 0.2}  # no negative intercept
     assert P.linear_fit([(5, 3.0), (5, 4.0)]) == {"fixed": 3.0, "per_sample": 0.0}
