@@ -211,7 +211,10 @@ def test_a_scenario_with_more_lights_in_a_later_pose():
     mesh = box()
     a = Setting(Lights([[0, 0, 1]]), Views([[0, 0, 1]]), 1.0, np.eye(3))
     b = Setting(Lights([[0, 0, 1], unit(1, 0, 1), unit(-1, 0, 1)], [1, 2, 1]), Views([[0, 0, 1]]), 1.0, np.eye(3))
-    for kernels in (REF, KernelOptions(), KernelOptions(lit_cells=False, dense_chunk=3), KernelOptions(dense_chunk=2)):
+    kernels_all = [REF, KernelOptions(), KernelOptions(dense_chunk=2)] + [
+        KernelOptions(lit_cells=False, dense_chunk=3 * k) for k in (1, 2, 3, 4, 5, 7)]
+    kernels_all += [KernelOptions(triples=False, lit_cells=False, dense_chunk=k) for k in (1, 2, 3, 5)]
+    for kernels in kernels_all:
         p = build_problem(mesh, LAB, settings=[a, b], n_points=30, seed=1, kernels=kernels)
         assert_matches(p, mesh, [a, b], 30, 1)
 
@@ -513,26 +516,278 @@ def test_pose_pairs_count_their_triples():
 
 
 def test_degenerate_terms_become_empty_triples():
-    """A shading normal of zero length (no refraction can be made): its triples are h = +Z, c = 0 on
-    both paths, the others as usual."""
-    n_sh = np.array([[0.0, 0.0, 1.0], [0.0, 0.0, 0.0]])
-    L, E, V = np.array([[0.0, 0.0, 1.0]]), np.array([1.0]), np.array([[0.0, 0.0, 1.0]])
+    """Terms that are not finite (a shading normal of NaNs, a light of infinite irradiance) are no
+    triples: h = +Z and c = 0, on both paths; the others as usual. A triple whose h lies exactly in
+    the horizontal plane keeps its sign (only h_z < 0 is folded)."""
+    n_sh = np.array([[0.0, 0.0, 1.0], [np.nan, np.nan, np.nan], [0.0, 0.0, 1.0], [1.0, 0.0, 0.0]])
+    L = np.array([[0.0, 0.0, 1.0], [0.0, 0.0, 1.0], [1.0, 0.0, 0.0]])
+    E = np.array([1.0, np.inf, 1.0])
+    V = np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0]])
     table = luminance_table(LAB)
     l_ref = reference_radiance(LAB, 1.0)
-    pose = _PosePairs(np.array([0, 1]), np.array([0, 0]), np.array([0.5, 0.5]), np.array([[True], [True]]))
+    # pairs (point, view): (0, 0) lit by light 0, (1, 0) lit by light 0, (2, 0) lit by light 1, (3, 1) by light 2
+    pose = _PosePairs(np.array([0, 1, 2, 3]), np.array([0, 0, 0, 1]), np.full(4, 0.5),
+                      np.array([[True, False, False], [True, False, False], [False, True, False], [False, False, True]]))
+    want_h = [[0, 0, 1], [0, 0, 1], [0, 0, 1], [1, 0, 0]]
+    want_c = [1.0 / LAB.lobe_norm, 0.0, 0.0, 1.0 / LAB.lobe_norm]
     got = []
-    _setting_triples(L, E, V, pose, n_sh, LAB.n_surface, table, l_ref, 2, 100, lambda *a: got.append(a))
+    _setting_triples(L, E, V, pose, n_sh, LAB.n_surface, table, l_ref, 4, 100, lambda *a: got.append(a))
     h, c, pair = got[0]
-    np.testing.assert_allclose(h, [[0, 0, 1], [0, 0, 1]], atol=1e-6)
-    assert c[0] == pytest.approx(1.0 / LAB.lobe_norm, rel=1e-5) and c[1] == 0.0
-    np.testing.assert_array_equal(pair, [0, 1])
+    np.testing.assert_array_equal(pair, [0, 1, 2, 3])
+    np.testing.assert_allclose(h, want_h, atol=1e-6)
+    assert h[3, 0] > 0.5
+    np.testing.assert_allclose(c, want_c, rtol=1e-5)
+    assert c[1] == 0.0 and c[2] == 0.0
     assert h.dtype == np.float32 and c.dtype == np.float32
     kernel = _TripleKernel(n_sh, LAB.n_surface, table, l_ref)
-    h2, c2 = kernel.dense(L, E, V, np.array([0, 1]), np.array([0, 0]), np.array([0, 0]), 1, np.array([0, 1]))
-    np.testing.assert_allclose(h2, [[0, 0, 1], [0, 0, 1]], atol=1e-6)
-    assert c2[0] == pytest.approx(1.0 / LAB.lobe_norm, rel=1e-5) and c2[1] == 0.0
+    h2, c2 = kernel.dense(L, E, V, np.array([0, 1, 2, 3]), np.array([0, 0, 0, 1]), np.array([0, 0, 0, 0]), 3,
+                          np.array([0, 3, 7, 11]))
+    np.testing.assert_allclose(h2, want_h, atol=1e-6)
+    assert h2[3, 0] > 0.5
+    np.testing.assert_allclose(c2, want_c, rtol=1e-5)
+    assert c2[1] == 0.0 and c2[2] == 0.0
+    dh, dc = kernel.last_device
+    np.testing.assert_array_equal(np.asarray(dc), c2)
+    np.testing.assert_array_equal(np.stack([np.asarray(dh.x), np.asarray(dh.y), np.asarray(dh.z)], axis=1), h2)
+
+
+def test_one_kernel_call_gives_the_problem_its_device_copy():
+    mesh = trimesh.creation.icosphere(subdivisions=1, radius=3.0)
+    lights, views = Lights([unit(0.2, 0.1, 1)]), Views([unit(0, 0, 1), unit(0.4, 0.2, 0.8)])
+    assert "device_triples" in build_problem(mesh, LAB, lights, views, n_points=40, seed=1).__dict__
+    assert "device_triples" in build_problem(mesh, LAB, lights, views, n_points=40, seed=1,
+                                             kernels=KernelOptions(lit_cells=False)).__dict__
+    assert "device_triples" not in build_problem(mesh, LAB, lights, views, n_points=40, seed=1, kernels=REF).__dict__
+    assert "device_triples" not in build_problem(mesh, LAB, lights, views, n_points=40, seed=1,
+                                                 kernels=KernelOptions(dense_chunk=3)).__dict__
 
 
 def test_pair_chunk_keeps_the_lobe_values_near_17_mb():
     assert problem_module.PAIR_CHUNK == 1 << 18
     assert problem_module.PAIR_CHUNK * 4 == 2**20  # a megabyte of float32 lobe values a stencil normal
+
+
+def test_pair_major_keeps_float64_whatever_it_is_given():
+    got = pair_major([np.array([1, 2, 3], dtype=np.float32), np.array([4, 5, 6])])
+    assert got.dtype == np.float64
+    np.testing.assert_array_equal(got, [[1, 4], [2, 5], [3, 6]])
+
+
+def test_add_lobe_terms_one_step():
+    """One step of the pair-sum kernels: each normal's float32 term cq exp(κ(|h·m_k| - 1)) added to
+    its float64 sum; the terms of triples beyond the reach of the first normal (|h·m_0| below its
+    cosine, equal kept) or not valid add 0; the whole first-normal sum steps with every term."""
+    from labcut.backend import ad_types
+    from labcut.orientation.problem import add_lobe_terms, opaque_stencil
+
+    dr, t = ad_types()
+    hs = np.array([[0.0, 0.0, 1.0], [0.6, 0.0, 0.8], [0.0, -0.8, -0.6], [0.995, 0.0, 0.0998749]], dtype=np.float32)
+    cq = np.array([2.0, 3.0, 5.0, 7.0], dtype=np.float32)
+    h = t.Array3f(*(hs[:, k] for k in range(3)))
+    normals = np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0]])
+    kappa = 4.0
+    terms = cq[:, None] * np.exp(kappa * (np.abs(hs.astype(np.float64) @ normals.T) - 1.0))
+    for reach, near in ((None, [1, 1, 1, 1]), (0.0, [1, 0, 0, 0]), (math.acos(0.6), [1, 1, 1, 0]),
+                        (math.acos(0.8), [1, 1, 0, 0]), (1.6, [1, 1, 1, 1]), (5.0, [1, 1, 1, 1])):
+        stencil = opaque_stencil(normals, reach, kappa, 1.0)
+        start = [t.Float64(np.full(4, 10.0)), t.Float64(np.full(4, 20.0))]
+        out, every = add_lobe_terms(start, h, t.Float(cq), stencil)
+        assert every is None and len(out) == 2
+        want = np.array([10.0, 20.0]) + terms * np.array(near)[:, None]
+        np.testing.assert_allclose(np.stack([np.asarray(s) for s in out], axis=1), want, rtol=1e-6)
+        valid = t.Bool(np.array([True, False, True, True]))
+        out, every = add_lobe_terms(start, h, t.Float(cq), stencil, valid=valid, every_first=t.Float64(np.ones(4)))
+        want = np.array([10.0, 20.0]) + terms * (np.array(near) * [1, 0, 1, 1])[:, None]
+        np.testing.assert_allclose(np.stack([np.asarray(s) for s in out], axis=1), want, rtol=1e-6)
+        np.testing.assert_allclose(np.asarray(every), 1.0 + terms[:, 0], rtol=1e-6)
+
+
+@pytest.mark.parametrize("kernels", [REF, KernelOptions()], ids=["numpy", "kernel"])
+def test_a_reach_past_the_horizon_keeps_every_triple(sphere_problem, kernels):
+    """Reaches above 90°: every term counts (|h·m_0| >= cos 90° = 0), however far the other normal."""
+    p = _with(sphere_problem, kernels)
+    normals = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
+    whole = direct_sums(p, normals)
+    assert whole[:, 1].sum() > 0.3
+    for reach in (1.6, 2.5, 5.0, 7.0):
+        close(p.pair_radiance(normals, reach), whole)
+    close(p.pair_radiance(normals, 1.0), direct_sums(p, normals, 1.0))
+    assert p.pair_radiance(normals, 1.0)[:, 1].sum() < 0.5 * whole[:, 1].sum()
+
+
+@pytest.mark.parametrize("path", ["numpy", "kernel"])
+def test_a_reach_of_zero_keeps_the_triples_exactly_at_the_normal(path):
+    """The box lit and seen from above: every triple's h is +Z; a reach of 0 around +Z keeps them."""
+    p = build_problem(box(), LAB, Lights([[0, 0, 1]]), Views([[0, 0, 1]]), n_points=30, seed=3, kernels=PATHS[path])
+    assert (p.h == np.array([0, 0, 1], dtype=np.float32)).all()
+    np.testing.assert_allclose(p.pair_radiance(np.array([[0.0, 0.0, 1.0], [0.0, 0.6, 0.8]]), 0.0)[:, 0], 1.0,
+                               rtol=2e-5)
+
+
+def test_the_kernel_called_gives_sums_and_the_whole_first_sum_only_when_asked(sphere_problem):
+    p = _with(sphere_problem, KernelOptions())
+    kernel = p._pair_sums
+    sums, full = kernel(NORMALS, None)
+    assert full is None
+    close(sums, direct_sums(p, NORMALS))
+    sums, full = kernel(NORMALS, 0.3, full_first=True)
+    close(sums, direct_sums(p, NORMALS, 0.3))
+    close(full, direct_sums(p, NORMALS)[:, 0])
+    assert full.dtype == np.float64 and full.shape == (p.pair_view.size,)
+
+
+@pytest.mark.parametrize("chunk", [None, 2])
+def test_the_kernel_and_the_numpy_passes_sum_the_same_float32_terms(sphere_problem, chunk, monkeypatch):
+    """The numpy passes and the kernel make the same float32 terms: their sums agree to 1e-6 (a
+    float64 term on one side would differ by 2e-5 here), with and without a reach."""
+    if chunk is not None:
+        monkeypatch.setattr(problem_module, "PAIR_CHUNK", chunk)
+    p = _with(sphere_problem, REF)
+    k = _with(sphere_problem, KernelOptions())
+    for reach in (None, 0.3, 2.0):
+        num, ker = p.pair_radiance(NORMALS, reach), k.pair_radiance(NORMALS, reach)
+        np.testing.assert_allclose(num, ker, rtol=1e-6, atol=1e-9 * float(ker.max()))
+        np.testing.assert_allclose(k.pair_radiance_numpy(NORMALS, reach), ker, rtol=1e-6, atol=1e-9 * float(ker.max()))
+    assert np.abs(num - direct_sums(p, NORMALS, 2.0)).max() > 1e-7 * float(num.max())  # float32 terms, not float64
+
+
+@pytest.mark.parametrize("kernels", [REF, KernelOptions()], ids=["numpy", "kernel"])
+def test_a_lamella_normal_and_its_opposite_are_the_same(sphere_problem, kernels):
+    """Axial lamellae: m and -m give the same sums (|h·m| in the lobe)."""
+    p = _with(sphere_problem, kernels)
+    close(p.pair_radiance(-NORMALS), p.pair_radiance(NORMALS))
+    close(p.pair_radiance(-NORMALS, 0.3), direct_sums(p, NORMALS, 0.3))
+
+
+def test_the_kept_sum_is_found_for_the_same_normal_given_as_whole_numbers(sphere_problem, monkeypatch):
+    p = _with(sphere_problem, KernelOptions())
+    normals = np.array([[0.0, 0.0, 1.0], [0.0, 0.6, 0.8]])
+    p.pair_radiance(normals, 0.3)
+    monkeypatch.setattr(p._pair_sums, "launch", lambda *a, **k: pytest.fail("the kept sum is read"))
+    close(p.pair_radiance([0, 0, 1]), direct_sums(p, normals)[:, :1])
+
+
+def test_exactly_1e_6_above_the_horizon_is_below_it():
+    """The facing tests are strict: a light or view whose cosine with the normal is exactly 1e-6
+    counts as below the horizon, on the host and on the device alike."""
+    from labcut.backend import ad_types
+    from labcut.orientation.problem import _setting_pairs, lights_reach
+
+    dr, t = ad_types()
+    up = np.array([[0.0, 0.0, 1.0], [0.0, 0.0, 1.0]])
+    tilted = np.array([[0.0, 0.0, 1.0], unit(0.3, 0.0, 1.0)])
+    graze = np.array([[1.0, 0.0, 1e-6], [1.0, 0.0, 2e-6]])
+    assert float(np.array([0.0, 0.0, 1.0]) @ graze[0]) == 1e-6
+    a3 = lambda x: t.Array3f64(*(np.ascontiguousarray(x[:, k]) for k in range(3)))  # noqa: E731
+    bright = t.Bool(np.array([True, True]))
+    np.testing.assert_array_equal(np.asarray(lights_reach(a3(up), a3(up), a3(graze), bright)), [False, True])
+    np.testing.assert_array_equal(np.asarray(lights_reach(a3(up), a3(tilted), a3(graze), bright)), [False, True])
+    np.testing.assert_array_equal(np.asarray(lights_reach(a3(tilted), a3(up), a3(graze), bright)), [False, True])
+    np.testing.assert_array_equal(np.asarray(lights_reach(a3(up), a3(up), a3(graze), t.Bool(np.array([True, False])))),
+                                  [False, False])
+    pi, pv, _ = view_pairs(graze, np.zeros((2, 3)), up, up, None, False)
+    np.testing.assert_array_equal(pi, [0, 1])
+    np.testing.assert_array_equal(pv, [1, 1])
+    pose = _setting_pairs(graze, np.array([1.0, 1.0]), graze, np.zeros((2, 3)), up, up, None, True)
+    np.testing.assert_array_equal(pose.lit, [[False, True], [False, True]])
+    pose = _setting_pairs(graze, np.array([1.0, 0.0]), graze, np.zeros((2, 3)), up, up, None, True)
+    np.testing.assert_array_equal(pose.lit, [[False, False], [False, False]])
+    # the shading normal's own test, host side: a shading normal tilted away drops the light
+    away = np.array([[0.0, 0.0, 1.0], unit(-0.3, 0.0, 1.0)])
+    pose = _setting_pairs(np.array([unit(1, 0, 0.1)]), np.array([1.0]), np.array([[0.0, 0.0, 1.0]]), np.zeros((2, 3)),
+                          up, away, None, True)
+    np.testing.assert_array_equal(pose.lit, [[True], [False]])
+    pose = _setting_pairs(np.array([unit(1, 0, 0.1)]), np.array([1.0]), np.array([[0.0, 0.0, 1.0]]), np.zeros((2, 3)),
+                          away, up, None, True)
+    np.testing.assert_array_equal(pose.lit, [[True], [False]])
+
+
+def test_lit_cells_of_one_chunk_are_kept_and_of_several_found_again():
+    from labcut.backend import ad_types
+    from labcut.orientation.problem import _LitCells
+
+    dr, t = ad_types()
+    masks = [np.array([True, False, True]), np.array([False, False, False]), np.array([False, True, True, True])]
+    calls = []
+
+    def test(k):
+        calls.append(k)
+        return t.Bool(masks[k])
+
+    one = _LitCells(test, 1)
+    assert one.total == 2 and calls == [0]
+    np.testing.assert_array_equal(np.asarray(one.chunk(0)), [0, 2])
+    assert calls == [0]
+    calls.clear()
+    three = _LitCells(test, 3)
+    assert three.total == 5 and calls == [0, 1, 2]
+    np.testing.assert_array_equal(np.asarray(three.chunk(2)), [1, 2, 3])
+    np.testing.assert_array_equal(np.asarray(three.chunk(0)), [0, 2])
+    assert calls == [0, 1, 2, 2, 0]
+    assert np.asarray(three.chunk(1)).size == 0
+
+
+def test_the_defaults_standard_quality_and_tau_0_1():
+    p = build_problem(box(), LAB, Lights([[0, 0, 1]]), Views([[0, 0, 1]]), kernels=REF)
+    from labcut.scene.quality import Quality
+
+    assert p.n_points == Quality.coerce("standard").surface_points == 8000
+    assert p.tau == 0.1
+    assert p.threshold == pytest.approx(0.1 * flash_threshold(LAB, p.lights, 1.0), rel=1e-12)
+
+
+def test_a_material_without_contrast_is_refused():
+    from dataclasses import replace
+
+    flat = replace(LAB, n_b=LAB.n_a)
+    assert reference_radiance(flat, 1.0) == 0.0
+    with pytest.raises(ParameterError) as e:
+        build_problem(box(), flat, Lights([[0, 0, 1]]), Views([[0, 0, 1]]), n_points=20, kernels=REF)
+    assert str(e.value) == "the material reflects nothing at normal incidence: no flash can be scored"
+
+
+def test_the_lit_cells_are_found_on_the_device_only_without_occlusion_rays(monkeypatch):
+    """KernelOptions.lit_cells: the kernel path tests the lights on the device (the poses carry no
+    lit tables) unless occlusion rays are cast; the host tables otherwise."""
+    calls = []
+    real = problem_module._lit_cells
+    monkeypatch.setattr(problem_module, "_lit_cells", lambda *a: calls.append(1) or real(*a))
+    lights, views = Lights([[0, 0, 1]]), Views([[0, 0, 1]])
+    build_problem(box(), LAB, lights, views, n_points=20, kernels=KernelOptions())
+    assert calls == [1]
+    build_problem(box(), LAB, lights, views, n_points=20, kernels=KernelOptions(), occlusion=True)
+    build_problem(box(), LAB, lights, views, n_points=20, kernels=KernelOptions(lit_cells=False))
+    build_problem(box(), LAB, lights, views, n_points=20, kernels=REF)
+    assert calls == [1]
+
+
+def test_three_poses_number_their_views_one_after_another():
+    mesh = box()
+    poses = [Setting(Lights([[0, 0, 1]]), Views([[0, 0, 1], unit(0.2, 0, 1)]), 1.0, np.eye(3)),
+             Setting(Lights([[0, 0, 1]]), Views([[0, 0, 1]]), 1.0, np.eye(3)),
+             Setting(Lights([unit(0.3, 0, 1)]), Views([unit(-0.2, 0, 1), [0, 0, 1], unit(0, 0.2, 1)]), 2.0, np.eye(3))]
+    for kernels in (REF, KernelOptions()):
+        p = build_problem(mesh, LAB, settings=poses, n_points=30, seed=2, kernels=kernels)
+        assert_matches(p, mesh, poses, 30, 2)
+        assert set(p.pair_view) == set(range(6))
+        np.testing.assert_allclose(p.view_weight, [0.125, 0.125, 0.25, 1 / 6, 1 / 6, 1 / 6])
+
+
+def test_one_triple_is_a_problem():
+    mesh = box()
+    p = build_problem(mesh, LAB, Lights([[0, 0, 1]]), Views([[0, 0, 1]]), n_points=1, seed=0, kernels=REF)
+    assert p.n_triples == 1 and p.c[0] == pytest.approx(1.0 / LAB.lobe_norm, rel=2e-5)
+
+
+def test_triples_that_carry_nothing_are_refused(monkeypatch):
+    """Every triple's factor 0 (here: a luminance table dark below normal incidence, light and view
+    tilted): no flash can be seen, refused as when no light reaches what a viewer sees."""
+    grid, values = luminance_table(LAB)
+    dark = np.zeros_like(values)
+    dark[-1] = values[-1]
+    monkeypatch.setattr(problem_module, "luminance_table", lambda material: (grid, dark))
+    mesh = box()
+    with pytest.raises(ParameterError, match="^no light reaches a part of the stone that a viewer sees"):
+        build_problem(mesh, LAB, Lights([unit(0.5, 0, 1)]), Views([unit(-0.5, 0, 1)]), n_points=20, kernels=REF)
+    p = build_problem(mesh, LAB, Lights([[0, 0, 1]]), Views([[0, 0, 1]]), n_points=20, seed=3, kernels=REF)
+    assert p.n_triples > 0 and (p.c > 0).all()
