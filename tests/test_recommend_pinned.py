@@ -1146,3 +1146,13 @@ def test_a_slight_optimum_on_a_narrow_peak_is_no_parallel_answer(monkeypatch, ti
     assert r.tolerance_deg == pytest.approx(ninety_percent_deg(20000.0), abs=0.06)
     assert r.parallel_within_deg is None and r.workshop["raise_edge"] == "bottom-left"
     assert r.description.startswith("tilt the lamella plane")
+
+
+def test_a_preset_pose_given_as_text_still_names_the_scenario():
+    saved = resolve_scene("pendant").to_dict()
+    saved["pose"] = [[str(x) for x in row] for row in saved["pose"]]
+    data = minimal()
+    data["settings"] = {"scenario": saved}
+    assert rc.Recommendation.from_dict(data).scenario.name == "pendant"
+    saved["pose"] = [[1, 0, 0], [0, 0, -1], [0, 1, 0]]
+    assert rc.Recommendation.from_dict(data).scenario.name == "pendant"
