@@ -791,3 +791,22 @@ def test_triples_that_carry_nothing_are_refused(monkeypatch):
         build_problem(mesh, LAB, Lights([unit(0.5, 0, 1)]), Views([unit(-0.5, 0, 1)]), n_points=20, kernels=REF)
     p = build_problem(mesh, LAB, Lights([[0, 0, 1]]), Views([[0, 0, 1]]), n_points=20, seed=3, kernels=REF)
     assert p.n_triples > 0 and (p.c > 0).all()
+
+
+def test_the_reach_is_tested_in_float32_as_the_triples_are_stored(sphere_problem):
+    """A triple whose float32 orientation is the float32 of the normal: its float32 cosine is 1, so
+    a reach of 0 keeps it (in float64 against the unrounded normal it would be 1 - 1.2e-8, dropped)."""
+    m = np.array([-0.6163616173170751, 0.6670578943701972, 0.41848789977331285])
+    h = m.astype(np.float32)[None]
+    assert float(h[0].astype(np.float64) @ m) < 1.0
+    p = _with(sphere_problem, REF, h=h, c=np.array([2.0], dtype=np.float32), pair=np.array([0], dtype=np.int32))
+    got = p.pair_radiance(m, 0.0)
+    assert got[0, 0] == pytest.approx(2.0 * p.q_norm, rel=1e-6) and got[1:].sum() == 0.0
+
+
+def test_a_view_that_sees_little_still_has_weights_summing_to_1():
+    """One point at cos 0.8 from the only view: its pair's weight is 1 (not 0.8)."""
+    n = np.array([unit(0.6, 0, 0.8)])
+    pi, pv, w = view_pairs(np.array([[0.0, 0.0, 1.0]]), np.zeros((1, 3)), n, n, None, False)
+    np.testing.assert_array_equal(pi, [0])
+    np.testing.assert_allclose(w, [1.0])
