@@ -1358,3 +1358,18 @@ def test_a_render_s_seconds_against_its_formula(monkeypatch):
     assert asked[-1][-1] == "studio"
     monkeypatch.setattr(timing, "calibrating", lambda: True)
     assert P._predicted_render_seconds("mono", True, "path", 64, 4, 2) == {}
+
+
+def test_the_module_s_constants_as_docs_planner_md_sets_them():
+    """mutmut leaves module-level constants alone: each pinned here against docs/planner.md (the 2 %
+    tolerance, the 20 % thin share, 96 directions over the poses, 256 past the parts, the pilots' 64² px,
+    16 spp, at most 5 poses at standard, 200,000 triangles and 256 cells, 0.4 s a pose before any) and
+    docs/accuracy.md (2.5 µs per volume path)."""
+    assert P.INTERREFLECTION_TOLERANCE == 0.02 and P.DEPTH_THIN_SHARE == 0.2
+    assert P.ENV_DIRECTIONS_ENOUGH == 96 and P.ENV_SAMPLES_PAST_PARTS == 256
+    assert (P.PILOT_RESOLUTION, P.PILOT_SPP, P.PILOT_POSES, P.PILOT_QUALITY) == (64, 16, 5, "standard")
+    assert (P.PILOT_FACES, P.PILOT_CELLS, P.PILOT_SECONDS_PER_POSE) == (200_000, 256, 0.4)
+    assert P.PILOT_BUDGET_SHARE == 0.25 and P.PILOT_TIMING_KEY == "seconds per pose"
+    assert P.VOLUME_PATH_SECONDS == 2.5e-6 and P.POLARISATION_KEEP == 256
+    assert P.COMMANDS == ("render", "recommend", "evaluate", "compare") and P.COMPARE_REFUSES == ("render", "volume")
+    assert P._RENDER_CAL == ((96, 4), (256, 4), (256, 32))
