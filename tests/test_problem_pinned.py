@@ -568,7 +568,7 @@ def test_pair_chunk_keeps_the_lobe_values_near_17_mb():
 
 
 def test_pair_major_keeps_float64_whatever_it_is_given():
-    got = pair_major([np.array([1, 2, 3], dtype=np.float32), np.array([4, 5, 6])])
+    got = pair_major([np.array([1, 2, 3], dtype=np.float32), np.array([4, 5, 6], dtype=np.float32)])
     assert got.dtype == np.float64
     np.testing.assert_array_equal(got, [[1, 4], [2, 5], [3, 6]])
 
@@ -629,6 +629,7 @@ def test_the_kernel_called_gives_sums_and_the_whole_first_sum_only_when_asked(sp
     kernel = p._pair_sums
     sums, full = kernel(NORMALS, None)
     assert full is None
+    assert kernel.launch(NORMALS, None)()[1] is None  # the whole first sum only when asked
     close(sums, direct_sums(p, NORMALS))
     sums, full = kernel(NORMALS, 0.3, full_first=True)
     close(sums, direct_sums(p, NORMALS, 0.3))
