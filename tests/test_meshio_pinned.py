@@ -828,6 +828,12 @@ def test_gltf_must_be_json(tmp_path):
     m = quiet(tmp_path / "spaced.gltf", units="mm")
     assert report(m)["format"] == "gltf" and report(m)["notes"] == ["read in mm as asked, although the file declares m"]
     assert report(m)["up_axis"] == "+Y" and m.volume == pytest.approx(480.0)
+    # JSON may open with any amount of white space: 9000 bytes of it (over two of the reader's chunks)
+    (tmp_path / "wide.gltf").write_bytes(b" " * 4096 + b"\n" * 4904 + text)
+    assert quiet(tmp_path / "wide.gltf", units="mm").volume == pytest.approx(480.0)
+    (tmp_path / "blank.gltf").write_bytes(b" \n" * 3000)
+    assert refusal(MeshError, load_mesh, tmp_path / "blank.gltf") == (
+        "cannot read blank.gltf as GLTF: it is not a JSON glTF file (binary glTF ends in .glb)")
     (tmp_path / "bin.gltf").write_bytes(trimesh.Trimesh(vertices=v, faces=f, process=False).export(file_type="glb"))
     assert refusal(MeshError, load_mesh, tmp_path / "bin.gltf") == (
         "cannot read bin.gltf as GLTF: it is not a JSON glTF file (binary glTF ends in .glb)")

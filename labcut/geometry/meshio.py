@@ -370,6 +370,16 @@ def _read_ply_arrays(path: Path) -> tuple[np.ndarray, np.ndarray] | None:
     return np.asarray(v, dtype=np.float64), np.asarray(f, dtype=np.int64)
 
 
+def _first_byte(fh: Any) -> bytes:
+    """The first byte of a file that is not white space (b"" when there is none): JSON may open
+    with any amount of it."""
+    while chunk := fh.read(4096):
+        rest = chunk.lstrip()
+        if rest:
+            return rest[:1]
+    return b""
+
+
 def _read(path: Path, fmt: str) -> tuple[np.ndarray, np.ndarray, str | None]:
     """Vertices, faces and the unit the file declares (None when the format does not say)."""
     import trimesh
@@ -378,7 +388,7 @@ def _read(path: Path, fmt: str) -> tuple[np.ndarray, np.ndarray, str | None]:
         _check_stl(path)
     if fmt == "gltf":
         with open(path, "rb") as fh:
-            if fh.read(256).lstrip()[:1] != b"{":
+            if _first_byte(fh) != b"{":
                 raise MeshError(f"cannot read {path.name} as GLTF: it is not a JSON glTF file (binary glTF ends in .glb)")
 
     if fmt == "ply":
