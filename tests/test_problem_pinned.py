@@ -676,7 +676,7 @@ def test_exactly_1e_6_above_the_horizon_is_below_it():
 
     dr, t = ad_types()
     up = np.array([[0.0, 0.0, 1.0], [0.0, 0.0, 1.0]])
-    tilted = np.array([[0.0, 0.0, 1.0], unit(0.3, 0.0, 1.0)])
+    tilted = np.array([unit(0.3, 0.0, 1.0), unit(0.3, 0.0, 1.0)])
     graze = np.array([[1.0, 0.0, 1e-6], [1.0, 0.0, 2e-6]])
     assert float(np.array([0.0, 0.0, 1.0]) @ graze[0]) == 1e-6
     a3 = lambda x: t.Array3f64(*(np.ascontiguousarray(x[:, k]) for k in range(3)))  # noqa: E731
