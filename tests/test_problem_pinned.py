@@ -811,3 +811,18 @@ def test_a_view_that_sees_little_still_has_weights_summing_to_1():
     pi, pv, w = view_pairs(np.array([[0.0, 0.0, 1.0]]), np.zeros((1, 3)), n, n, None, False)
     np.testing.assert_array_equal(pi, [0])
     np.testing.assert_allclose(w, [1.0])
+
+
+def test_a_pose_with_more_lights_before_one_with_fewer_in_every_chunking():
+    """The host's (pair x light slot) table of a chunk that holds the end of one pose and the start
+    of the next: each pose's rows only, whatever the chunk size (the first pose has three lights,
+    the second one)."""
+    mesh = box()
+    a = Setting(Lights([[0, 0, 1], unit(1, 0, 1), unit(-1, 0, 1)], [1, 2, 1]), Views([[0, 0, 1]]), 1.0, np.eye(3))
+    b = Setting(Lights([unit(0, 1, 1)]), Views([[0, 0, 1]]), 1.0, np.eye(3))
+    s = samples_of(mesh, 60, 1)
+    assert (s.n_geo[:, 2] > 0.5).sum() >= 6
+    for k in range(1, 10):
+        p = build_problem(mesh, LAB, settings=[a, b], n_points=60, seed=1,
+                          kernels=KernelOptions(lit_cells=False, dense_chunk=3 * k))
+        assert_matches(p, mesh, [a, b], 60, 1)
