@@ -533,6 +533,12 @@ def test_degenerate_terms_become_empty_triples():
     got = []
     _setting_triples(L, E, V, pose, n_sh, LAB.n_surface, table, l_ref, 4, 100, lambda *a: got.append(a))
     h, c, pair = got[0]
+    # one point a chunk: the chunk of the infinite light's triple has a finite h and an infinite c
+    one = []
+    _setting_triples(L, E, V, pose, n_sh, LAB.n_surface, table, l_ref, 4, 1, lambda *a: one.append(a))
+    assert len(one) == 4
+    np.testing.assert_array_equal(np.concatenate([x[0] for x in one]), h)
+    np.testing.assert_array_equal(np.concatenate([x[1] for x in one]), c)
     np.testing.assert_array_equal(pair, [0, 1, 2, 3])
     np.testing.assert_allclose(h, want_h, atol=1e-6)
     assert h[3, 0] > 0.5
@@ -686,9 +692,12 @@ def test_exactly_1e_6_above_the_horizon_is_below_it():
     np.testing.assert_array_equal(np.asarray(lights_reach(a3(tilted), a3(up), a3(graze), bright)), [False, True])
     np.testing.assert_array_equal(np.asarray(lights_reach(a3(up), a3(up), a3(graze), t.Bool(np.array([True, False])))),
                                   [False, False])
-    pi, pv, _ = view_pairs(graze, np.zeros((2, 3)), up, up, None, False)
-    np.testing.assert_array_equal(pi, [0, 1])
-    np.testing.assert_array_equal(pv, [1, 1])
+    for n_geo, n_sh in ((up, up), (up, tilted), (tilted, up)):
+        pi, pv, _ = view_pairs(graze, np.zeros((2, 3)), n_geo, n_sh, None, False)
+        np.testing.assert_array_equal(pi, [0, 1])
+        np.testing.assert_array_equal(pv, [1, 1])
+        pose = _setting_pairs(graze, np.array([1.0, 1.0]), graze, np.zeros((2, 3)), n_geo, n_sh, None, True)
+        np.testing.assert_array_equal(pose.lit, [[False, True], [False, True]])
     pose = _setting_pairs(graze, np.array([1.0, 1.0]), graze, np.zeros((2, 3)), up, up, None, True)
     np.testing.assert_array_equal(pose.lit, [[False, True], [False, True]])
     pose = _setting_pairs(graze, np.array([1.0, 0.0]), graze, np.zeros((2, 3)), up, up, None, True)
@@ -826,3 +835,14 @@ def test_a_pose_with_more_lights_before_one_with_fewer_in_every_chunking():
         p = build_problem(mesh, LAB, settings=[a, b], n_points=60, seed=1,
                           kernels=KernelOptions(lit_cells=False, dense_chunk=3 * k))
         assert_matches(p, mesh, [a, b], 60, 1)
+
+
+def test_the_device_path_makes_no_host_lit_tables(monkeypatch):
+    calls = []
+    real = problem_module._setting_pairs
+    monkeypatch.setattr(problem_module, "_setting_pairs", lambda *a: calls.append(1) or real(*a))
+    lights, views = Lights([[0, 0, 1]]), Views([[0, 0, 1]])
+    build_problem(box(), LAB, lights, views, n_points=20, kernels=KernelOptions())
+    assert calls == []
+    build_problem(box(), LAB, lights, views, n_points=20, kernels=KernelOptions(lit_cells=False))
+    assert calls == [1]
