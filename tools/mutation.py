@@ -65,6 +65,17 @@ MODULE_TESTS: dict[str, list[str]] = {
     "labcut/geometry/outlines.py": ["tests/test_outlines_pinned.py", "tests/test_geometry_cabochon.py"],
     "labcut/geometry/cabochon.py": ["tests/test_cabochon_pinned.py", "tests/test_geometry_cabochon.py"],
     "labcut/orientation/uncertainty.py": ["tests/test_uncertainty_pinned.py", "tests/test_uncertainty.py"],
+    # not tests/test_pair_sums.py, test_pairs.py, test_memory_chunks.py, test_triple_batches.py,
+    # test_kernel_options.py: problems of the bundled meshes and real scenarios (21 s a mutant reached)
+    "labcut/orientation/problem.py": ["tests/test_problem_pinned.py"],
+    # not tests/test_orientation.py or test_golden_answers.py: recommendations on meshes, seconds a mutant
+    "labcut/orientation/optimize.py": ["tests/test_optimize_pinned.py"],
+    # not tests/test_answers.py, test_orientation.py, test_cli_recommend.py, test_golden_answers.py: real
+    # recommendations and CLI runs (seconds each, for each of answer_recommendation's ~300 mutants)
+    "labcut/orientation/recommend.py": ["tests/test_recommend_pinned.py"],
+    # not tests/test_geometry_load.py, test_speed_big_load.py, test_convex_flag.py: the bundled 20-50k-triangle
+    # meshes (405 of 1780 mutants in 9 minutes); not tests/test_intake.py: the CLI and recommendations
+    "labcut/geometry/meshio.py": ["tests/test_meshio_pinned.py"],
     # not tests/test_compare.py, test_rankings.py, test_compare_budget.py, test_compare_cli.py: real comparisons,
     # renders and CLI runs (about 10 s a mutant, 1930 mutants)
     "labcut/reports/compare.py": ["tests/test_compare_pinned.py"],
