@@ -827,7 +827,7 @@ def plan_effects(
     if dense and chosen in ("samples", "volume"):
         facts["map_directions_sampled"] = dense
         decisions = [replace(d, how=f"{dense} directions importance-sampled from the map (the quality's {n_map}, "
-                                    "doubled past the stone's parts)") if d.effect == "environment" else d
+                                    "more where the map is seen past the stone's parts)") if d.effect == "environment" else d
                      for d in decisions]
     return EffectPlan(command, tuple(decisions), chosen, est_why, predicted, convex, facts, pilot_seconds,
                       env_samples=dense if chosen in ("samples", "volume") else None)

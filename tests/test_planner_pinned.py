@@ -393,7 +393,7 @@ def test_a_still_map_past_a_carving_s_parts_is_drawn_through_more_directions(bip
                                "of the map, docs/planner.md)")
     env = p["environment"]
     assert env.on is True and env.forced is False and env.bound is None
-    assert env.how == "256 directions importance-sampled from the map (the quality's 32, doubled past the stone's parts)"
+    assert env.how == "256 directions importance-sampled from the map (the quality's 32, more where the map is seen past the stone's parts)"
     assert env.why == "the lights include the map 'ceiling'"
     assert p["occlusion"].how == OCC_HOW and p["depth"].how == DEPTH_HOW and p["colour"].how == "luminance"
     assert p.facts["map_directions"] == 32 and p.facts["map_directions_over_poses"] == 32
