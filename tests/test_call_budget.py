@@ -72,8 +72,9 @@ def test_the_cli_budget_is_the_calls(cli, tmp_path):
     assert proc.returncode == 0, proc.stderr
     b = json.loads(out.read_text())["settings"]["time_budget"]
     assert b["call_budget_seconds"] == 2.0 and b["before_seconds"] > 0
-    # the recommendation had what the loading left, less the answer's writing
-    assert b["budget_seconds"] == pytest.approx(2.0 - b["before_seconds"] - 0.1, abs=1e-9)
+    # the recommendation had what the loading left, less the answer's writing, and never less than
+    # 0.05 s (a loaded machine can spend the whole 2 s loading)
+    assert b["budget_seconds"] == pytest.approx(max(2.0 - b["before_seconds"] - 0.1, 0.05), abs=1e-9)
     assert "time budget 2 s for the call" in " ".join(proc.stdout.split())
 
 
