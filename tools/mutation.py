@@ -76,6 +76,9 @@ MODULE_TESTS: dict[str, list[str]] = {
     # not tests/test_answers.py, test_orientation.py, test_cli_recommend.py, test_golden_answers.py: real
     # recommendations and CLI runs (seconds each, for each of answer_recommendation's ~300 mutants)
     "labcut/orientation/recommend.py": ["tests/test_recommend_pinned.py"],
+    # not tests/test_planner.py, test_planner_off.py, test_budget*.py or test_kept_figures.py: pilot renders,
+    # this machine's calibrations and whole recommendations (seconds a test, 2258 mutants)
+    "labcut/planner.py": ["tests/test_planner_pinned.py"],
     # not tests/test_geometry_load.py, test_speed_big_load.py, test_convex_flag.py: the bundled 20-50k-triangle
     # meshes (405 of 1780 mutants in 9 minutes); not tests/test_intake.py: the CLI and recommendations
     "labcut/geometry/meshio.py": ["tests/test_meshio_pinned.py"],
