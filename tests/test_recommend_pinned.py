@@ -28,6 +28,7 @@ from labcut.orientation.robustness import Robustness
 from labcut.orientation.scoring import FlashMetrics
 from labcut.orientation.uncertainty import Uncertainty
 from labcut.scene import Quality, resolve_scene
+from lobes import Lobes as StandInLobes
 
 
 def unit(*v: float) -> np.ndarray:
@@ -550,33 +551,16 @@ def test_no_flash_is_refused_word_for_word():
 
 
 # ---------------------------------------------------------------------- stand-in scorers
-class Lobes:
-    """A stand-in scorer: ``sum_i w_i exp(k_i (|n.p_i| - 1))`` (tests/test_optimize_pinned.py)."""
+class Lobes(StandInLobes):
+    """The stand-in scorer of tests/lobes.py with what a recommendation reads besides its scores: a
+    problem's figures, the evaluations so far, the normals its metrics were asked at."""
 
     def __init__(self, peaks, kappas, weights=None) -> None:
-        self.p = np.array([unit(*p) for p in peaks])
-        self.k = np.asarray(kappas, dtype=np.float64)
-        self.w = np.ones(len(self.p)) if weights is None else np.asarray(weights, dtype=np.float64)
-        self.objective = "energy"
+        super().__init__(peaks, kappas, weights)
         self.evaluations = 1000
         self.problem = SimpleNamespace(threshold=0.02, tau=0.1, convex=True, n_points=1234, n_triples=5678,
                                        info={"volume": "the volume's"})
         self.metric_calls = []
-
-    def _f(self, n) -> np.ndarray:
-        n = np.atleast_2d(np.asarray(n, dtype=np.float64))
-        n = n / np.linalg.norm(n, axis=1, keepdims=True)
-        return (self.w * np.exp(self.k * (np.abs(n @ self.p.T) - 1.0))).sum(axis=1)
-
-    def score(self, normal) -> float:
-        self.evaluations += 1
-        return float(self._f(normal)[0])
-
-    def scores(self, normals) -> np.ndarray:
-        self.evaluations += len(normals)
-        return self._f(normals)
-
-    energy_map = scores
 
     def metrics(self, normal) -> FlashMetrics:
         self.metric_calls.append(np.array(normal))
