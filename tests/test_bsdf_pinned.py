@@ -374,41 +374,46 @@ def test_body_grid_interpolates_over_its_box(mi):
     mat = Labradorite(body_albedo=0.3)
     grid = np.ones((2, 2, 2, 2), dtype=np.float32)
     grid[:, :, 0, 0] = 0.0
-    grid[:, :, 1, 0] = 4.0  # the multiplier rises along x from 0 at x = 0 to 4 at x = 4
+    grid[:, :, 1, 0] = 4.0  # the multiplier rises along x from -2 to 2
     bsdf = load(mi, body_albedo=0.3, body_grid=mi.TensorXf(grid),
-                body_lo=mi.ScalarPoint3f(0, -1, -1), body_hi=mi.ScalarPoint3f(4, 1, 1))
+                body_lo=mi.ScalarPoint3f(-2, -1, -1), body_hi=mi.ScalarPoint3f(2, 1, 1))
     wi, wo = unit(CASES[1][0]), unit(CASES[1][1])
     value, _ = body_ref(mat, wi, wo)
-    for x in (1.0, 3.0):
-        # texels at the box's corners' cell centres: u = x / 4 maps to the clamped linear ramp
-        u = x / 4.0
+    for x in (-1.0, 0.5):
+        # texels at the cell centres: u = (x + 2) / 4 maps onto the clamped linear ramp
+        u = (x + 2.0) / 4.0
         mult = np.interp(u * 2 - 0.5, [0, 1], [0, 4])
         got = arr(bsdf.eval(ctx_for(mi, 2), si_of(mi, wi, p=[x, 0.0, 0.0]), V(mi, wo)))
         np.testing.assert_allclose(got, [mult * value] * 3, rtol=RTOL)
 
 
 def error_of(mi, **params):
+    """The ParameterError's message (Mitsuba wraps it in its parser's RuntimeError)."""
     with pytest.raises(Exception) as info:
         load(mi, **params)
-    return str(info.value)
+    text = str(info.value)
+    assert "ParameterError: " in text
+    return text.rsplit("ParameterError: ", 1)[1]
 
 
 def test_errors_word_for_word(mi):
-    assert "lamella normal must be three numbers" in error_of(mi, normal="up")
-    assert "lamella normal" in error_of(mi, normal=[0.0, 0.0, 0.0])
-    assert "spread_deg must lie in (0, 45], got -1" in error_of(mi, spread_deg=-1.0)
-    assert "body_tint must be three finite numbers >= 0" in error_of(mi, body_tint=mi.ScalarColor3f(-1, 0, 0))
+    assert error_of(mi, normal="up") == "lamella normal must be three numbers"
+    assert error_of(mi, normal=[0.0, 0.0, 0.0]) == "lamella normal must not be the zero vector"
+    assert error_of(mi, spread_deg=-1.0) == "spread_deg must lie in (0, 45], got -1"
+    assert error_of(mi, body_tint=mi.ScalarColor3f(-1, 0, 0)) == "body_tint must be three finite numbers >= 0"
+    assert error_of(mi, body_tint=mi.ScalarColor3f(float("nan"), 0, 0)) == "body_tint must be three finite numbers >= 0"
+    load(mi, body_tint=mi.ScalarColor3f(0, 1, 2))  # a zero channel is legal
     g = mi.TensorXf(np.ones((2, 2, 2, 2), dtype=np.float32))
     lo, hi = mi.ScalarPoint3f(0, 0, 0), mi.ScalarPoint3f(1, 1, 1)
-    assert "body_grid needs body_lo and body_hi" in error_of(mi, body_grid=g, body_lo=lo)
-    assert "body_grid needs body_lo and body_hi" in error_of(mi, body_grid=g, body_hi=hi)
+    assert error_of(mi, body_grid=g, body_lo=lo) == "body_grid needs body_lo and body_hi"
+    assert error_of(mi, body_grid=g, body_hi=hi) == "body_grid needs body_lo and body_hi"
     for bad in [np.ones((2, 2, 2, 3)), np.ones((2, 2, 2)), np.ones((1, 2, 2, 2)), np.ones((2, 1, 2, 2)),
                 np.ones((2, 2, 1, 2)), -np.ones((2, 2, 2, 2)), np.full((2, 2, 2, 2), np.nan)]:
         msg = error_of(mi, body_grid=mi.TensorXf(bad.astype(np.float32)), body_lo=lo, body_hi=hi)
-        assert f"body_grid must be a finite (nz, ny, nx, 2) tensor >= 0, got shape {bad.shape}" in msg
-    assert "body_lo must lie below body_hi on every axis" in error_of(mi, body_grid=g, body_lo=hi, body_hi=lo)
-    assert "body_lo must lie below body_hi on every axis" in error_of(
-        mi, body_grid=g, body_lo=lo, body_hi=mi.ScalarPoint3f(1, 1, 0))
+        assert msg == f"body_grid must be a finite (nz, ny, nx, 2) tensor >= 0, got shape {bad.shape}"
+    assert error_of(mi, body_grid=g, body_lo=hi, body_hi=lo) == "body_lo must lie below body_hi on every axis"
+    assert error_of(mi, body_grid=g, body_lo=lo, body_hi=mi.ScalarPoint3f(1, 1, 0)) == (
+        "body_lo must lie below body_hi on every axis")
 
 
 def test_normal_parsing():
@@ -418,6 +423,8 @@ def test_normal_parsing():
     for bad in ("ab", [1.0, 2.0], ["x", 1, 2], None):
         with pytest.raises(ParameterError, match=r"^lamella normal must be three numbers$"):
             B._normal_from_props({"normal": bad})
+    with pytest.raises(ParameterError, match=r"^lamella normal must not be the zero vector$"):
+        B._normal_from_props({"normal": [0.0, 0.0, 0.0]})
 
 
 def test_material_from_props(mi):
@@ -488,3 +495,160 @@ def test_scalar_variants_are_refused(variant, monkeypatch):
             B.bsdf_class()
     finally:
         mitsuba.set_variant(previous)
+
+
+# ---------------------------------------------------------------------- other colour modes
+def schiller_geom(mat, m, wi, wo):
+    """(f_s cos θ_o without R, cos θ_l, pdf) by hand."""
+    eta = mat.n_surface
+    a, b = internal(wi, eta), internal(wo, eta)
+    h = (a + b) / np.linalg.norm(a + b)
+    cos_l = abs(a @ h)
+    q = mat.lobe_norm * math.exp(mat.lobe_kappa * (abs(h @ unit(m)) - 1.0))
+    t = (1.0 - fresnel(wi[2], eta)) * (1.0 - fresnel(wo[2], eta))
+    geom = t / (eta * eta * 4.0 * cos_l * max(a[2], b[2])) * q * wo[2]
+    return geom, cos_l, q * wo[2] / (4.0 * cos_l * eta * eta * b[2])
+
+
+def fresh(variant, monkeypatch, mode, polarized=False):
+    variant(mode, polarized)
+    monkeypatch.setattr(B, "_CLASSES", {})
+    B.register()
+    import mitsuba
+
+    return mitsuba
+
+
+def si_spectral(mi, wi):
+    si = si_of(mi, wi)
+    si.wavelengths = mi.UnpolarizedSpectrum(450.0, 500.0, 550.0, 600.0)
+    return si
+
+
+WL = np.array([450.0, 500.0, 550.0, 600.0])
+
+
+def test_spectral_schiller_and_body(variant, monkeypatch):
+    from labcut.physics.lamella import stack_reflectance
+
+    mi = fresh(variant, monkeypatch, "spectral")
+    mat = Labradorite(spread_deg=8.0, body_albedo=0.2)
+    wi, wo = unit(CASES[1][0]), unit(CASES[1][1])
+    bsdf = load(mi, normal=NORMAL, spread_deg=8.0, body_albedo=0.2)
+    geom, cos_l, _ = schiller_geom(mat, NORMAL, wi, wo)
+    r = np.asarray(stack_reflectance(WL, cos_l, mat.stack), dtype=float)
+    bv, _ = body_ref(mat, wi, wo)
+    got = arr(bsdf.eval(ctx_for(mi), si_spectral(mi, wi), V(mi, wo)))
+    np.testing.assert_allclose(got, r * geom + bv, rtol=1e-3)
+    r1 = np.asarray(stack_reflectance(WL, 1.0, mat.stack), dtype=float)
+    np.testing.assert_allclose(arr(bsdf.eval_diffuse_reflectance(si_spectral(mi, wi))), np.clip(0.2 + r1, 0, 1), rtol=1e-3)
+
+
+def test_mono_schiller_and_body(variant, monkeypatch):
+    mi = fresh(variant, monkeypatch, "mono")
+    mat = Labradorite(spread_deg=8.0, body_albedo=0.2)
+    wi, wo = unit(CASES[1][0]), unit(CASES[1][1])
+    bsdf = load(mi, normal=NORMAL, spread_deg=8.0, body_albedo=0.2)
+    geom, cos_l, _ = schiller_geom(mat, NORMAL, wi, wo)
+    _, lum = luminance_table(mat)
+    r = np.interp(cos_l * (lum.shape[0] - 1), np.arange(lum.shape[0]), lum)
+    bv, _ = body_ref(mat, wi, wo)
+    got = arr(bsdf.eval(ctx_for(mi), si_of(mi, wi), V(mi, wo)))
+    np.testing.assert_allclose(got, [r * geom + bv], rtol=RTOL)
+
+
+def mueller(x):
+    return np.array(x, dtype=float).reshape(-1)
+
+
+@pytest.mark.parametrize("mode", ["spectral", "mono"])
+def test_polarized_values_are_the_unpolarised_ones_in_m00(variant, monkeypatch, mode):
+    from labcut.colour import reflectance_luminance
+    from labcut.physics.lamella import stack_reflectance
+
+    mi = fresh(variant, monkeypatch, mode, polarized=True)
+    mat = Labradorite(spread_deg=8.0, body_albedo=0.2)
+    wi, wo = unit(CASES[1][0]), unit(CASES[1][1])
+    bsdf = load(mi, normal=NORMAL, spread_deg=8.0, body_albedo=0.2)
+    geom, cos_l, _ = schiller_geom(mat, NORMAL, wi, wo)
+    bv, _ = body_ref(mat, wi, wo)
+    si = si_spectral(mi, wi) if mode == "spectral" else si_of(mi, wi)
+    if mode == "spectral":
+        r = np.asarray(stack_reflectance(WL, cos_l, mat.stack), dtype=float)
+    else:
+        c = np.linspace(0.0, 1.0, B.TABLE_SIZE)
+        rs, rp = (np.clip(reflectance_luminance(mat, c, polarization=p), 0, None) for p in ("s", "p"))
+        x = cos_l * (B.TABLE_SIZE - 1)
+        r = 0.5 * (np.interp(x, np.arange(B.TABLE_SIZE), rs) + np.interp(x, np.arange(B.TABLE_SIZE), rp))
+    m = bsdf.eval(ctx_for(mi), si, V(mi, wo))
+    m00 = np.array(m[0][0], dtype=float).ravel()
+    np.testing.assert_allclose(m00, r * geom + bv, rtol=1e-3)
+    body = bsdf.eval(ctx_for(mi, 2), si, V(mi, wo))
+    np.testing.assert_allclose(np.array(body[0][0], dtype=float).ravel(), bv, rtol=1e-3)
+    assert np.abs(np.array(body[1][1], dtype=float)).max() == 0.0  # the body is depolarised
+    sch = bsdf.eval(ctx_for(mi, 1), si, V(mi, wo))
+    assert np.abs(np.array(sch[0][1], dtype=float)).max() > 1e-6 * np.abs(np.array(sch[0][0], dtype=float)).max()
+    # the polished surface: its Mueller matrix's m00 is F
+    p_all, f = weights_ref(mat, wi[2])
+    bs, w = bsdf.sample(ctx_for(mi), si, p_all[0] * 0.5, mi.Point2f(0.3, 0.3))
+    np.testing.assert_allclose(np.array(w[0][0], dtype=float).ravel(), f / p_all[0], rtol=1e-3)
+
+
+def test_a_uniform_zoning_is_the_plain_stone(mi):
+    mat = Labradorite(spread_deg=8.0, body_albedo=0.2)
+    row = [mat.d_a, mat.d_b, mat.sigma_a, mat.sigma_b, float(mat.pairs)]
+    zoned = load(mi, normal=NORMAL, spread_deg=8.0, body_albedo=0.2,
+                 zoning_grid=mi.TensorXf(np.zeros((2, 2, 2, 1), dtype=np.float32)),
+                 zoning_path=mi.TensorXf(np.array([row, row], dtype=np.float32)),
+                 zoning_lo=mi.ScalarPoint3f(-1, -1, -1), zoning_hi=mi.ScalarPoint3f(1, 1, 1))
+    assert int(zoned.flags()) & int(mi.BSDFFlags.SpatiallyVarying)
+    assert str(zoned).endswith(", eta=1.56, zoned]")
+    assert str(load(mi)).endswith(", eta=1.56]")
+    wi, wo = unit(CASES[1][0]), unit(CASES[1][1])
+    sv, sp = schiller_ref(mat, NORMAL, wi, wo)
+    bv, bp = body_ref(mat, wi, wo)
+    f = fresnel(wi[2], mat.n_surface)
+    sw = zoned.zoning.weight
+    tot = f + (1 - f) * sw + (1 - f) * 0.2
+    v, p = zoned.eval_pdf(ctx_for(mi), si_of(mi, wi, p=[0, 0, 0]), V(mi, wo))
+    np.testing.assert_allclose(arr(v), sv + bv, rtol=2e-3)
+    np.testing.assert_allclose(arr(p), ((1 - f) * sw * sp + (1 - f) * 0.2 * bp) / tot, rtol=RTOL)
+
+
+def test_a_variant_change_registers_the_plugin(variant, monkeypatch):
+    import mitsuba
+
+    variant("rgb")
+    monkeypatch.setattr(B, "_CLASSES", {})
+    variant("mono")
+    assert list(B._CLASSES) == [mitsuba.variant()]
+    assert type(load(mitsuba)) is B._CLASSES[mitsuba.variant()]
+
+
+def test_a_type_mask_without_the_delta_leaves_the_surface_out(mi):
+    mat = Labradorite(spread_deg=8.0, body_albedo=0.2)
+    wi, wo = unit(CASES[1][0]), unit(CASES[1][1])
+    bsdf = load(mi, normal=NORMAL, spread_deg=8.0, body_albedo=0.2)
+    ctx = mi.BSDFContext()
+    ctx.type_mask = mi.BSDFFlags.GlossyReflection | mi.BSDFFlags.DiffuseReflection
+    sv, sp = schiller_ref(mat, NORMAL, wi, wo)
+    bv, bp = body_ref(mat, wi, wo)
+    (_, p_sch, p_body), _ = weights_ref(mat, wi[2], surface=False)
+    v, p = bsdf.eval_pdf(ctx, si_of(mi, wi), V(mi, wo))
+    np.testing.assert_allclose(arr(v), sv + bv, rtol=RTOL)
+    np.testing.assert_allclose(arr(p), p_sch * sp + p_body * bp, rtol=RTOL)
+    ctx.type_mask = mi.BSDFFlags.DeltaReflection
+    bs, w = bsdf.sample(ctx, si_of(mi, wi), 0.5, mi.Point2f(0.3, 0.3))
+    np.testing.assert_allclose(arr(w), fresnel(wi[2], mat.n_surface), rtol=RTOL)
+
+
+def test_the_flash_mask_is_clipped_to_one(mi):
+    mat = Labradorite(body_albedo=0.3, spread_deg=8.0)
+    grid = np.ones((2, 2, 2, 2), dtype=np.float32)
+    grid[..., 1] = 1.5
+    bsdf = load(mi, body_albedo=0.3, spread_deg=8.0, normal=NORMAL, body_grid=mi.TensorXf(grid),
+                body_lo=mi.ScalarPoint3f(-1, -1, -1), body_hi=mi.ScalarPoint3f(1, 1, 1))
+    wi, wo = unit(CASES[1][0]), unit(CASES[1][1])
+    sv, _ = schiller_ref(mat, NORMAL, wi, wo)
+    got = arr(bsdf.eval(ctx_for(mi, 1), si_of(mi, wi, p=[0, 0, 0]), V(mi, wo)))
+    np.testing.assert_allclose(got, sv, rtol=RTOL)
