@@ -87,6 +87,8 @@ MODULE_TESTS: dict[str, list[str]] = {
     "labcut/reports/compare.py": ["tests/test_compare_pinned.py"],
     # not tests/test_batch.py: its 2-worker Dask clusters (about a minute a mutant)
     "labcut/batch/runner.py": ["tests/test_runner_pinned.py"],
+    # not tests/test_bsdf.py: its chi-square, reciprocity and energy tests (seconds to minutes each)
+    "labcut/rendering/bsdf.py": ["tests/test_bsdf_pinned.py"],
     # not tests/test_exposure.py: its renders (a render per mutant reached)
     "labcut/rendering/exposure.py": ["tests/test_exposure_pinned.py"],
     "labcut/explorer/hemisphere.py": ["tests/test_explore.py"],
