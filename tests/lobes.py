@@ -69,3 +69,8 @@ class Lobes:
     def energy_batch_value_and_grad(self, us, vs):
         out = [self.value_and_grad_uv(float(u), float(v)) for u, v in zip(us, vs)]
         return np.array([o[0] for o in out]), np.array([o[1] for o in out])
+
+
+def ninety_percent_deg(kappa: float) -> float:
+    """The angle at which one lobe falls to 90 % of its peak."""
+    return math.degrees(math.acos(1.0 + math.log(0.9) / kappa))

@@ -18,12 +18,7 @@ from labcut.backend import Launched
 from labcut.errors import ParameterError
 from labcut.orientation import optimize as op
 from labcut.orientation.scoring import normal_to_stereo, stereo_to_normal
-from lobes import Lobes, angle_deg, tilted, unit
-
-
-def ninety_percent_deg(kappa: float) -> float:
-    """The angle at which one lobe falls to 90 % of its peak."""
-    return math.degrees(math.acos(1.0 + math.log(0.9) / kappa))
+from lobes import Lobes, angle_deg, ninety_percent_deg, tilted, unit
 
 
 # ---------------------------------------------------------------------- Constraint

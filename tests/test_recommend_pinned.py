@@ -29,20 +29,7 @@ from labcut.orientation.scoring import FlashMetrics
 from labcut.orientation.uncertainty import Uncertainty
 from labcut.scene import Quality, resolve_scene
 from lobes import Lobes as StandInLobes
-
-
-def unit(*v: float) -> np.ndarray:
-    a = np.asarray(v, dtype=np.float64)
-    return a / np.linalg.norm(a)
-
-
-def tilted(tilt_deg: float, azimuth_deg: float = 0.0) -> np.ndarray:
-    t, p = math.radians(tilt_deg), math.radians(azimuth_deg)
-    return np.array([math.sin(t) * math.cos(p), math.sin(t) * math.sin(p), math.cos(t)])
-
-
-def ninety_percent_deg(kappa: float) -> float:
-    return math.degrees(math.acos(1.0 + math.log(0.9) / kappa))
+from lobes import ninety_percent_deg, tilted, unit
 
 
 FACE_UP = SimpleNamespace(worn_upright=False, name="face-up stand-in")
