@@ -251,7 +251,10 @@ def studio_environment(setting: Any, studio: Studio, scale: float) -> Environmen
     e_tent = irradiance_towards(tent_env, up)
     k = studio.tent_share * float(np.sum(lights.weights)) / max(e_tent, 1e-12)
     radiance = base.astype(np.float64) + k * tent
-    name = "tent" if env is None else f"{env.name}+tent" if studio.tent_share > 0.0 else env.name
+    if env is None:
+        name = "tent"
+    else:
+        name = f"{env.name}+tent" if studio.tent_share > 0.0 else env.name
     return Environment((radiance * scale).astype(np.float32), grid_rot, name)
 
 
