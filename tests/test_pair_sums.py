@@ -94,7 +94,7 @@ def test_problems_the_kernel_does_not_take_use_the_numpy_path(bench, monkeypatch
     assert replace(bench, info=dict(bench.info),
                    kernels=KernelOptions(pair_sums_max_triples=bench.n_triples))._pair_sums is not None
     order = np.random.default_rng(1).permutation(bench.n_triples)
-    shuffled = replace(bench, h=bench.h[order], c=bench.c[order], pair=bench.pair[order], info=dict(bench.info))
+    shuffled = replace(bench, host_h=bench.h[order], c=bench.c[order], pair=bench.pair[order], info=dict(bench.info))
     assert not shuffled.pairs_sorted and shuffled._pair_sums is None
     np.testing.assert_allclose(shuffled.pair_radiance(normals), want, rtol=1e-6, atol=1e-12)
 
@@ -104,7 +104,7 @@ def test_a_stone_with_pairs_and_no_triples_sums_to_zero(oval):
     path: the kernel declines a problem without triples)."""
     lab = labcut.Labradorite.preset("blue")
     whole = build_problem(oval, lab, quality="draft", settings=resolve_scene("bench", None, None, "draft").settings())
-    part = replace(whole, h=whole.h[:0], c=whole.c[:0], pair=whole.pair[:0])
+    part = replace(whole, host_h=whole.h[:0], c=whole.c[:0], pair=whole.pair[:0])
     assert part._pair_sums is None and part.pair_view.size > 0
     for reach in (None, 0.005):
         got = part.pair_radiance(np.array([[1.0, 0.0, 0.0]]), reach=reach)

@@ -314,6 +314,8 @@ def sphere_problem():
 def _with(problem, kernels, **changes):
     from dataclasses import replace
 
+    if "h" in changes:  # the host orientations (FlashProblem.host_h, read as FlashProblem.h)
+        changes["host_h"] = changes.pop("h")
     return replace(problem, kernels=kernels, info=dict(problem.info), **changes)
 
 
@@ -423,6 +425,33 @@ def test_the_device_triples_are_the_host_triples(sphere_problem):
         np.testing.assert_array_equal(np.stack([np.asarray(h.x), np.asarray(h.y), np.asarray(h.z)], axis=1), p.h)
         np.testing.assert_array_equal(np.asarray(c), p.c)
 
+
+
+def test_the_host_orientations_are_copied_only_when_read():
+    """One kernel call made every triple: the problem keeps the device's h and copies it to the host
+    only when ``h`` is read; a score map, metrics and pair sums read the device's (a standard
+    problem's 9 MB copy per lamp the live view need not make). Several chunks: the host's arrays
+    are filled at once; the reference path has no device copy to defer."""
+    from labcut.backend import Launched
+    from labcut.orientation.scoring import Scorer
+
+    mesh = trimesh.creation.icosphere(subdivisions=2, radius=3.0)
+    lights, views = Lights([unit(0.2, 0.1, 1)]), Views([unit(0, 0, 1), unit(0.4, 0.2, 0.8)])
+    p = build_problem(mesh, LAB, lights, views, n_points=200, seed=1)
+    assert isinstance(p.host_h, Launched)
+    scorer = Scorer(p)
+    scorer.energy_map(np.array([[0.0, 0.0, 1.0], [0.3, 0.0, 0.954]]))
+    scorer.metrics(np.array([0.0, 0.0, 1.0]))
+    p.pair_radiance(np.array([[0.0, 0.0, 1.0]]))
+    assert isinstance(p.host_h, Launched), "a kernel path read the host's copy of h"
+    h, _ = p.device_triples
+    first = p.h
+    assert isinstance(first, np.ndarray) and first.dtype == np.float32 and p.host_h is first and p.h is first
+    np.testing.assert_array_equal(first, np.stack([np.asarray(h.x), np.asarray(h.y), np.asarray(h.z)], axis=1))
+    chunked = build_problem(mesh, LAB, lights, views, n_points=200, seed=1, kernels=KernelOptions(dense_chunk=50))
+    assert isinstance(chunked.host_h, np.ndarray)
+    np.testing.assert_array_equal(chunked.h, first)
+    assert isinstance(build_problem(mesh, LAB, lights, views, n_points=200, seed=1, kernels=REF).host_h, np.ndarray)
 
 def test_pair_major_stacks_the_sums_pairs_first():
     assert pair_major([]).shape == (0, 0)
@@ -546,8 +575,9 @@ def test_degenerate_terms_become_empty_triples():
     assert c[1] == 0.0 and c[2] == 0.0
     assert h.dtype == np.float32 and c.dtype == np.float32
     kernel = _TripleKernel(n_sh, LAB.n_surface, table, l_ref)
-    h2, c2 = kernel.dense(L, E, V, np.array([0, 1, 2, 3]), np.array([0, 0, 0, 1]), np.array([0, 0, 0, 0]), 3,
-                          np.array([0, 3, 7, 11]))
+    lazy_h, c2 = kernel.dense(L, E, V, np.array([0, 1, 2, 3]), np.array([0, 0, 0, 1]), np.array([0, 0, 0, 0]), 3,
+                              np.array([0, 3, 7, 11]))
+    h2 = lazy_h.value  # the host's copy of the device's h, made when read
     np.testing.assert_allclose(h2, want_h, atol=1e-6)
     assert h2[3, 0] > 0.5
     np.testing.assert_allclose(c2, want_c, rtol=1e-5)

@@ -43,12 +43,14 @@ def problem(kernels: KernelOptions = DEFAULT_KERNELS, **changes) -> FlashProblem
     |h·m| = 1 and 1 at 0. Triples: h = z (c = 1, pair 0), h = x (c = 3, pair 0), h = z (c = 0.5,
     pair 1). Pairs: view (0, 1, 1), weight (0.5, 2, 4); views weighted (0.2, 0.3, 0.5).
     Threshold 1."""
-    base = dict(h=np.array([[0, 0, 1], [1, 0, 0], [0, 0, 1]], dtype=np.float32),
+    base = dict(host_h=np.array([[0, 0, 1], [1, 0, 0], [0, 0, 1]], dtype=np.float32),
                 c=np.array([1.0, 3.0, 0.5], dtype=np.float32), pair=np.array([0, 0, 1], dtype=np.int32),
                 pair_view=np.array([0, 1, 1]), pair_weight=np.array([0.5, 2.0, 4.0]),
                 view_weight=np.array([0.2, 0.3, 0.5]), kappa=LN2, q_norm=2.0, tau=0.1, threshold=1.0,
                 material=None, lights=None, views=None, convex=True, n_points=3, kernels=kernels)
     base.update(changes)
+    if "h" in base:  # the host orientations (FlashProblem.host_h, read as FlashProblem.h)
+        base["host_h"] = base.pop("h")
     return FlashProblem(**base)
 
 

@@ -324,7 +324,7 @@ def test_a_bin_whose_fixed_point_sum_is_zero_is_dropped(scorer, monkeypatch):
     c = p.c[keep].copy()
     h[-1] = np.array([0.6, 0.0, 0.8], dtype=np.float32)  # a cell of its own, far from the bench's flash near +z
     c[-1] = np.float32(1e-30)
-    small = replace(p, h=h, c=c, pair=p.pair[keep])
+    small = replace(p, host_h=h, c=c, pair=p.pair[keep])
     assert scoring_module._device_keys_apply(small, 612 * 612)
     hb, ab = Scorer(small)._bin_triples()
     assert np.all(np.isfinite(hb)) and np.all(ab > 0)

@@ -56,7 +56,10 @@ PAIR_CHUNK = 1 << 18
 class FlashProblem:
     """Precomputed triples for one (mesh, material, lights, views, quality)."""
 
-    h: np.ndarray  # (T, 3) float32 lamella orientation per triple, mesh frame, h_z >= 0 (axial fold)
+    #: (T, 3) float32 lamella orientation per triple, mesh frame, h_z >= 0 (axial fold), read as
+    #: :attr:`h`; a :class:`~labcut.backend.Launched` copy from the device where the triple kernel made
+    #: them, taken only if something reads :attr:`h` (the kernels read :attr:`device_triples`)
+    host_h: np.ndarray | Launched[np.ndarray]
     c: np.ndarray  # (T,) float32 weight in front of q, in units of L_ref
     pair: np.ndarray  # (T,) int32 index of the (point, view) pair
     pair_view: np.ndarray  # (P,) view index of each pair
@@ -75,6 +78,19 @@ class FlashProblem:
     #: which steps run as Dr.Jit kernels (:class:`~labcut.orientation.kernels.KernelOptions`): the
     #: problem's own pair sums and its scorer's binning and energy map read them from here
     kernels: KernelOptions = DEFAULT_KERNELS
+
+    @property
+    def h(self) -> np.ndarray:
+        """The triples' mirror orientations on the host, (T, 3) float32 (:attr:`host_h`, copied
+        from the device the first time it is read)."""
+        h = self.host_h
+        if isinstance(h, Launched):
+            h = self.host_h = h.value
+        return h
+
+    @h.setter
+    def h(self, value: np.ndarray) -> None:
+        self.host_h = value
 
     @property
     def n_triples(self) -> int:
@@ -422,11 +438,13 @@ def build_problem(
     whole: list[Any] = []  # every triple in one chunk: that chunk's own arrays, kept as they are (no copy)
     out: list[np.ndarray] = []  # else (h, c, pair) of every triple, allocated at the first chunk
 
-    def sink(h_t: np.ndarray, c_t: np.ndarray, pair_t: np.ndarray) -> None:
+    def sink(h_t: np.ndarray | Launched[np.ndarray], c_t: np.ndarray, pair_t: np.ndarray) -> None:
         n = len(c_t)
-        if at[0] == 0 and n == total:
+        if at[0] == 0 and n == total:  # h_t kept as it came (the kernel's: copied to the host only if read)
             whole.append((h_t, c_t, np.asarray(pair_t, dtype=np.int32)))
         else:
+            if isinstance(h_t, Launched):
+                h_t = h_t.value
             if not out:
                 out.extend([np.empty((total, 3), dtype=np.float32), np.empty(total, dtype=np.float32),
                             np.empty(total, dtype=np.int32)])
@@ -459,7 +477,7 @@ def build_problem(
         )
     view_weight = np.concatenate(vw_parts)
     problem = FlashProblem(
-        h=h,
+        host_h=h,
         c=c,
         pair=pair_of_t,
         pair_view=pair_view.astype(np.int64),
@@ -556,8 +574,8 @@ class _TripleKernel:
         self.last_device: tuple[Any, Any] | None = None
 
     def dense(self, L: np.ndarray, E: np.ndarray, V: np.ndarray, point: np.ndarray, view: np.ndarray,
-              light0: np.ndarray, width: int, index: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(h (T, 3) float32 folded into the upper hemisphere, c (T,) float32 in units of L_ref,
+              light0: np.ndarray, width: int, index: np.ndarray) -> tuple[Launched[np.ndarray], np.ndarray]:
+        """(h (T, 3) float32 folded into the upper hemisphere, its host copy made when read, c (T,) float32 in units of L_ref,
         non-finite terms replaced by (0, 0, 1) and 0) of the triples of a block of pairs (their
         ``point``, ``view`` and first light ``light0`` indices, each (P,)) with the ``width``
         lights from each pair's first: triple ``index[t]`` (uint32, < P x width, numpy or a Dr.Jit
@@ -572,7 +590,7 @@ class _TripleKernel:
         i_l = dr.gather(t.UInt32, p_light, j) + (idx - j * w)
         return self._terms(L, E, V, dr.gather(t.UInt32, p_point, j), i_l, dr.gather(t.UInt32, p_view, j))
 
-    def _terms(self, L: np.ndarray, E: np.ndarray, V: np.ndarray, i_p: Any, i_l: Any, i_v: Any) -> tuple[np.ndarray, np.ndarray]:
+    def _terms(self, L: np.ndarray, E: np.ndarray, V: np.ndarray, i_p: Any, i_l: Any, i_v: Any) -> tuple[Launched[np.ndarray], np.ndarray]:
         dr, t = self.dr, self.t
         L32, V32 = np.asarray(L, dtype=np.float32), np.asarray(V, dtype=np.float32)
         lights = t.Array3f(L32[:, 0], L32[:, 1], L32[:, 2])
@@ -588,7 +606,8 @@ class _TripleKernel:
         c = dr.select(finite, c, 0.0)
         dr.eval(h, c)
         self.last_device = (h, c)
-        return np.stack([np.asarray(h.x), np.asarray(h.y), np.asarray(h.z)], axis=1), np.asarray(c)
+        # the host's copy of h only when read (FlashProblem.h): the kernels that follow read the device's
+        return Launched(lambda: np.stack([np.asarray(h.x), np.asarray(h.y), np.asarray(h.z)], axis=1)), np.asarray(c)
 
 
 @dataclass(frozen=True)

@@ -316,7 +316,7 @@ def build_volume_problem(
     view_weight = np.concatenate(vw_parts)
     pair_point = np.concatenate(pp_parts)
     return FlashProblem(
-        h=h, c=c, pair=pair_of_t, pair_view=np.concatenate(pv_parts).astype(np.int64),
+        host_h=h, c=c, pair=pair_of_t, pair_view=np.concatenate(pv_parts).astype(np.int64),
         pair_weight=np.concatenate(pw_parts), view_weight=view_weight / view_weight.sum(),
         kappa=material.lobe_kappa, q_norm=material.lobe_norm, tau=float(tau),
         threshold=flash_threshold(material, settings[0].lights, tau), material=material,
