@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 import labcut
-from labcut.geometry import meshio
+from labcut.geometry import solid
 
 MESHES = Path(__file__).resolve().parents[1] / "meshes"
 
@@ -32,7 +32,7 @@ def _count_qhull(monkeypatch):
 
 def test_a_convex_stone_needs_one_hull(oval, monkeypatch):
     calls = _count_qhull(monkeypatch)
-    assert meshio.is_convex_mesh(oval)
+    assert solid.is_convex_mesh(oval)
     assert calls == []
 
 
@@ -43,13 +43,84 @@ def test_qhull_decides_where_manifolds_hull_is_too_large(oval, monkeypatch):
 
     real_hull = m3.Manifold.hull_points
     monkeypatch.setattr(m3.Manifold, "hull_points", lambda v: type("H", (), {"volume": lambda self: 1.01 * real_hull(v).volume()})())
-    assert meshio.is_convex_mesh(oval)  # Qhull's hull is the true one
+    assert solid.is_convex_mesh(oval)  # Qhull's hull is the true one
     assert calls == [len(oval.vertices)]
 
 
 def test_a_concave_stone_is_concave_by_both(monkeypatch):
     mesh = labcut.load_mesh(MESHES / "carving-biplane.ply")
     calls = _count_qhull(monkeypatch)
-    assert not meshio.is_convex_mesh(mesh)
+    assert not solid.is_convex_mesh(mesh)
     assert calls == [len(mesh.vertices)]
     np.testing.assert_equal(mesh.metadata["labcut"]["convex"], False)
+
+
+def _hulls(monkeypatch):
+    """Count :func:`solid.is_convex_mesh`'s runs (what the kept flag saves a new process)."""
+    calls = []
+    real = solid.is_convex_mesh
+    monkeypatch.setattr(solid, "is_convex_mesh", lambda *a, **k: calls.append(1) or real(*a, **k))
+    return calls
+
+
+def _new_process(monkeypatch):
+    from labcut import fileio
+
+    monkeypatch.setattr(fileio, "_CALIBRATIONS", {})
+    monkeypatch.setattr(fileio, "_STORES", {})
+
+
+def test_a_loaded_stones_convexity_is_read_back_in_a_new_process(monkeypatch, fresh_user_cache):
+    """The bundled oval (11,010 vertices) computes its hulls once; a new process reads the flag
+    back (``convexity.json``); the carving's False is kept as well; a stone under
+    :data:`solid.KEPT_CONVEXITY_VERTICES` vertices is computed and nothing written."""
+    calls = _hulls(monkeypatch)
+    assert labcut.load_mesh(MESHES / "oval-16x12-low.ply").metadata["labcut"]["convex"] is True
+    assert len(calls) == 1 and (fresh_user_cache / "convexity.json").exists()
+    _new_process(monkeypatch)
+    assert labcut.load_mesh(MESHES / "oval-16x12-low.ply").metadata["labcut"]["convex"] is True
+    assert len(calls) == 1
+    assert labcut.load_mesh(MESHES / "carving-biplane.ply").metadata["labcut"]["convex"] is False
+    _new_process(monkeypatch)
+    assert labcut.load_mesh(MESHES / "carving-biplane.ply").metadata["labcut"]["convex"] is False
+    assert len(calls) == 2
+    kept = (fresh_user_cache / "convexity.json").read_text()
+    cube = labcut.load_mesh(MESHES / "cube-10.ply")
+    assert len(cube.vertices) < solid.KEPT_CONVEXITY_VERTICES and len(calls) == 3
+    assert (fresh_user_cache / "convexity.json").read_text() == kept
+
+
+def test_the_kept_convexitys_key_holds_the_mesh_the_version_and_the_code(monkeypatch, fresh_user_cache):
+    from labcut import fileio
+
+    calls = _hulls(monkeypatch)
+    oval = labcut.load_mesh(MESHES / "oval-16x12-low.ply")
+    solid.kept_convexity(oval)
+    assert len(calls) == 1
+    moved = oval.copy()
+    moved.vertices[0] += [0.0, 0.0, 1e-9]  # one vertex a nanometre away: another stone
+    solid.kept_convexity(moved)
+    assert len(calls) == 2
+    _new_process(monkeypatch)
+    monkeypatch.setattr(labcut, "__version__", "0.0.0-other")
+    solid.kept_convexity(oval)
+    assert len(calls) == 3
+    _new_process(monkeypatch)
+    monkeypatch.setattr(fileio, "code_hash", lambda *paths: "edited")
+    solid.kept_convexity(oval)
+    assert len(calls) == 4
+
+
+@pytest.mark.parametrize("bad", ["yes", 1, None, 0.0])
+def test_a_damaged_convexity_is_computed_again_with_a_warning(monkeypatch, fresh_user_cache, bad):
+    import json
+
+    calls = _hulls(monkeypatch)
+    oval = labcut.load_mesh(MESHES / "oval-16x12-low.ply")
+    path = fresh_user_cache / "convexity.json"
+    (key,) = json.loads(path.read_text())
+    path.write_text(json.dumps({key: {"convex": bad}}))
+    _new_process(monkeypatch)
+    with pytest.warns(labcut.LabcutWarning, match="convexity.json is damaged"):
+        assert solid.kept_convexity(oval) is True
+    assert len(calls) == 2 and json.loads(path.read_text())[key] == {"convex": True}

@@ -60,6 +60,49 @@ def is_convex_mesh(mesh: Any, rtol: float = CONVEX_RTOL, *, volume: float | None
     return (hv - vol) <= rtol * hv
 
 
+#: vertices from which :func:`kept_convexity` keeps a stone's convexity in labcut's user cache
+#: (below, the hull takes about a millisecond and is computed each time)
+KEPT_CONVEXITY_VERTICES = 2000
+
+
+def kept_convexity(mesh: Any, *, volume: float | None = None) -> bool:
+    """:func:`is_convex_mesh` of a stone of at least :data:`KEPT_CONVEXITY_VERTICES` vertices, kept
+    in labcut's user cache (``convexity.json``, :func:`labcut.fileio.calibrations`): a new process
+    that loads the same file reads the flag back instead of computing two convex hulls again (a few
+    hundredths of a second for the bundled stones, seconds for a scan of millions of triangles).
+    The key holds everything that shapes the flag: a hash of the vertices (float64) and faces
+    (int64), :data:`CONVEX_RTOL`, labcut's and SciPy's versions, manifold3d's installed file, and a
+    hash of this module's code; a damaged entry is computed again with one warning."""
+    import os
+
+    import manifold3d as m3
+    import scipy
+
+    from .. import __version__
+    from ..fileio import calibrations, code_hash
+
+    v = np.ascontiguousarray(np.asarray(mesh.vertices, dtype=np.float64))
+    f = np.ascontiguousarray(np.asarray(mesh.faces, dtype=np.int64))
+    if len(v) < KEPT_CONVEXITY_VERTICES:
+        return is_convex_mesh(mesh, volume=volume)
+    import hashlib
+
+    digest = hashlib.blake2b(v.tobytes(), digest_size=16)
+    digest.update(f.tobytes())
+    m3_file = os.stat(m3.__file__)
+    key = (f"convex | labcut {__version__} scipy {scipy.__version__} manifold3d {m3_file.st_size}:{m3_file.st_mtime_ns} "
+           f"| code {code_hash(__file__)} | rtol {CONVEX_RTOL!r} | {len(v)} vertices {len(f)} faces {digest.hexdigest()}")
+    value = calibrations("convexity.json", [key], lambda missing: [{"convex": is_convex_mesh(mesh, volume=volume)}],
+                         check=_check_convex)[0]
+    return value["convex"]
+
+
+def _check_convex(value: dict[str, Any]) -> None:
+    """Refuse a kept flag that is not a boolean (a damaged or foreign file: computed again)."""
+    if not isinstance(value["convex"], bool):
+        raise ValueError(f"not a convexity flag: {value['convex']!r}")
+
+
 def hull_volume(v: np.ndarray) -> float:
     """Volume of the convex hull of points (Qhull; manifold3d's where Qhull refuses them)."""
     try:
