@@ -721,6 +721,11 @@ class Scorer:
         return self._segment_sum(values, self._triples().view_rows)
 
     def _objective_dr(self, m: Any, smooth: bool) -> Any:
+        """The objective at the normal ``m`` as Dr.Jit operations (``smooth``: a logistic threshold,
+        differentiable). The thresholded objectives (area, intensity, balanced) are scored so; the
+        energy objective is scored from the sparse map (float64, an analytic gradient), and its
+        branch here, every bin's term through Dr.Jit's automatic differentiation, is the independent
+        reference that map's value and gradient are tested against (``tests/test_sparse_map.py``)."""
         dr = self.dr
         if self.objective == "energy":
             return dr.sum(self.bin_a * self._q(self.bin_h, m))

@@ -310,11 +310,6 @@ def _define_class() -> type:
             inv = dr.select(total > 0.0, dr.rcp(total), 0.0)
             return w_spec * inv, w_sch * inv, w_body * inv, f_i
 
-        def _schiller_terms(self, si: Any, wo: Any) -> tuple[Any, Any]:
-            """(f_s · cos θ_o as UnpolarizedSpectrum, pdf of the schiller lobe) for local wo."""
-            value, pdf, _ = self._schiller_parts(si, wo)
-            return value, pdf
-
         def _schiller_parts(self, si: Any, wo: Any) -> tuple[Any, Any, Any]:
             """(unpolarised value, pdf, (geometric weight without R, cos θ_l, h)) of the schiller lobe."""
             ops = drjit_ops()
