@@ -192,6 +192,49 @@ def occlusion_on(convex: bool, forced: Mapping[str, bool]) -> bool:
     return bool(forced.get("occlusion", not convex))
 
 
+def check_occlusion(convex: bool, forced: Mapping[str, bool]) -> bool:
+    """:func:`occlusion_on`, refusing occlusion forced on for a convex stone (a plan's first check)."""
+    if "occlusion" in forced and forced["occlusion"] and convex:
+        raise ParameterError("occlusion cannot be switched on for a convex stone: no part of it can hide another")
+    return occlusion_on(convex, forced)
+
+
+def map_directions_past_parts(scene: Any, occluded: bool, convex: bool) -> int | None:
+    """How many directions the surface samples draw from the scene's environment map where it is
+    seen past the parts of a stone that is not convex (:func:`env_samples_enough`, more than the
+    quality's), or None where the quality's own serve: no map, a convex stone, occlusion off, or
+    directions enough over the scene's poses already (docs/planner.md measures the rule)."""
+    if convex or not occluded or not any(st.lights.environment is not None for st in scene.settings()):
+        return None
+    n_map = len(scene.lights) - scene.lights.n_lamps
+    enough = env_samples_enough(n_map, len(scene.poses()))
+    return enough if enough > n_map else None
+
+
+def plan_surface_samples(mesh: Any, setup: Any) -> EffectPlan:
+    """The plan of a live view's answer (:attr:`labcut.Study.surface_scorer`, the explorer's map and
+    metrics): the surface samples, under :func:`plan_effects`'s occlusion rule and with its
+    directions of an environment map seen past a carving's parts (:func:`map_directions_past_parts`),
+    and none of the decisions that choose a recommendation's estimator from the material and the
+    lights (inter-reflection and its pilot renders, the stack's depth, the polarisation bias: tenths
+    of a second for a new material, which a lamp or material moved on the page need not wait for).
+    ``setup``: a :class:`~labcut.orientation.question.FlashQuestion`."""
+    from .scene import resolve_scene
+
+    convex = Stone.of(mesh).convex
+    forced = check_effects(setup.effect_overrides)
+    occluded = check_occlusion(convex, forced)
+    scene = resolve_scene(setup.scenario, None, None, setup.quality)
+    dense = map_directions_past_parts(scene, occluded, convex)
+    why = ("convex stone: a ray leaving the surface never meets it again (exact)" if convex else
+           "non-convex stone: parts of it hide lights and viewers from other parts" if occluded else
+           "switched off: lights and viewers treated as seen from every surface point (approximate)")
+    decisions = (Decision("occlusion", occluded, "shadow rays from every surface sample to every light and view direction"
+                          if occluded else "", why, "occlusion" in forced, 0.0 if convex else None),)
+    return EffectPlan("recommend", decisions, "samples", "a live view answers from the surface samples", {}, convex,
+                      {"convex": convex}, env_samples=dense)
+
+
 def hemispherical_fresnel(eta: float, samples: int = 512) -> float:
     """Cosine-weighted mean of the unpolarised Fresnel reflectance from air into index ``eta``."""
     from .physics import schiller
@@ -595,9 +638,7 @@ def plan_effects(
     decisions: list[Decision] = []
 
     # occlusion ---------------------------------------------------------------
-    if "occlusion" in forced and forced["occlusion"] and convex:
-        raise ParameterError("occlusion cannot be switched on for a convex stone: no part of it can hide another")
-    occ_on = occlusion_on(convex, forced)
+    occ_on = check_occlusion(convex, forced)
     if rendering:
         occ_on = True
         decisions.append(Decision("occlusion", True, "ray tracing", "a renderer traces every ray; it costs nothing extra",
@@ -759,8 +800,7 @@ def plan_effects(
     # directions shared by every surface point, each blocked or not (docs/planner.md measures it)
     env_seen = n_map * len(scene.poses())  # the map's directions in the stone's frame, over the motion
     past_parts = bool(envs) and occ_on and not convex
-    env_occ = past_parts and env_samples_enough(n_map, len(scene.poses())) > n_map
-    dense = env_samples_enough(n_map, len(scene.poses())) if env_occ else None
+    dense = map_directions_past_parts(scene, occ_on, convex)
     if past_parts:
         facts["map_directions"] = n_map
         facts["map_directions_over_poses"] = env_seen

@@ -35,7 +35,8 @@ from .orientation.optimize import hemisphere_grid, score_map
 from .orientation.recommend import Recommendation, answer_recommendation, build_scorer, evaluation_metrics
 from .orientation.scoring import FlashMetrics, Scorer
 from .orientation.question import FlashQuestion
-from .planner import plan_question
+from .orientation.estimators import volume_problem
+from .planner import plan_question, plan_surface_samples
 from .scene.directions import lamella_normal
 from .scene.scenario import SCENARIOS
 from .scene.quality import Quality
@@ -84,6 +85,8 @@ class Study:
             check_number(pilot_seconds_max, "pilot_seconds_max", 0.0, 86_400.0, unit="s"))
         self._scorer: Scorer | None = None
         self._surface: Scorer | None = None
+        #: how :attr:`surface_scorer`'s problem was built (:func:`_build_key`), where it was built on its own
+        self._surface_key: tuple[Any, ...] | None = None
         self._recommendations: dict[str, Recommendation] = {}
 
     # ------------------------------------------------------------------ the question
@@ -108,6 +111,10 @@ class Study:
                 f"quality={self.quality.name!r})")
 
     # ------------------------------------------------------------------ what answering makes, once
+    def planned(self) -> Any:
+        """The effect plan if :meth:`plan` has made it, else None (nothing is planned by asking)."""
+        return self._plan
+
     def plan(self) -> Any:
         """The effect plan (:class:`labcut.planner.EffectPlan`): which effects are simulated and
         which estimator answers; made once."""
@@ -122,25 +129,34 @@ class Study:
         """The sample estimator's scorer of this question's flash problem, built as planned; made once."""
         if self._scorer is None:
             plan = self.plan()
-            with serial_blas():
-                self._scorer = build_scorer(self.stone.mesh, self.question, plan)
-            self.builds["problem"] += 1
+            if self._surface is not None and self._surface_key == _build_key(plan):
+                self._scorer = self._surface  # the live view's problem is the one the plan asks for
+            else:
+                with serial_blas():
+                    self._scorer = build_scorer(self.stone.mesh, self.question, plan)
+                self.builds["problem"] += 1
         return self._scorer
 
     @property
     def surface_scorer(self) -> Scorer:
-        """The surface samples' scorer of this question (the plan's occlusion and map, the light
-        mirrored where it enters), whatever estimator the plan chose: what a live view answers from
-        (the explorer), where the volume estimator's problem, the plan's choice for a carving's thin
-        parts, costs a second or two. The same object as :attr:`scorer` where the plan's estimator
-        is the surface samples'; made once."""
-        plan = self.plan()
-        if plan.estimator in (None, "samples", "render"):  # render: its scorer is the samples' already
-            return self.scorer
+        """The surface samples' scorer of this question (occlusion and the environment map's
+        directions as the planner rules, the light mirrored where it enters), whatever estimator the
+        plan chooses: what a live view answers from (the explorer). Where the plan is made and its
+        estimator is the surface samples' (or the render estimator, whose scorer is theirs), the same
+        object as :attr:`scorer`; where the plan is not made, it is not made for this either
+        (:func:`labcut.planner.plan_surface_samples`: none of the material's decisions, which a moved
+        lamp or a new material need not wait for), and a later :attr:`scorer` of the same problem is
+        this one. Made once."""
         if self._surface is None:
-            with serial_blas():
-                self._surface = build_scorer(self.stone.mesh, self.question, replace(plan, estimator="samples"))
-            self.builds["problem"] += 1
+            plan = self._plan
+            if plan is not None and plan.estimator in (None, "samples", "render"):
+                self._surface = self.scorer
+            else:
+                live = replace(plan, estimator="samples") if plan is not None else plan_surface_samples(self.stone.mesh, self.question)
+                with serial_blas():
+                    self._surface = build_scorer(self.stone.mesh, self.question, live)
+                self._surface_key = _build_key(live)
+                self.builds["problem"] += 1
         return self._surface
 
     # ------------------------------------------------------------------ questions
@@ -210,6 +226,7 @@ class Study:
         other._plan = self._plan if keep_plan else None
         other._scorer = self._scorer if keep_problem else None
         other._surface = None
+        other._surface_key = None
         other._recommendations = {}
         return other
 
@@ -263,3 +280,9 @@ class Study:
         asked.update(changes)
         return replace(FlashQuestion.build(s.material, spec["scenario"], spec["lighting"], spec["viewing"], **asked),
                        kernels=s.kernels)
+
+
+def _build_key(plan: Any) -> tuple[Any, ...]:
+    """What of an effect plan :func:`~labcut.orientation.recommend.build_scorer` builds a problem from:
+    occlusion, through the volume or not, the environment map's directions."""
+    return (plan.on("occlusion"), volume_problem(plan.estimator), plan.env_samples)

@@ -181,17 +181,42 @@ def test_a_carvings_live_view_renders_no_pilots_and_answers_from_the_surface_sam
     live.set({"lamp_elevation": 63.0})
     view = live.view()
     study = live.study()
+    # the answer waited for no plan (no pilots asked, nor the material's depth and polarisation)
+    assert asked == [] and study.planned() is None and study.builds == {"plan": 0, "problem": 1, "recommendation": 0}
+    assert view["estimator"] == "samples (live); recommend: planned after the picture"
+    assert live.planned_estimator() == {"state": live.state.to_dict(), "estimator":
+                                        "samples (live); recommend: volume (light between the parts measured when asked)"}
     assert asked == [0.0] and study.plan().estimator == "volume"
-    assert study.surface_scorer is not study._scorer and "volume" not in study.surface_scorer.problem.info
+    assert study.surface_scorer is not study.scorer and "volume" not in study.surface_scorer.problem.info
     ref = labcut.evaluate_orientation(live.stone, live.normal(), scenario="bench", lighting=live.lights(), quality="draft",
                                       estimator="samples")
     assert view["metrics"]["flash_energy"] == pytest.approx(ref.flash_energy, rel=1e-9)
-    assert view["estimator"] == "samples (live); recommend: volume (light between the parts measured when asked)"
+    assert live.view()["estimator"] == "samples (live); recommend: volume (light between the parts measured when asked)"
     assert live.recommendation() is None
     rec = live.recommend()
     assert asked[0] == 0.0 and len(asked) > 1 and set(asked[1:]) == {None} and rec.estimator == "volume"
     assert live.view()["estimator"] == "samples (live); recommend: volume"
     assert live.view()["recommendation"]["tilt_deg"] == pytest.approx(rec.tilt_deg)
+
+
+def test_a_new_material_or_lamp_answers_without_the_recommendations_plan(session):
+    """The map and metrics of a new material or lamp come from the surface samples under the
+    planner's occlusion rule alone (``planner.plan_surface_samples``): the plan's decisions of the
+    material (the stack's depth law, its polarisation table, tenths of a second for a new one) are
+    made after the picture (``planned_estimator``), and the plan then asks for the very problem the
+    view built, which the recommendation reuses."""
+    session.reset()
+    for change in ({"material": "peak", "peak_nm": 497.25}, {"lamp_elevation": 71.5}):
+        session.set(change)
+        view = session.view()
+        study = session.study()
+        assert study.planned() is None and view["estimator"].endswith("planned after the picture")
+        problems = study.builds["problem"]
+        assert session.planned_estimator()["estimator"] == "samples (live); recommend: samples"
+        assert study.planned() is not None and study.scorer is study.surface_scorer
+        assert study.builds["problem"] == problems  # the oval's plan asks for the view's problem: not built again
+        assert session.view()["estimator"] == "samples (live); recommend: samples"
+    session.reset()
 
 
 def test_the_material_control(session):
@@ -408,6 +433,37 @@ def test_the_socket_answers_a_bad_message_with_an_error_not_a_crash(explorer):
     assert [r["type"] for r in replies[:3]] == ["error"] * 3 and "bad message" in replies[0]["message"]
     assert replies[3]["control"] == "lamp_elevation" and replies[3]["ids"] == [9]
     assert replies[4]["type"] == "view" and replies[4]["view"]["state"]["normal_tilt"] == 3
+
+
+def test_the_socket_sends_the_plan_after_the_first_picture(explorer):
+    """A new lamp: the view (its estimator pending), the preview, then the plan's estimator for that
+    view's generation, then the refined pictures (``ExploreSession.planned_estimator``)."""
+    import asyncio
+
+    import tornado.websocket
+
+    async def talk():
+        ws = await tornado.websocket.websocket_connect(explorer.url.replace("http", "ws") + "ws")
+        await ws.read_message()  # the controls' spec
+        ws.write_message(json.dumps({"op": "set", "id": 21, "changes": {"lamp_elevation": 57.25}}))
+        seen, generation = [], None
+        while True:
+            m = json.loads(await asyncio.wait_for(ws.read_message(), 120))
+            if m["type"] == "view" and 21 in m["ids"]:
+                generation = m["generation"]
+                seen.append(("view", m["view"]["estimator"]))
+            elif generation is not None and m.get("generation") == generation and m["type"] in ("render", "plan", "render-done"):
+                seen.append((m["type"], m.get("stage") or m.get("estimator")))
+                if m["type"] == "render-done":
+                    break
+        ws.close()
+        return seen
+
+    seen = asyncio.run(talk())
+    assert seen[0] == ("view", "samples (live); recommend: planned after the picture")
+    assert seen[1] == ("render", "preview")
+    assert seen[2] == ("plan", "samples (live); recommend: samples")
+    assert seen[-1][0] == "render-done" and all(kind == "render" for kind, _ in seen[3:-1])
 
 
 def test_the_socket_refuses_another_origin(explorer):

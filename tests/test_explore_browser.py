@@ -74,6 +74,8 @@ def test_explore_in_the_browser(cli):
             until(lambda: text("energy-out") != energy and page.get_attribute("#map-img", "src") != map_src,
                   what="the answer under the lower lamp")
             assert "50° above the horizon" in text("subject")
+            # the recommendation's estimator follows the picture (the plan the answer did not wait for)
+            until(lambda: text("timings").endswith("recommend: samples"), 120, "the planned estimator")
 
             # a value the control cannot take is refused on the page, beside the control
             shown = text("energy-out")

@@ -195,6 +195,37 @@ def test_an_environment_map_past_a_carvings_parts_is_sampled_densely():
     assert "7 poses" in moving.estimator_why and "224" in moving.estimator_why
 
 
+def test_a_live_views_plan_has_the_planners_occlusion_and_map_and_nothing_of_the_material():
+    """``plan_surface_samples`` (what the explorer's map and metrics are built under): the occlusion
+    rule and the map's directions of ``plan_effects`` (the cases of the test above), the surface
+    samples as its estimator, and no pilot, depth or polarisation work (the material's decisions)."""
+    import labcut.planner as planner
+    from labcut.orientation.question import FlashQuestion
+
+    biplane, oval = mesh("carving-biplane.ply"), mesh("oval-16x12-low.ply")
+
+    def live(stone, **kw):
+        return planner.plan_surface_samples(stone, FlashQuestion.build(None, kw.pop("scenario"), None, None, **kw))
+
+    with pytest.MonkeyPatch.context() as mp:
+        for name in ("measured_interreflection", "polarisation_biases"):
+            mp.setattr(planner, name, lambda *a, **k: pytest.fail("a live view's plan made the material's decisions"))
+        mp.setattr("labcut.orientation.volume.depth_exposure", lambda *a, **k: pytest.fail("depth exposure asked"))
+        ceiling = live(biplane, scenario="ring-diffuse", quality="draft")
+        standard = live(biplane, scenario="ring-diffuse", quality="standard")
+        free = live(biplane, scenario="ring-diffuse", quality="draft", effects={"occlusion": False})
+        moving = live(biplane, scenario="ring", quality="draft")
+        lamp = live(biplane, scenario="bench", quality="draft")
+        cab = live(oval, scenario="ring-diffuse", quality="draft")
+    assert ceiling.estimator == "samples" and ceiling.on("occlusion") and ceiling.env_samples == 256
+    assert standard.env_samples == 256 and free.env_samples is None and not free.on("occlusion")
+    assert moving.on("occlusion") and moving.env_samples is None  # 224 directions over the poses: enough
+    assert lamp.on("occlusion") and lamp.env_samples is None  # lamps only
+    assert not cab.on("occlusion") and cab.env_samples is None and cab.convex  # nothing hides the map
+    with pytest.raises(labcut.errors.ParameterError, match="occlusion cannot be switched on for a convex stone"):
+        live(oval, scenario="bench", quality="draft", effects={"occlusion": True})
+
+
 def test_the_densely_sampled_map_lands_where_the_renders_do():
     """The samples' answer for the biplane under the still ceiling, the map drawn as the planner
     draws it, against the render estimator's answer (recorded with the golden answers by

@@ -222,6 +222,10 @@ class Worker(threading.Thread):
             t = time.perf_counter()
             png = self.session.preview()
             self._send_picture(png, generation, "preview", time.perf_counter() - t, final=False)
+            if not self.jobs.empty():
+                raise Superseded
+            # the recommendation's estimator: the live Study's plan, which the answer did not wait for
+            self.publish({"type": "plan", "generation": generation, **self.session.planned_estimator()})
             t = time.perf_counter()
             for k, png in enumerate(self.session.refine(stop=lambda: not self.jobs.empty() or self.stopped.is_set())):
                 self._send_picture(png, generation, "refined", time.perf_counter() - t, final=False, step=k + 1)

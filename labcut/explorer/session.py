@@ -51,6 +51,10 @@ from .state import ControlError, ExploreState, changed
 
 #: Studies kept (each holds a flash problem of a few MB at standard quality)
 STUDIES_KEPT = 12
+
+#: what the page says of a recommendation's estimator until the live Study's plan is made (after the
+#: state's first picture: :meth:`ExploreSession.planned_estimator`)
+PLAN_PENDING = "planned after the picture"
 #: cabochons built from the outline and dome controls, kept
 STONES_KEPT = 6
 #: the preview: pixels and samples per pixel (a few tens of milliseconds on 2 cores)
@@ -267,9 +271,20 @@ class ExploreSession:
                 "stone": {"name": _stone_name(stone), "kind": stone.kind, "triangles": int(len(stone.mesh.faces)),
                           "size_mm": [round(float(x), 2) for x in np.ptp(stone.mesh.vertices, axis=0)]},
                 "material": self.material(state).name or "labradorite",
-                "estimator": "samples (live); recommend: " + _planned(study, self.answer_study(make=False)),
+                "estimator": "samples (live); recommend: " + (_planned(study, self.answer_study(make=False)) or PLAN_PENDING),
                 "timings_ms": {**times, "total": _ms(t0)},
             }
+
+    def planned_estimator(self) -> dict[str, Any]:
+        """The current Study's effect plan made (its inter-reflection left unmeasured, as a live plan
+        leaves it), and what the page says of it, as :meth:`view`'s ``estimator`` text. The view answers without the plan (a new material's
+        depth and polarisation decisions take tenths of a second): the server sends the estimator after
+        the first picture of the state. ``{"state": the state asked about, "estimator": the view's text}``."""
+        with self.lock, serial_blas():
+            state, study = self.state, self.study()
+            study.plan()
+            text = "samples (live); recommend: " + (_planned(study, self.answer_study(make=False)) or PLAN_PENDING)
+            return {"state": state.to_dict(), "estimator": text}
 
     def recommend(self) -> Recommendation:
         """"Recommend here": the current Study's recommendation (the planned estimator, as
@@ -371,12 +386,15 @@ class ExploreSession:
             return path.read_bytes()
 
 
-def _planned(live: Study, answer: Study | None) -> str:
+def _planned(live: Study, answer: Study | None) -> str | None:
     """The estimator a recommendation answers with: the answer Study's plan once made, else the live
-    plan's, saying when that plan left a carving's light between its parts unmeasured."""
+    plan's once made (:meth:`ExploreSession.planned_estimator` makes it), saying when that plan left a
+    carving's light between its parts unmeasured; None while neither is made."""
     if answer is not None:
         return answer.plan().estimator
-    plan = live.plan()
+    plan = live.planned()
+    if plan is None:
+        return None
     unmeasured = "interreflection_pilots_skipped_seconds" in plan.facts
     return plan.estimator + (" (light between the parts measured when asked)" if unmeasured else "")
 

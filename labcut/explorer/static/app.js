@@ -188,6 +188,11 @@
     });
   }
 
+  function showTimings() {  // the answer's milliseconds, and the estimator a recommendation would use once planned
+    const t = view.timings_ms;
+    $("timings").textContent = `answered in ${t.total} ms (study ${t.study}, map ${t.score_map}, metrics ${t.metrics}); recommend: ${view.estimator.split(": ")[1]}`;
+  }
+
   function showView(message) {
     const v = message.view;
     view = v;
@@ -226,8 +231,7 @@
         box.appendChild(p);
       }
     }
-    const t = v.timings_ms;
-    $("timings").textContent = `answered in ${t.total} ms (study ${t.study}, map ${t.score_map}, metrics ${t.metrics}); recommend: ${v.estimator.split(": ")[1]}`;
+    showTimings();
     $("recommend").disabled = false;
     setStatus("", false);
     for (const id of message.ids) {  // the controls this answer took: their errors are gone
@@ -262,6 +266,7 @@
     switch (message.type) {
       case "spec": spec = message.spec; buildChoices(); if (view) showState(view.state); break;
       case "view": showView(message); break;
+      case "plan": if (view && message.generation >= generation) { view.estimator = message.estimator; showTimings(); } break;
       case "render": if (message.generation >= generation) showRender(message); break;
       case "render-done": $("render").dataset.done = String(message.generation); break;
       case "error": showError(message); break;
