@@ -13,7 +13,8 @@ the lamella normal (4). One lamp change more is made while the refined picture o
 is still under way ("during refinement": it waits for the pass in flight). Every lamp, material
 and normal is one the session has not seen, so each lamp or material change builds its Study.
 
-Prints a markdown table (docs/explore.md) and the machine's load; ``--json`` keeps every figure.
+Prints a markdown table (docs/explore.md) and the machine's load, then the process's user and system
+CPU time over each answer (the server runs in this process); ``--json`` keeps every figure.
 """
 
 from __future__ import annotations
@@ -23,6 +24,7 @@ import asyncio
 import json
 import os
 import platform
+import resource
 import statistics
 import time
 from pathlib import Path
@@ -41,12 +43,14 @@ async def measure(url: str, timeout: float = 600.0) -> dict[str, list[float]]:
 
     ws = await tornado.websocket.websocket_connect(url.replace("http", "ws") + "ws", max_message_size=1 << 28)
     ident = [0]
+    before = [resource.getrusage(resource.RUSAGE_SELF)]
 
     async def next_message() -> dict:
         return json.loads(await asyncio.wait_for(ws.read_message(), timeout))
 
     async def ask(op: str, changes: dict | None = None, settle: bool = True) -> tuple[float, float, dict]:
         ident[0] += 1
+        before[0] = resource.getrusage(resource.RUSAGE_SELF)
         sent = time.perf_counter()
         ws.write_message(json.dumps({"op": op, "id": ident[0], **({"changes": changes} if changes else {})}))
         answered = preview = None
@@ -58,6 +62,8 @@ async def measure(url: str, timeout: float = 600.0) -> dict[str, list[float]]:
                 raise RuntimeError(m["message"])
             if m["type"] == "view" and ident[0] in m["ids"]:
                 answered, generation, view = time.perf_counter() - sent, m["generation"], m["view"]
+                now = resource.getrusage(resource.RUSAGE_SELF)  # the server runs in this process
+                view["_cpu_ms"] = (1000.0 * (now.ru_utime - before[0].ru_utime), 1000.0 * (now.ru_stime - before[0].ru_stime))
                 if not settle:
                     return answered, float("nan"), view
             if m["type"] == "render" and generation is not None and m["generation"] >= generation and preview is None:
@@ -75,6 +81,8 @@ async def measure(url: str, timeout: float = 600.0) -> dict[str, list[float]]:
             out.setdefault(f"{kind}: answer", []).append(answered * 1000)
             out.setdefault(f"{kind}: preview", []).append(preview * 1000)
             out.setdefault(f"{kind}: server's own ms", []).append(view["timings_ms"]["total"])
+            out.setdefault(f"{kind}: user CPU ms", []).append(view["_cpu_ms"][0])
+            out.setdefault(f"{kind}: system CPU ms", []).append(view["_cpu_ms"][1])
     # one more lamp change while the refined picture is under way
     ident[0] += 1
     ws.write_message(json.dumps({"op": "set", "id": ident[0], "changes": {"lamp_elevation": 66.6}}))
@@ -122,6 +130,13 @@ def main() -> None:
             v = r[c]
             cells.append(f"{statistics.median(v):.0f}" + (f" ({max(v):.0f})" if len(v) > 1 else ""))
         print(f"| {name} | " + " | ".join(cells) + " |")
+    cpu = ["lamp: user CPU ms", "lamp: system CPU ms", "material: user CPU ms", "material: system CPU ms"]
+    print("\nCPU time of the process (all threads) from the change sent to the answer, median (max) ms: the system "
+          "time is the kernel's, most of it clearing fresh pages (docs/performance.md, \"fresh memory\")\n")
+    print("| stone | " + " | ".join(cpu) + " |")
+    print("|---|" + "---:|" * len(cpu))
+    for name, r in results.items():
+        print(f"| {name} | " + " | ".join(f"{statistics.median(r[c]):.0f} ({max(r[c]):.0f})" for c in cpu) + " |")
     if args.json:
         args.json.parent.mkdir(parents=True, exist_ok=True)
         args.json.write_text(json.dumps({"quality": args.quality, "cores": os.cpu_count(), "results": results}, indent=1) + "\n")
