@@ -237,3 +237,44 @@ def test_a_scan_too_big_to_copy_gets_the_same_exposure_from_rays_and_a_face_samp
     assert drawn["thin_share"] == pytest.approx(small["thin_share"], abs=0.005)
     assert drawn["turn_deg"] == pytest.approx(small["turn_deg"], rel=0.05)
     assert drawn["turn_deg"] != small["turn_deg"]  # measured anew, from the drawn faces
+
+
+def test_rays_that_miss_read_no_leftover_of_the_ray_tracer():
+    """A ray that leaves the stone without meeting it (the two small cubes far apart of a user's file,
+    a path out past a rim) has no face and no (u, v): the casts read face 0's corner for it, selected
+    on the device, never what the ray tracer left in its slots (a signalling NaN there made numpy's
+    conversion print a RuntimeWarning to the user, in about one run of four). The hits beside them
+    are as before: the face and the shading normal of where they land."""
+    import warnings
+
+    from labcut.orientation.volume import VolumeRays
+
+    import drjit as dr
+    import mitsuba as mi
+
+    cube = trimesh.creation.box(extents=(2.0, 2.0, 2.0))
+    rays = VolumeRays(cube)
+    real = rays.scene
+
+    class Leftovers:  # the ray tracer's scene, its misses' slots holding a signalling NaN and a wild face
+        def ray_intersect_preliminary(self, ray):
+            pi = real.ray_intersect_preliminary(ray)
+            miss = ~np.asarray(pi.is_valid())
+            uv = np.array(pi.prim_uv, dtype=np.float32)  # (2, N)
+            uv.view(np.uint32)[:, miss] = 0x7FA00000  # a signalling NaN's bits (Dr.Jit's own ops would quiet it)
+            pi.prim_uv = mi.Point2f(uv[0], uv[1])
+            pi.prim_index = dr.select(mi.Bool(miss), mi.UInt32(0xFFFFFFF0), pi.prim_index)
+            return pi
+
+    rays.scene = Leftovers()
+    n = 20_000
+    origins = np.zeros((n, 3))
+    dirs = np.tile([0.0, 0.0, 1.0], (n, 1))
+    origins[1::2] = [0.0, 0.0, 5.0]  # every other ray starts above the cube, looking up: a miss
+    with warnings.catch_warnings(), np.errstate(all="raise"):
+        warnings.simplefilter("error")
+        hits = rays.cast(origins, dirs)
+    assert np.all(np.isinf(hits.t[1::2])) and np.allclose(hits.t[::2], 1.0)
+    np.testing.assert_allclose(hits.n_geo[::2], np.tile([0.0, 0.0, 1.0], (n // 2, 1)), atol=1e-12)
+    np.testing.assert_array_equal(hits.n_geo[1::2], np.tile(rays.face_normals[0], (n // 2, 1)))
+    assert np.all(np.isfinite(hits.n_sh))

@@ -158,11 +158,16 @@ class VolumeRays:
         o, w = np.asarray(origins, dtype=np.float64), np.asarray(dirs, dtype=np.float64)
         ray = mi.Ray3f(mi.Point3f(o[:, 0], o[:, 1], o[:, 2]), mi.Vector3f(w[:, 0], w[:, 1], w[:, 2]))
         pi = self.scene.ray_intersect_preliminary(ray)
-        dr.eval(pi.t, pi.prim_index, pi.prim_uv)
+        # a miss's face and (u, v) are whatever the ray tracer left there (a signalling NaN among
+        # them made numpy's conversion warn): face 0's corner instead, selected on the device, unused
+        valid = pi.is_valid()
+        prim = dr.select(valid, pi.prim_index, 0)
+        prim_uv = dr.select(valid, pi.prim_uv, mi.Point2f(0.0, 0.0))
+        dr.eval(pi.t, prim, prim_uv)
         t = np.array(pi.t, dtype=np.float64)
         hit = np.isfinite(t)
-        face = np.where(hit, np.array(pi.prim_index, dtype=np.int64), 0)
-        uv = np.where(hit[None, :], np.array(pi.prim_uv, dtype=np.float64), 0.0)  # a miss: face 0's corner (unused)
+        face = np.where(hit, np.array(prim, dtype=np.int64), 0)
+        uv = np.where(hit[None, :], np.array(prim_uv, dtype=np.float64), 0.0)
         bary = np.stack([1.0 - uv[0] - uv[1], uv[0], uv[1]], axis=1)
         n_geo = self.face_normals[face]
         if self.big:
