@@ -30,9 +30,26 @@ def test_render_png_exr_and_plan_json(cli, tmp_path):
     assert (tmp_path / "r.exr").read_bytes()[:4] == b"\x76\x2f\x31\x01"  # OpenEXR magic
 
 
+def test_the_normal_by_its_tilt_and_azimuth(cli, tmp_path):
+    """``--tilt`` and ``--azimuth``, the angles recommend- and evaluate-orientation print, give the
+    normal their direction does (the picture and the JSON the same as ``--normal``'s)."""
+    a, b = tmp_path / "a.png", tmp_path / "b.png"
+    common = ["--spp", "2", "--resolution", "32", "--look", "diagram"]
+    proc = cli("render", MESH, "-o", str(a), "--tilt", "30", "--azimuth", "90", "--json", str(tmp_path / "a.json"), *common)
+    assert proc.returncode == 0, proc.stderr
+    proc = cli("render", MESH, "-o", str(b), "--normal", "0,0.5,0.8660254037844386", "--json", str(tmp_path / "b.json"), *common)
+    assert proc.returncode == 0, proc.stderr
+    got, want = (json.loads((tmp_path / f"{x}.json").read_text())["normal"] for x in "ab")
+    assert got == pytest.approx(want, abs=1e-12) and got == pytest.approx([0.0, 0.5, 0.8660254037844386], abs=1e-12)
+    assert a.read_bytes() == b.read_bytes()
+
+
 @pytest.mark.parametrize(
     "args",
     [
+        ["--tilt", "10"],
+        ["--tilt", "95", "--azimuth", "0"],
+        ["--normal", "0,0,1", "--tilt", "10", "--azimuth", "0"],
         ["--normal", "0,0,0"],
         ["--normal", "nan,0,1"],
         ["--normal", "1,2"],

@@ -14,7 +14,8 @@ from . import plan_options as po
 from . import scene_options as so
 from .recommend import print_render_notes
 from .preflight import Yes, before_rendering
-from .root import all_or_nothing, app, check_outputs, console, interruptibly, notes_after, parse_vector, write_json
+from .root import (all_or_nothing, app, check_outputs, console, interruptibly, normal_or_angles, notes_after, parse_vector,
+                   write_json)
 
 
 STILL_SUFFIXES = (".png", ".exr")
@@ -48,7 +49,9 @@ def render(
     ctx: typer.Context,
     mesh_path: Annotated[Path, typer.Argument(metavar="MESH", help="Stone mesh: STL, OBJ, PLY, OFF, GLB/GLTF, 3MF.")],
     output: Annotated[Path, typer.Option("--output", "-o", "--out", help="File to write (required): .png (tonemapped) or .exr (linear HDR); with --animate .webp or .gif.")],
-    normal: Annotated[str, typer.Option("--normal", "-n", help="Lamella normal X,Y,Z in the mesh frame (axial; +Z face-up, -Y front), or a recommend-orientation --json file.")] = "0,0,1",
+    normal: Annotated[Optional[str], typer.Option("--normal", "-n", help="Lamella normal X,Y,Z in the mesh frame (axial; +Z face-up, -Y front), or a recommend-orientation --json file; default 0,0,1.")] = None,
+    tilt: Annotated[Optional[float], typer.Option("--tilt", help="Or the normal's tilt from the face-up axis, degrees (with --azimuth).")] = None,
+    azimuth: Annotated[Optional[float], typer.Option("--azimuth", help="The normal's azimuth from +X (the stone's right) towards +Y, degrees (with --tilt).")] = None,
     mesh_options: Any = None,  # --units, --up-axis, --size (meshes.takes_mesh_options)
     material: Any = None,  # the material options (materials.takes_material)
     scenario: so.Scenario = None,
@@ -82,7 +85,7 @@ def render(
     plan: po.Plan = False,
     plan_only: po.PlanOnly = False,
 ) -> None:
-    """Render MESH cut from labradorite with its lamella plane normal to --normal.
+    """Render MESH cut from labradorite with its lamella plane normal to --normal (or at --tilt and --azimuth).
 
     Shows the stone as the scenario's main viewer sees it, under the scenario's lights.
     Simulates only what the request needs: RGB unless --mode spectral/mono, polarized
@@ -113,7 +116,10 @@ def render(
     resolution = resolution or (ANIMATION_RESOLUTION if animate else STILL_RESOLUTION)
     check_outputs({"--output": (output, ANIMATION_SUFFIXES if animate else IMAGE_SUFFIXES), "--json": (json_path, (".json",)),
                    "--flash-mask": (flash_mask, (".png",))}, ctx)
-    lamella = normalize_normal(parse_normal(normal))
+    if tilt is None and azimuth is None:  # a vector, or a recommendation's JSON file
+        lamella = normalize_normal(parse_normal("0,0,1" if normal is None else normal))
+    else:  # the angles evaluate-orientation and recommend-orientation print
+        lamella = normal_or_angles(normal, tilt, azimuth, ("--normal", "--tilt", "--azimuth"))
     zoning_spec = "auto" if zoning is None else m.build_zoning(zoning, material)
     view_spec: str | tuple[float, float] = view
     if "," in view:
