@@ -2,7 +2,7 @@
 at most 30 s on 2 cores), split by stage, and the report's files.
 
     .venv/bin/python benchmarks/compare_benchmark.py [--quality standard] [--scenario bench --scenario pendant]
-        [--repeat 2] [--threads N]
+        [--repeat 2] [--threads N] [--json PATH]
 
 Prints a markdown table (the "Speed" section of docs/compare.md). Run 1 includes kernel
 compilation unless Dr.Jit's kernel cache is warm; later runs are warm. The machine's load average
@@ -64,6 +64,8 @@ def main() -> None:
     parser.add_argument("--scenario", action="append", default=None)
     parser.add_argument("--repeat", type=int, default=2)
     parser.add_argument("--threads", type=int, default=None, help="Dr.Jit threads (default: every core)")
+    parser.add_argument("--json", type=Path, default=None,
+                        help="also write every run's figures and the last run's ratio here (benchmarks/speed_ratio.py --compare)")
     args = parser.parse_args()
     scenarios = args.scenario or ["bench", "pendant"]
 
@@ -114,6 +116,12 @@ def main() -> None:
           f"{last['compute']:.1f} s / ({recs:.1f} s + {renders:.1f} s) = {last['compute'] / (recs + renders):.2f}x")
     print(f"\nFiles: HTML {last['sizes'].get('.html', 0) / 1e6:.1f} MB, JSON {last['sizes'].get('.json', 0) / 1e6:.1f} MB, "
           f"CSV {last['sizes'].get('.csv', 0) / 1e6:.1f} MB")
+    if args.json is not None:
+        import json
+
+        args.json.write_text(json.dumps({"cuts": len(CUTS), "scenarios": scenarios, "quality": args.quality, "runs": runs,
+                                         "recommendations": recs, "renders": renders,
+                                         "ratio": last["compute"] / (recs + renders)}, indent=1) + "\n")
 
 
 if __name__ == "__main__":

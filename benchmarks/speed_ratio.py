@@ -1,6 +1,6 @@
 """Recommendation time as a ratio to one render, and big meshes (issue 17 §4-5).
 
-    .venv/bin/python benchmarks/speed_ratio.py [--out docs/performance.md] [--big] [--env]
+    .venv/bin/python benchmarks/speed_ratio.py [--out docs/performance.md] [--big] [--env] [--compare]
 
 1. The standard recommendation of the bundled oval cabochon under the ``bench`` scenario, warm
    in-process (the best and the median of :data:`ROUNDS` calls after :data:`ROUNDS` renders, and
@@ -13,6 +13,8 @@
 3. ``--env``: high quality under the ``ceiling`` and ``sky`` environment lights (tens of millions
    of triples), the oval cabochon and the carving, a fresh process each: wall time and peak
    memory. Target: <= 2 GB.
+4. ``--compare``: a comparison of the three bundled ovals under bench and pendant against its own
+   recommendations plus its renders (``benchmarks/compare_benchmark.py``). Target: <= 1.3x.
 
 The section between the ``speed-ratio`` markers of the report is replaced; the rest is kept.
 """
@@ -182,6 +184,8 @@ def main() -> None:
     parser.add_argument("--out", default=str(ROOT / "docs" / "performance.md"))
     parser.add_argument("--big", action="store_true", help="also the subdivided carvings (a few minutes)")
     parser.add_argument("--env", action="store_true", help="also high quality under environment lights (a few minutes)")
+    parser.add_argument("--compare", action="store_true",
+                        help="also a comparison against its own recommendations (benchmarks/compare_benchmark.py, about a minute)")
     args = parser.parse_args()
     oval = ROOT / "meshes" / "oval-16x12-low.ply"
     inproc = child(IN_PROCESS, str(oval), str(ROUNDS))
@@ -190,7 +194,8 @@ def main() -> None:
     print(inproc, cli, floor)
     cpu = next((ln.split(":", 1)[1].strip() for ln in open("/proc/cpuinfo") if ln.startswith("model name")), platform.processor())
     lines = [BEGIN, "", "## Recommendation time in renders", "",
-             f"Made by `.venv/bin/python benchmarks/speed_ratio.py{' --big' if args.big else ''}{' --env' if args.env else ''}` on {os.cpu_count()} cores "
+             f"Made by `.venv/bin/python benchmarks/speed_ratio.py{' --big' if args.big else ''}{' --env' if args.env else ''}"
+             f"{' --compare' if args.compare else ''}` on {os.cpu_count()} cores "
              f"({cpu}). The unit is one 256 x 256, 16 spp render of the same stone in the same process "
              f"({inproc['render']:.3f} s here), so the ratios compare across machines. The recommendation includes its "
              "error bars (the answer's flash problem, and the stencil sums of two more built as pairs: half the "
@@ -261,6 +266,20 @@ def main() -> None:
                 lines.append(f"| {name} | {lighting} | {r['triples']:,} | {r['seconds']:.1f} s | {r['rss_mb']:.0f} MB | "
                              f"{r['tilt']:.1f}° ± {r['bar_deg']:.1f}° |")
         lines.append("")
+    if args.compare:
+        with tempfile.TemporaryDirectory() as tmp:
+            figures = Path(tmp) / "compare.json"
+            subprocess.run([sys.executable, str(ROOT / "benchmarks" / "compare_benchmark.py"), "--repeat", "2", "--json",
+                            str(figures)], check=True, capture_output=True, env=user_env())
+            c = json.loads(figures.read_text())
+        last = c["runs"][-1]
+        lines += ["## A comparison against its own recommendations", "",
+                  f"`labcut.compare_cuts` of the {c['cuts']} bundled ovals x {', '.join(c['scenarios'])} at {c['quality']} "
+                  "quality in one process (`benchmarks/compare_benchmark.py`: the second, warm run of two), against the "
+                  "sum of its own recommendations (`Study.recommend`, which builds each cut's flash problem once) and its "
+                  "renders. Target: at most 1.3x.", "",
+                  "| compare_cuts | its recommendations | its renders | ratio |", "|---|---|---|---|",
+                  f"| {last['compute']:.1f} s | {c['recommendations']:.1f} s | {c['renders']:.1f} s | {c['ratio']:.2f}x |", ""]
     lines.append(END)
     out = Path(args.out)
     text = out.read_text() if out.exists() else ""
