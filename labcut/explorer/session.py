@@ -277,9 +277,12 @@ class ExploreSession:
 
     def planned_estimator(self) -> dict[str, Any]:
         """The current Study's effect plan made (its inter-reflection left unmeasured, as a live plan
-        leaves it), and what the page says of it, as :meth:`view`'s ``estimator`` text. The view answers without the plan (a new material's
-        depth and polarisation decisions take tenths of a second): the server sends the estimator after
-        the first picture of the state. ``{"state": the state asked about, "estimator": the view's text}``."""
+        leaves it), and what the page says of it, as :meth:`view`'s ``estimator`` text. The view answers
+        without the plan (a new material's depth and polarisation decisions take tenths of a second):
+        the server sends the estimator after
+        the first picture of the state. ``{"state": the state asked about, "estimator": the view's text}``.
+        Under the session's lock, as the view: numpy's BLAS limits (:func:`~labcut.backend.serial_blas`)
+        are the process's, and two blocks on two threads would undo each other's."""
         with self.lock, serial_blas():
             state, study = self.state, self.study()
             study.plan()
