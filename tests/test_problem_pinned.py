@@ -876,3 +876,21 @@ def test_the_device_path_makes_no_host_lit_tables(monkeypatch):
     assert calls == []
     build_problem(box(), LAB, lights, views, n_points=20, kernels=KernelOptions(lit_cells=False))
     assert calls == [1]
+
+
+def test_the_pairs_of_device_cells_are_the_hosts():
+    """``_pairs_of_cells``: the pair of each (pair, light slot) cell, ``index // width + first`` as
+    int32, the same from the device's lit cells (divided there, one host copy) as from numpy's."""
+    from labcut.backend import ad_types
+    from labcut.orientation.problem import _pairs_of_cells
+
+    _, t = ad_types()
+    kernel = _TripleKernel(np.array([[0.0, 0.0, 1.0]]), LAB.n_surface, luminance_table(LAB), reference_radiance(LAB, 1.0))
+    rng = np.random.default_rng(5)
+    for width, first in ((1, 0), (3, 0), (7, 123_456), (64, 2**30)):
+        index = np.sort(rng.choice(50_000 * width, size=20_000, replace=False)).astype(np.uint32)
+        host = _pairs_of_cells(kernel, index, width, first)
+        device = _pairs_of_cells(kernel, t.UInt32(index), width, first)
+        assert host.dtype == device.dtype == np.int32
+        np.testing.assert_array_equal(device, host)
+        np.testing.assert_array_equal(host, index.astype(np.int64) // width + first)
