@@ -13,11 +13,13 @@ from .root import err_console
 @contextlib.contextmanager
 def progress_bar(description: str, unit: str = "") -> Iterator[Callable[[int, int], None]]:
     """Yield a ``callback(done, total)`` that drives a progress bar."""
+    # plain text, not rich markup: a description holding a file name such as "stone[2].ply" is shown as
+    # written (and no markup parser nor emoji table loads for it)
     columns = [
-        TextColumn("[bold]{task.description}"),
+        TextColumn("{task.description}", style="bold", markup=False),
         BarColumn(),
         MofNCompleteColumn(),
-        TextColumn(unit),
+        TextColumn(unit, markup=False),
         TimeElapsedColumn(),
         TimeRemainingColumn(),
     ]

@@ -24,8 +24,8 @@ app = typer.Typer(
     pretty_exceptions_enable=False,
 )
 
-console = Console()
-err_console = Console(stderr=True)
+console = Console(emoji=False)  # labcut prints no emoji: its texts are shown as written (and the emoji table is not loaded)
+err_console = Console(stderr=True, emoji=False)
 
 
 def parse_vector(text: str, name: str = "vector", length: int = 3) -> tuple[float, ...]:
