@@ -56,10 +56,10 @@ def test_a_concave_stone_is_concave_by_both(monkeypatch):
 
 
 def _hulls(monkeypatch):
-    """Count :func:`solid.is_convex_mesh`'s runs (what the kept flag saves a new process)."""
+    """Count the whole hulls' verdicts (``solid._convex_by_hulls``: what the kept flag saves a new process)."""
     calls = []
-    real = solid.is_convex_mesh
-    monkeypatch.setattr(solid, "is_convex_mesh", lambda *a, **k: calls.append(1) or real(*a, **k))
+    real = solid._convex_by_hulls
+    monkeypatch.setattr(solid, "_convex_by_hulls", lambda *a, **k: calls.append(1) or real(*a, **k))
     return calls
 
 
@@ -124,3 +124,23 @@ def test_a_damaged_convexity_is_computed_again_with_a_warning(monkeypatch, fresh
     with pytest.warns(labcut.LabcutWarning, match="convexity.json is damaged"):
         assert solid.kept_convexity(oval) is True
     assert len(calls) == 2 and json.loads(path.read_text())[key] == {"convex": True}
+
+
+def test_a_scan_the_subsets_hull_proves_concave_is_not_hashed_nor_kept(monkeypatch, fresh_user_cache):
+    """Over :data:`solid.CONVEX_PROBE_VERTICES` vertices the hull of a subset answers a concave stone
+    at once (a tenth of a second for millions of triangles): no key is hashed for it (a third of a
+    second at 5 M triangles) and nothing is kept; a convex one goes on to its whole hulls, kept."""
+    biplane = labcut.load_mesh(MESHES / "carving-biplane.ply")
+    oval = labcut.load_mesh(MESHES / "oval-16x12-low.ply")
+    assert solid.KEPT_CONVEXITY_VERTICES <= len(biplane.vertices) < len(oval.vertices)
+    (fresh_user_cache / "convexity.json").unlink()  # what the loads kept
+    _new_process(monkeypatch)
+    monkeypatch.setattr(solid, "CONVEX_PROBE_VERTICES", 1000)  # both stones count as scans
+    calls = _hulls(monkeypatch)
+    digests = []
+    real = solid.mesh_digest
+    monkeypatch.setattr(solid, "mesh_digest", lambda mesh: digests.append(1) or real(mesh))
+    assert solid.kept_convexity(biplane) is False
+    assert calls == [] and digests == [] and not (fresh_user_cache / "convexity.json").exists()
+    assert solid.kept_convexity(oval) is True
+    assert calls == [1] and digests == [1] and (fresh_user_cache / "convexity.json").exists()

@@ -1,5 +1,6 @@
-"""Measures of a closed triangle mesh's vertex and face arrays: volumes, convexity, extents, face
-cross products, labcut's placement on its base.
+"""Measures of a closed triangle mesh's vertex and face arrays: volumes, convexity (kept between
+processes: :func:`kept_convexity`), extents, face cross products, the arrays' digest, labcut's
+placement on its base.
 
 Plain numpy (and manifold3d's or Qhull's hulls) on (N, 3) float64 vertices in mm and (F, 3)
 integer faces, mesh frame. The loaders (:mod:`labcut.geometry.meshio`, :mod:`labcut.geometry.gemcad`,
@@ -29,21 +30,37 @@ def is_convex_mesh(mesh: Any, rtol: float = CONVEX_RTOL, *, volume: float | None
     so the flag no longer depends on float32 rounding in a saved file. A mesh of several
     bodies is never convex. ``volume``: the mesh's signed volume, when the caller has it.
     """
-    import manifold3d as m3
+    v, vol = _hull_inputs(mesh, volume)
+    if v is None or _probed_concave(v, vol, rtol):
+        return False
+    return _convex_by_hulls(v, vol, rtol)
 
+
+def _hull_inputs(mesh: Any, volume: float | None) -> tuple[np.ndarray | None, float]:
+    """The mesh's vertices (float64, contiguous) and |volume|; ``(None, 0)`` where no hull can say
+    (fewer than four vertices, a non-finite one): not convex."""
     v = np.ascontiguousarray(np.asarray(mesh.vertices, dtype=np.float64))
     if len(v) < 4 or not np.all(np.isfinite(v)):
+        return None, 0.0
+    return v, abs(signed_volume(v, np.asarray(mesh.faces)) if volume is None else float(volume))
+
+
+def _probed_concave(v: np.ndarray, vol: float, rtol: float) -> bool:
+    """Whether the hull of a subset of the vertices (over :data:`CONVEX_PROBE_VERTICES` of them)
+    already proves the stone concave: it lies inside the whole hull, so a volume gap to it is the
+    answer the whole hull gives, without its seconds."""
+    if len(v) <= CONVEX_PROBE_VERTICES:
         return False
-    vol = abs(signed_volume(v, np.asarray(mesh.faces)) if volume is None else float(volume))
-    if len(v) > CONVEX_PROBE_VERTICES:
-        # the hull of a subset of the vertices lies inside the whole hull, so a volume gap to it
-        # already proves the stone concave (the answer the whole hull gives, without its seconds)
-        sub = hull_volume(v[:: max(1, len(v) // CONVEX_PROBE_VERTICES)])
-        if sub > 0 and (sub - vol) > rtol * sub:
-            return False
-    # the smaller hull volume is the truer one, and a smaller hull can only make a stone more
-    # convex (|V| >= (1 - rtol) hull): where manifold3d's hull already proves it convex, Qhull's
-    # cannot change the answer and is not computed
+    sub = hull_volume(v[:: max(1, len(v) // CONVEX_PROBE_VERTICES)])
+    return sub > 0 and (sub - vol) > rtol * sub
+
+
+def _convex_by_hulls(v: np.ndarray, vol: float, rtol: float) -> bool:
+    """The whole hulls' verdict (:func:`is_convex_mesh`). The smaller hull volume is the truer one,
+    and a smaller hull can only make a stone more convex (|V| >= (1 - rtol) hull): where
+    manifold3d's hull already proves it convex, Qhull's cannot change the answer and is not computed."""
+    import manifold3d as m3
+
     manifold_hull = float(m3.Manifold.hull_points(v).volume())
     if manifold_hull > 0 and (manifold_hull - vol) <= rtol * manifold_hull:
         return True
@@ -60,19 +77,37 @@ def is_convex_mesh(mesh: Any, rtol: float = CONVEX_RTOL, *, volume: float | None
     return (hv - vol) <= rtol * hv
 
 
+def mesh_digest(mesh: Any) -> str:
+    """A hash of a mesh's vertices (float64) and faces (int64) with their counts: the key under which
+    what is derived from its geometry is kept between processes (labcut's user cache). A stone's is
+    kept by it (:attr:`labcut.geometry.stone.Stone.digest`)."""
+    import hashlib
+
+    h = hashlib.blake2b(np.ascontiguousarray(mesh.vertices, dtype=np.float64).tobytes(), digest_size=16)
+    h.update(np.ascontiguousarray(mesh.faces, dtype=np.int64).tobytes())
+    return f"{len(mesh.vertices)} vertices {len(mesh.faces)} faces {h.hexdigest()}"
+
+
 #: vertices from which :func:`kept_convexity` keeps a stone's convexity in labcut's user cache
 #: (below, the hull takes about a millisecond and is computed each time)
 KEPT_CONVEXITY_VERTICES = 2000
 
 
 def kept_convexity(mesh: Any, *, volume: float | None = None) -> bool:
-    """:func:`is_convex_mesh` of a stone of at least :data:`KEPT_CONVEXITY_VERTICES` vertices, kept
-    in labcut's user cache (``convexity.json``, :func:`labcut.fileio.calibrations`): a new process
-    that loads the same file reads the flag back instead of computing two convex hulls again (a few
-    hundredths of a second for the bundled stones, seconds for a scan of millions of triangles).
-    The key holds everything that shapes the flag: a hash of the vertices (float64) and faces
-    (int64), :data:`CONVEX_RTOL`, labcut's and SciPy's versions, manifold3d's installed file, and a
-    hash of this module's code; a damaged entry is computed again with one warning."""
+    """:func:`is_convex_mesh` of a stone of at least :data:`KEPT_CONVEXITY_VERTICES` vertices, the
+    whole hulls' verdict kept in labcut's user cache (``convexity.json``,
+    :func:`labcut.fileio.calibrations`): a new process that loads the same file reads the flag back
+    instead of computing two convex hulls again (a few hundredths of a second for the bundled
+    stones, seconds for a scan of millions of triangles). A scan the subset's hull proves concave
+    (a tenth of a second) is answered so, without hashing its arrays (a third of a second at 5 M
+    triangles) for a key. The key holds everything that shapes the flag: :func:`mesh_digest`,
+    :data:`CONVEX_RTOL`, labcut's and SciPy's versions, manifold3d's installed file, and a hash of
+    this module's code; a damaged entry is computed again with one warning."""
+    v, vol = _hull_inputs(mesh, volume)
+    if v is None or _probed_concave(v, vol, CONVEX_RTOL):
+        return False
+    if len(v) < KEPT_CONVEXITY_VERTICES:
+        return _convex_by_hulls(v, vol, CONVEX_RTOL)
     import os
 
     import manifold3d as m3
@@ -81,18 +116,10 @@ def kept_convexity(mesh: Any, *, volume: float | None = None) -> bool:
     from .. import __version__
     from ..fileio import calibrations, code_hash
 
-    v = np.ascontiguousarray(np.asarray(mesh.vertices, dtype=np.float64))
-    f = np.ascontiguousarray(np.asarray(mesh.faces, dtype=np.int64))
-    if len(v) < KEPT_CONVEXITY_VERTICES:
-        return is_convex_mesh(mesh, volume=volume)
-    import hashlib
-
-    digest = hashlib.blake2b(v.tobytes(), digest_size=16)
-    digest.update(f.tobytes())
     m3_file = os.stat(m3.__file__)
     key = (f"convex | labcut {__version__} scipy {scipy.__version__} manifold3d {m3_file.st_size}:{m3_file.st_mtime_ns} "
-           f"| code {code_hash(__file__)} | rtol {CONVEX_RTOL!r} | {len(v)} vertices {len(f)} faces {digest.hexdigest()}")
-    value = calibrations("convexity.json", [key], lambda missing: [{"convex": is_convex_mesh(mesh, volume=volume)}],
+           f"| code {code_hash(__file__)} | rtol {CONVEX_RTOL!r} | {mesh_digest(mesh)}")
+    value = calibrations("convexity.json", [key], lambda missing: [{"convex": _convex_by_hulls(v, vol, CONVEX_RTOL)}],
                          check=_check_convex)[0]
     return value["convex"]
 

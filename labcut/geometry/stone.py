@@ -32,7 +32,7 @@ import numpy as np
 from ..errors import MeshError, ParameterError
 from .gemcad import design_provenance
 from .meshio import load_mesh, validate_mesh
-from .solid import extent, is_convex_mesh
+from .solid import extent, is_convex_mesh, mesh_digest
 from .surface import (
     FACETED_ANGLE_DEG,
     FAST_SMOOTH_FACES,
@@ -40,7 +40,6 @@ from .surface import (
     SurfaceSamples,
     draw_samples,
     face_areas,
-    mesh_digest,
     smooth_split,
 )
 
@@ -291,7 +290,7 @@ class Stone:
     def digest(self) -> str:
         """A hash of the mesh's vertices (float64) and faces (int64), 32 hex digits: the key under which
         what is derived from this geometry is kept between processes (labcut's user cache;
-        :func:`labcut.geometry.surface.mesh_digest`, made once per stone)."""
+        :func:`labcut.geometry.solid.mesh_digest`, made once per stone)."""
         return self.cached("digest", lambda: mesh_digest(self.mesh))
 
     @property

@@ -10,7 +10,6 @@ its mesh (each once per stone).
 
 from __future__ import annotations
 
-import hashlib
 import math
 from dataclasses import dataclass
 from typing import Any
@@ -18,19 +17,10 @@ from typing import Any
 import numpy as np
 
 from ..errors import MeshError
-from .solid import cross_rows
+from .solid import cross_rows, mesh_digest
 
 SMOOTH_ANGLE_DEG = 30.0  # edges sharper than this keep flat shading
 FACETED_ANGLE_DEG = 0.5  # a faceted design (GemCad) is flat-shaded at every facet junction
-
-
-def mesh_digest(mesh: Any) -> str:
-    """A hash of a mesh's vertices (float64) and faces (int64) with their counts: the key under which
-    what is derived from its geometry is kept between processes (labcut's user cache). A stone's is
-    kept by it (:attr:`labcut.geometry.stone.Stone.digest`)."""
-    h = hashlib.blake2b(np.ascontiguousarray(mesh.vertices, dtype=np.float64).tobytes(), digest_size=16)
-    h.update(np.ascontiguousarray(mesh.faces, dtype=np.int64).tobytes())
-    return f"{len(mesh.vertices)} vertices {len(mesh.faces)} faces {h.hexdigest()}"
 
 
 def smooth_split(mesh: Any, angle_deg: float, *, cache: bool = True, digest: str | None = None) -> Any:
@@ -41,7 +31,7 @@ def smooth_split(mesh: Any, angle_deg: float, *, cache: bool = True, digest: str
     With ``cache`` the copy's vertices, faces and normals are kept in labcut's user cache,
     keyed by the mesh's bytes, the angle and labcut's and trimesh's versions
     (:func:`labcut.fileio.cached_arrays`): the stone's next process reads them back instead of
-    splitting again (``digest``: the mesh's :func:`mesh_digest`, when known). Either way the copy is built from those arrays, so a cached and a fresh
+    splitting again (``digest``: the mesh's :func:`~labcut.geometry.solid.mesh_digest`, when known). Either way the copy is built from those arrays, so a cached and a fresh
     split are the same to the last bit."""
     import trimesh
 
