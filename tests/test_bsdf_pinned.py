@@ -528,16 +528,23 @@ def si_spectral(mi, wi):
 WL = np.array([450.0, 500.0, 550.0, 600.0])
 
 
-def test_spectral_schiller_and_body(variant, monkeypatch):
-    from labcut.physics.lamella import stack_reflectance
-
-    mi = fresh(variant, monkeypatch, "spectral")
+def schiller_and_body_case(variant, monkeypatch, mode):
+    """The second case's directions, a material with a spread lobe and a body, its BSDF loaded in
+    ``mode``: ``(mi, mat, wi, wo, bsdf, geom, cos_l, body value)`` with the reference's terms."""
+    mi = fresh(variant, monkeypatch, mode)
     mat = Labradorite(spread_deg=8.0, body_albedo=0.2)
     wi, wo = unit(CASES[1][0]), unit(CASES[1][1])
     bsdf = load(mi, normal=NORMAL, spread_deg=8.0, body_albedo=0.2)
     geom, cos_l, _ = schiller_geom(mat, NORMAL, wi, wo)
-    r = np.asarray(stack_reflectance(WL, cos_l, mat.stack), dtype=float)
     bv, _ = body_ref(mat, wi, wo)
+    return mi, mat, wi, wo, bsdf, geom, cos_l, bv
+
+
+def test_spectral_schiller_and_body(variant, monkeypatch):
+    from labcut.physics.lamella import stack_reflectance
+
+    mi, mat, wi, wo, bsdf, geom, cos_l, bv = schiller_and_body_case(variant, monkeypatch, "spectral")
+    r = np.asarray(stack_reflectance(WL, cos_l, mat.stack), dtype=float)
     got = arr(bsdf.eval(ctx_for(mi), si_spectral(mi, wi), V(mi, wo)))
     np.testing.assert_allclose(got, r * geom + bv, rtol=1e-3)
     r1 = np.asarray(stack_reflectance(WL, 1.0, mat.stack), dtype=float)
@@ -545,14 +552,9 @@ def test_spectral_schiller_and_body(variant, monkeypatch):
 
 
 def test_mono_schiller_and_body(variant, monkeypatch):
-    mi = fresh(variant, monkeypatch, "mono")
-    mat = Labradorite(spread_deg=8.0, body_albedo=0.2)
-    wi, wo = unit(CASES[1][0]), unit(CASES[1][1])
-    bsdf = load(mi, normal=NORMAL, spread_deg=8.0, body_albedo=0.2)
-    geom, cos_l, _ = schiller_geom(mat, NORMAL, wi, wo)
+    mi, mat, wi, wo, bsdf, geom, cos_l, bv = schiller_and_body_case(variant, monkeypatch, "mono")
     _, lum = luminance_table(mat)
     r = np.interp(cos_l * (lum.shape[0] - 1), np.arange(lum.shape[0]), lum)
-    bv, _ = body_ref(mat, wi, wo)
     got = arr(bsdf.eval(ctx_for(mi), si_of(mi, wi), V(mi, wo)))
     np.testing.assert_allclose(got, [r * geom + bv], rtol=RTOL)
 
