@@ -199,6 +199,19 @@ def check_occlusion(convex: bool, forced: Mapping[str, bool]) -> bool:
     return occlusion_on(convex, forced)
 
 
+def occlusion_decision(convex: bool, forced: Mapping[str, bool]) -> Decision:
+    """The flash estimators' occlusion decision (:func:`check_occlusion`) and why: none for a
+    convex stone (exact), shadow rays for one that is not, unless switched off (approximate)."""
+    on = check_occlusion(convex, forced)
+    if convex:
+        return Decision("occlusion", False, "", "convex stone: a ray leaving the surface never meets it again (exact)",
+                        False, 0.0)
+    why = ("non-convex stone: parts of it hide lights and viewers from other parts" if on
+           else "switched off: lights and viewers treated as seen from every surface point (approximate)")
+    return Decision("occlusion", on, "shadow rays from every surface sample to every light and view direction", why,
+                    "occlusion" in forced)
+
+
 def map_directions_past_parts(scene: Any, occluded: bool, convex: bool) -> int | None:
     """How many directions the surface samples draw from the scene's environment map where it is
     seen past the parts of a stone that is not convex (:func:`env_samples_enough`, more than the
@@ -223,15 +236,10 @@ def plan_surface_samples(mesh: Any, setup: Any) -> EffectPlan:
 
     convex = Stone.of(mesh).convex
     forced = check_effects(setup.effect_overrides)
-    occluded = check_occlusion(convex, forced)
+    occlusion = occlusion_decision(convex, forced)
     scene = resolve_scene(setup.scenario, None, None, setup.quality)
-    dense = map_directions_past_parts(scene, occluded, convex)
-    why = ("convex stone: a ray leaving the surface never meets it again (exact)" if convex else
-           "non-convex stone: parts of it hide lights and viewers from other parts" if occluded else
-           "switched off: lights and viewers treated as seen from every surface point (approximate)")
-    decisions = (Decision("occlusion", occluded, "shadow rays from every surface sample to every light and view direction"
-                          if occluded else "", why, "occlusion" in forced, 0.0 if convex else None),)
-    return EffectPlan("recommend", decisions, "samples", "a live view answers from the surface samples", {}, convex,
+    dense = map_directions_past_parts(scene, occlusion.on, convex)
+    return EffectPlan("recommend", (occlusion,), "samples", "a live view answers from the surface samples", {}, convex,
                       {"convex": convex}, env_samples=dense)
 
 
@@ -643,14 +651,8 @@ def plan_effects(
         occ_on = True
         decisions.append(Decision("occlusion", True, "ray tracing", "a renderer traces every ray; it costs nothing extra",
                                   "occlusion" in forced, None if not convex else 0.0))
-    elif convex:
-        decisions.append(Decision("occlusion", False, "", "convex stone: a ray leaving the surface never meets it again (exact)",
-                                  False, 0.0))
     else:
-        why = ("non-convex stone: parts of it hide lights and viewers from other parts" if occ_on
-               else "switched off: lights and viewers treated as seen from every surface point (approximate)")
-        decisions.append(Decision("occlusion", occ_on, "shadow rays from every surface sample to every light and view direction",
-                                  why, "occlusion" in forced))
+        decisions.append(occlusion_decision(convex, forced))
 
     # inter-reflection ----------------------------------------------------------
     if "inter_reflection" in forced and forced["inter_reflection"] and convex:
