@@ -1,0 +1,73 @@
+"""The explorer's answer timed in one process, without the server (issue 35): ``ExploreSession.view``
+after a lamp or material change, with the process's user and system CPU time and minor page faults
+over each answer (``resource.getrusage``).
+
+    .venv/bin/python benchmarks/explore_inprocess.py [--stone meshes/oval-16x12-low.ply] [--quality standard]
+        [--pictures] [--no-huge-pages]
+
+Six new lamps, then three materials (two presets and a flash peak), each one the session has not
+seen. ``--pictures``: the preview and the refined picture of each state drawn before the next
+change, as the server draws them (the memory they free is what the next answer's arrays land on).
+``--no-huge-pages``: numpy asked not to request transparent huge pages for its big arrays (this
+benchmark's process only: labcut itself changes no numpy setting), to see what they add to the
+system time. ``perf record -g .venv/bin/python benchmarks/explore_inprocess.py --pictures`` shows
+where the system time goes (``clear_page_erms``: the kernel clearing fresh pages).
+The figures of docs/explore.md ("What the wall times above hold") and docs/performance.md ("fresh
+memory") come from this command.
+"""
+
+from __future__ import annotations
+
+import argparse
+import resource
+import statistics
+import time
+
+LAMPS = (61.3, 47.9, 74.2, 55.1, 66.6, 81.2)
+MATERIALS = ({"material": "green"}, {"material": "gold"}, {"material": "peak", "peak_nm": 503.0})
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--stone", default="meshes/oval-16x12-low.ply")
+    parser.add_argument("--quality", default="standard")
+    parser.add_argument("--pictures", action="store_true", help="draw each state's pictures before the next change")
+    parser.add_argument("--no-huge-pages", action="store_true", help="numpy without transparent huge pages (this process)")
+    args = parser.parse_args()
+    if args.no_huge_pages:
+        import numpy as np
+
+        np._core.multiarray._set_madvise_hugepage(False)
+
+    import labcut
+    from labcut.explorer.session import ExploreSession
+
+    session = ExploreSession(labcut.Stone.load(args.stone), scenario="bench", quality=args.quality)
+    session.view()
+    rows = []
+    for kind, change in [("lamp", {"lamp_elevation": e}) for e in LAMPS] + [("material", m) for m in MATERIALS]:
+        if args.pictures:
+            session.preview()
+            session.planned_estimator()
+            list(session.refine())
+        session.set(change)
+        before = resource.getrusage(resource.RUSAGE_SELF)
+        t = time.perf_counter()
+        session.view()
+        wall = time.perf_counter() - t
+        after = resource.getrusage(resource.RUSAGE_SELF)
+        rows.append((kind, change, 1000 * wall, 1000 * (after.ru_utime - before.ru_utime),
+                     1000 * (after.ru_stime - before.ru_stime), after.ru_minflt - before.ru_minflt))
+    print(f"{args.stone}, {args.quality}, {'pictures between changes' if args.pictures else 'no pictures'}"
+          f"{', numpy without huge pages' if args.no_huge_pages else ''}\n")
+    print("| change | wall ms | user CPU ms | system CPU ms | minor page faults |")
+    print("|---|---:|---:|---:|---:|")
+    for kind, change, wall, user, system, faults in rows:
+        print(f"| {kind} {change} | {wall:.0f} | {user:.0f} | {system:.0f} | {faults} |")
+    for kind in ("lamp", "material"):
+        walls = [r[2] for r in rows if r[0] == kind]
+        print(f"\n{kind}: median {statistics.median(walls):.0f} ms, range {min(walls):.0f}-{max(walls):.0f} ms")
+
+
+if __name__ == "__main__":
+    main()
