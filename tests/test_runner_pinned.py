@@ -396,11 +396,14 @@ def test_a_recommendation_that_is_not_json_fails_its_row(catalogue_folder, recom
 def test_row_warnings_are_labcuts_each_on_one_line(catalogue_folder, recommend):
     recommend.warn = [(LabcutWarning, "units\n  guessed"), (UserWarning, "not ours"), (LabcutWarning, "units\n  guessed"),
                       (LabcutWarning, "second")]
-    with warnings.catch_warnings():
+    with warnings.catch_warnings(record=True) as shown:
         warnings.simplefilter("error", LabcutWarning)  # a caller's -W error: the row's own are still recorded, not raised
+        warnings.simplefilter("always", UserWarning)
         record = rn.run_row(cube_rows(catalogue_folder, 0)[0])
     assert record["status"] == "ok", record.get("error")
     assert record["warnings"] == "units guessed; units guessed; second"
+    # anyone else's warning is not the row's, and not swallowed either: it reaches the caller's filters
+    assert [(w.category, str(w.message)) for w in shown] == [(UserWarning, "not ours")]
 
 
 def test_other_warnings_follow_the_callers_filters(catalogue_folder, recommend):

@@ -101,8 +101,12 @@ def run_row(row: Row) -> dict[str, Any]:
         })
     except Exception as exc:  # a row's failure is recorded; the batch goes on
         record.update({"status": "error", "error": _one_line(exc)})
-    # labcut's warnings before a failure are kept too: "units guessed" may say why the row failed
+    # labcut's warnings before a failure are kept too: "units guessed" may say why the row failed;
+    # anyone else's go on to the caller's filters (recorded above only to keep them in order)
     notes = [" ".join(str(w.message).split()) for w in caught if issubclass(w.category, LabcutWarning)]
+    for w in caught:
+        if not issubclass(w.category, LabcutWarning):
+            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno, source=w.source)
     now, peak = _memory()
     record.update({"warnings": "; ".join(notes) or None, "seconds": time.perf_counter() - start, "worker": _worker_name(),
                    "worker_rss_mib": now, "worker_peak_rss_mib": peak,
