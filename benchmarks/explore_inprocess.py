@@ -3,14 +3,15 @@ after a lamp or material change, with the process's user and system CPU time and
 over each answer (``resource.getrusage``).
 
     .venv/bin/python benchmarks/explore_inprocess.py [--stone meshes/oval-16x12-low.ply] [--quality standard]
-        [--pictures] [--no-huge-pages]
+        [--pictures] [--no-huge-pages] [--fresh-cache]
 
 Six new lamps, then three materials (two presets and a flash peak), each one the session has not
 seen. ``--pictures``: the preview and the refined picture of each state drawn before the next
 change, as the server draws them (the memory they free is what the next answer's arrays land on).
 ``--no-huge-pages``: numpy asked not to request transparent huge pages for its big arrays (this
 benchmark's process only: labcut itself changes no numpy setting), to see what they add to the
-system time. ``perf record -g .venv/bin/python benchmarks/explore_inprocess.py --pictures`` shows
+system time. ``--fresh-cache``: labcut's user cache in a new empty folder, so that every material (and
+lamp) is one the machine has never seen and its reflectance tables are built in the answer. ``perf record -g .venv/bin/python benchmarks/explore_inprocess.py --pictures`` shows
 where the system time goes (``clear_page_erms``: the kernel clearing fresh pages).
 The figures of docs/explore.md ("What the wall times above hold") and docs/performance.md ("fresh
 memory") come from this command.
@@ -33,7 +34,15 @@ def main() -> None:
     parser.add_argument("--quality", default="standard")
     parser.add_argument("--pictures", action="store_true", help="draw each state's pictures before the next change")
     parser.add_argument("--no-huge-pages", action="store_true", help="numpy without transparent huge pages (this process)")
+    parser.add_argument("--fresh-cache", action="store_true",
+                        help="labcut's user cache in a new empty folder (this process): every material is one the "
+                             "machine has never seen, its reflectance tables built in the answer")
     args = parser.parse_args()
+    if args.fresh_cache:
+        import os
+        import tempfile
+
+        os.environ["XDG_CACHE_HOME"] = tempfile.mkdtemp(prefix="labcut-explore-cache-")
     if args.no_huge_pages:
         import numpy as np
 
@@ -59,7 +68,8 @@ def main() -> None:
         rows.append((kind, change, 1000 * wall, 1000 * (after.ru_utime - before.ru_utime),
                      1000 * (after.ru_stime - before.ru_stime), after.ru_minflt - before.ru_minflt))
     print(f"{args.stone}, {args.quality}, {'pictures between changes' if args.pictures else 'no pictures'}"
-          f"{', numpy without huge pages' if args.no_huge_pages else ''}\n")
+          f"{', numpy without huge pages' if args.no_huge_pages else ''}"
+          f"{', a new cache folder (every material never seen)' if args.fresh_cache else ''}\n")
     print("| change | wall ms | user CPU ms | system CPU ms | minor page faults |")
     print("|---|---:|---:|---:|---:|")
     for kind, change, wall, user, system, faults in rows:

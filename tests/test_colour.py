@@ -108,3 +108,65 @@ def test_the_s_and_p_luminance_table_is_the_stacks_on_its_grid():
     es, ep = reflectance_luminance_sp(lab, c[pick])
     assert np.allclose(ys[pick], es, rtol=1e-12, atol=0) and np.allclose(yp[pick], ep, rtol=1e-12, atol=0)
     assert not np.allclose(ys, yp)  # two polarisations, not one twice
+
+
+# ----------------------------------------------------------------- the spectra's Dr.Jit float64 path
+PERFECT = Labradorite(sigma_a=0.0, sigma_b=0.0, pairs=20000)  # a narrow, saturated band: float32 would miss it
+
+
+@pytest.mark.parametrize("material", [Labradorite(), Labradorite.preset("gold"), Labradorite.from_peak_wavelength(611.0),
+                                      PERFECT], ids=["blue", "gold", "611nm", "perfect"])
+@pytest.mark.parametrize("polarization", [None, "s", "p"])
+def test_the_tables_spectra_by_drjit_are_numpys_in_float64(material, polarization):
+    """The colour tables' spectra (:func:`labcut.colour.stack_spectra`) come from one Dr.Jit kernel
+    in float64: numpy's reference path to about 1e-13, at grazing and normal incidence alike. A
+    float32 step anywhere (its relative error ~6e-8, far more on a perfect stack's narrow band)
+    fails this."""
+    from labcut.colour import stack_spectra
+
+    c = np.concatenate([np.linspace(0.0, 1.0, 97), [1e-6, 0.5 + 1e-9]])
+    want = stack_spectra(material.stack, c, polarization, jit=False)
+    got = stack_spectra(material.stack, c, polarization)
+    assert got.shape == want.shape == (c.size, tables().wavelengths.size) and got.dtype == np.float64
+    assert np.all(np.isfinite(got)) and np.all((got >= 0.0) & (got <= 1.0))
+    np.testing.assert_allclose(got, want, rtol=1e-12, atol=1e-15)
+
+
+def test_the_s_and_p_spectra_from_one_kernel_are_each_polarisations_own():
+    from labcut.colour import stack_spectra, stack_spectra_sp
+
+    m = Labradorite.preset("green")
+    c = np.linspace(0.05, 1.0, 13)
+    r_s, r_p = stack_spectra_sp(m.stack, c)
+    assert np.array_equal(r_s, stack_spectra(m.stack, c, "s")) and np.array_equal(r_p, stack_spectra(m.stack, c, "p"))
+    np.testing.assert_allclose(r_s, stack_spectra_sp(m.stack, c, jit=False)[0], rtol=1e-12, atol=1e-15)
+
+
+def test_one_spectra_kernel_serves_every_material():
+    """The stack's parameters reach the kernel as opaque values: a new material (a flash peak never
+    asked before) runs the kernel compiled for the last one instead of compiling its own."""
+    import drjit as dr
+
+    from labcut.colour import stack_spectra
+
+    c = np.linspace(0.0, 1.0, 33)
+    stacks = [Labradorite.from_peak_wavelength(peak).stack for peak in (497.0, 553.0, 601.0)]
+    stack_spectra(Labradorite().stack, c)  # compiled (or loaded) here
+    with dr.scoped_set_flag(dr.JitFlag.KernelHistory, True):
+        dr.kernel_history()  # cleared
+        for stack in stacks:
+            stack_spectra(stack, c)
+        launched = [k for k in dr.kernel_history()
+                    if k.get("type") == dr.KernelType.JIT and k.get("size") == c.size * tables().wavelengths.size]
+    assert len(launched) == 3 and len({k["hash"] for k in launched}) == 1
+
+
+def test_a_stack_of_dr_jit_arrays_takes_numpys_path():
+    """Only a material's stack of plain numbers goes to the kernel; anything else (a zoning row's
+    stack of arrays) is evaluated by the reference path."""
+    from labcut.colour import _plain_stack
+    from labcut.physics.lamella import Stack
+
+    s = Labradorite().stack
+    assert _plain_stack(s) and not _plain_stack(tuple(s))
+    assert not _plain_stack(Stack(*(np.float64(f) for f in s[:-1]), np.array([1.56])))

@@ -1,18 +1,20 @@
-"""One set of elementary functions over numpy (float64) and Dr.Jit (float32) arrays.
+"""One set of elementary functions over numpy (float64) and Dr.Jit (float32 or float64) arrays.
 
 The lamella physics in :mod:`labcut.physics.lamella` is written once against an
 ``ops`` namespace; :func:`ops_for` picks numpy's or Dr.Jit's from the arguments.
 The API and the tests call it with numpy arrays, the Mitsuba BSDF with Dr.Jit
-arrays inside a traced kernel, so the same expression serves both.
+float32 arrays inside a traced kernel, so the same expression serves both; the colour
+tables evaluate it over Dr.Jit float64 arrays (:func:`labcut.colour.stack_table`: every
+step in float64, as numpy's, on Dr.Jit's threads).
 
 Dr.Jit has no ``expm1`` or ``log1p``: they use Kahan's tricks
 ``(u - 1) * x / log(u)`` with ``u = exp(x)`` and ``x log(u) / (u - 1)`` with
 ``u = 1 + x``, accurate to a few ulp for small ``x``; all branches are kept
 finite so reverse-mode AD sees no NaN.
 
-``wide``/``narrow`` move a value to float64 and back (identity for numpy): the
-Bragg phase, whose peak in I is only ~10 float32 units wide for a nearly perfect
-thick stack, is reduced modulo 2π in float64.
+``wide``/``narrow`` move a value to float64 and back (identity for numpy and for Dr.Jit's
+float64 namespace): the Bragg phase, whose peak in I is only ~10 float32 units wide for a
+nearly perfect thick stack, is reduced modulo 2π in float64.
 """
 
 from __future__ import annotations
@@ -63,12 +65,13 @@ NUMPY = SimpleNamespace(
     tiny=1e-300,
 )
 
-_DRJIT: SimpleNamespace | None = None
+_DRJIT: dict[bool, SimpleNamespace] = {}
 
 
-def _drjit_ops() -> SimpleNamespace:
-    global _DRJIT
-    if _DRJIT is None:
+def _drjit_ops(double: bool = False) -> SimpleNamespace:
+    """Dr.Jit's namespace: float32 working precision (``double`` False: ``narrow`` to float32,
+    ``tiny`` 1e-30) or float64 throughout (``narrow`` keeps float64, ``tiny`` 1e-300, as numpy's)."""
+    if double not in _DRJIT:
         import drjit as dr
 
         def expm1(x: Any) -> Any:
@@ -98,10 +101,10 @@ def _drjit_ops() -> SimpleNamespace:
                 return x
             return dr.float32_array_t(type(x))(x)
 
-        _DRJIT = SimpleNamespace(
-            name="drjit",
+        _DRJIT[double] = SimpleNamespace(
+            name="drjit64" if double else "drjit",
             wide=wide,
-            narrow=narrow,
+            narrow=wide if double else narrow,
             round=dr.round,
             exp=dr.exp,
             expm1=expm1,
@@ -117,9 +120,9 @@ def _drjit_ops() -> SimpleNamespace:
             select=dr.select,
             dot=dr.dot,
             scale=lambda v, s: v * s,
-            tiny=1e-30,
+            tiny=1e-300 if double else 1e-30,
         )
-    return _DRJIT
+    return _DRJIT[double]
 
 
 def is_drjit(x: Any) -> bool:
@@ -127,11 +130,22 @@ def is_drjit(x: Any) -> bool:
     return type(x).__module__.startswith("drjit")
 
 
+def _is_double(x: Any) -> bool:
+    import drjit as dr
+
+    return dr.type_v(x) == dr.VarType.Float64
+
+
 def ops_for(*args: Any) -> SimpleNamespace:
-    """Dr.Jit ops if any argument is a Dr.Jit array, else numpy ops."""
-    return _drjit_ops() if any(is_drjit(a) for a in args) else NUMPY
+    """numpy ops for numpy arrays and numbers; Dr.Jit ops if any argument is a Dr.Jit array:
+    the float64 namespace when every Dr.Jit argument is float64, else the float32 one."""
+    jit = [a for a in args if is_drjit(a)]
+    if not jit:
+        return NUMPY
+    return _drjit_ops(all(_is_double(a) for a in jit))
 
 
-def drjit_ops() -> SimpleNamespace:
-    """The Dr.Jit ops namespace (for code that always runs inside a Dr.Jit kernel)."""
-    return _drjit_ops()
+def drjit_ops(double: bool = False) -> SimpleNamespace:
+    """The Dr.Jit ops namespace (for code that always runs inside a Dr.Jit kernel): float32
+    working precision, or float64 throughout with ``double``."""
+    return _drjit_ops(double)
