@@ -239,70 +239,19 @@ def flash_colour(material: Any, cos_theta: float = 1.0, illuminant: str = "D65")
     return colour_of_spectrum(material.reflectance(tables().wavelengths, cos_theta), illuminant)
 
 
-#: (wavelength, cosine) entries per Dr.Jit evaluation of :func:`stack_spectra` (a table of 1024
-#: cosines is 482,304: one evaluation; a few hundred bytes each while the kernel runs)
-SPECTRA_CHUNK = 1 << 20
-
-
-def _plain_stack(stack: Any) -> bool:
-    """Whether ``stack`` is a :class:`~labcut.physics.lamella.Stack` of plain numbers (a material's),
-    which :func:`stack_spectra` can hand to Dr.Jit as opaque scalars."""
-    from .physics.lamella import Stack
-
-    return isinstance(stack, Stack) and all(isinstance(f, int | float | np.integer | np.floating) for f in stack)
-
-
 def stack_spectra(stack: Any, cos_theta: Any, polarization: str | None = None, *, jit: bool = True) -> np.ndarray:
     """``R(λ, cos θ)`` (float64, shape ``cos_theta.shape + (wavelengths,)``) of a lamella stack at an
-    array of internal cosines, on the CIE grid of :func:`tables`: the one expression of
-    :func:`labcut.physics.lamella.stack_reflectance`, evaluated in float64 throughout either by a
-    Dr.Jit kernel (``jit``, the default for a material's :class:`~labcut.physics.lamella.Stack`:
-    Dr.Jit's float64 namespace of :mod:`labcut.physics.ops`, the stack's parameters opaque so that
-    one compiled kernel serves every material) or by numpy (``jit=False``, the reference path, and
-    any other stack). The two agree to about 1e-13 relative: the last bits of Dr.Jit's and the C
-    library's exp, sin and tanh (``tests/test_colour.py``)."""
-    from .physics.lamella import stack_reflectance
-
-    if not (jit and _plain_stack(stack)):
-        return np.asarray(stack.reflectance(tables().wavelengths, np.asarray(cos_theta, dtype=np.float64)[..., None],
-                                            polarization), dtype=np.float64)
-    return _jit_spectra(stack, cos_theta, lambda wl, c, st: [stack_reflectance(wl, c, st, polarization)])[0]
+    array of internal cosines, on the CIE grid of :func:`tables` (the stack's
+    :meth:`~labcut.physics.lamella.Stack.spectra`: by one Dr.Jit kernel in float64, or with
+    ``jit=False`` numpy's reference passes)."""
+    return stack.spectra(tables().wavelengths, cos_theta, (polarization,), jit=jit)[0]
 
 
 def stack_spectra_sp(stack: Any, cos_theta: Any, *, jit: bool = True) -> tuple[np.ndarray, np.ndarray]:
     """``(R_s, R_p)`` of :func:`stack_spectra` from one evaluation of the stack (each to the last bit
     what ``polarization="s"`` and ``"p"`` give on the same path)."""
-    from .physics.lamella import stack_reflectance_sp
-
-    if not (jit and _plain_stack(stack)):
-        r_s, r_p = stack.reflectance_sp(tables().wavelengths, np.asarray(cos_theta, dtype=np.float64)[..., None])
-        return np.asarray(r_s, dtype=np.float64), np.asarray(r_p, dtype=np.float64)
-    r_s, r_p = _jit_spectra(stack, cos_theta, lambda wl, c, st: list(stack_reflectance_sp(wl, c, st)[:2]))
+    r_s, r_p = stack.spectra(tables().wavelengths, cos_theta, ("s", "p"), jit=jit)
     return r_s, r_p
-
-
-def _jit_spectra(stack: Any, cos_theta: Any, spectra: Any) -> list[np.ndarray]:
-    """The arrays ``spectra(wavelengths, cosines, stack)`` returns, evaluated by Dr.Jit in float64 over
-    every (cosine, wavelength) of the grid, :data:`SPECTRA_CHUNK` entries per kernel, the stack's
-    parameters opaque."""
-    from .backend import ad_types
-    from .physics.lamella import Stack
-
-    dr, t = ad_types()
-    wl = tables().wavelengths
-    c = np.asarray(cos_theta, dtype=np.float64)
-    opaque = Stack(*(dr.opaque(t.Float64, float(f)) for f in stack))
-    cos_all = np.repeat(c.ravel(), wl.size)
-    wl_all = np.tile(wl, c.size)
-    outs: list[np.ndarray] = []
-    for i in range(0, cos_all.size, SPECTRA_CHUNK):
-        parts = spectra(t.Float64(wl_all[i:i + SPECTRA_CHUNK]), t.Float64(cos_all[i:i + SPECTRA_CHUNK]), opaque)
-        dr.eval(*parts)
-        if not outs:
-            outs = [np.empty(cos_all.size) for _ in parts]
-        for out, part in zip(outs, parts):
-            out[i:i + SPECTRA_CHUNK] = np.asarray(part)
-    return [out.reshape(c.shape + wl.shape) for out in outs]
 
 
 def stack_table(stack: Any, cos_theta: Any, kind: str = "rgb", illuminant: str = "D65",

@@ -161,12 +161,16 @@ def test_one_spectra_kernel_serves_every_material():
     assert len(launched) == 3 and len({k["hash"] for k in launched}) == 1
 
 
-def test_a_stack_of_dr_jit_arrays_takes_numpys_path():
-    """Only a material's stack of plain numbers goes to the kernel; anything else (a zoning row's
-    stack of arrays) is evaluated by the reference path."""
-    from labcut.colour import _plain_stack
+def test_a_stack_of_arrays_takes_numpys_path():
+    """Only a material's stack of plain numbers goes to the kernel; a stack of arrays (a zoning row's
+    parameters) is evaluated by the reference path, and gives the same numbers."""
     from labcut.physics.lamella import Stack
 
     s = Labradorite().stack
-    assert _plain_stack(s) and not _plain_stack(tuple(s))
-    assert not _plain_stack(Stack(*(np.float64(f) for f in s[:-1]), np.array([1.56])))
+    arrays = Stack(*s[:-1], np.array([1.56]))
+    assert s.plain and Stack(*(np.float64(f) for f in s)).plain and not arrays.plain
+    c = np.linspace(0.1, 1.0, 5)
+    wl = tables().wavelengths
+    np.testing.assert_allclose(arrays.spectra(wl, c)[0], s.spectra(wl, c)[0], rtol=1e-12, atol=1e-15)
+    with pytest.raises(ValueError, match="polarization"):
+        s.spectra(wl, c, ("x",))

@@ -41,9 +41,9 @@ nearly equal numbers is left (docs/physics.md has the derivation).
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import Any, NamedTuple
 
-from typing import NamedTuple
+import numpy as np
 
 from .ops import ops_for
 
@@ -79,6 +79,57 @@ class Stack(NamedTuple):
         polarisations for the price of one."""
         r_s, r_p, _ = stack_reflectance_sp(wavelength_nm, cos_theta, self)
         return r_s, r_p
+
+    @property
+    def plain(self) -> bool:
+        """Whether every field is a plain number (a material's stack), not an array."""
+        return all(isinstance(f, int | float | np.integer | np.floating) for f in self)
+
+    def spectra(self, wavelength_nm: Any, cos_theta: Any, polarizations: tuple[str | None, ...] = (None,), *,
+                jit: bool = True) -> list[np.ndarray]:
+        """This stack's reflectance on a grid, float64, one array of shape ``cos_theta.shape +
+        wavelength_nm.shape`` for each of ``polarizations`` (``None``: unpolarised, ``'s'``, ``'p'``;
+        all from one evaluation): :func:`stack_reflectance`, evaluated in float64 throughout either
+        by one Dr.Jit kernel (``jit``, for a :attr:`plain` stack: Dr.Jit's float64 namespace of
+        :mod:`labcut.physics.ops`, the fields opaque so that one compiled kernel serves every
+        material; about five times numpy's speed on a colour table) or by numpy (``jit=False``, the
+        reference path, and a stack of arrays). The two agree to about 1e-13 relative, the last bits
+        of Dr.Jit's and the C library's exp, sin and tanh (``tests/test_colour.py``)."""
+        for pol in polarizations:
+            if pol not in (None, "s", "p"):
+                raise ValueError(f"polarization must be None, 's' or 'p', got {pol!r}")
+        wl = np.asarray(wavelength_nm, dtype=np.float64)
+        c = np.asarray(cos_theta, dtype=np.float64)
+        if jit and self.plain:
+            return _jit_grid(self, wl, c, polarizations)
+        r_s, r_p, _ = stack_reflectance_sp(wl, c[..., None], self)
+        picked = {None: lambda: 0.5 * (r_s + r_p), "s": lambda: r_s, "p": lambda: r_p}
+        return [np.asarray(picked[pol](), dtype=np.float64) for pol in polarizations]
+
+
+#: (cosine, wavelength) entries per kernel of :meth:`Stack.spectra` (a colour table of 1024 cosines
+#: x 471 wavelengths is one; a few hundred bytes each while the kernel runs)
+SPECTRA_CHUNK = 1 << 20
+
+
+def _jit_grid(stack: Stack, wl: np.ndarray, c: np.ndarray, polarizations: tuple[str | None, ...]) -> list[np.ndarray]:
+    """:meth:`Stack.spectra` by Dr.Jit in float64: every (cosine, wavelength) of the grid,
+    :data:`SPECTRA_CHUNK` entries per kernel, the stack's fields opaque."""
+    from ..backend import ad_types
+
+    dr, t = ad_types()
+    opaque = Stack(*(dr.opaque(t.Float64, float(f)) for f in stack))
+    cos_all = np.repeat(c.ravel(), wl.size)
+    wl_all = np.tile(wl.ravel(), c.size)
+    outs = [np.empty(cos_all.size) for _ in polarizations]
+    for i in range(0, cos_all.size, SPECTRA_CHUNK):
+        r_s, r_p, _ = stack_reflectance_sp(t.Float64(wl_all[i:i + SPECTRA_CHUNK]), t.Float64(cos_all[i:i + SPECTRA_CHUNK]),
+                                           opaque)
+        parts = [0.5 * (r_s + r_p) if pol is None else (r_s if pol == "s" else r_p) for pol in polarizations]
+        dr.eval(*parts)
+        for out, part in zip(outs, parts):
+            out[i:i + SPECTRA_CHUNK] = np.asarray(part)
+    return [out.reshape(c.shape + wl.shape) for out in outs]
 
 
 def _one_minus_exp(ops: Any, x: Any) -> Any:
