@@ -172,5 +172,5 @@ def test_a_stack_of_arrays_takes_numpys_path():
     c = np.linspace(0.1, 1.0, 5)
     wl = tables().wavelengths
     np.testing.assert_allclose(arrays.spectra(wl, c)[0], s.spectra(wl, c)[0], rtol=1e-12, atol=1e-15)
-    with pytest.raises(ValueError, match="polarization"):
+    with pytest.raises(ParameterError, match="polarization"):
         s.spectra(wl, c, ("x",))

@@ -12,7 +12,7 @@ from drjit.llvm.ad import Float as ADFloat
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from labcut import Labradorite
+from labcut import Labradorite, ParameterError
 from labcut.physics import lamella_intensity
 
 rng = np.random.default_rng(7)
@@ -295,7 +295,7 @@ def test_the_stacks_methods_are_the_functions():
     for pol, want in ((None, 0.5 * (r_s + r_p)), ("s", r_s), ("p", r_p)):
         assert np.array_equal(stack.reflectance(wl, c, pol), want)
         assert np.array_equal(stack_reflectance(wl, c, stack, pol), want)
-    with pytest.raises(ValueError, match="polarization must be None, 's' or 'p', got 'x'"):
+    with pytest.raises(ParameterError, match="polarization must be None, 's' or 'p', got 'x'"):
         stack_reflectance(wl, c, stack, "x")
 
 

@@ -45,6 +45,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
+from ..errors import ParameterError
 from .ops import ops_for
 
 FOUR_PI = 4.0 * math.pi
@@ -97,7 +98,7 @@ class Stack(NamedTuple):
         of Dr.Jit's and the C library's exp, sin and tanh (``tests/test_colour.py``)."""
         for pol in polarizations:
             if pol not in (None, "s", "p"):
-                raise ValueError(f"polarization must be None, 's' or 'p', got {pol!r}")
+                raise ParameterError(f"polarization must be None, 's' or 'p', got {pol!r}")
         wl = np.asarray(wavelength_nm, dtype=np.float64)
         c = np.asarray(cos_theta, dtype=np.float64)
         if jit and self.plain:
@@ -350,7 +351,7 @@ def stack_reflectance(wavelength_nm: Any, cos_theta: Any, stack: Stack, polariza
         return r_s
     if polarization == "p":
         return r_p
-    raise ValueError(f"polarization must be None, 's' or 'p', got {polarization!r}")
+    raise ParameterError(f"polarization must be None, 's' or 'p', got {polarization!r}")
 
 
 def bragg_wavelength(cos_theta: Any, n_a: Any, n_b: Any, d_a: Any, d_b: Any, order: int = 1) -> Any:
