@@ -540,7 +540,9 @@ def scan_fit(offsets: np.ndarray, values: np.ndarray, errors: np.ndarray, degree
         up[i] += h
         down[i] -= h
         jac[:, i] = (derived(up) - derived(down)) / (2.0 * h)
-    sd = np.sqrt(np.maximum(np.diag(jac @ cov @ jac.T), 0.0))
+    rows = np.all(np.isfinite(jac), axis=1)  # a 90 % point that leaves reach under a small step: no precision
+    sd = np.full(2, math.inf)
+    sd[rows] = np.sqrt(np.maximum(np.diag(jac[rows] @ cov @ jac[rows].T), 0.0))
     return {"peak": float(value[0]), "peak_sd": float(sd[0]), "top": top, "tolerance": float(value[1]),
             "tolerance_sd": float(sd[1]), "chi2": chi2}
 
