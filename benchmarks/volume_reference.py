@@ -911,7 +911,9 @@ def report() -> None:
         for r in slab["radiance"]:
             out.append(f"| {r['tilt_deg']:.2f}° | {r['reference']:.4f} ± {r['error']:.4f} | {r['model']:.4f} | "
                        f"{r['reference'] / r['model']:.3f} |")
-    cases = data.get("cases", {})
+    order = {name: i for i, name in enumerate(STONES)}
+    cases = dict(sorted(data.get("cases", {}).items(),
+                        key=lambda kv: (order.get(kv[1]["stone"], len(order)), kv[1]["lamp"] != "lamp 35° in front")))
     if cases:
         paths = sorted({c["reference"]["paths_per_view"] for c in cases.values()})
         out += ["", "**Default recommendations against the reference** (quality standard, face-up viewers; the reference "
