@@ -149,15 +149,20 @@ def test_one_spectra_kernel_serves_every_material():
 
     from labcut.colour import stack_spectra
 
-    c = np.linspace(0.0, 1.0, 33)
-    stacks = [Labradorite.from_peak_wavelength(peak).stack for peak in (497.0, 553.0, 601.0)]
-    stack_spectra(Labradorite().stack, c)  # compiled (or loaded) here
+    # every field takes two values or more among these (a field left a literal would compile a kernel of its own)
+    materials = [Labradorite.from_peak_wavelength(497.0), PERFECT,
+                 Labradorite(n_a=1.551, n_b=1.567, d_a=70.0, d_b=90.0, sigma_a=9.0, sigma_b=21.0, pairs=3001,
+                             n_surface=1.553)]
+    assert all(len({m.stack[i] for m in materials}) >= 2 for i in range(len(materials[0].stack)))
+    grid = np.linspace(0.0, 1.0, 40)
+    stack_spectra(Labradorite().stack, grid[:33])  # compiled (or loaded) here
     with dr.scoped_set_flag(dr.JitFlag.KernelHistory, True):
         dr.kernel_history()  # cleared
-        for stack in stacks:
-            stack_spectra(stack, c)
+        for k, m in enumerate(materials):
+            c = grid[k:k + 33]  # views at other offsets: numpy's buffers fall on other alignments
+            stack_spectra(m.stack, c)
         launched = [k for k in dr.kernel_history()
-                    if k.get("type") == dr.KernelType.JIT and k.get("size") == c.size * tables().wavelengths.size]
+                    if k.get("type") == dr.KernelType.JIT and k.get("size") == 33 * tables().wavelengths.size]
     assert len(launched) == 3 and len({k["hash"] for k in launched}) == 1
 
 
@@ -174,3 +179,28 @@ def test_a_stack_of_arrays_takes_numpys_path():
     np.testing.assert_allclose(arrays.spectra(wl, c)[0], s.spectra(wl, c)[0], rtol=1e-12, atol=1e-15)
     with pytest.raises(ParameterError, match="polarization"):
         s.spectra(wl, c, ("x",))
+
+
+def test_dr_jit_float64_arguments_get_the_float64_namespace_and_any_float32_one_the_float32():
+    """``ops_for``: numpy for numpy; Dr.Jit's float64 namespace only when every Dr.Jit argument is
+    float64 (the tables' kernel); one float32 argument (the BSDF's wavelengths, a kernel's cosines)
+    keeps the whole expression in float32, as before the float64 namespace existed."""
+    from labcut.backend import ad_types
+    from labcut.physics.ops import NUMPY, drjit_ops, ops_for
+
+    _, t = ad_types()
+    f32, f64 = t.Float([0.5]), t.Float64([0.5])
+    assert ops_for(np.ones(2), 1.0) is NUMPY
+    assert ops_for(f64, 2.0, f64) is drjit_ops(double=True) and drjit_ops(double=True).name == "drjit64"
+    assert ops_for(f32, f64) is drjit_ops() and ops_for(f64, f32) is drjit_ops() and ops_for(f32) is drjit_ops()
+    assert drjit_ops().tiny == 1e-30 and drjit_ops(double=True).tiny == 1e-300
+
+
+def test_the_grid_has_the_cosines_shape_then_the_wavelengths_on_both_paths():
+    s = Labradorite().stack
+    wl = np.array([[450.0, 500.0], [550.0, 600.0]])
+    for c in (0.7, np.array([0.2, 0.9]), np.linspace(0.1, 1.0, 6).reshape(3, 2)):
+        want = s.spectra(wl, c, ("s",), jit=False)[0]
+        got = s.spectra(wl, c, ("s",))[0]
+        assert want.shape == got.shape == np.shape(c) + wl.shape
+        np.testing.assert_allclose(got, want, rtol=1e-12, atol=1e-15)

@@ -103,9 +103,10 @@ class Stack(NamedTuple):
         c = np.asarray(cos_theta, dtype=np.float64)
         if jit and self.plain:
             return _jit_grid(self, wl, c, polarizations)
-        r_s, r_p, _ = stack_reflectance_sp(wl, c[..., None], self)
+        r_s, r_p, _ = stack_reflectance_sp(wl, c.reshape(c.shape + (1,) * wl.ndim), self)
         picked = {None: lambda: 0.5 * (r_s + r_p), "s": lambda: r_s, "p": lambda: r_p}
-        return [np.asarray(picked[pol](), dtype=np.float64) for pol in polarizations]
+        return [np.broadcast_to(np.asarray(picked[pol](), dtype=np.float64), c.shape + wl.shape).copy()
+                for pol in polarizations]
 
 
 #: (cosine, wavelength) entries per kernel of :meth:`Stack.spectra` (a colour table of 1024 cosines
@@ -115,21 +116,28 @@ SPECTRA_CHUNK = 1 << 20
 
 def _jit_grid(stack: Stack, wl: np.ndarray, c: np.ndarray, polarizations: tuple[str | None, ...]) -> list[np.ndarray]:
     """:meth:`Stack.spectra` by Dr.Jit in float64: every (cosine, wavelength) of the grid,
-    :data:`SPECTRA_CHUNK` entries per kernel, the stack's fields opaque."""
+    :data:`SPECTRA_CHUNK` entries per kernel. The kernel makes each entry's cosine and wavelength
+    itself, gathered by its index from the two short arrays, and the stack's fields are opaque:
+    its code is the same for every material, grid and chunk (a kernel that read the whole grid
+    from numpy's memory would compile again whenever numpy's buffers fell on another alignment)."""
     from ..backend import ad_types
 
     dr, t = ad_types()
     opaque = Stack(*(dr.opaque(t.Float64, float(f)) for f in stack))
-    cos_all = np.repeat(c.ravel(), wl.size)
-    wl_all = np.tile(wl.ravel(), c.size)
-    outs = [np.empty(cos_all.size) for _ in polarizations]
-    for i in range(0, cos_all.size, SPECTRA_CHUNK):
-        r_s, r_p, _ = stack_reflectance_sp(t.Float64(wl_all[i:i + SPECTRA_CHUNK]), t.Float64(cos_all[i:i + SPECTRA_CHUNK]),
+    wl_d, c_d = t.Float64(np.array(wl.ravel())), t.Float64(np.array(c.ravel()))
+    n_wl, total = wl.size, wl.size * c.size
+    width = dr.opaque(t.UInt32, n_wl)
+    outs = [np.empty(total) for _ in polarizations]
+    for i in range(0, total, SPECTRA_CHUNK):
+        j = min(total, i + SPECTRA_CHUNK)
+        index = dr.arange(t.UInt32, i, j)
+        row = index // width
+        r_s, r_p, _ = stack_reflectance_sp(dr.gather(t.Float64, wl_d, index - row * width), dr.gather(t.Float64, c_d, row),
                                            opaque)
         parts = [0.5 * (r_s + r_p) if pol is None else (r_s if pol == "s" else r_p) for pol in polarizations]
         dr.eval(*parts)
         for out, part in zip(outs, parts):
-            out[i:i + SPECTRA_CHUNK] = np.asarray(part)
+            out[i:j] = np.asarray(part)
     return [out.reshape(c.shape + wl.shape) for out in outs]
 
 
