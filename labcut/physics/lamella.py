@@ -89,7 +89,7 @@ class Stack(NamedTuple):
     def spectra(self, wavelength_nm: Any, cos_theta: Any, polarizations: tuple[str | None, ...] = (None,), *,
                 jit: bool = True) -> list[np.ndarray]:
         """This stack's reflectance on a grid, float64, one array of shape ``cos_theta.shape +
-        wavelength_nm.shape`` for each of ``polarizations`` (``None``: unpolarised, ``'s'``, ``'p'``;
+        wavelength_nm.shape`` (a stack of arrays: broadcast with its fields) for each of ``polarizations`` (``None``: unpolarised, ``'s'``, ``'p'``;
         all from one evaluation): :func:`stack_reflectance`, evaluated in float64 throughout either
         by one Dr.Jit kernel (``jit``, for a :attr:`plain` stack: Dr.Jit's float64 namespace of
         :mod:`labcut.physics.ops`, the fields opaque so that one compiled kernel serves every
@@ -105,8 +105,7 @@ class Stack(NamedTuple):
             return _jit_grid(self, wl, c, polarizations)
         r_s, r_p, _ = stack_reflectance_sp(wl, c.reshape(c.shape + (1,) * wl.ndim), self)
         picked = {None: lambda: 0.5 * (r_s + r_p), "s": lambda: r_s, "p": lambda: r_p}
-        return [np.broadcast_to(np.asarray(picked[pol](), dtype=np.float64), c.shape + wl.shape).copy()
-                for pol in polarizations]
+        return [np.asarray(picked[pol](), dtype=np.float64) for pol in polarizations]
 
 
 #: (cosine, wavelength) entries per kernel of :meth:`Stack.spectra` (a colour table of 1024 cosines
