@@ -71,12 +71,24 @@ def test_volume_estimator_answer_is_unchanged_to_the_last_bit(meshes, case):
 
 
 def test_render_estimator_answer_is_unchanged_within_its_noise(meshes):
+    """The render estimator's answer, on one Dr.Jit thread: its film and gradients add in thread
+    order, and L-BFGS's stall test on float32 noise turns that into discrete paths, which move the
+    normal by 0.0001-0.006° with two to eight threads (more threads, farther; on several threads
+    this test failed twice in full runs of the suite beside other work), but by nothing run after run
+    on one thread."""
+    import drjit as dr
+
     stone, scenario, quality = record_answers.RENDER_CASE
     want = GOLDEN["render|" + "|".join(record_answers.RENDER_CASE)]
-    got = record_answers.answer(meshes[stone], scenario, quality, estimator="render")
+    threads = dr.thread_count()
+    dr.set_thread_count(1)
+    try:
+        got = record_answers.answer(meshes[stone], scenario, quality, estimator="render")
+    finally:
+        dr.set_thread_count(threads)
     assert got["estimator"] == want["estimator"] == "render"
     a = np.array([float.fromhex(x) for x in got["normal"]])
     b = np.array([float.fromhex(x) for x in want["normal"]])
-    # thread-order noise moves the normal by ~1e-3 deg and the score by ~1e-5; a real change more
+    # the record (several threads) lies 0.002° from the one-thread answer; a real change moves it more
     assert math.degrees(math.acos(min(1.0, abs(float(a @ b))))) < 0.02
     assert float.fromhex(got["score"]) == pytest.approx(float.fromhex(want["score"]), rel=1e-3)
