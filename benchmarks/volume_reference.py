@@ -588,13 +588,24 @@ def reference_optimum(case: dict) -> dict[str, object]:
             "tilt_fit_spread": 0.5 * (max(tilts) - min(tilts)), "tilt_by_degree": tilts}
 
 
+def case_lights() -> dict[str, labcut.Lights]:
+    """The comparison's two lamps by the names its cases carry: a 4° disc 35° above the horizon in
+    front (:data:`SPOT_RADIUS_DEG`) and the overhead preset, each at standard quality's sampling."""
+    from labcut.scene.presets import overhead
+
+    q = labcut.Quality.coerce("standard")
+    front = direction(35.0, FRONT_AZIMUTH_DEG)
+    return {"lamp 35° in front": labcut.Lights.lamp(front, SPOT_RADIUS_DEG, 1.0, q.lamp_samples, "front lamp"),
+            "overhead lamp": overhead("standard")}
+
+
 def compare(paths: int, points: int, fresh: bool, *, stones: list[str] | None = None, surface_events: int = MAX_SURFACE_EVENTS,
             key: str = "cases", lamps: list[str] | None = None) -> dict:
     """labcut's default recommendations against the reference (module docstring); one case at a
     time, kept in :data:`DATA` (under ``key``) as it finishes. ``stones``: only these of
     :data:`STONES`; ``surface_events``: the reference's (1: no light reflected inside the stone)."""
     from labcut.orientation.radiance import reference_radiance
-    from labcut.scene.presets import face_up, overhead
+    from labcut.scene.presets import face_up
 
     data = json.loads(DATA.read_text()) if DATA.exists() else {}
     if fresh:
@@ -603,11 +614,9 @@ def compare(paths: int, points: int, fresh: bool, *, stones: list[str] | None = 
     mat = labcut.Labradorite()
     lref = reference_radiance(mat, 1.0)
     views = face_up("standard")
-    front = direction(35.0, FRONT_AZIMUTH_DEG)
-    q = labcut.Quality.coerce("standard")
-    lamp_cases = {"lamp 35° in front": (labcut.Lights.lamp(front, SPOT_RADIUS_DEG, 1.0, q.lamp_samples, "front lamp"),
-                                        front, SPOT_RADIUS_DEG),
-                  "overhead lamp": (overhead("standard"), np.array([0.0, 0.0, 1.0]), 8.0)}
+    lit = case_lights()
+    lamp_cases = {"lamp 35° in front": (lit["lamp 35° in front"], direction(35.0, FRONT_AZIMUTH_DEG), SPOT_RADIUS_DEG),
+                  "overhead lamp": (lit["overhead lamp"], np.array([0.0, 0.0, 1.0]), 8.0)}
     for stone, path in STONES.items():
         if stones and stone not in stones:
             continue
@@ -677,12 +686,7 @@ def refresh_answers() -> dict:
     is reported and left as it was (its scans would need ``compare --fresh``)."""
     data = json.loads(DATA.read_text())
     mat = labcut.Labradorite()
-    q = labcut.Quality.coerce("standard")
-    from labcut.scene.presets import overhead
-
-    front = direction(35.0, FRONT_AZIMUTH_DEG)
-    lights = {"lamp 35° in front": labcut.Lights.lamp(front, SPOT_RADIUS_DEG, 1.0, q.lamp_samples, "front lamp"),
-              "overhead lamp": overhead("standard")}
+    lights = case_lights()
     for key, c in data.get("cases", {}).items():
         mesh = labcut.load_mesh(str(ROOT / STONES[c["stone"]]))
         t0 = time.perf_counter()
@@ -707,15 +711,11 @@ def factor_experiment() -> dict:
     "tolerance_by_axis"}}``."""
     from labcut.orientation.kernels import DEFAULT_KERNELS
     from labcut.physics import schiller as lobe
-    from labcut.scene.presets import overhead
 
     if not DEFAULT_KERNELS.triples:
         raise SystemExit("the experiment swaps the device triple kernel's factor: needs KernelOptions.triples on")
     mat = labcut.Labradorite()
-    q = labcut.Quality.coerce("standard")
-    front = direction(35.0, FRONT_AZIMUTH_DEG)
-    lights = {"lamp 35° in front": labcut.Lights.lamp(front, SPOT_RADIUS_DEG, 1.0, q.lamp_samples, "front lamp"),
-              "overhead lamp": overhead("standard")}
+    lights = case_lights()
     paper = lobe.mirror_terms
 
     def planes_factor(a: object, b: object, n: object, ops: object) -> tuple:
@@ -743,14 +743,10 @@ def model_scans() -> dict:
     case's scans, fitted as the reference's are: the same method on both sides, so that the table
     separates what the physics moves from what the fit does."""
     from labcut.orientation.question import FlashQuestion
-    from labcut.scene.presets import overhead
 
     data = json.loads(DATA.read_text())
     mat = labcut.Labradorite()
-    q = labcut.Quality.coerce("standard")
-    front = direction(35.0, FRONT_AZIMUTH_DEG)
-    lights = {"lamp 35° in front": labcut.Lights.lamp(front, SPOT_RADIUS_DEG, 1.0, q.lamp_samples, "front lamp"),
-              "overhead lamp": overhead("standard")}
+    lights = case_lights()
     for key, c in data.get("cases", {}).items():
         mesh = labcut.load_mesh(str(ROOT / STONES[c["stone"]]))
         ask = FlashQuestion.build(mat, None, lights[c["lamp"]], "face-up", quality="standard")
