@@ -901,8 +901,9 @@ def report() -> None:
     """The tables of :data:`DATA` into the docs (each between its markers)."""
     data = json.loads(DATA.read_text())
     machine = data.get("machine", "")
-    out = [f"Measured with `.venv/bin/python benchmarks/volume_reference.py slab` and `... compare` ({machine}, 2 cores, "
-           "Mitsuba LLVM variants for the ray casts; the reference is numpy).", ""]
+    out = [f"Measured with `.venv/bin/python benchmarks/volume_reference.py slab`, `... compare` (the ovals with "
+           "`--paths 800000`, the biplane at the default 200,000), `... answers`, `... model-scans`, `... factor` and "
+           f"`... report` ({machine}, 2 cores, Mitsuba LLVM variants for the ray casts; the reference is numpy).", ""]
     slab = data.get("slab")
     if slab:
         out += ["**The planes alone** (a pile of 48 planes walked in one dimension, 400,000 walkers per angle): the share "
