@@ -602,7 +602,8 @@ def case_lights() -> dict[str, labcut.Lights]:
 def compare(paths: int, points: int, fresh: bool, *, stones: list[str] | None = None, surface_events: int = MAX_SURFACE_EVENTS,
             key: str = "cases", lamps: list[str] | None = None) -> dict:
     """labcut's default recommendations against the reference (module docstring); one case at a
-    time, kept in :data:`DATA` (under ``key``) as it finishes. ``stones``: only these of
+    time, kept in :data:`DATA` (under ``key``) as it finishes; a case already run with another
+    ``paths`` runs again and its last run moves to ``{key}_by_paths``. ``stones``: only these of
     :data:`STONES`; ``surface_events``: the reference's (1: no light reflected inside the stone)."""
     from labcut.orientation.radiance import reference_radiance
     from labcut.scene.presets import face_up
@@ -611,6 +612,7 @@ def compare(paths: int, points: int, fresh: bool, *, stones: list[str] | None = 
     if fresh:
         data.pop(key, None)
     cases = data.setdefault(key, {})
+    earlier = data.setdefault(f"{key}_by_paths", {})  # a case run again with another path count keeps its last run here
     mat = labcut.Labradorite()
     lref = reference_radiance(mat, 1.0)
     views = face_up("standard")
@@ -624,8 +626,13 @@ def compare(paths: int, points: int, fresh: bool, *, stones: list[str] | None = 
         ref = None
         for lamp_name, (lights, centre, radius) in lamp_cases.items():
             key = f"{stone} | {lamp_name}"
-            if key in cases or (lamps and not any(lamp_name.startswith(x) for x in lamps)):
+            if lamps and not any(lamp_name.startswith(x) for x in lamps):
                 continue
+            if key in cases:
+                ran = cases[key]["reference"]["paths_per_view"]
+                if ran == paths:
+                    continue
+                earlier.setdefault(str(ran), {})[key] = cases.pop(key)
             t0 = time.perf_counter()
             rec = labcut.recommend_orientation(mesh, material=mat, lighting=lights, viewing="face-up", quality="standard")
             answer_seconds = time.perf_counter() - t0
@@ -1004,13 +1011,17 @@ def report() -> None:
     bare = data.get("no_internal", {})
     if bare:
         out += ["", "**Without light reflected inside** (`compare --no-internal --stones \"medium oval,high oval\"`: a path "
-                "ends at its first meeting with the surface from inside, as in the estimators):", "",
+                "ends at its first meeting with the surface from inside, as in the estimators; against the reference with "
+                "all light traced with the same paths, kept from that run):", "",
                 "| stone | lamp | paths | labcut tilt | reference tilt: all light | without | tolerance: labcut | reference: all | "
                 "without |",
                 "|---|---|---|---|---|---|---|---|---|"]
         for key, c in bare.items():
-            full = cases.get(key)
-            if not full:
+            # the all-light case traced with the same paths (the same camera paths up to their first meeting
+            # with the surface from inside: the difference is the light reflected there, not noise)
+            same = str(c["reference"]["paths_per_view"])
+            full = data.get("cases_by_paths", {}).get(same, {}).get(key) or cases.get(key)
+            if not full or full["reference"]["paths_per_view"] != c["reference"]["paths_per_view"]:
                 continue
             if max(abs(float(np.dot(c["answer"]["normal"], full["answer"]["normal"]))), 0.0) < math.cos(math.radians(1e-3)):
                 continue  # scanned around another answer than the full case's: not comparable
