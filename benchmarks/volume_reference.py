@@ -5,6 +5,7 @@
     .venv/bin/python benchmarks/volume_reference.py answers        # labcut's side of it again (seconds)
     .venv/bin/python benchmarks/volume_reference.py model-scans    # labcut's flash along the same scans
     .venv/bin/python benchmarks/volume_reference.py factor         # the ovals' answers with the planes' a·n
+    .venv/bin/python benchmarks/volume_reference.py fit-check      # the fit at the reference's noise
     .venv/bin/python benchmarks/volume_reference.py planner        # surface against volume, every bundled cut
     .venv/bin/python benchmarks/volume_reference.py report         # the tables into the docs
 
@@ -745,6 +746,40 @@ def factor_experiment() -> dict:
     return out
 
 
+def fit_check(draws: int = 400, seed: int = 5) -> list[dict]:
+    """How :func:`scan_fit` behaves at the reference's own noise: labcut's noise-free flash along each
+    case's scans (``model-scans``) plus Gaussian noise of that case's mean relative error per point,
+    ``draws`` times. Per scan: the top's mean offset from the noise-free fit's (bias), its scatter
+    against the median standard deviation the fit reports, and the 90 % tolerance's mean against the
+    noise-free one. Printed as a markdown table; the rows are returned."""
+    data = json.loads(DATA.read_text())
+    rng = np.random.default_rng(seed)
+    rows = []
+    print("| case | scan | noise | top: bias | scatter | reported | tolerance: noisy / noise-free |")
+    print("|---|---|---|---|---|---|---|")
+    for key, c in data.get("cases", {}).items():
+        for name, scan in c["scans"].items():
+            model = c.get("model_scans", {}).get(name)
+            if not model:
+                continue
+            x, m = np.asarray(scan["offsets_deg"]), np.asarray(model["energy"])
+            rel = float(np.mean(np.asarray(scan["error"]) / np.max(scan["energy"])))
+            err = np.full(x.size, rel * m.max())
+            clean = scan_fit(x, m, err)
+            fits = [scan_fit(x, m + rng.normal(0.0, err), err) for _ in range(draws)]
+            peaks = np.array([f["peak"] for f in fits])
+            tols = np.array([f["tolerance"] for f in fits])
+            reported = np.array([f["peak_sd"] for f in fits])
+            ok = np.isfinite(peaks) & np.isfinite(reported)
+            row = {"case": key, "scan": name, "noise": rel, "bias": float(np.mean(peaks[ok]) - clean["peak"]),
+                   "scatter": float(np.std(peaks[ok])), "reported": float(np.median(reported[ok])),
+                   "tolerance_ratio": float(np.mean(tols[np.isfinite(tols)]) / clean["tolerance"])}
+            rows.append(row)
+            print(f"| {key.replace(' | ', ', ')} | {name} | {rel:.1%} | {row['bias']:+.2f}° | {row['scatter']:.2f}° | {row['reported']:.2f}° | "
+                  f"{row['tolerance_ratio']:.3f} |", flush=True)
+    return rows
+
+
 def model_scans() -> dict:
     """labcut's own flash energy (the estimator its answer used, quality standard) along each finished
     case's scans, fitted as the reference's are: the same method on both sides, so that the table
@@ -1071,8 +1106,8 @@ def _store(key: str, value: dict) -> None:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("what", choices=("slab", "compare", "answers", "model-scans", "factor", "planner", "timing",
-                                         "choices", "report"))
+    parser.add_argument("what", choices=("slab", "compare", "answers", "model-scans", "factor", "fit-check", "planner",
+                                         "timing", "choices", "report"))
     parser.add_argument("--paths", type=int, default=200_000, help="camera paths per view and normal (compare)")
     parser.add_argument("--points", type=int, default=13, help="normals per scan (compare)")
     parser.add_argument("--fresh", action="store_true", help="start the comparison over")
@@ -1091,6 +1126,8 @@ def main() -> None:
         refresh_answers()
     elif args.what == "factor":
         _store("factor_an", factor_experiment())
+    elif args.what == "fit-check":
+        fit_check()
     elif args.what == "choices":
         data = json.loads(PLANNER_DATA.read_text()) if PLANNER_DATA.exists() else {}
         data["choices"] = choices()
