@@ -93,7 +93,7 @@ class Stack(NamedTuple):
         all from one evaluation): :func:`stack_reflectance`, evaluated in float64 throughout either
         by one Dr.Jit kernel (``jit``, for a :attr:`plain` stack: Dr.Jit's float64 namespace of
         :mod:`labcut.physics.ops`, the fields opaque so that one compiled kernel serves every
-        material; about five times numpy's speed on a colour table) or by numpy (``jit=False``, the
+        material; docs/performance.md times it) or by numpy (``jit=False``, the
         reference path, and a stack of arrays). The two agree to about 1e-13 relative, the last bits
         of Dr.Jit's and the C library's exp, sin and tanh (``tests/test_colour.py``)."""
         for pol in polarizations:
