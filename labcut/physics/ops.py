@@ -4,8 +4,9 @@ The lamella physics in :mod:`labcut.physics.lamella` is written once against an
 ``ops`` namespace; :func:`ops_for` picks numpy's or Dr.Jit's from the arguments.
 The API and the tests call it with numpy arrays, the Mitsuba BSDF with Dr.Jit
 float32 arrays inside a traced kernel, so the same expression serves both; the colour
-tables evaluate it over Dr.Jit float64 arrays (:func:`labcut.colour.stack_table`: every
-step in float64, as numpy's, on Dr.Jit's threads).
+tables' spectra evaluate it over Dr.Jit float64 arrays
+(:meth:`labcut.physics.lamella.Stack.spectra`: every step in float64, as numpy's, on Dr.Jit's
+threads).
 
 Dr.Jit has no ``expm1`` or ``log1p``: they use Kahan's tricks
 ``(u - 1) * x / log(u)`` with ``u = exp(x)`` and ``x log(u) / (u - 1)`` with
