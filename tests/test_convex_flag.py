@@ -95,19 +95,19 @@ def test_the_kept_convexitys_key_holds_the_mesh_the_version_and_the_code(monkeyp
 
     calls = _hulls(monkeypatch)
     oval = labcut.load_mesh(MESHES / "oval-16x12-low.ply")
-    solid.kept_convexity(oval)
+    solid.is_convex_mesh(oval, keep=True)
     assert len(calls) == 1
     moved = oval.copy()
     moved.vertices[0] += [0.0, 0.0, 1e-9]  # one vertex a nanometre away: another stone
-    solid.kept_convexity(moved)
+    solid.is_convex_mesh(moved, keep=True)
     assert len(calls) == 2
     _new_process(monkeypatch)
     monkeypatch.setattr(labcut, "__version__", "0.0.0-other")
-    solid.kept_convexity(oval)
+    solid.is_convex_mesh(oval, keep=True)
     assert len(calls) == 3
     _new_process(monkeypatch)
     monkeypatch.setattr(fileio, "code_hash", lambda *paths: "edited")
-    solid.kept_convexity(oval)
+    solid.is_convex_mesh(oval, keep=True)
     assert len(calls) == 4
 
 
@@ -122,7 +122,7 @@ def test_a_damaged_convexity_is_computed_again_with_a_warning(monkeypatch, fresh
     path.write_text(json.dumps({key: {"convex": bad}}))
     _new_process(monkeypatch)
     with pytest.warns(labcut.LabcutWarning, match="convexity.json is damaged"):
-        assert solid.kept_convexity(oval) is True
+        assert solid.is_convex_mesh(oval, keep=True) is True
     assert len(calls) == 2 and json.loads(path.read_text())[key] == {"convex": True}
 
 
@@ -140,7 +140,7 @@ def test_a_scan_the_subsets_hull_proves_concave_is_not_hashed_nor_kept(monkeypat
     digests = []
     real = solid.mesh_digest
     monkeypatch.setattr(solid, "mesh_digest", lambda mesh: digests.append(1) or real(mesh))
-    assert solid.kept_convexity(biplane) is False
+    assert solid.is_convex_mesh(biplane, keep=True) is False
     assert calls == [] and digests == [] and not (fresh_user_cache / "convexity.json").exists()
-    assert solid.kept_convexity(oval) is True
+    assert solid.is_convex_mesh(oval, keep=True) is True
     assert calls == [1] and digests == [1] and (fresh_user_cache / "convexity.json").exists()

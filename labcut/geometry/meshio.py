@@ -48,7 +48,7 @@ from .solid import (
     cross_rows,
     double_areas,
     extent,
-    kept_convexity,
+    is_convex_mesh,
     signed_volume,
 )
 
@@ -747,7 +747,7 @@ def load_mesh(
     mesh = trimesh.Trimesh(vertices=v, faces=f, process=False)
     if volume is None:
         volume = signed_volume(v, f)
-    convex = kept_convexity(mesh, volume=volume)
+    convex = is_convex_mesh(mesh, volume=volume, keep=True)
 
     report_stage("finding the face-up side", 0.8)
     convention = "+Y" if fmt in ("glb", "gltf") else "+Z"

@@ -1,5 +1,5 @@
 """Measures of a closed triangle mesh's vertex and face arrays: volumes, convexity (kept between
-processes: :func:`kept_convexity`), extents, face cross products, the arrays' digest, labcut's
+processes with ``keep``: :func:`is_convex_mesh`), extents, face cross products, the arrays' digest, labcut's
 placement on its base.
 
 Plain numpy (and manifold3d's or Qhull's hulls) on (N, 3) float64 vertices in mm and (F, 3)
@@ -21,7 +21,7 @@ STONE_SIZE_MM = (0.5, 500.0)
 CONVEX_RTOL = 1e-6
 
 
-def is_convex_mesh(mesh: Any, rtol: float = CONVEX_RTOL, *, volume: float | None = None) -> bool:
+def is_convex_mesh(mesh: Any, rtol: float = CONVEX_RTOL, *, volume: float | None = None, keep: bool = False) -> bool:
     """True when a closed mesh is convex: its volume equals that of its convex hull.
 
     The hull volume is the smaller of manifold3d's and Qhull's (scipy): a hull can only be
@@ -29,10 +29,14 @@ def is_convex_mesh(mesh: Any, rtol: float = CONVEX_RTOL, *, volume: float | None
     densified edges of a polygonal outline made manifold3d's QuickHull 0.03 % too large),
     so the flag no longer depends on float32 rounding in a saved file. A mesh of several
     bodies is never convex. ``volume``: the mesh's signed volume, when the caller has it.
+    ``keep``: the whole hulls' verdict of a stone of at least :data:`KEPT_CONVEXITY_VERTICES`
+    vertices is kept between processes (:func:`_kept_verdict`; the loaders' choice).
     """
     v, vol = _hull_inputs(mesh, volume)
     if v is None or _probed_concave(v, vol, rtol):
         return False
+    if keep and len(v) >= KEPT_CONVEXITY_VERTICES:
+        return _kept_verdict(mesh, v, vol, rtol)
     return _convex_by_hulls(v, vol, rtol)
 
 
@@ -88,26 +92,20 @@ def mesh_digest(mesh: Any) -> str:
     return f"{len(mesh.vertices)} vertices {len(mesh.faces)} faces {h.hexdigest()}"
 
 
-#: vertices from which :func:`kept_convexity` keeps a stone's convexity in labcut's user cache
-#: (below, the hull takes about a millisecond and is computed each time)
+#: vertices from which :func:`is_convex_mesh` with ``keep`` keeps a stone's convexity in labcut's user
+#: cache (below, the hull takes about a millisecond and is computed each time)
 KEPT_CONVEXITY_VERTICES = 2000
 
 
-def kept_convexity(mesh: Any, *, volume: float | None = None) -> bool:
-    """:func:`is_convex_mesh` of a stone of at least :data:`KEPT_CONVEXITY_VERTICES` vertices, the
-    whole hulls' verdict kept in labcut's user cache (``convexity.json``,
+def _kept_verdict(mesh: Any, v: np.ndarray, vol: float, rtol: float) -> bool:
+    """:func:`_convex_by_hulls`, kept in labcut's user cache (``convexity.json``,
     :func:`labcut.fileio.calibrations`): a new process that loads the same file reads the flag back
     instead of computing two convex hulls again (a few hundredths of a second for the bundled
-    stones, seconds for a scan of millions of triangles). A scan the subset's hull proves concave
-    (a tenth of a second) is answered so, without hashing its arrays (a third of a second at 5 M
-    triangles) for a key. The key holds everything that shapes the flag: :func:`mesh_digest`,
-    :data:`CONVEX_RTOL`, labcut's and SciPy's versions, manifold3d's installed file, and a hash of
-    this module's code; a damaged entry is computed again with one warning."""
-    v, vol = _hull_inputs(mesh, volume)
-    if v is None or _probed_concave(v, vol, CONVEX_RTOL):
-        return False
-    if len(v) < KEPT_CONVEXITY_VERTICES:
-        return _convex_by_hulls(v, vol, CONVEX_RTOL)
+    stones, seconds for a scan of millions of triangles). Asked only once the subset's hull has
+    not proved the stone concave, so a concave scan is answered without hashing its arrays. The key
+    holds everything that shapes the flag: :func:`mesh_digest`, ``rtol``, labcut's and SciPy's
+    versions, manifold3d's installed file, and a hash of this module's code; a damaged entry is
+    computed again with one warning."""
     import os
 
     import manifold3d as m3
@@ -118,8 +116,8 @@ def kept_convexity(mesh: Any, *, volume: float | None = None) -> bool:
 
     m3_file = os.stat(m3.__file__)
     key = (f"convex | labcut {__version__} scipy {scipy.__version__} manifold3d {m3_file.st_size}:{m3_file.st_mtime_ns} "
-           f"| code {code_hash(__file__)} | rtol {CONVEX_RTOL!r} | {mesh_digest(mesh)}")
-    value = calibrations("convexity.json", [key], lambda missing: [{"convex": _convex_by_hulls(v, vol, CONVEX_RTOL)}],
+           f"| code {code_hash(__file__)} | rtol {rtol!r} | {mesh_digest(mesh)}")
+    value = calibrations("convexity.json", [key], lambda missing: [{"convex": _convex_by_hulls(v, vol, rtol)}],
                          check=_check_convex)[0]
     return value["convex"]
 
