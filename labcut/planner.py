@@ -192,17 +192,13 @@ def occlusion_on(convex: bool, forced: Mapping[str, bool]) -> bool:
     return bool(forced.get("occlusion", not convex))
 
 
-def check_occlusion(convex: bool, forced: Mapping[str, bool]) -> bool:
-    """:func:`occlusion_on`, refusing occlusion forced on for a convex stone (a plan's first check)."""
-    if "occlusion" in forced and forced["occlusion"] and convex:
-        raise ParameterError("occlusion cannot be switched on for a convex stone: no part of it can hide another")
-    return occlusion_on(convex, forced)
-
-
 def occlusion_decision(convex: bool, forced: Mapping[str, bool]) -> Decision:
-    """The flash estimators' occlusion decision (:func:`check_occlusion`) and why: none for a
-    convex stone (exact), shadow rays for one that is not, unless switched off (approximate)."""
-    on = check_occlusion(convex, forced)
+    """The flash estimators' occlusion decision (:func:`occlusion_on`) and why: none for a convex
+    stone (exact), shadow rays for one that is not, unless switched off (approximate). Occlusion
+    forced on for a convex stone is refused (a plan's first check)."""
+    if forced.get("occlusion") and convex:
+        raise ParameterError("occlusion cannot be switched on for a convex stone: no part of it can hide another")
+    on = occlusion_on(convex, forced)
     if convex:
         return Decision("occlusion", False, "", "convex stone: a ray leaving the surface never meets it again (exact)",
                         False, 0.0)
@@ -646,13 +642,14 @@ def plan_effects(
     decisions: list[Decision] = []
 
     # occlusion ---------------------------------------------------------------
-    occ_on = check_occlusion(convex, forced)
+    occlusion = occlusion_decision(convex, forced)
     if rendering:
         occ_on = True
         decisions.append(Decision("occlusion", True, "ray tracing", "a renderer traces every ray; it costs nothing extra",
                                   "occlusion" in forced, None if not convex else 0.0))
     else:
-        decisions.append(occlusion_decision(convex, forced))
+        occ_on = occlusion.on
+        decisions.append(occlusion)
 
     # inter-reflection ----------------------------------------------------------
     if "inter_reflection" in forced and forced["inter_reflection"] and convex:
