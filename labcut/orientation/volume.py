@@ -166,8 +166,8 @@ class VolumeRays:
         dr.eval(pi.t, prim, prim_uv)
         t = np.array(pi.t, dtype=np.float64)
         hit = np.isfinite(t)
-        face = np.where(hit, np.array(prim, dtype=np.int64), 0)
-        uv = np.where(hit[None, :], np.array(prim_uv, dtype=np.float64), 0.0)
+        face = np.array(prim, dtype=np.int64)  # a miss: 0 already (the device's select)
+        uv = np.array(prim_uv, dtype=np.float64)
         bary = np.stack([1.0 - uv[0] - uv[1], uv[0], uv[1]], axis=1)
         n_geo = self.face_normals[face]
         if self.big:
