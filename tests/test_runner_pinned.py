@@ -730,10 +730,13 @@ def test_connect(monkeypatch):
         def __init__(self, address, timeout):
             made.append((address, timeout))
 
+    probed = []
+    monkeypatch.setattr(rn, "_nothing_listens", lambda address, timeout: probed.append((address, timeout)))
     monkeypatch.setattr(distributed, "Client", Ok)
     assert isinstance(rn.connect("  tcp://h:8786 \n"), Ok) and made == [("tcp://h:8786", 20.0)]
+    assert probed == [("tcp://h:8786", rn.PROBE_SECONDS)]
     rn.connect("tcp://h:1", 2.5)
-    assert made[-1] == ("tcp://h:1", 2.5)
+    assert made[-1] == ("tcp://h:1", 2.5) and probed[-1] == ("tcp://h:1", 2.5)  # the probe waits no longer than Dask would
     with pytest.raises(ParameterError, match=r"^the scheduler address is empty; give tcp://HOST:PORT \(dask scheduler prints it\)$"):
         rn.connect("   ")
     for exc, detail in ((OSError("refused\n  now"), "refused now"), (TimeoutError(), "TimeoutError"),
@@ -746,6 +749,45 @@ def test_connect(monkeypatch):
             rn.connect("tcp://h:9", 2.5)
         assert str(info.value) == f"cannot reach the Dask scheduler at 'tcp://h:9' within 2.5 s ({detail})"
         assert info.value.__cause__ is None and info.value.__suppress_context__
+
+
+def test_connect_says_at_once_that_nothing_listens(monkeypatch):
+    """A refused TCP address is an error at once, not after Dask's 20 s of retries; an address where
+    something listens, a silent one and another scheme go on to Dask's client."""
+    import socket
+
+    made = []
+    monkeypatch.setattr(distributed, "Client", lambda address, timeout: made.append(address) or "client")
+    with socket.socket() as s:  # a port that was free a moment ago and has no listener now
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    for address in (f"tcp://127.0.0.1:{port}", f"127.0.0.1:{port}"):
+        with pytest.raises(ParameterError) as info:
+            rn.connect(address, 30.0)
+        assert str(info.value) == (f"cannot reach the Dask scheduler at {address!r} (nothing listens at port {port}: "
+                                   f"connection refused); is `dask scheduler` running there?")
+    assert made == []
+    with socket.socket() as listening:
+        listening.bind(("127.0.0.1", 0))
+        listening.listen()
+        address = f"tcp://127.0.0.1:{listening.getsockname()[1]}"
+        assert rn.connect(address) == "client" and made == [address]
+    assert rn._nothing_listens("tls://127.0.0.1:9", 1.0) is None and rn._nothing_listens("inproc://x/1", 1.0) is None
+    assert rn._nothing_listens("tcp://127.0.0.1:nine", 1.0) is None  # Dask's parser words that one
+    asked = []
+
+    def answer(exc):
+        def create_connection(where, timeout):
+            asked.append((where, timeout))
+            raise exc
+        return create_connection
+
+    monkeypatch.setattr(socket, "create_connection", answer(TimeoutError()))
+    assert rn._nothing_listens("tcp://[::1]:8786", 0.5) is None and asked[-1] == (("::1", 8786), 0.5)  # silent: Dask's to judge
+    monkeypatch.setattr(socket, "create_connection", answer(socket.gaierror(-2, "Name or service not known")))
+    assert rn._nothing_listens("tcp://nowhere:8786", 1.0) == "unknown host 'nowhere': Name or service not known"
+    monkeypatch.setattr(socket, "create_connection", answer(OSError(113, "No route to host")))
+    assert rn._nothing_listens("tcp://10.0.0.9:8786", 1.0) == "no route to host"
 
 
 # ---------------------------------------------------------------------- the rows on the cluster

@@ -449,18 +449,56 @@ def run(
 
 def connect(address: str, timeout: float = 20.0) -> Any:
     """A ``distributed.Client`` of the running cluster whose scheduler listens at ``address``
-    (``tcp://host:8786``); one that cannot be reached in ``timeout`` seconds is a one-line
+    (``tcp://host:8786``); one where nothing listens (refused, unknown host, no route:
+    :func:`_nothing_listens`, at once) or that does not answer in ``timeout`` seconds is a one-line
     :class:`~labcut.errors.ParameterError`."""
     from distributed import Client
 
     text = str(address).strip()
     if not text:
         raise ParameterError("the scheduler address is empty; give tcp://HOST:PORT (dask scheduler prints it)")
+    refused = _nothing_listens(text, min(timeout, PROBE_SECONDS))
+    if refused:
+        raise ParameterError(f"cannot reach the Dask scheduler at {text!r} ({refused}); is `dask scheduler` running there?")
     try:
         return Client(text, timeout=timeout)
     except (OSError, TimeoutError, ValueError) as exc:
         detail = " ".join(str(exc).split()) or type(exc).__name__
         raise ParameterError(f"cannot reach the Dask scheduler at {text!r} within {timeout:g} s ({detail})") from None
+
+
+#: how long :func:`connect`'s first look at a TCP address may wait (s): a refused or unroutable
+#: address answers at once; one that stays silent is left to Dask's own connection timeout
+PROBE_SECONDS = 3.0
+
+
+def _nothing_listens(address: str, timeout: float) -> str | None:
+    """Why nothing can answer at the TCP ``address`` (``tcp://host:port`` or ``host:port``), or None
+    where something may: Dask's client retries a refused connection until its timeout runs out
+    (20 s for an address mistyped by one digit), where the system says at once that no process
+    listens there, that the host has no address or that no route leads to it. Other schemes
+    (``tls://``, ``inproc://``, ``ucx://``) and a silent address (a firewall dropping the packets)
+    are Dask's to judge."""
+    import socket
+
+    scheme, _, rest = address.rpartition("://")
+    if scheme not in ("", "tcp"):
+        return None
+    host, sep, port_text = rest.rstrip("/").rpartition(":")
+    if not sep or not port_text.isdigit():
+        return None  # Dask's parser words the error
+    host = host.strip("[]") or "127.0.0.1"
+    try:
+        with socket.create_connection((host, int(port_text)), timeout=timeout):
+            return None
+    except ConnectionRefusedError:
+        return f"nothing listens at port {port_text}: connection refused"
+    except socket.gaierror as exc:
+        return f"unknown host {host!r}: {exc.strerror or exc}"
+    except TimeoutError:
+        return None
+    except OSError as exc:  # no route to host, network unreachable
+        return " ".join(str(exc.strerror or exc).split()).lower()
 
 
 def _set_up_workers(client: Any, threads: int | None) -> tuple[list[dict[str, Any]], float]:
