@@ -498,8 +498,20 @@ def main() -> None:
         block = COVERAGE_BEGIN + old.split(COVERAGE_BEGIN, 1)[1].split(COVERAGE_END, 1)[0] + COVERAGE_END
         head, sep, tail = text.partition("## Time budgets")
         text = head + block + "\n\n" + sep + tail
+    text = keep_other_sections(old, text)
     out.write_text(text)
     print(f"wrote {out} and {data}")
+
+
+def keep_other_sections(old: str, new: str) -> str:
+    """``new`` with the ``## `` sections of ``old`` that it does not write appended in their order
+    (the volume estimator's cost, the stratified samples' spread: other benchmarks' sections)."""
+    parts = old.split("\n## ")
+    for part in parts[1:]:
+        heading = part.split("\n", 1)[0]
+        if f"\n## {heading}\n" not in new:
+            new = new.rstrip("\n") + "\n\n## " + part.rstrip("\n") + "\n"
+    return new
 
 
 if __name__ == "__main__":

@@ -6,6 +6,8 @@
     .venv/bin/python benchmarks/volume_reference.py model-scans    # labcut's flash along the same scans
     .venv/bin/python benchmarks/volume_reference.py factor         # the ovals' answers with the planes' a·n
     .venv/bin/python benchmarks/volume_reference.py fit-check      # the fit at the reference's noise
+    .venv/bin/python benchmarks/volume_reference.py surface-limit --paths 4000000  # the model's physics by Monte Carlo
+    .venv/bin/python benchmarks/volume_reference.py converge       # labcut's answer with more surface points
     .venv/bin/python benchmarks/volume_reference.py planner        # surface against volume, every bundled cut
     .venv/bin/python benchmarks/volume_reference.py report         # the tables into the docs
 
@@ -551,11 +553,11 @@ def scan_fit(offsets: np.ndarray, values: np.ndarray, errors: np.ndarray, degree
 
 
 def reference_optimum(case: dict) -> dict[str, object]:
-    """One case's reference answer from its scans (:func:`scan_fit` of each): the optimum normal (labcut's
-    answer turned by the tilt scan's peak about its axis, then by the side scan's), its tilt, the 90 %
+    """One case's reference answer from its scans (:func:`scan_fit` of each): the optimum normal (the
+    scans' centre, :func:`scan_centre`, turned by the tilt scan's peak about its axis, then by the side scan's), its tilt, the 90 %
     tolerance (the smaller scan's) and their standard deviations, the tilt's carried through the two
     rotations (central differences of the tilt in each scan's offset: near the pole either scan moves it)."""
-    n0 = np.asarray(case["answer"]["normal"], dtype=np.float64)
+    n0 = scan_centre(case)
     scans = case["scans"]
     fits = {name: scan_fit(s["offsets_deg"], s["energy"], s["error"]) for name, s in scans.items()}
     axes = {name: np.asarray(s["axis"], dtype=np.float64) for name, s in scans.items()}
@@ -660,7 +662,7 @@ def compare(paths: int, points: int, fresh: bool, *, stones: list[str] | None = 
                                     "energy": values, "error": errors}
                 print(f"  {key} {axis_name}: peak {fit['peak']:+.2f}° ± {fit['peak_sd']:.2f}°, tolerance "
                       f"{fit['tolerance']:.2f}° ± {fit['tolerance_sd']:.2f}°", flush=True)
-            found = reference_optimum({"answer": {"normal": n0}, "scans": scans})
+            found = reference_optimum({"scan_centre": n0, "scans": scans})
             opt, ref_tilt, ref_tol = found["normal"], found["tilt_deg"], found["tolerance_deg"]
             cases[key] = {
                 "stone": stone, "lamp": lamp_name, "estimator": rec.estimator,
@@ -688,10 +690,18 @@ def answer_record(rec: object, seconds: float) -> dict:
             "bar_deg": rec.uncertainty.angle_deg if rec.uncertainty is not None else None, "seconds": seconds}
 
 
+def scan_centre(case: dict) -> np.ndarray:
+    """The normal a case's scans pass through: labcut's answer when they were traced (kept as
+    ``scan_centre`` once a later labcut answers elsewhere, :func:`refresh_answers`)."""
+    return np.asarray(case.get("scan_centre", case["answer"]["normal"]), dtype=np.float64)
+
+
 def refresh_answers() -> dict:
-    """labcut's answers of every finished case recomputed (seconds each, no reference paths) and kept
-    beside the reference's scans, which must still be centred on them: an answer whose normal moved
-    is reported and left as it was (its scans would need ``compare --fresh``)."""
+    """labcut's answers of every finished case recomputed (seconds each, no reference paths), the
+    forced estimators' too, and kept beside the reference's scans. The reference's optimum is found
+    from its scans wherever labcut's answer lies, so an answer that moved since the scans were traced
+    keeps them: their centre stays as ``scan_centre`` and the move is printed (an answer beyond half
+    a scan's reach would want ``compare --fresh``)."""
     data = json.loads(DATA.read_text())
     mat = labcut.Labradorite()
     lights = case_lights()
@@ -701,12 +711,22 @@ def refresh_answers() -> dict:
         rec = labcut.recommend_orientation(mesh, material=mat, lighting=lights[c["lamp"]], viewing="face-up",
                                            quality="standard")
         seconds = time.perf_counter() - t0
-        moved = math.degrees(math.acos(min(1.0, abs(float(np.dot(rec.normal, c["answer"]["normal"]))))))
+        centre = scan_centre(c)
+        moved = math.degrees(math.acos(min(1.0, abs(float(np.dot(rec.normal, centre))))))
+        reach = 0.5 * max(max(abs(x) for x in scan["offsets_deg"]) for scan in c["scans"].values())
         if moved > 1e-3:
-            print(f"{key}: labcut's answer moved {moved:.3f}° from the scans' centre; kept as it was", flush=True)
-            continue
+            c["scan_centre"] = [float(x) for x in centre]
+            print(f"{key}: labcut's answer lies {moved:.2f}° from the scans' centre"
+                  + (f", beyond half their reach ({reach:.2f}°): trace them again (compare --fresh)" if moved > reach else ""),
+                  flush=True)
         c["answer"] = answer_record(rec, seconds)
-        print(key, c["answer"]["tolerance_by_axis"], flush=True)
+        for est in ("samples", "volume"):
+            other = rec if rec.estimator == est else labcut.recommend_orientation(
+                mesh, material=mat, lighting=lights[c["lamp"]], viewing="face-up", quality="standard", estimator=est)
+            c["estimators"][est] = {"normal": [float(x) for x in other.normal], "tilt_deg": other.tilt_deg,
+                                    "tolerance_deg": other.tolerance_deg, "seconds": other.seconds}
+        c["estimator"] = rec.estimator
+        print(key, f"tilt {rec.tilt_deg:.2f}°", c["answer"]["tolerance_by_axis"], flush=True)
     DATA.write_text(json.dumps(data, indent=1))
     return data
 
@@ -793,7 +813,7 @@ def model_scans() -> dict:
         mesh = labcut.load_mesh(str(ROOT / STONES[c["stone"]]))
         ask = FlashQuestion.build(mat, None, lights[c["lamp"]], "face-up", quality="standard")
         scorer = ask.scorer(mesh, occlusion=not labcut.Stone.of(mesh).convex, volume=c["estimator"] == "volume")
-        n0 = np.asarray(c["answer"]["normal"], dtype=np.float64)
+        n0 = scan_centre(c)
         out = {}
         for name, scan in c["scans"].items():
             offsets = np.asarray(scan["offsets_deg"])
@@ -993,10 +1013,11 @@ def report() -> None:
             ratio = a["tolerance_deg"] / r["tolerance_deg"] if math.isfinite(r["tolerance_deg"]) else float("nan")
             ms = c.get("model_scans")
             if ms:
-                own = {name: scan_fit(c["scans"][name]["offsets_deg"], v["energy"], np.full(len(v["energy"]), 1e-3))
-                       for name, v in ms.items()}
-                fit_tol = min(f["tolerance"] for f in own.values())
-                fit_opt = math.hypot(own["tilt"]["peak"], own["side"]["peak"])
+                own_scans = {name: {**c["scans"][name], "energy": v["energy"], "error": [1e-3] * len(v["energy"])}
+                             for name, v in ms.items()}
+                own = reference_optimum({"scan_centre": scan_centre(c), "scans": own_scans})
+                fit_tol = own["tolerance_deg"]
+                fit_opt = math.degrees(math.acos(min(1.0, abs(float(np.dot(own["normal"], a["normal"]))))))
                 fit_ratio = fit_tol / r["tolerance_deg"]
                 fit_ok += abs(fit_ratio - 1.0) <= TOLERANCE_TARGET
                 fitted = (f"{fit_opt:.2f}° off", f"±{fit_tol:.2f}°", f"{fit_ratio:.2f}")
@@ -1043,6 +1064,30 @@ def report() -> None:
             out.append(f"| {c['stone']} | {c['lamp']} | {c['estimators']['samples']['tilt_deg']:.2f}° | {f['tilt_deg']:.2f}° | "
                        f"{r['tilt_deg']:.2f}° ± {r['tilt_sd']:.2f}° | ±{c['estimators']['samples']['tolerance_deg']:.2f}° | "
                        f"±{f['tolerance_deg']:.2f}° | ±{r['tolerance_deg']:.2f}° ± {r['tolerance_sd']:.2f}° |")
+    limit, conv = data.get("surface_limit", {}), data.get("converge", {})
+    if limit and cases:
+        out += ["", "**Where the gap comes from** (`surface-limit --paths 4000000` and `converge`): *standard* is the "
+                "default answer (8,000 surface points); *converged* labcut's answer with 50,000, 200,000 and 1,000,000 "
+                "points (the model's own optimum, where the sampling no longer moves it; its spread says how flat the top "
+                "is); *surface limit* the model's physics by Monte Carlo (camera paths mirrored where they come in by "
+                "domain normals drawn from the mosaic, scored when they leave into the lamp: no lobe, no lamp or surface "
+                "samples; 4 M paths per view, fitted as the reference), with the model's factor `max(a·n, b·n)` and with "
+                "the planes' `a·n`; *reference* the volumetric one. Read left to right, each step is one cause: labcut's "
+                "sampling, its estimate of its own physics, the factor, and the rest (depth, light mirrored more than "
+                "once or reflected inside, the reference's noise).", "",
+                "| stone | lamp | standard | converged | surface limit: max(a·n, b·n) | a·n | reference |",
+                "|---|---|---|---|---|---|---|"]
+        for key, row in limit.items():
+            c = cases.get(key)
+            if not c:
+                continue
+            r = reference_optimum(c)
+            more = [x["tilt_deg"] for x in conv.get(key, []) if x["points"] > 8_000]
+            converged = (f"{np.mean(more):.2f}° ({min(more):.2f}-{max(more):.2f}°)" if more else "")
+            out.append(f"| {c['stone']} | {c['lamp']} | {c['estimators']['samples']['tilt_deg']:.2f}° | {converged} | "
+                       f"{row['model']['tilt_deg']:.2f}° ± {row['model']['tilt_sd']:.2f}° | "
+                       f"{row['planes']['tilt_deg']:.2f}° ± {row['planes']['tilt_sd']:.2f}° | "
+                       f"{r['tilt_deg']:.2f}° ± {r['tilt_sd']:.2f}° |")
     bare = data.get("no_internal", {})
     if bare:
         out += ["", "**Without light reflected inside** (`compare --no-internal --stones \"medium oval,high oval\"`: a path "
@@ -1104,15 +1149,154 @@ def _store(key: str, value: dict) -> None:
     DATA.write_text(json.dumps(data, indent=1))
 
 
+#: the converged answer's surface points (:func:`converge`): standard quality's 8,000 and more
+CONVERGE_POINTS = (8_000, 50_000, 200_000, 1_000_000)
+
+
+def converge(points: tuple[int, ...] = CONVERGE_POINTS, keys: list[str] | None = None) -> dict:
+    """labcut's answer (sample estimator, standard quality otherwise) with more surface points, per
+    finished case: how far standard quality's 8,000 points put the default answer from the one the
+    model itself converges to. ``{case: [{"points", "tilt_deg", "tolerance_deg"}, ...]}``."""
+    data = json.loads(DATA.read_text())
+    mat = labcut.Labradorite()
+    lights = case_lights()
+    out = {}
+    for key, c in data.get("cases", {}).items():
+        if keys and key not in keys or c["estimator"] != "samples":
+            continue
+        mesh = labcut.load_mesh(str(ROOT / STONES[c["stone"]]))
+        rows = []
+        for n in points:
+            q = labcut.Quality.coerce("standard").replace(surface_points=int(n))
+            rec = labcut.recommend_orientation(mesh, material=mat, lighting=lights[c["lamp"]], viewing="face-up",
+                                               quality=q, estimator="samples")
+            rows.append({"points": int(n), "tilt_deg": rec.tilt_deg, "tolerance_deg": rec.tolerance_deg})
+            print(key, rows[-1], flush=True)
+        out[key] = rows
+    return out
+
+
+class SurfaceLimit:
+    """The flash with the lamellae at the surface, by Monte Carlo: the reference's camera paths
+    (orthographic, uniform over the outline, Fresnel in, Snell with the shading normal) mirrored where
+    they come in by a domain normal drawn from the mosaic (:func:`draw_mosaic`'s law), leaving there
+    (Fresnel out) and scoring the lamp's radiance times the stack's luminance reflectance
+    ``R_Y(|w·m|)`` when they leave into its disc. No depth, one mirroring, no light reflected inside:
+    the model's own physics, sampled rather than integrated (no lobe, no Jacobian, no lamp samples,
+    no surface samples), so that it checks labcut's estimate of that physics; ``factor="model"``
+    puts the model's ``max(a·n, b·n)`` in place of the ``a·n`` the paths give. Each view's hits and
+    uniforms are drawn once and kept for every normal (common random numbers along a scan)."""
+
+    def __init__(self, mesh: object, material: labcut.Labradorite, views: labcut.Views, paths: int, seed: int = 3) -> None:
+        from labcut.colour import luminance_table
+
+        self.eta = float(material.n_surface)
+        self.kappa = float(material.lobe_kappa)
+        self.table = luminance_table(material)
+        w = np.asarray(views.weights, dtype=np.float64)
+        self.weights = w / w.sum()
+        rays = VolumeRays(mesh)
+        v_all = np.asarray(mesh.vertices, dtype=np.float64)
+        centre = 0.5 * (v_all.min(axis=0) + v_all.max(axis=0))
+        radius = 0.5 * float(np.linalg.norm(v_all.max(axis=0) - v_all.min(axis=0))) * 1.01
+        rng = np.random.default_rng(seed)
+        self.views = []
+        for v in np.asarray(views.directions, dtype=np.float64):
+            v = v / np.linalg.norm(v)
+            t, b = frame(v)
+            xy = (rng.random((paths, 2)) * 2.0 - 1.0) * radius
+            hit = rays.cast(centre + 2.0 * radius * v + xy[:, :1] * t + xy[:, 1:] * b, np.tile(-v, (paths, 1)))
+            seen = np.isfinite(hit.t)
+            n = hit.n_sh[seen]
+            cos_in = n @ v
+            lit = cos_in > 0
+            u1, u2 = rng.random(int(lit.sum())), rng.random(int(lit.sum()))
+            cos = 1.0 + np.log(u1 + (1.0 - u1) * np.exp(-2.0 * self.kappa)) / self.kappa
+            self.views.append({"n": n[lit], "w": refract(np.tile(-v, (int(lit.sum()), 1)), n[lit], 1.0 / self.eta),
+                               "t_in": 1.0 - fresnel(cos_in[lit], 1.0 / self.eta), "cos": cos,
+                               "sin": np.sqrt(np.clip(1.0 - cos * cos, 0.0, 1.0)), "phi": 2.0 * np.pi * u2,
+                               "seen": int(seen.sum())})
+
+    def energy(self, normal: np.ndarray, lamp: np.ndarray, radius_deg: float, lref: float,
+               factor: str = "planes") -> tuple[float, float]:
+        """The view-weighted mean schiller radiance over the outline (units of ``lref``) and its
+        standard error, lamellae of mean normal ``normal``, a disc lamp of irradiance 1."""
+        m = np.asarray(normal, dtype=np.float64) / np.linalg.norm(normal)
+        t, b = frame(m)
+        lamp = np.asarray(lamp, dtype=np.float64) / np.linalg.norm(lamp)
+        cos_lamp = math.cos(math.radians(radius_deg))
+        radiance = 1.0 / (math.pi * math.sin(math.radians(radius_deg)) ** 2)
+        total, var = 0.0, 0.0
+        for weight, p in zip(self.weights, self.views):
+            dom = p["cos"][:, None] * m + p["sin"][:, None] * (np.cos(p["phi"])[:, None] * t + np.sin(p["phi"])[:, None] * b)
+            wm = np.einsum("ij,ij->i", p["w"], dom)
+            out = p["w"] - 2.0 * wm[:, None] * dom
+            cos_out = np.einsum("ij,ij->i", out, p["n"])
+            up = np.flatnonzero(cos_out > 0)  # mirrored back towards the surface it came in through
+            o = refract(out[up], -p["n"][up], self.eta)
+            good = np.all(np.isfinite(o), axis=1)
+            o[good] /= np.linalg.norm(o[good], axis=1, keepdims=True)
+            idx = up[good & (np.nan_to_num(o @ lamp) >= cos_lamp)]
+            score = np.zeros(p["seen"])
+            value = (p["t_in"][idx] * np.interp(np.abs(wm[idx]), *self.table) * (1.0 - fresnel(cos_out[idx], self.eta))
+                     * radiance)
+            if factor == "model":  # the planes' a·n (a: the lamp's side) -> the model's max(a·n, b·n)
+                value *= cos_out[idx] / np.maximum(cos_out[idx], -np.einsum("ij,ij->i", p["w"][idx], p["n"][idx]))
+            score[idx] = value
+            total += weight * score.mean()
+            var += (weight * score.std(ddof=1) / math.sqrt(len(score))) ** 2
+        return total / lref, math.sqrt(var) / lref
+
+
+def surface_limit(paths: int, keys: list[str] | None = None) -> dict:
+    """:class:`SurfaceLimit` along each finished case's two scans, with the planes' factor and with
+    the model's, fitted as the reference is (:func:`reference_optimum`). ``{case: {factor: {"tilt_deg",
+    "tilt_sd", "tolerance_deg", "tolerance_sd", "scans"}}}``."""
+    from labcut.orientation.radiance import reference_radiance
+    from labcut.scene.presets import face_up
+
+    data = json.loads(DATA.read_text())
+    mat = labcut.Labradorite()
+    lref = reference_radiance(mat, 1.0)
+    lamps = {"lamp 35° in front": (direction(35.0, FRONT_AZIMUTH_DEG), SPOT_RADIUS_DEG),
+             "overhead lamp": (np.array([0.0, 0.0, 1.0]), 8.0)}
+    out = {}
+    for key, c in data.get("cases", {}).items():
+        if keys and key not in keys:
+            continue
+        t0 = time.perf_counter()
+        mc = SurfaceLimit(labcut.load_mesh(str(ROOT / STONES[c["stone"]])), mat, face_up("standard"), paths)
+        lamp, radius = lamps[c["lamp"]]
+        n0 = scan_centre(c)
+        row = {}
+        for factor in ("planes", "model"):
+            scans = {}
+            for name, scan in c["scans"].items():
+                axis = np.asarray(scan["axis"], dtype=np.float64)
+                pairs = [mc.energy(rotate(n0, axis, o), lamp, radius, lref, factor) for o in scan["offsets_deg"]]
+                scans[name] = {"axis": scan["axis"], "offsets_deg": scan["offsets_deg"],
+                               "energy": [e for e, _ in pairs], "error": [se for _, se in pairs]}
+            found = reference_optimum({"scan_centre": n0, "scans": scans})
+            row[factor] = {"tilt_deg": found["tilt_deg"], "tilt_sd": found["tilt_sd"],
+                           "tolerance_deg": found["tolerance_deg"], "tolerance_sd": found["tolerance_sd"], "scans": scans}
+            print(f"{key} [{factor}]: tilt {found['tilt_deg']:.2f}° ± {found['tilt_sd']:.2f}°, tolerance "
+                  f"{found['tolerance_deg']:.2f}°", flush=True)
+        row["paths_per_view"] = paths
+        row["seconds"] = time.perf_counter() - t0
+        out[key] = row
+    return out
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("what", choices=("slab", "compare", "answers", "model-scans", "factor", "fit-check", "planner",
-                                         "timing", "choices", "report"))
+                                         "timing", "choices", "surface-limit", "converge", "report"))
     parser.add_argument("--paths", type=int, default=200_000, help="camera paths per view and normal (compare)")
     parser.add_argument("--points", type=int, default=13, help="normals per scan (compare)")
     parser.add_argument("--fresh", action="store_true", help="start the comparison over")
     parser.add_argument("--stones", default=None, help="compare: only these stones (comma-separated names)")
     parser.add_argument("--lamps", default=None, help="compare: only these lamps (comma-separated: lamp, overhead)")
+    parser.add_argument("--cases", default=None, help="surface-limit, converge: only these cases ('stone | lamp', ';'-separated)")
     parser.add_argument("--no-internal", action="store_true",
                         help="compare: no light reflected inside the stone (kept apart, as no_internal)")
     args = parser.parse_args()
@@ -1128,6 +1312,13 @@ def main() -> None:
         _store("factor_an", factor_experiment())
     elif args.what == "fit-check":
         fit_check()
+    elif args.what in ("surface-limit", "converge"):
+        keys = [k.strip() for k in args.cases.split(";")] if args.cases else None
+        store_key = args.what.replace("-", "_")
+        data = json.loads(DATA.read_text())
+        kept = data.get(store_key, {})
+        kept.update(surface_limit(args.paths, keys) if args.what == "surface-limit" else converge(keys=keys))
+        _store(store_key, kept)
     elif args.what == "choices":
         data = json.loads(PLANNER_DATA.read_text()) if PLANNER_DATA.exists() else {}
         data["choices"] = choices()

@@ -159,7 +159,7 @@ def test_binned_triples_match_the_unique_reference(scorer, chunk, device_keys, d
         assert np.abs(ab - weight).max() > 0.0  # not the float path by mistake
         # each term rounded to the nearest unit: no bias in the total (truncation loses half a
         # unit a term, ~1e-13 of it over the 0.7 M triples)
-        assert abs(float(ab.sum()) - total) <= 2e-15 * total
+        assert abs(float(ab.sum()) - total) <= 1e-14 * total  # the float64 reference sum itself rounds by ~1e-15
         again = scorer._bin_triples()  # the same sums whatever order the threads add in
         np.testing.assert_array_equal(again[0], hb)
         np.testing.assert_array_equal(again[1], ab)

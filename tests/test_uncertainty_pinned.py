@@ -554,6 +554,24 @@ def test_bootstrap_weights_are_ones_then_the_seeds_poisson_stream():
     assert np.array_equal(unc.bootstrap_weights(0, 3, 4)[1:], np.random.default_rng(7919).poisson(1.0, (4, 3)))
 
 
+def test_stratified_bootstrap_weights_pair_neighbouring_strata():
+    """Stratified samples: each pair of neighbouring points weighs (2, 0) or (0, 2), even odds, from
+    the seed's stream; an odd last point weighs 1; so a replicate's mean moves by ±(x_2k - x_2k+1)/N
+    a pair, and over replicates the spread of the mean is sqrt(Σ d² / N²)."""
+    w = unc.bootstrap_weights(5, 7, 4000, True)
+    assert w.shape == (4001, 7) and not w.flags.writeable and np.array_equal(w[0], np.ones(7))
+    rows = w[1:]
+    assert np.array_equal(rows[:, 6], np.ones(4000))
+    assert set(np.unique(rows[:, :6])) == {0.0, 2.0}
+    np.testing.assert_array_equal(rows[:, 0:6:2] + rows[:, 1:6:2], 2.0)
+    assert np.array_equal(rows[:, 0:6:2], 2.0 * np.random.default_rng(5 + 7919).integers(0, 2, (4000, 3)))
+    assert 0.47 < float(np.mean(rows[:, 0] == 2.0)) < 0.53
+    x = np.array([1.0, 3.0, 2.0, 2.0, 5.0, 1.0, 7.0])
+    spread = np.std(rows @ x / 7.0)
+    assert spread == pytest.approx(math.sqrt((2.0**2 + 0.0 + 4.0**2) / 49.0), rel=0.05)
+    assert unc.bootstrap_weights(5, 7, 4000, True) is w and unc.bootstrap_weights(5, 7, 4000) is not w
+
+
 # --- sampling_error ---------------------------------------------------------------------------
 
 def test_sampling_error_is_two_standard_deviations_of_each_metric(monkeypatch):
@@ -561,14 +579,17 @@ def test_sampling_error_is_two_standard_deviations_of_each_metric(monkeypatch):
     area 0.25 each, intensity 0.185, 0.125, 0.2 at normal 0 (the table above)."""
     asked = []
 
-    def weights(seed, points, replicates):
-        asked.append((seed, points, replicates))
+    def weights(seed, points, replicates, stratified):
+        asked.append((seed, points, replicates, stratified))
         return ROWS
 
     monkeypatch.setattr(unc, "bootstrap_weights", weights)
     p = Pairs()
     got = unc.sampling_error(p, [0.0, 0.0, 3.0], replicates=4, seed=7)
-    assert asked == [(7, 2, 4)]
+    assert asked == [(7, 2, 4, False)]  # a problem that does not say how it was sampled: random
+    p.info["sampling"] = "stratified"
+    unc.sampling_error(p, [0.0, 0.0, 3.0], replicates=4, seed=7)
+    assert asked[-1] == (7, 2, 4, True)
     assert list(got) == ["flash_energy", "flash_area", "flash_intensity"]
     # energy 0.41, 0.35, 0.2: mean 0.32, squares 0.0081 + 0.0009 + 0.0144 = 0.0234 over 2
     assert got["flash_energy"] == pytest.approx(2.0 * math.sqrt(0.0117), rel=1e-6)

@@ -40,6 +40,7 @@ from .surface import (
     SurfaceSamples,
     draw_samples,
     face_areas,
+    face_order,
     smooth_split,
 )
 
@@ -304,20 +305,25 @@ class Stone:
         angle = self.shading_angle_deg if angle_deg is None else float(angle_deg)
         return self.cached(f"smooth_split_{angle:.6g}", lambda: smooth_split(self.mesh, angle, digest=self.digest))
 
-    def surface_samples(self, count: int, seed: int) -> SurfaceSamples:
+    def surface_samples(self, count: int, seed: int, sampling: str = "stratified") -> SurfaceSamples:
         """``count`` area-uniform samples of the smooth-shaded surface drawn from
-        ``numpy.random.default_rng(seed)`` (:func:`labcut.geometry.surface.draw_samples`), once per
-        count and seed: a recommendation's error bars and a repeated question reuse them."""
+        ``numpy.random.default_rng(seed)`` (:func:`labcut.geometry.surface.draw_samples`; ``sampling``
+        ``"stratified"`` or ``"random"``), once per count, seed and sampling: a recommendation's error
+        bars and a repeated question reuse them."""
         count, seed = int(count), int(seed)
         angle = self.shading_angle_deg
 
         def build() -> SurfaceSamples:
             big = len(self.mesh.faces) > FAST_SMOOTH_FACES
-            return draw_samples(self.mesh, count, seed, angle, self.convex,
-                                split=None if big else self.smooth_split(angle),
-                                areas=self.face_areas if big else None)
+            split = None if big else self.smooth_split(angle)
+            order = None
+            if sampling == "stratified":  # the faces along a Morton curve, once per stone and shading
+                order = self.cached(f"face_order_{'mesh' if big else f'{angle:.6g}'}",
+                                    lambda: face_order(self.mesh if big else split))
+            return draw_samples(self.mesh, count, seed, angle, self.convex, split=split,
+                                areas=self.face_areas if big else None, sampling=sampling, order=order)
 
-        return self.cached(f"surface_samples_{angle:.6g}_{count}_{seed}", build)
+        return self.cached(f"surface_samples_{angle:.6g}_{count}_{seed}_{sampling}", build)
 
 
 def facet_names(mesh: Any) -> list[str]:

@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import MeshError
+from ..errors import MeshError, ParameterError
 from .solid import cross_rows, mesh_digest
 
 SMOOTH_ANGLE_DEG = 30.0  # edges sharper than this keep flat shading
@@ -223,14 +223,63 @@ class SurfaceSamples:
         return len(self.points)
 
 
+#: how the surface samples are placed (:func:`draw_samples`)
+SAMPLINGS = ("stratified", "random")
+
+
+def morton_order(points: np.ndarray) -> np.ndarray:
+    """The indices that sort ``points`` ((n, 3)) along a 3-D Morton (Z-order) curve of their
+    bounding box at 21 bits an axis: points near each other on the curve lie near each other in
+    space, so equal stretches of the curve are compact patches of the surface."""
+    p = np.asarray(points, dtype=np.float64)
+    lo, hi = p.min(axis=0), p.max(axis=0)
+    q = ((p - lo) / np.maximum(hi - lo, 1e-300) * float((1 << 21) - 1)).astype(np.uint64)
+    code = np.zeros(len(p), dtype=np.uint64)
+    for axis in range(3):
+        x = q[:, axis] & np.uint64(0x1FFFFF)
+        for shift, mask in ((32, 0x1F00000000FFFF), (16, 0x1F0000FF0000FF), (8, 0x100F00F00F00F00F),
+                            (4, 0x10C30C30C30C30C3), (2, 0x1249249249249249)):
+            x = (x | (x << np.uint64(shift))) & np.uint64(mask)  # spread the 21 bits three apart
+        code |= x << np.uint64(axis)
+    return np.argsort(code, kind="stable")
+
+
+def _stratified_faces(prob: np.ndarray, order: np.ndarray, count: int,
+                      rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+    """Faces and first barycentric uniforms of ``count`` jittered stratified samples: the faces laid
+    end to end along ``order`` by area (``prob``), the total cut into ``count`` equal strata, one
+    sample uniform in each. Every patch of the surface then holds its share of the samples to within
+    one or two (random draws scatter by the square root of it), and each sample is still uniform over
+    the area; the uniform's place within its face's stretch is the sample's first barycentric
+    coordinate."""
+    share = prob[order]
+    cum = np.cumsum(share)
+    # below the total (rounding), the first face whose running total exceeds u has area: cum[k] > u >= cum[k - 1]
+    u = np.minimum((np.arange(count, dtype=np.float64) + rng.random(count)) * (cum[-1] / count), np.nextafter(cum[-1], 0.0))
+    k = np.searchsorted(cum, u, side="right")
+    r1 = np.clip((u - (cum[k] - share[k])) / share[k], 0.0, 1.0)
+    return order[k], r1
+
+
 def draw_samples(mesh: Any, count: int, seed: int, angle: float, convex: bool, split: Any = None,
-                 areas: np.ndarray | None = None) -> SurfaceSamples:
+                 areas: np.ndarray | None = None, sampling: str = "stratified",
+                 order: np.ndarray | None = None) -> SurfaceSamples:
     """``count`` area-uniform samples of the smooth-shaded surface of ``mesh`` (as the renderer
     shades it: split along edges sharper than ``angle`` degrees), drawn from
     ``numpy.random.default_rng(seed)``, mesh frame. A mesh of more than :data:`FAST_SMOOTH_FACES`
     triangles is sampled in its own face order (``areas``: its face areas) and shaded at the sampled
     faces only (:func:`smooth_corner_normals`); a smaller one on its split copy ``split``
-    (:func:`smooth_split`, its own face order). ``convex`` travels with the samples."""
+    (:func:`smooth_split`, its own face order). ``convex`` travels with the samples.
+
+    ``sampling``: ``"stratified"`` (default) places one sample in each of ``count`` equal-area
+    stretches of the faces laid along a Morton curve (:func:`_stratified_faces`; ``order``: the
+    faces' :func:`morton_order` by centroid, when known). A flash lives on a small patch of a dome,
+    and its energy is that patch's share of the samples: on the high oval under a front lamp,
+    8,000 random samples put the answer anywhere within ±2° by seed, stratified ones within ±0.25°
+    (docs/accuracy.md, "Stratified surface samples"). ``"random"``: independent draws, each face by
+    its area (the samples before stratification)."""
+    if sampling not in SAMPLINGS:
+        raise ParameterError(f"surface sampling must be one of {', '.join(SAMPLINGS)}, got {sampling!r}", parameter="quality")
     big = len(mesh.faces) > FAST_SMOOTH_FACES
     if not big and split is None:
         split = smooth_split(mesh, angle)
@@ -241,9 +290,15 @@ def draw_samples(mesh: Any, count: int, seed: int, angle: float, convex: bool, s
     rng = np.random.default_rng(seed)
     prob = np.where(ok, area_faces, 0.0)
     del area_faces, ok
-    face_idx = rng.choice(len(prob), size=count, p=prob / prob.sum())
+    if sampling == "stratified":
+        if order is None:
+            order = face_order(mesh if big else split)
+        face_idx, r1 = _stratified_faces(prob, order, count, rng)
+    else:
+        face_idx = rng.choice(len(prob), size=count, p=prob / prob.sum())
+        r1 = rng.random(count)
     del prob
-    r1, r2 = rng.random(count), rng.random(count)
+    r2 = rng.random(count)
     sq = np.sqrt(r1)
     bary = np.stack([1 - sq, sq * (1 - r2), sq * r2], axis=1)
     if big:
@@ -259,3 +314,12 @@ def draw_samples(mesh: Any, count: int, seed: int, angle: float, convex: bool, s
     for a in (points, n_geo, n_sh):
         a.setflags(write=False)
     return SurfaceSamples(points, n_geo, n_sh, seed, convex)
+
+
+def face_order(mesh: Any) -> np.ndarray:
+    """The faces of ``mesh`` (anything with ``vertices`` and ``faces``) in :func:`morton_order` of
+    their centroids (float32: the order needs no more)."""
+    v = np.asarray(mesh.vertices, dtype=np.float32)
+    f = np.asarray(mesh.faces)
+    centroid = v[f[:, 0]] + v[f[:, 1]] + v[f[:, 2]]
+    return morton_order(centroid)

@@ -97,7 +97,7 @@ def build_pairs(mesh: Any, material: Labradorite, quality: Quality | str, tau: f
     quality = Quality.coerce(quality)
     mesh = check_problem_inputs(mesh, seed, tau)
     count = int(quality.surface_points)
-    samples = surface_samples(mesh, count, int(seed))
+    samples = surface_samples(mesh, count, int(seed), quality.surface_sampling)
     points, n_geo, n_sh, convex = samples.points, samples.n_geo, samples.n_sh, samples.convex
     occluded = not (convex if occlusion is None else not occlusion)
     l_ref = reference_radiance(material, 1.0)
@@ -138,7 +138,8 @@ def build_pairs(mesh: Any, material: Labradorite, quality: Quality | str, tau: f
         pair_view=pair_view, pair_weight=np.concatenate(pw_parts), view_weight=view_weight / view_weight.sum(),
         kappa=float(material.lobe_kappa), q_norm=float(material.lobe_norm), tau=float(tau),
         threshold=flash_threshold(material, settings[0].lights, tau), convex=convex, n_points=count,
-        info={"l_ref": l_ref, "pairs": int(pair_point.size), "poses": n_pose, "pair_point": pair_point.astype(np.int32)},
+        info={"l_ref": l_ref, "pairs": int(pair_point.size), "poses": n_pose, "pair_point": pair_point.astype(np.int32),
+              "sampling": quality.surface_sampling},
         _sums=sums,
     )
 

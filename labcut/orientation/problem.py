@@ -324,10 +324,10 @@ class _PairSums:
         return lambda: (pair_major(sums[:k_count]), np.asarray(sums[k_count], dtype=np.float64) if full_first else None)
 
 
-def surface_samples(mesh: Any, count: int, seed: int) -> SurfaceSamples:
+def surface_samples(mesh: Any, count: int, seed: int, sampling: str = "stratified") -> SurfaceSamples:
     """The stone's :meth:`~labcut.geometry.stone.Stone.surface_samples` (drawn once per stone,
-    point count and seed: a recommendation's error bars and a repeated question reuse them)."""
-    return Stone.of(mesh).surface_samples(count, seed)
+    point count, seed and sampling: a recommendation's error bars and a repeated question reuse them)."""
+    return Stone.of(mesh).surface_samples(count, seed, sampling)
 
 
 def lobe_reach(kappa: float, spread_rad: float = 0.0) -> float:
@@ -392,7 +392,7 @@ def build_problem(
     quality = Quality.coerce(quality)
     mesh = check_problem_inputs(mesh, seed, tau)
     count = int(n_points or quality.surface_points)
-    samples = surface_samples(mesh, count, int(seed))
+    samples = surface_samples(mesh, count, int(seed), quality.surface_sampling)
     points, n_geo, n_sh, convex = samples.points, samples.n_geo, samples.n_sh, samples.convex
 
     table = luminance_table(material)
@@ -494,7 +494,7 @@ def build_problem(
         n_points=count,
         kernels=kernels,
         info={"view_area_mm2": np.concatenate(view_area), "l_ref": l_ref, "pairs": int(pair_offset), "triples": int(c.size), "poses": len(settings),
-              "pair_point": pair_point.astype(np.int32)},
+              "pair_point": pair_point.astype(np.int32), "sampling": quality.surface_sampling},
     )
     if kernel is not None and whole and kernel.last_device is not None:
         # one kernel call made every triple: its device arrays are the problem's device copy

@@ -1,12 +1,14 @@
 """Error bars of a recommendation: how far the normal and the score may lie from the converged answer.
 
-A recommendation is computed from a finite problem: ``surface_points`` random surface samples
-and a deterministic set of light and view directions per lamp, environment map and viewing
+A recommendation is computed from a finite problem: ``surface_points`` surface samples
+(stratified by default, :func:`labcut.geometry.surface.draw_samples`) and a deterministic set of light and view directions per lamp, environment map and viewing
 cone (:class:`~labcut.scene.quality.Quality`). Its answer differs from the converged one
 (infinitely many samples and directions) in two ways, and :func:`estimate_uncertainty`
 measures each on the problem at hand, in a fraction of the recommendation's time:
 
-* **sampling** (random, the surface points): a Poisson bootstrap over the surface points.
+* **sampling** (random, the surface points): a Poisson bootstrap over the surface points. It
+  treats them as independent draws; stratified ones scatter less than that (docs/accuracy.md,
+  "Stratified surface samples"), so this part of the bar is on the safe side.
   The pair radiance ``L_s/L_ref`` of every (point, view) pair is computed once at a small
   stencil of normals around the answer (17 normals within ``r`` degrees, only the triples whose
   mirror orientation lies near it); each of :data:`BOOTSTRAP` replicates reweights the points
@@ -371,14 +373,36 @@ def stencil_radius(tolerance_deg: float | None) -> float:
     return float(np.clip(0.5 * (tolerance_deg if tolerance_deg and math.isfinite(tolerance_deg) else 3.0), 0.3, 3.0))
 
 
+def _stratified(problem: FlashProblem) -> bool:
+    """Whether ``problem``'s surface samples are stratified, one to a stratum in point order
+    (:func:`labcut.geometry.surface.draw_samples`): a problem that does not say is taken as random."""
+    return problem.info.get("sampling") == "stratified"
+
+
 @functools.lru_cache(maxsize=4)
-def bootstrap_weights(seed: int, points: int, replicates: int) -> np.ndarray:
+def bootstrap_weights(seed: int, points: int, replicates: int, stratified: bool = False) -> np.ndarray:
     """(replicates + 1, points) float64 surface-point weights of the bootstrap: a row of ones (the
-    problem's own estimator), then ``replicates`` rows of Poisson(1) counts from the stream of
-    ``seed``. Read-only and kept for the last few (seed, points, replicates): the same for every
-    recommendation of a question, so they are drawn once."""
+    problem's own estimator), then ``replicates`` rows from the stream of ``seed``. Read-only and
+    kept for the last few arguments: the same for every recommendation of a question, so they are
+    drawn once.
+
+    Random samples (``stratified`` False) are independent draws: each row holds Poisson(1) counts.
+    Stratified samples hold one point per stratum, in stratum order, and the spread between
+    independent draws is not what they scatter by: neighbouring strata are paired (collapsed
+    strata) and each pair's weights are (2, 0) or (0, 2), even odds, so a replicate's mean moves by
+    ``±(x_2k - x_2k+1) / N`` per pair, whose variance ``Σ (x_2k - x_2k+1)² / N²`` is the
+    stratified mean's when a pair's strata share their mean (more where they do not: on the safe
+    side). An odd last point keeps weight 1."""
     rng = np.random.default_rng(int(seed) + 7919)
-    weights = np.vstack([np.ones(points), rng.poisson(1.0, (replicates, points))]).astype(np.float64)
+    if not stratified:
+        rows = rng.poisson(1.0, (replicates, points)).astype(np.float64)
+    else:
+        rows = np.ones((replicates, points))
+        pairs = points // 2
+        first = 2.0 * rng.integers(0, 2, (replicates, pairs))
+        rows[:, 0:2 * pairs:2] = first
+        rows[:, 1:2 * pairs:2] = 2.0 - first
+    weights = np.vstack([np.ones(points), rows]).astype(np.float64)
     weights.setflags(write=False)
     return weights
 
@@ -405,7 +429,7 @@ def estimate_uncertainty(problem: FlashProblem, normal: Any, objective: str = "e
     # Dr.Jit's threads while the host makes the answer's bootstrap
     launched = [_launch_stencil_sums(p, normals) for p in (problem, dense, fine)]
     rad = launched[0].value
-    weights = bootstrap_weights(seed, _point_count(problem), replicates)
+    weights = bootstrap_weights(seed, _point_count(problem), replicates, _stratified(problem))
     values = objective_values(problem, rad, weights, objective)
     peaks, heights = fit_peaks(xy, values, radius)
     base_peak, base_height = peaks[0], heights[0]
@@ -493,6 +517,6 @@ def sampling_error(problem: FlashProblem, normal: Any, *, replicates: int = BOOT
         raise ParameterError(f"replicates must be a whole number >= 4, got {replicates!r}")
     m = (m / np.linalg.norm(m))[None, :]
     radiance = problem.pair_radiance(m, _reach(problem.kappa, m))
-    weights = bootstrap_weights(seed, _point_count(problem), replicates)[1:]
+    weights = bootstrap_weights(seed, _point_count(problem), replicates, _stratified(problem))[1:]
     values = objective_values(problem, radiance, weights, "all")[:, :, 0]  # energy, area, intensity
     return {name: float(COVER * np.std(v, ddof=1)) for name, v in zip(SAMPLED_METRICS, values)}

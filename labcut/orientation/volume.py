@@ -261,7 +261,7 @@ def build_volume_problem(
     quality = Quality.coerce(quality)
     mesh = check_problem_inputs(mesh, seed, tau)
     count = int(n_points or quality.surface_points)
-    samples = surface_samples(mesh, count, int(seed))
+    samples = surface_samples(mesh, count, int(seed), quality.surface_sampling)
     points, n_geo, n_sh, convex = samples.points, samples.n_geo, samples.n_sh, samples.convex
     occluded = not (convex if occlusion is None else not occlusion)
     table = luminance_table(material)
@@ -328,7 +328,7 @@ def build_volume_problem(
         lights=settings[0].lights, views=settings[0].views, convex=convex, n_points=count, kernels=kernels,
         info={"view_area_mm2": np.concatenate(view_area), "l_ref": l_ref, "pairs": int(pair_offset),
               "triples": int(c.size), "poses": len(settings), "pair_point": pair_point.astype(np.int32),
-              "volume": {"depths": depths, "iterations": iterations, "flash_depth_mm": law.mean_mm(1.0),
+              "sampling": quality.surface_sampling, "volume": {"depths": depths, "iterations": iterations, "flash_depth_mm": law.mean_mm(1.0),
                          "stack_depth_mm": law.depth_mm, **stats}},
     )
 

@@ -25,6 +25,7 @@ from dataclasses import dataclass, fields
 from typing import Any, ClassVar
 
 from ..errors import ParameterError
+from ..geometry.surface import SAMPLINGS
 
 #: the preset names, cheapest first
 QUALITIES = ("draft", "standard", "high")
@@ -36,7 +37,9 @@ class Quality:
 
     Flash problem and scenarios (:mod:`labcut.orientation.problem`, :mod:`labcut.scene`):
 
-    * ``surface_points``: area-uniform samples of the stone's surface;
+    * ``surface_points``: area-uniform samples of the stone's surface; ``surface_sampling`` how they
+      are placed: ``"stratified"`` (one in each of as many equal-area patches along a space-filling
+      curve: a flash's share of them is nearly exact) or ``"random"`` (independent draws);
     * ``lamp_samples``: directions per lamp of finite size (a disc of light);
     * ``env_samples``: directions per environment map (importance-sampled);
     * ``cone_views``: viewing directions per viewing cone (``face-up``, ``eye-level``; twice
@@ -73,7 +76,7 @@ class Quality:
     * ``rough_spins``: turns of the cut about its face-up axis tried with each;
     * ``rough_refine``: steps of the local search that polishes the best poses.
 
-    These seven have the ``standard`` preset's values as defaults, so a Quality written out by
+    These seven and ``surface_sampling`` have the ``standard`` preset's values as defaults, so a Quality written out by
     hand before they existed still builds.
     """
 
@@ -101,6 +104,7 @@ class Quality:
     rough_directions: int = 240
     rough_spins: int = 12
     rough_refine: int = 40
+    surface_sampling: str = "stratified"
 
     PRESETS: ClassVar[dict[str, Quality]]
 
@@ -143,6 +147,9 @@ class Quality:
         if not strip or not all(math.isfinite(a) and abs(a) <= 60.0 for a in strip):
             raise ParameterError(f"quality strip_angles_deg must be 1 or more angles within ±60°, got {self.strip_angles_deg!r}", parameter="quality")
         object.__setattr__(self, "strip_angles_deg", strip)
+        if self.surface_sampling not in SAMPLINGS:
+            raise ParameterError(f"quality surface_sampling must be one of {', '.join(SAMPLINGS)}, got "
+                                 f"{self.surface_sampling!r}", parameter="quality")
 
     # ------------------------------------------------------------------ construction
     @classmethod
