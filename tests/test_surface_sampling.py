@@ -18,28 +18,34 @@ from labcut.scene.directions import direction
 MESHES = Path(__file__).resolve().parents[1] / "meshes"
 
 
-def test_morton_order_walks_a_grid_in_z_order():
-    # a 4 x 4 grid in the plane: x is the lowest bit, then y; the first quadrant is walked whole first
+def test_morton_cells_walk_a_grid_in_z_order():
+    # a 4 x 4 grid in the plane, as cells of a box 128 cells a side: x is the lowest bit, then y;
+    # the first quadrant is walked whole first
     g = np.array([(x, y, 0.0) for y in range(4) for x in range(4)], dtype=np.float64)
-    walked = g[surface.morton_order(g)][:, :2].tolist()
+    cells = surface.morton_cells(g * 32.0, np.zeros(3), np.full(3, 127.0))
+    walked = g[np.argsort(cells)][:, :2].tolist()
     assert walked[:8] == [[0, 0], [1, 0], [0, 1], [1, 1], [2, 0], [3, 0], [2, 1], [3, 1]]
-    # on a line the order is the sorted order
-    x = np.random.default_rng(1).random(50)
-    line = np.stack([x, np.zeros(50), np.zeros(50)], axis=1)
-    np.testing.assert_array_equal(surface.morton_order(line), np.argsort(x))
+    assert cells.tolist()[:4] == [0, 1 << 15, 1 << 18, (1 << 15) | (1 << 18)]  # x = 32, 64, 96: bits 5 and 6 of x are bits 15 and 18
+    # on a line the cells follow the points
+    x = np.sort(np.random.default_rng(1).random(50))
+    line = surface.morton_cells(np.stack([x, np.zeros(50), np.zeros(50)], axis=1))
+    assert np.all(np.diff(line) >= 0) and line[0] == 0 and line[-1] == surface._SPREAD[127]
 
 
 def test_each_face_gets_its_share_to_within_one():
     rng = np.random.default_rng(4)
     prob = rng.random(40)
     prob[[3, 17, 39]] = 0.0  # faces of no area (the last one too) are never drawn
-    order = rng.permutation(40)
+    cells = rng.integers(0, 12, 40) * 1000  # several faces share a cell
     n = 1000
-    faces, r1 = surface._stratified_faces(prob, order, n, np.random.default_rng(0))
+    faces, r1 = surface._stratified_faces(prob, cells, n, np.random.default_rng(0))
     counts = np.bincount(faces, minlength=40)
     assert np.all(np.abs(counts - n * prob / prob.sum()) < 1.0 + 1e-9)
     assert counts[[3, 17, 39]].sum() == 0
     assert r1.min() >= 0.0 and r1.max() <= 1.0
+    # the strata follow the cells, and the faces of a cell in face order
+    order = np.lexsort((np.arange(40), cells))
+    assert np.all(np.diff(np.argsort(order)[faces]) >= 0)
     # within a face the samples' first barycentric uniforms spread over [0, 1]: the strata cut the face's stretch
     big = int(np.argmax(prob))
     assert np.ptp(r1[faces == big]) > 0.8
@@ -56,13 +62,13 @@ def test_every_octant_of_the_stone_holds_its_area_share_to_within_one(high_oval)
     st = labcut.Stone.of(high_oval)
     split = st.smooth_split()
     v = np.asarray(split.vertices, dtype=np.float32)
-    centroid = (v[split.faces[:, 0]] + v[split.faces[:, 1]] + v[split.faces[:, 2]]).astype(np.float64)  # as face_order has them
-    lo, hi = centroid.min(axis=0), centroid.max(axis=0)
-    top_bit = ((centroid - lo) / (hi - lo) * float((1 << 21) - 1)).astype(np.uint64) >> np.uint64(20)  # the curve's first cut
-    octant = (top_bit.astype(np.int64) * np.array([1, 2, 4])).sum(axis=1)
+    centroid = v[split.faces[:, 0]] + v[split.faces[:, 1]] + v[split.faces[:, 2]]  # as face_cells has them
+    lo, hi = 3.0 * v.min(axis=0), 3.0 * v.max(axis=0)
+    q = np.clip((centroid - lo) * (127.0 / (hi - lo)).astype(np.float32), 0, 127).astype(np.uint8)
+    octant = ((q >= 64).astype(np.int64) * np.array([1, 2, 4])).sum(axis=1)  # the curve's first cut
     share = np.bincount(octant, weights=split.area_faces, minlength=8) / split.area_faces.sum()
     n = 8000
-    face = surface._stratified_faces(split.area_faces, surface.face_order(split), n, np.random.default_rng(7))[0]
+    face = surface._stratified_faces(split.area_faces, surface.face_cells(split), n, np.random.default_rng(7))[0]
     strat = np.bincount(octant[face], minlength=8)
     assert np.all(np.abs(strat - n * share) <= 1.0 + 1e-9), (strat, n * share)
     rand = np.bincount(octant[np.random.default_rng(7).choice(len(share := split.area_faces), n, p=share / share.sum())],
@@ -98,11 +104,11 @@ def test_random_sampling_is_the_independent_draws_of_before(high_oval):
     np.testing.assert_array_equal(s.points, np.einsum("ij,ijk->ik", bary, split.vertices[split.faces[face]]))
 
 
-def test_a_stone_keeps_its_face_order_and_each_samplings_samples(high_oval, monkeypatch):
+def test_a_stone_keeps_its_face_cells_and_each_samplings_samples(high_oval, monkeypatch):
     fresh = labcut.Stone(high_oval.copy())
     orders = []
-    real = stone_module.face_order
-    monkeypatch.setattr(stone_module, "face_order", lambda mesh: orders.append(1) or real(mesh))
+    real = stone_module.face_cells
+    monkeypatch.setattr(stone_module, "face_cells", lambda mesh: orders.append(1) or real(mesh))
     a = fresh.surface_samples(500, 3)
     assert fresh.surface_samples(500, 3, "stratified") is a
     b = fresh.surface_samples(500, 4)

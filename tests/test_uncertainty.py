@@ -93,14 +93,17 @@ def test_every_recommendation_carries_error_bars_in_its_json_and_repr(oval, tmp_
     assert back.angle_error_deg == pytest.approx(u.angle_deg)
 
 
-def test_the_sampling_bar_shrinks_with_more_surface_points(oval):
-    """Four times the surface samples: the bootstrap spread of the normal about halves."""
-    setup = FlashQuestion.build("blue", "bench", quality="draft")
-    few = labcut.recommend_orientation(oval, setup=setup)
+@pytest.mark.parametrize("sampling, low, high", [("random", 0.3, 0.8), ("stratified", 0.12, 0.4)])
+def test_the_sampling_bar_shrinks_with_more_surface_points(oval, sampling, low, high):
+    """Four times the surface samples: the bootstrap spread of the normal about halves for
+    independent draws (N^-1/2) and falls to about a quarter for stratified ones (N^-1 on a
+    surface: each stratum's error shrinks with its size)."""
+    draft = Quality.coerce("draft").replace(surface_sampling=sampling)
+    few = labcut.recommend_orientation(oval, setup=FlashQuestion.build("blue", "bench", quality=draft))
     many = labcut.recommend_orientation(oval, setup=FlashQuestion.build(
-        "blue", "bench", quality=Quality.coerce("draft").replace(surface_points=12000)))
+        "blue", "bench", quality=draft.replace(surface_points=12000)))
     ratio = many.uncertainty.sampling_angle_deg / few.uncertainty.sampling_angle_deg
-    assert 0.3 < ratio < 0.8
+    assert low < ratio < high
 
 
 @functools.lru_cache(maxsize=None)

@@ -40,7 +40,7 @@ from .surface import (
     SurfaceSamples,
     draw_samples,
     face_areas,
-    face_order,
+    face_cells,
     smooth_split,
 )
 
@@ -316,12 +316,12 @@ class Stone:
         def build() -> SurfaceSamples:
             big = len(self.mesh.faces) > FAST_SMOOTH_FACES
             split = None if big else self.smooth_split(angle)
-            order = None
-            if sampling == "stratified":  # the faces along a Morton curve, once per stone and shading
-                order = self.cached(f"face_order_{'mesh' if big else f'{angle:.6g}'}",
-                                    lambda: face_order(self.mesh if big else split))
+            cells = None
+            if sampling == "stratified":  # the faces' Morton cells, once per stone and shading
+                cells = self.cached(f"face_cells_{'mesh' if big else f'{angle:.6g}'}",
+                                    lambda: face_cells(self.mesh if big else split))
             return draw_samples(self.mesh, count, seed, angle, self.convex, split=split,
-                                areas=self.face_areas if big else None, sampling=sampling, order=order)
+                                areas=self.face_areas if big else None, sampling=sampling, cells=cells)
 
         return self.cached(f"surface_samples_{angle:.6g}_{count}_{seed}_{sampling}", build)
 
