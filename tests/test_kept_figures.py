@@ -103,14 +103,24 @@ def test_the_depth_exposures_key_holds_the_geometry_the_material_and_the_samplin
     monkeypatch.setattr(volume, "EXPOSURE_POINTS", 300)
     volume.depth_exposure(_stone(), LAB)
     assert len(calls) == 4
-    monkeypatch.setattr(labcut, "__version__", "0.0.0-other")
+    monkeypatch.setattr(volume, "EXPOSURE_SAMPLING", "random")  # the samples placed otherwise
     volume.depth_exposure(_stone(), LAB)
     assert len(calls) == 5
+    monkeypatch.setattr(labcut, "__version__", "0.0.0-other")
+    volume.depth_exposure(_stone(), LAB)
+    assert len(calls) == 6
+    # the surface samples' code is in the key: a changed draw_samples measures again
+    hashed = []
+    real_hash = fileio.code_hash
+    monkeypatch.setattr(fileio, "code_hash", lambda *paths: hashed.append([str(p) for p in paths]) or real_hash(*paths))
+    _new_process(monkeypatch)
+    volume.depth_exposure(_stone(), LAB)
+    assert any(p.endswith("geometry/surface.py") for p in hashed[-1])
     # a stone declared non-convex is measured by rays, under its own key
     _new_process(monkeypatch)
     stone = labcut.Stone(_stone(), convex=False)
     assert volume.depth_exposure(stone, LAB)["thin_share"] == pytest.approx(volume.depth_exposure(_stone(), LAB)["thin_share"], abs=0.01)
-    assert len(calls) == 5
+    assert len(calls) == 6
 
 
 def test_a_damaged_depth_exposure_is_measured_again_with_a_warning(monkeypatch, fresh_user_cache):

@@ -53,6 +53,7 @@ import numpy as np
 
 from ..colour import luminance_table
 from ..errors import ParameterError
+from ..geometry import surface as surface_module
 from ..geometry.stone import Stone
 from ..geometry.surface import FAST_SMOOTH_FACES, corner_incidence, smooth_corner_normals, unit_normals
 from ..physics import schiller as lobe
@@ -404,6 +405,8 @@ def _paths(rays: VolumeRays, law: Any, table: tuple[np.ndarray, np.ndarray], eta
 
 #: surface samples of :func:`depth_exposure` (its thin share to about ±1.5 % at the low dome's 11 %)
 EXPOSURE_POINTS = 600
+#: how they are placed (:func:`labcut.geometry.surface.draw_samples`)
+EXPOSURE_SAMPLING = "stratified"
 #: faces whose normal turn :func:`depth_exposure` averages on a mesh too big to copy (drawn by area)
 EXPOSURE_FACES = 20_000
 #: depth exposures kept in the user cache file (the newest stones')
@@ -440,7 +443,7 @@ def depth_exposure(mesh: Any, material: Labradorite) -> dict[str, float]:
     key = f"depth_exposure_{law.depth_mm:.6g}_{flash:.6g}"
 
     def build() -> dict[str, float]:
-        samples = stone.surface_samples(EXPOSURE_POINTS, 0)
+        samples = stone.surface_samples(EXPOSURE_POINTS, 0, EXPOSURE_SAMPLING)
         eps = surface_offset(stone.mesh)
         inside = samples.points - eps * samples.n_geo
         big = len(stone.mesh.faces) > FAST_SMOOTH_FACES
@@ -473,8 +476,8 @@ def depth_exposure(mesh: Any, material: Labradorite) -> dict[str, float]:
 def _kept_exposure(stone: Stone, key: str, build: Callable[[], dict[str, float]]) -> dict[str, float]:
     """``build()`` (:func:`depth_exposure`'s figures), kept in labcut's user cache
     (``depth-exposure.json``) under the stone's geometry, its convexity and shading angle, the
-    material's depths, the sampling's sizes, labcut's, numpy's and trimesh's versions and a hash of
-    this module's and the depth law's code: the planner's depth decision in a new process for a stone
+    material's depths, the sampling's sizes and kind, labcut's, numpy's and trimesh's versions and a
+    hash of this module's, the depth law's and the surface samples' code: the planner's depth decision in a new process for a stone
     it has seen is a read, not 600 thickness rays and a pass over every face."""
     import trimesh
 
@@ -483,8 +486,9 @@ def _kept_exposure(stone: Stone, key: str, build: Callable[[], dict[str, float]]
     from ..physics import depth as depth_module
 
     full = (f"{key} | labcut {__version__} numpy {np.__version__} trimesh {trimesh.__version__} | "
-            f"code {code_hash(__file__, depth_module.__file__)} | stone {stone.digest} convex {stone.convex} "
-            f"angle {stone.shading_angle_deg!r} | points {EXPOSURE_POINTS} faces {EXPOSURE_FACES} "
+            f"code {code_hash(__file__, depth_module.__file__, surface_module.__file__)} | stone {stone.digest} "
+            f"convex {stone.convex} angle {stone.shading_angle_deg!r} | points {EXPOSURE_POINTS} {EXPOSURE_SAMPLING} "
+            f"faces {EXPOSURE_FACES} "
             f"copied up to {FAST_SMOOTH_FACES}")
     fields = ("thin_share", "turn_deg", "flash_depth_mm", "stack_depth_mm")
 
