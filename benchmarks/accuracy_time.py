@@ -67,6 +67,8 @@ KNOBS = [
 OPTIMIZERS = ("nlopt", "gradient", "grid")
 #: the block of docs/accuracy.md that benchmarks/scenario_coverage.py writes (kept when this report is rewritten)
 COVERAGE_BEGIN, COVERAGE_END = "<!-- SCENARIO-COVERAGE:BEGIN -->", "<!-- SCENARIO-COVERAGE:END -->"
+#: the whole CLI call under a budget (benchmarks/call_budget.py, written by hand): kept before the comparison's budgets
+CALL_BEGIN, CALL_END = "<!-- CALL-BUDGET:BEGIN -->", "<!-- CALL-BUDGET:END -->"
 
 
 def reference_quality():
@@ -498,6 +500,11 @@ def main() -> None:
         block = COVERAGE_BEGIN + old.split(COVERAGE_BEGIN, 1)[1].split(COVERAGE_END, 1)[0] + COVERAGE_END
         head, sep, tail = text.partition("## Time budgets")
         text = head + block + "\n\n" + sep + tail
+    if CALL_BEGIN in old and CALL_END in old:
+        block = CALL_BEGIN + old.split(CALL_BEGIN, 1)[1].split(CALL_END, 1)[0] + CALL_END
+        anchor = text.find("`labcut compare CUT... --time-budget SECONDS`")
+        if anchor >= 0:
+            text = text[:anchor] + block + "\n\n" + text[anchor:]
     text = keep_other_sections(old, text)
     out.write_text(text)
     print(f"wrote {out} and {data}")

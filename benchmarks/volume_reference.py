@@ -693,7 +693,7 @@ def answer_record(rec: object, seconds: float) -> dict:
 def scan_centre(case: dict) -> np.ndarray:
     """The normal a case's scans pass through: labcut's answer when they were traced (kept as
     ``scan_centre`` once a later labcut answers elsewhere, :func:`refresh_answers`)."""
-    return np.asarray(case.get("scan_centre", case["answer"]["normal"]), dtype=np.float64)
+    return np.asarray(case["scan_centre"] if "scan_centre" in case else case["answer"]["normal"], dtype=np.float64)
 
 
 def refresh_answers() -> dict:
@@ -1103,12 +1103,13 @@ def report() -> None:
             full = data.get("cases_by_paths", {}).get(same, {}).get(key) or cases.get(key)
             if not full or full["reference"]["paths_per_view"] != c["reference"]["paths_per_view"]:
                 continue
-            if max(abs(float(np.dot(c["answer"]["normal"], full["answer"]["normal"]))), 0.0) < math.cos(math.radians(1e-3)):
+            if max(abs(float(np.dot(scan_centre(c), scan_centre(full)))), 0.0) < math.cos(math.radians(1e-3)):
                 continue  # scanned around another answer than the full case's: not comparable
             r_all, r_bare = reference_optimum(full), reference_optimum(c)
+            now = cases.get(key, c)["answer"]  # labcut's answer as it is now
             out.append(f"| {c['stone']} | {c['lamp']} | {c['reference']['paths_per_view'] // 1000:,}k | "
-                       f"{c['answer']['tilt_deg']:.2f}° | {r_all['tilt_deg']:.2f}° ± {r_all['tilt_sd']:.2f}° | "
-                       f"{r_bare['tilt_deg']:.2f}° ± {r_bare['tilt_sd']:.2f}° | ±{c['answer']['tolerance_deg']:.2f}° | "
+                       f"{now['tilt_deg']:.2f}° | {r_all['tilt_deg']:.2f}° ± {r_all['tilt_sd']:.2f}° | "
+                       f"{r_bare['tilt_deg']:.2f}° ± {r_bare['tilt_sd']:.2f}° | ±{now['tolerance_deg']:.2f}° | "
                        f"±{r_all['tolerance_deg']:.2f}° ± {r_all['tolerance_sd']:.2f}° | "
                        f"±{r_bare['tolerance_deg']:.2f}° ± {r_bare['tolerance_sd']:.2f}° |")
     splice(DOC, BEGIN, END, "\n".join(out))

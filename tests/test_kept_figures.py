@@ -1,7 +1,7 @@
 """Figures a CLI call would otherwise compute in every process, kept in labcut's user cache.
 
 The scene's peak (the flash threshold's reference: a simplex search over face directions) and
-the planner's depth exposure of a stone (600 thickness rays and a pass over every face) are the
+the planner's depth exposure of a stone (its thickness rays and a pass over every face) are the
 same in every process that asks the same question; each new process read them back instead of
 spending about a tenth of a second each on them. A stale figure would be a silent wrong answer,
 so every input that shapes one is part of its key, and a damaged entry is measured again with a
