@@ -729,8 +729,8 @@ def plan_effects(
         depth_why = (f"{thin_text}: at or above {DEPTH_THIN_SHARE:.0%}, thin parts would mirror a whole stack's flash "
                      "in the surface model")
     else:
-        depth_why = (f"{thin_text}: below {DEPTH_THIN_SHARE:.0%}; on the bundled cuts this leaves the answer within "
-                     "0.5° and its energy within 4 % (docs/planner.md)")
+        depth_why = (f"{thin_text}: below {DEPTH_THIN_SHARE:.0%}; on the bundled cuts this leaves the energy within 4 % "
+                     "and the answer within 0.6° (1.3° along a worn ring's flat top; docs/planner.md)")
     decisions.append(Decision("depth", depth_on, "the volume estimator: light refracted in, mirrored at a depth drawn "
                               "from the stack's depth law, traced to where it leaves", depth_why, "depth" in forced))
 

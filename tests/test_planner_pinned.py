@@ -123,8 +123,8 @@ def plan(mesh, **kw):
 EFFECTS = ("occlusion", "inter_reflection", "depth", "environment", "polarisation", "colour", "zoning")
 THIN_10 = ("10% of the surface lies over less stone than the stack's 0.93 mm and the normal turns 11.2° across "
            "twice the flash depth (0.43 mm)")
-DEPTH_OFF_10 = THIN_10 + (": below 20%; on the bundled cuts this leaves the answer within 0.5° and its energy "
-                          "within 4 % (docs/planner.md)")
+DEPTH_OFF_10 = THIN_10 + (": below 20%; on the bundled cuts this leaves the energy within 4 % and the answer "
+                          "within 0.6° (1.3° along a worn ring's flat top; docs/planner.md)")
 DEPTH_HOW = ("the volume estimator: light refracted in, mirrored at a depth drawn from the stack's depth law, "
              "traced to where it leaves")
 COLOUR_WHY = ("flash metrics are luminance ratios: a luminance table integrates the spectrum exactly at every angle "
@@ -331,8 +331,8 @@ def test_the_thin_share_at_its_threshold_turns_the_volume_estimator_on(oval, sta
     stand.thin = 0.19999
     p = plan(oval)
     assert p["depth"].on is False and p.estimator == "samples"
-    assert p["depth"].why == thin + (": below 20%; on the bundled cuts this leaves the answer within 0.5° and its "
-                                     "energy within 4 % (docs/planner.md)")
+    assert p["depth"].why == thin + (": below 20%; on the bundled cuts this leaves the energy within 4 % and the "
+                                     "answer within 0.6° (1.3° along a worn ring's flat top; docs/planner.md)")
 
 
 def test_depth_forced_either_way(oval, stand):
