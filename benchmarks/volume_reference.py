@@ -258,6 +258,13 @@ class Streams:
 
 
 # ---------------------------------------------------------------------- the tracer
+def outline_box(mesh: object) -> tuple[np.ndarray, float]:
+    """``(centre, radius)``: the centre of the stone's bounding box and a radius 1 % beyond its half
+    diagonal, the square every view's camera paths start from (uniform over it)."""
+    v = np.asarray(mesh.vertices, dtype=np.float64)
+    return 0.5 * (v.min(axis=0) + v.max(axis=0)), 0.5 * float(np.linalg.norm(v.max(axis=0) - v.min(axis=0))) * 1.01
+
+
 class Reference:
     """The volumetric reference of one stone and material (module docstring)."""
 
@@ -273,9 +280,7 @@ class Reference:
         self.eps = surface_offset(mesh)
         self.eta = float(material.n_surface)
         self.kappa = float(material.lobe_kappa)
-        v = np.asarray(mesh.vertices, dtype=np.float64)
-        self.centre = 0.5 * (v.min(axis=0) + v.max(axis=0))
-        self.radius = 0.5 * float(np.linalg.norm(v.max(axis=0) - v.min(axis=0))) * 1.01
+        self.centre, self.radius = outline_box(mesh)
 
     def radiance(self, normal: np.ndarray, view: np.ndarray, lamp: np.ndarray, lamp_radius_deg: float, paths: int,
                  seed: int, half_width: float | None = None) -> tuple[float, float, int]:
@@ -591,6 +596,13 @@ def reference_optimum(case: dict) -> dict[str, object]:
             "tilt_fit_spread": 0.5 * (max(tilts) - min(tilts)), "tilt_by_degree": tilts}
 
 
+def lamp_discs() -> dict[str, tuple[np.ndarray, float]]:
+    """The comparison's two lamps as the reference traces them: (centre direction, disc radius in
+    degrees), by the names its cases carry (:func:`case_lights` gives labcut's side of the same)."""
+    return {"lamp 35° in front": (direction(35.0, FRONT_AZIMUTH_DEG), SPOT_RADIUS_DEG),
+            "overhead lamp": (np.array([0.0, 0.0, 1.0]), 8.0)}
+
+
 def case_lights() -> dict[str, labcut.Lights]:
     """The comparison's two lamps by the names its cases carry: a 4° disc 35° above the horizon in
     front (:data:`SPOT_RADIUS_DEG`) and the overhead preset, each at standard quality's sampling."""
@@ -620,8 +632,7 @@ def compare(paths: int, points: int, fresh: bool, *, stones: list[str] | None = 
     lref = reference_radiance(mat, 1.0)
     views = face_up("standard")
     lit = case_lights()
-    lamp_cases = {"lamp 35° in front": (lit["lamp 35° in front"], direction(35.0, FRONT_AZIMUTH_DEG), SPOT_RADIUS_DEG),
-                  "overhead lamp": (lit["overhead lamp"], np.array([0.0, 0.0, 1.0]), 8.0)}
+    lamp_cases = {name: (lit[name], *disc) for name, disc in lamp_discs().items()}
     for stone, path in STONES.items():
         if stones and stone not in stones:
             continue
@@ -639,12 +650,7 @@ def compare(paths: int, points: int, fresh: bool, *, stones: list[str] | None = 
             t0 = time.perf_counter()
             rec = labcut.recommend_orientation(mesh, material=mat, lighting=lights, viewing="face-up", quality="standard")
             answer_seconds = time.perf_counter() - t0
-            forced = {}
-            for est in ("samples", "volume"):
-                other = rec if rec.estimator == est else labcut.recommend_orientation(
-                    mesh, material=mat, lighting=lights, viewing="face-up", quality="standard", estimator=est)
-                forced[est] = {"normal": [float(x) for x in other.normal], "tilt_deg": other.tilt_deg,
-                               "tolerance_deg": other.tolerance_deg, "seconds": other.seconds}
+            forced = forced_answers(mesh, mat, lights, rec)
             ref = ref or Reference(mesh, mat, surface_events=surface_events)
             n0 = np.asarray(rec.normal, dtype=np.float64)
             half = float(np.clip(1.6 * rec.tolerance_deg, 3.0, 12.0))
@@ -679,6 +685,18 @@ def compare(paths: int, points: int, fresh: bool, *, stones: list[str] | None = 
     data["machine"] = f"{platform.machine()}, {platform.python_version()}"
     DATA.write_text(json.dumps(data, indent=1))
     return data
+
+
+def forced_answers(mesh: object, material: labcut.Labradorite, lights: labcut.Lights, rec: object) -> dict:
+    """Each estimator's answer, forced (``samples`` and ``volume``; ``rec``, the default
+    recommendation, stands for the one it used): its normal, tilt, tolerance and seconds."""
+    out = {}
+    for est in ("samples", "volume"):
+        other = rec if rec.estimator == est else labcut.recommend_orientation(
+            mesh, material=material, lighting=lights, viewing="face-up", quality="standard", estimator=est)
+        out[est] = {"normal": [float(x) for x in other.normal], "tilt_deg": other.tilt_deg,
+                    "tolerance_deg": other.tolerance_deg, "seconds": other.seconds}
+    return out
 
 
 def answer_record(rec: object, seconds: float) -> dict:
@@ -720,11 +738,7 @@ def refresh_answers() -> dict:
                   + (f", beyond half their reach ({reach:.2f}°): trace them again (compare --fresh)" if moved > reach else ""),
                   flush=True)
         c["answer"] = answer_record(rec, seconds)
-        for est in ("samples", "volume"):
-            other = rec if rec.estimator == est else labcut.recommend_orientation(
-                mesh, material=mat, lighting=lights[c["lamp"]], viewing="face-up", quality="standard", estimator=est)
-            c["estimators"][est] = {"normal": [float(x) for x in other.normal], "tilt_deg": other.tilt_deg,
-                                    "tolerance_deg": other.tolerance_deg, "seconds": other.seconds}
+        c["estimators"] = forced_answers(mesh, mat, lights[c["lamp"]], rec)
         c["estimator"] = rec.estimator
         print(key, f"tilt {rec.tilt_deg:.2f}°", c["answer"]["tolerance_by_axis"], flush=True)
     DATA.write_text(json.dumps(data, indent=1))
@@ -1197,9 +1211,7 @@ class SurfaceLimit:
         w = np.asarray(views.weights, dtype=np.float64)
         self.weights = w / w.sum()
         rays = VolumeRays(mesh)
-        v_all = np.asarray(mesh.vertices, dtype=np.float64)
-        centre = 0.5 * (v_all.min(axis=0) + v_all.max(axis=0))
-        radius = 0.5 * float(np.linalg.norm(v_all.max(axis=0) - v_all.min(axis=0))) * 1.01
+        centre, radius = outline_box(mesh)
         rng = np.random.default_rng(seed)
         self.views = []
         for v in np.asarray(views.directions, dtype=np.float64):
@@ -1259,8 +1271,7 @@ def surface_limit(paths: int, keys: list[str] | None = None) -> dict:
     data = json.loads(DATA.read_text())
     mat = labcut.Labradorite()
     lref = reference_radiance(mat, 1.0)
-    lamps = {"lamp 35° in front": (direction(35.0, FRONT_AZIMUTH_DEG), SPOT_RADIUS_DEG),
-             "overhead lamp": (np.array([0.0, 0.0, 1.0]), 8.0)}
+    lamps = lamp_discs()
     out = {}
     for key, c in data.get("cases", {}).items():
         if keys and key not in keys:
