@@ -403,10 +403,9 @@ def _paths(rays: VolumeRays, law: Any, table: tuple[np.ndarray, np.ndarray], eta
         yield (h[finite].astype(np.float32), c[finite].astype(np.float32), pair[keep][finite].astype(np.int32))
 
 
-#: surface samples of :func:`depth_exposure`: stratified, its thin share lands within 0.2 % of
-#: 20,000 random samples' on the low oval (11.3 % against 11.1-11.6 %; 18.8 % against 18.6-19.0 %
-#: for the 560 nm material's deeper stack), where 600 were up to 2 % off, enough to move the
-#: planner's 20 % line
+#: surface samples of :func:`depth_exposure` (stratified): enough that the thin share's own error
+#: stays well inside the planner's margin to its 20 % line (600 random samples were not: the low
+#: oval with the 560 nm material's deeper stack sits near the line; the thin shares in docs/planner.md)
 EXPOSURE_POINTS = 2000
 #: how they are placed (:func:`labcut.geometry.surface.draw_samples`)
 EXPOSURE_SAMPLING = "stratified"
