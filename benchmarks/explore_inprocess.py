@@ -3,7 +3,7 @@ after a lamp or material change, with the process's user and system CPU time and
 over each answer (``resource.getrusage``).
 
     .venv/bin/python benchmarks/explore_inprocess.py [--stone meshes/oval-16x12-low.ply] [--quality standard]
-        [--pictures] [--no-huge-pages] [--fresh-cache]
+        [--pictures] [--no-huge-pages] [--fresh-cache] [--random-lamps]
 
 Six new lamps, then three materials (two presets and a flash peak), each one the session has not
 seen. ``--pictures``: the preview and the refined picture of each state drawn before the next
@@ -13,6 +13,10 @@ benchmark's process only: labcut itself changes no numpy setting), to see what t
 system time. ``--fresh-cache``: labcut's user cache in a new empty folder, so that every material (and
 lamp) is one the machine has never seen and its reflectance tables are built in the answer. ``perf record -g .venv/bin/python benchmarks/explore_inprocess.py --pictures`` shows
 where the system time goes (``clear_page_erms``: the kernel clearing fresh pages).
+``--random-lamps``: the six lamps' elevations drawn at random (40-85°, a new draw each run), as a
+user's slider gives them: a lamp no earlier run has seen gives new bin counts, and the columns
+"kernels compiled" and "compile ms" (Dr.Jit's kernel history) show what of the answer was LLVM
+compiling kernels that Dr.Jit's cache did not hold.
 The figures of docs/explore.md ("What the wall times above hold") and docs/performance.md ("fresh
 memory") come from this command.
 """
@@ -37,7 +41,14 @@ def main() -> None:
     parser.add_argument("--fresh-cache", action="store_true",
                         help="labcut's user cache in a new empty folder (this process): every material is one the "
                              "machine has never seen, its reflectance tables built in the answer")
+    parser.add_argument("--random-lamps", action="store_true",
+                        help="the lamps' elevations drawn at random (40-85 deg), new to the machine's kernel cache")
     args = parser.parse_args()
+    lamps = LAMPS
+    if args.random_lamps:
+        import random
+
+        lamps = tuple(round(random.uniform(40.0, 85.0), 4) for _ in LAMPS)
     if args.fresh_cache:
         import os
         import tempfile
@@ -54,26 +65,34 @@ def main() -> None:
     session = ExploreSession(labcut.Stone.load(args.stone), scenario="bench", quality=args.quality)
     session.view()
     rows = []
-    for kind, change in [("lamp", {"lamp_elevation": e}) for e in LAMPS] + [("material", m) for m in MATERIALS]:
+    import drjit as dr
+
+    for kind, change in [("lamp", {"lamp_elevation": e}) for e in lamps] + [("material", m) for m in MATERIALS]:
         if args.pictures:
             session.preview()
             session.planned_estimator()
             list(session.refine())
         session.set(change)
+        dr.set_flag(dr.JitFlag.KernelHistory, True)
+        dr.kernel_history()  # cleared
         before = resource.getrusage(resource.RUSAGE_SELF)
         t = time.perf_counter()
         session.view()
         wall = time.perf_counter() - t
         after = resource.getrusage(resource.RUSAGE_SELF)
+        built = [k for k in dr.kernel_history() if k.get("hash") is not None and not k.get("cache_hit")
+                 and not k.get("cache_disk")]
+        dr.set_flag(dr.JitFlag.KernelHistory, False)
         rows.append((kind, change, 1000 * wall, 1000 * (after.ru_utime - before.ru_utime),
-                     1000 * (after.ru_stime - before.ru_stime), after.ru_minflt - before.ru_minflt))
+                     1000 * (after.ru_stime - before.ru_stime), after.ru_minflt - before.ru_minflt,
+                     len(built), sum(float(k.get("backend_time", 0.0)) for k in built)))
     print(f"{args.stone}, {args.quality}, {'pictures between changes' if args.pictures else 'no pictures'}"
           f"{', numpy without huge pages' if args.no_huge_pages else ''}"
           f"{', a new cache folder (every material never seen)' if args.fresh_cache else ''}\n")
-    print("| change | wall ms | user CPU ms | system CPU ms | minor page faults |")
-    print("|---|---:|---:|---:|---:|")
-    for kind, change, wall, user, system, faults in rows:
-        print(f"| {kind} {change} | {wall:.0f} | {user:.0f} | {system:.0f} | {faults} |")
+    print("| change | wall ms | user CPU ms | system CPU ms | minor page faults | kernels compiled | compile ms |")
+    print("|---|---:|---:|---:|---:|---:|---:|")
+    for kind, change, wall, user, system, faults, built, compile_ms in rows:
+        print(f"| {kind} {change} | {wall:.0f} | {user:.0f} | {system:.0f} | {faults} | {built} | {compile_ms:.0f} |")
     for kind in ("lamp", "material"):
         walls = [r[2] for r in rows if r[0] == kind]
         print(f"\n{kind}: median {statistics.median(walls):.0f} ms, range {min(walls):.0f}-{max(walls):.0f} ms")

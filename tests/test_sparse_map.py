@@ -332,3 +332,55 @@ def test_a_bin_whose_fixed_point_sum_is_zero_is_dropped(scorer, monkeypatch):
     hn, an = Scorer(replace(small, kernels=KernelOptions(bins=False)))._bin_triples()
     assert len(an) == len(ab) + 1  # numpy keeps its float64 weight of 1e-30-ish
     np.testing.assert_allclose(ab, an[an > 1e-20], rtol=1e-10, atol=1e-13 * float(an.sum()))
+
+
+def test_size_class_rounds_up_by_at_most_an_eighth():
+    """Each length rounds up to one of 8 sizes per doubling, never below itself nor past 1/8 above
+    it, and lengths up to 15 stay as they are."""
+    from labcut.orientation.scoring import size_class
+
+    n = np.arange(1, 300_000)
+    got = np.array([size_class(int(k)) for k in n])
+    assert np.all(got >= n) and np.all(got <= n * 1.125)
+    assert np.array_equal(got[:15], n[:15])
+    assert size_class(0) == 1
+    for lo in (2**10, 2**14, 2**17):  # 8 classes in each doubling
+        assert len({size_class(k) for k in range(lo + 1, 2 * lo + 1)}) == 8
+    assert [size_class(k) for k in (52629, 52630, 53248, 53249)] == [53248, 53248, 53248, 57344]
+
+
+def test_the_device_bins_kernel_repeats_for_a_new_bin_count(scorer):
+    """A new lamp, material or stone occupies a new number of grid cells. The device sums' kernel
+    must not change with it: Dr.Jit writes a scatter-reduction target's length into the LLVM
+    kernel, so an exact length compiled a new kernel (about 20 ms) for every new lamp in `labcut
+    explore`. Over problems of one size class and many bin counts the sums' kernel (the one with
+    the most inputs) takes a few forms (Dr.Jit's own variants, each compiled once and cached), far
+    fewer than the bin counts."""
+    from dataclasses import replace
+
+    import drjit as dr
+
+    from labcut.orientation import scoring as scoring_module
+
+    p = scorer.problem
+
+    def launched(n: int) -> tuple[int, str]:
+        sub = replace(p, host_h=p.h[:n].copy(), c=p.c[:n].copy(), pair=p.pair[:n])
+        assert scoring_module._device_keys_apply(sub, 612 * 612)
+        sub.device_triples  # copied to the device before the history starts
+        dr.set_flag(dr.JitFlag.KernelHistory, True)
+        try:
+            dr.kernel_history()  # cleared
+            _, weights = scoring_module._device_bins(sub, 612)
+            history = [k for k in dr.kernel_history() if k.get("hash") is not None]
+        finally:
+            dr.set_flag(dr.JitFlag.KernelHistory, False)
+        return len(weights), max(history, key=lambda k: k["input_count"])["hash"]
+
+    by_class: dict[int, list[tuple[int, str]]] = {}
+    for n in range(20_000, 60_001, 1_000):
+        length, kernel = launched(n)
+        by_class.setdefault(scoring_module.size_class(length), []).append((length, kernel))
+    runs = max(by_class.values(), key=lambda r: len({length for length, _ in r}))
+    assert len({length for length, _ in runs}) >= 8
+    assert len({kernel for _, kernel in runs}) <= 4

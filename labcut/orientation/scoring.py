@@ -131,6 +131,26 @@ DENSE_KEY_LIMIT = 1 << 24
 #: headroom of the fixed-point bin sums: every sum's magnitude stays below 2^(63 - FIXED_HEADROOM)
 FIXED_HEADROOM = 1
 
+#: size classes per doubling of :func:`size_class` (a power of two)
+SIZE_CLASSES_PER_OCTAVE = 8
+
+
+def size_class(n: int) -> int:
+    """``n`` rounded up to one of :data:`SIZE_CLASSES_PER_OCTAVE` sizes per power of two (at most
+    1/8 larger): the length of a Dr.Jit scatter-reduction's target whose exact length changes from
+    call to call. On the LLVM backend Dr.Jit expands such a target to one copy per thread
+    (``ReduceMode.Expand``, its choice for small targets and the fastest here) and writes the
+    target's length into the kernel, so a length never seen before is a kernel compiled anew (about
+    20 ms on 2 cores, and one more file in Dr.Jit's kernel cache): the bins of every new lamp and
+    material in ``labcut explore``, and of every new stone. Rounded to a class, the kernels repeat:
+    at most 8 per doubling, each compiled once per machine and read from Dr.Jit's cache after."""
+    n = max(int(n), 1)
+    shift = n.bit_length() - SIZE_CLASSES_PER_OCTAVE.bit_length()  # log2(n) - log2(classes), floored
+    if shift <= 0:
+        return n
+    step = 1 << shift
+    return -(-n // step) * step
+
 
 def _device_bins(problem: Any, bins: int) -> tuple[np.ndarray, np.ndarray]:
     """:meth:`Scorer._bin_triples` in Dr.Jit kernels over the problem's device copy of the triples
@@ -167,11 +187,11 @@ def _device_bins(problem: Any, bins: int) -> tuple[np.ndarray, np.ndarray]:
     scaled = alpha * dr.opaque(t.Float64, unit)
     sums = []
     for value in (scaled, scaled * t.Float64(h.x), scaled * t.Float64(h.y), scaled * t.Float64(h.z)):
-        out = dr.zeros(t.Int64, n_bins)
+        out = dr.zeros(t.Int64, size_class(n_bins))  # the bins, then zeros up to the size class
         dr.scatter_reduce(dr.ReduceOp.Add, out, t.Int64(dr.round(value)), inv, keep)
         sums.append(out)
     dr.eval(*sums)
-    weight, cx, cy, cz = (np.asarray(x).astype(np.float64) * math.ldexp(1.0, -shift) for x in sums)
+    weight, cx, cy, cz = (np.asarray(x)[:n_bins].astype(np.float64) * math.ldexp(1.0, -shift) for x in sums)
     centroid = np.stack([cx, cy, cz], axis=1)
     norm = np.linalg.norm(centroid, axis=1, keepdims=True)
     # a bin whose every weight lies below half a unit sums to zero: it holds under 2^-62 of the
