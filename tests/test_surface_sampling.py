@@ -76,6 +76,26 @@ def test_every_octant_of_the_stone_holds_its_area_share_to_within_one(high_oval)
     assert np.abs(rand - n * np.bincount(octant, weights=split.area_faces, minlength=8) / split.area_faces.sum()).max() > 5.0
 
 
+
+def test_face_cells_rank_the_occupied_cells_in_curve_order(high_oval):
+    """face_cells gives each face the rank of its Morton cell among the occupied cells: 0 .. K-1,
+    every rank used, in the codes' order; a draw over the ranks is the draw over the codes to the
+    bit (the empty cells between add exact zeros to the running total), over arrays of K cells
+    instead of the grid's 2^21."""
+    split = labcut.Stone.of(high_oval).smooth_split()
+    v = np.asarray(split.vertices, dtype=np.float32)
+    f = split.faces
+    codes = surface.morton_cells(v[f[:, 0]] + v[f[:, 1]] + v[f[:, 2]], 3.0 * v.min(axis=0), 3.0 * v.max(axis=0))
+    ranks = surface.face_cells(split)
+    assert ranks.dtype.itemsize <= 4 and ranks.min() == 0
+    assert np.array_equal(np.unique(ranks), np.arange(ranks.max() + 1))
+    assert np.array_equal(ranks, np.unique(codes, return_inverse=True)[1].ravel())
+    assert ranks.max() + 1 < len(f) < (1 << 21)
+    for seed in (0, 7):
+        by_rank = surface._stratified_faces(split.area_faces, ranks, 5000, np.random.default_rng(seed))
+        by_code = surface._stratified_faces(split.area_faces, codes, 5000, np.random.default_rng(seed))
+        assert np.array_equal(by_rank[0], by_code[0]) and np.array_equal(by_rank[1], by_code[1])
+
 def test_the_samples_are_area_uniform_on_the_surface(high_oval):
     """Their points lie on the mesh, their shading normals are unit, and the share above half the
     dome's height is the area's there, stratified or random."""
