@@ -123,6 +123,28 @@ def test_the_depth_exposures_key_holds_the_geometry_the_material_and_the_samplin
     assert len(calls) == 6
 
 
+
+def test_a_stones_depth_geometry_serves_every_material(monkeypatch, fresh_user_cache):
+    """The thicknesses behind the samples and the normals' turn rates are the stone's, whatever the
+    material: a stone asked about three stacks casts its thickness rays once (a new flash peak in
+    the explorer compared its depth with them anew, 0.1 s), and each answer is the one a stone that
+    never saw another material gives."""
+    calls = _counted(monkeypatch, volume, "convex_thickness")
+    turns = _counted(monkeypatch, volume, "corner_normals")
+    stone = labcut.Stone.of(_stone())
+    materials = [LAB, LAB.replace(pairs=LAB.pairs // 3), labcut.Labradorite.from_peak_wavelength(612.0)]
+    answers = [volume.depth_exposure(stone, m) for m in materials]
+    assert len(calls) == 1 and len(turns) == 1
+    # deeper stacks: more of the surface thinner than them, more of the normal's turn across the flash depth
+    ordered = sorted(answers, key=lambda a: a["stack_depth_mm"])
+    assert [a["thin_share"] for a in ordered] == sorted(a["thin_share"] for a in ordered)
+    assert ordered[0]["thin_share"] < ordered[-1]["thin_share"] and ordered[0]["turn_deg"] < ordered[-1]["turn_deg"]
+    for m, a in zip(materials, answers):
+        _new_process(monkeypatch)
+        monkeypatch.setattr(fileio, "code_hash", lambda *paths: "another round")  # not read back from the cache
+        assert volume.depth_exposure(labcut.Stone.of(_stone()), m) == a
+    assert len(calls) == 4
+
 def test_a_damaged_depth_exposure_is_measured_again_with_a_warning(monkeypatch, fresh_user_cache):
     first = volume.depth_exposure(_stone(), LAB)
     path = fresh_user_cache / "depth-exposure.json"

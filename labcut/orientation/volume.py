@@ -438,42 +438,57 @@ def depth_exposure(mesh: Any, material: Labradorite) -> dict[str, float]:
       more than half a degree: docs/planner.md);
     - ``flash_depth_mm`` and ``stack_depth_mm`` of the material.
 
-    Kept by the stone per stack depth (:meth:`~labcut.geometry.stone.Stone.cached`)."""
+    Kept by the stone per stack depth (:meth:`~labcut.geometry.stone.Stone.cached`), and its geometry
+    (the thicknesses and the normals' turn rates) once for every material."""
     stone = Stone.of(mesh)
     law = depth_law(material)
     flash = law.mean_mm(1.0)
     key = f"depth_exposure_{law.depth_mm:.6g}_{flash:.6g}"
 
     def build() -> dict[str, float]:
-        samples = stone.surface_samples(EXPOSURE_POINTS, 0, EXPOSURE_SAMPLING)
-        eps = surface_offset(stone.mesh)
-        inside = samples.points - eps * samples.n_geo
-        big = len(stone.mesh.faces) > FAST_SMOOTH_FACES
-        if stone.convex and not big:  # no ray scene: a convex stone needs none anywhere else either
-            thick = convex_thickness(stone.mesh, inside, -samples.n_sh)
-        else:  # a carving's ray scene is kept for its occlusion rays anyway; a scan's planes are too many
-            thick = VolumeRays.of(stone.mesh).cast(inside, -samples.n_sh).t
+        thick = stone.cached("depth_exposure_thickness", lambda: _exposure_thickness(stone))
+        rate, weight = stone.cached("depth_exposure_turn_rates", lambda: _exposure_turn_rates(stone))
         thin = float(np.mean(thick < law.depth_mm))
-        faces = np.asarray(stone.mesh.faces, dtype=np.int64)
-        area = stone.face_areas
-        if big:  # the mean over faces drawn by area, their split normals computed at them alone
-            pick = np.random.default_rng(0).choice(len(faces), size=EXPOSURE_FACES, p=area / area.sum())
-            vn = smooth_corner_normals(stone.mesh, stone.shading_angle_deg, pick)
-            weight = np.ones(len(pick))
-        else:
-            pick, vn, weight = np.arange(len(faces)), corner_normals(stone), area
-        tri = np.asarray(stone.mesh.vertices, dtype=np.float64)[faces[pick]]
-        rate = np.zeros(len(tri))  # radians of normal turn per mm, the steepest edge of each face
-        for i, j in ((0, 1), (1, 2), (2, 0)):
-            length = np.linalg.norm(tri[:, i] - tri[:, j], axis=1)
-            turn = np.arccos(np.clip(np.einsum("ij,ij->i", vn[:, i], vn[:, j]), -1.0, 1.0))
-            rate = np.maximum(rate, np.where(length > 0, turn / np.maximum(length, 1e-300), 0.0))
         turn_deg = float(np.degrees(np.sum(weight * np.minimum(rate * 2.0 * flash, math.pi / 2)) / max(weight.sum(), 1e-300)))
         return {"thin_share": round(thin, 4), "turn_deg": round(turn_deg, 3), "flash_depth_mm": round(flash, 4),
                 "stack_depth_mm": round(law.depth_mm, 4)}
 
     return dict(stone.cached(key, lambda: _kept_exposure(stone, key, build)))
 
+
+
+def _exposure_thickness(stone: Stone) -> np.ndarray:
+    """The stone's thickness (mm) behind :data:`EXPOSURE_POINTS` surface samples, along the inward
+    shading normal: :func:`depth_exposure`'s geometry, the same for every material (kept by the
+    stone: a new material, a flash peak typed into the explorer, compares its stack depth with it)."""
+    samples = stone.surface_samples(EXPOSURE_POINTS, 0, EXPOSURE_SAMPLING)
+    eps = surface_offset(stone.mesh)
+    inside = samples.points - eps * samples.n_geo
+    if stone.convex and len(stone.mesh.faces) <= FAST_SMOOTH_FACES:  # no ray scene: a convex stone needs none anywhere else either
+        return convex_thickness(stone.mesh, inside, -samples.n_sh)
+    # a carving's ray scene is kept for its occlusion rays anyway; a scan's planes are too many
+    return VolumeRays.of(stone.mesh).cast(inside, -samples.n_sh).t
+
+
+def _exposure_turn_rates(stone: Stone) -> tuple[np.ndarray, np.ndarray]:
+    """``(rate, weight)``: radians of shading-normal turn per mm across each face (its steepest edge)
+    and the face's weight in :func:`depth_exposure`'s mean (its area; a scan's faces drawn by area,
+    each weighing one), the same for every material (kept by the stone)."""
+    faces = np.asarray(stone.mesh.faces, dtype=np.int64)
+    area = stone.face_areas
+    if len(stone.mesh.faces) > FAST_SMOOTH_FACES:  # the mean over faces drawn by area, their split normals computed at them alone
+        pick = np.random.default_rng(0).choice(len(faces), size=EXPOSURE_FACES, p=area / area.sum())
+        vn = smooth_corner_normals(stone.mesh, stone.shading_angle_deg, pick)
+        weight = np.ones(len(pick))
+    else:
+        pick, vn, weight = np.arange(len(faces)), corner_normals(stone), area
+    tri = np.asarray(stone.mesh.vertices, dtype=np.float64)[faces[pick]]
+    rate = np.zeros(len(tri))
+    for i, j in ((0, 1), (1, 2), (2, 0)):
+        length = np.linalg.norm(tri[:, i] - tri[:, j], axis=1)
+        turn = np.arccos(np.clip(np.einsum("ij,ij->i", vn[:, i], vn[:, j]), -1.0, 1.0))
+        rate = np.maximum(rate, np.where(length > 0, turn / np.maximum(length, 1e-300), 0.0))
+    return rate, weight
 
 def _kept_exposure(stone: Stone, key: str, build: Callable[[], dict[str, float]]) -> dict[str, float]:
     """``build()`` (:func:`depth_exposure`'s figures), kept in labcut's user cache
