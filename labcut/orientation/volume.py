@@ -456,7 +456,6 @@ def depth_exposure(mesh: Any, material: Labradorite) -> dict[str, float]:
     return dict(stone.cached(key, lambda: _kept_exposure(stone, key, build)))
 
 
-
 def _exposure_thickness(stone: Stone) -> np.ndarray:
     """The stone's thickness (mm) behind :data:`EXPOSURE_POINTS` surface samples, along the inward
     shading normal: :func:`depth_exposure`'s geometry, the same for every material (kept by the
@@ -489,6 +488,7 @@ def _exposure_turn_rates(stone: Stone) -> tuple[np.ndarray, np.ndarray]:
         turn = np.arccos(np.clip(np.einsum("ij,ij->i", vn[:, i], vn[:, j]), -1.0, 1.0))
         rate = np.maximum(rate, np.where(length > 0, turn / np.maximum(length, 1e-300), 0.0))
     return rate, weight
+
 
 def _kept_exposure(stone: Stone, key: str, build: Callable[[], dict[str, float]]) -> dict[str, float]:
     """``build()`` (:func:`depth_exposure`'s figures), kept in labcut's user cache
