@@ -7,7 +7,8 @@ over each answer (``resource.getrusage``).
 
 Six new lamps, then three materials (two presets and a flash peak), each one the session has not
 seen. ``--pictures``: the preview and the refined picture of each state drawn before the next
-change, as the server draws them (the memory they free is what the next answer's arrays land on).
+change, as the server draws them (the memory they free is what the next answer's arrays land on);
+the preview, drawn right after the answer as the server draws it, is timed too ("preview ms").
 ``--no-huge-pages``: numpy asked not to request transparent huge pages for its big arrays (this
 benchmark's process only: labcut itself changes no numpy setting), to see what they add to the
 system time. ``--fresh-cache``: labcut's user cache in a new empty folder, so that every material (and
@@ -67,9 +68,10 @@ def main() -> None:
     rows = []
     import drjit as dr
 
+    if args.pictures:
+        session.preview()
     for kind, change in [("lamp", {"lamp_elevation": e}) for e in lamps] + [("material", m) for m in MATERIALS]:
-        if args.pictures:
-            session.preview()
+        if args.pictures:  # the rest of the last state's pictures (its preview is timed below)
             session.planned_estimator()
             list(session.refine())
         session.set(change)
@@ -83,19 +85,28 @@ def main() -> None:
         built = [k for k in dr.kernel_history() if k.get("hash") is not None and not k.get("cache_hit")
                  and not k.get("cache_disk")]
         dr.set_flag(dr.JitFlag.KernelHistory, False)
+        preview = float("nan")
+        if args.pictures:  # as the server does: the answer, then the state's first picture
+            t = time.perf_counter()
+            session.preview()
+            preview = 1000 * (time.perf_counter() - t)
         rows.append((kind, change, 1000 * wall, 1000 * (after.ru_utime - before.ru_utime),
                      1000 * (after.ru_stime - before.ru_stime), after.ru_minflt - before.ru_minflt,
-                     len(built), sum(float(k.get("backend_time", 0.0)) for k in built)))
+                     len(built), sum(float(k.get("backend_time", 0.0)) for k in built), preview))
     print(f"{args.stone}, {args.quality}, {'pictures between changes' if args.pictures else 'no pictures'}"
           f"{', numpy without huge pages' if args.no_huge_pages else ''}"
           f"{', a new cache folder (every material never seen)' if args.fresh_cache else ''}\n")
-    print("| change | wall ms | user CPU ms | system CPU ms | minor page faults | kernels compiled | compile ms |")
-    print("|---|---:|---:|---:|---:|---:|---:|")
-    for kind, change, wall, user, system, faults, built, compile_ms in rows:
-        print(f"| {kind} {change} | {wall:.0f} | {user:.0f} | {system:.0f} | {faults} | {built} | {compile_ms:.0f} |")
+    print("| change | wall ms | user CPU ms | system CPU ms | minor page faults | kernels compiled | compile ms | preview ms |")
+    print("|---|---:|---:|---:|---:|---:|---:|---:|")
+    for kind, change, wall, user, system, faults, built, compile_ms, preview in rows:
+        print(f"| {kind} {change} | {wall:.0f} | {user:.0f} | {system:.0f} | {faults} | {built} | {compile_ms:.0f} | "
+              f"{'-' if preview != preview else f'{preview:.0f}'} |")
     for kind in ("lamp", "material"):
         walls = [r[2] for r in rows if r[0] == kind]
         print(f"\n{kind}: median {statistics.median(walls):.0f} ms, range {min(walls):.0f}-{max(walls):.0f} ms")
+        if args.pictures:
+            previews = [r[8] for r in rows if r[0] == kind]
+            print(f"{kind} preview: median {statistics.median(previews):.0f} ms, range {min(previews):.0f}-{max(previews):.0f} ms")
 
 
 if __name__ == "__main__":

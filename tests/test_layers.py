@@ -22,7 +22,7 @@ PACKAGE = ROOT / "labcut"
 
 LAYERS: list[tuple[str, ...]] = [
     ("labcut.errors", "labcut.validation", "labcut._exports"),
-    ("labcut.backend", "labcut.fileio"),
+    ("labcut.backend", "labcut.fileio", "labcut.hugepages"),
     ("labcut.physics", "labcut.colour"),
     ("labcut.geometry", "labcut.scene"),
     # what computes and decides nothing: the flash problem, its kernels and scorer, the answer's

@@ -12,6 +12,8 @@ import sys
 
 import typer
 
+from labcut.hugepages import numpy_off_for_this_process
+
 try:  # typer >= 0.20 vendors click; older releases use click itself
     from typer import TyperException as _UsageError
 except ImportError:  # pragma: no cover
@@ -39,10 +41,15 @@ def _fail(message: str, code: int = 2) -> None:
 def main(argv: list[str] | None = None) -> None:
     """Run the CLI; map every expected failure to a one-line message and exit 2.
 
-    ``argv`` None (the console script): the process ends with the command, so the objects it
-    made are frozen out of the interpreter's last garbage collection, which would walk them all
-    (0.2 s after a recommendation) only to free memory the exit frees anyway; files and streams
-    are closed as usual."""
+    ``argv`` None (the console script): the process is the command's own. Where the kernel stalls
+    on numpy's huge page advice its arrays go without it (:func:`labcut.hugepages.numpy_off_for_this_process`:
+    a high-quality recommendation's faults waited seconds for memory compaction on such a machine);
+    and the process ends with the command, so the objects it made are frozen out of the
+    interpreter's last garbage collection, which would walk them all (0.2 s after a
+    recommendation) only to free memory the exit frees anyway; files and streams are closed as
+    usual."""
+    if argv is None:
+        numpy_off_for_this_process()
     try:
         _run(argv)
     finally:

@@ -1,0 +1,119 @@
+"""numpy's huge page advice in labcut's own processes (labcut.hugepages): off where the kernel's
+defrag policy makes a fault in advised memory wait for compaction, left alone elsewhere, in a
+library call, and wherever the user set NUMPY_MADVISE_HUGEPAGE."""
+
+from __future__ import annotations
+
+import sys
+import types
+
+import numpy as np
+import pytest
+
+from labcut import hugepages
+from labcut.batch import runner
+
+SWITCH = np._core.multiarray._set_madvise_hugepage
+
+
+def _policy(tmp_path, text):
+    path = tmp_path / "defrag"
+    path.write_text(text + "\n")
+    return path
+
+
+@pytest.mark.parametrize("text, policy, stalls", [
+    ("always defer defer+madvise [madvise] never", "madvise", True),
+    ("[always] defer defer+madvise madvise never", "always", True),
+    ("always defer [defer+madvise] madvise never", "defer+madvise", True),
+    ("always [defer] defer+madvise madvise never", "defer", False),
+    ("always defer defer+madvise madvise [never]", "never", False),
+    ("always madvise never", None, False),
+    ("", None, False),
+])
+def test_the_policy_is_the_bracketed_word(tmp_path, text, policy, stalls):
+    path = _policy(tmp_path, text)
+    assert hugepages.defrag_policy(path) == policy
+    assert hugepages.stalls(path) is stalls
+
+
+def test_no_policy_file_stalls_nothing(tmp_path):
+    assert hugepages.defrag_policy(tmp_path / "absent") is None and not hugepages.stalls(tmp_path / "absent")
+    assert hugepages.worker_env(tmp_path / "absent") == {}
+
+
+@pytest.fixture
+def numpy_switch():
+    """numpy's advice as it was, put back after the test."""
+    before = SWITCH(True)
+    SWITCH(before)
+    yield
+    SWITCH(before)
+
+
+def _advice_now() -> bool:
+    now = SWITCH(True)
+    SWITCH(now)
+    return now
+
+
+def test_the_command_process_turns_the_advice_off_where_the_kernel_stalls(tmp_path, monkeypatch, numpy_switch):
+    monkeypatch.delenv(hugepages.NUMPY_VARIABLE, raising=False)
+    SWITCH(True)
+    assert not hugepages.numpy_off_for_this_process(_policy(tmp_path, "always [defer] madvise never"))
+    assert _advice_now() is True
+    assert hugepages.numpy_off_for_this_process(_policy(tmp_path, "always defer [madvise] never"))
+    assert _advice_now() is False
+
+
+def test_a_variable_the_user_set_is_left_as_set(tmp_path, monkeypatch, numpy_switch):
+    stalling = _policy(tmp_path, "[always] madvise never")
+    SWITCH(True)
+    for value in ("1", "0"):
+        monkeypatch.setenv(hugepages.NUMPY_VARIABLE, value)
+        assert not hugepages.numpy_off_for_this_process(stalling)
+        assert _advice_now() is True
+        assert hugepages.worker_env(stalling) == {}
+    monkeypatch.delenv(hugepages.NUMPY_VARIABLE)
+    assert hugepages.worker_env(stalling) == {"NUMPY_MADVISE_HUGEPAGE": "0"}
+    assert hugepages.worker_env(_policy(tmp_path, "always [never]")) == {}
+
+
+def test_only_the_console_script_turns_it_off(monkeypatch):
+    """labcut_cli.app.main: run as the console script (argv None) it decides for its process; called
+    with arguments (a program or a test driving the CLI in its own process) it does not."""
+    from labcut_cli import app as app_module
+
+    calls = []
+    monkeypatch.setattr(app_module, "numpy_off_for_this_process", lambda: calls.append(1) or True)
+    monkeypatch.setattr(app_module, "gc", types.SimpleNamespace(freeze=lambda: None))  # this process goes on
+    with pytest.raises(SystemExit) as done:
+        app_module.main(["scenarios"])
+    assert done.value.code == 0 and calls == []
+    monkeypatch.setattr(sys, "argv", ["labcut", "scenarios"])
+    with pytest.raises(SystemExit) as done:
+        app_module.main()
+    assert done.value.code == 0 and calls == [1]
+
+
+def test_the_batch_workers_get_the_variable_where_the_kernel_stalls(monkeypatch):
+    """The embedded cluster's workers start with NUMPY_MADVISE_HUGEPAGE=0 in their environment
+    where the kernel stalls (numpy reads it at its import in the worker), and without it elsewhere."""
+    import distributed
+
+    seen = []
+
+    class Stop(Exception):
+        pass
+
+    def cluster(**kwargs):
+        seen.append(kwargs.get("env"))
+        raise Stop
+
+    monkeypatch.setattr(distributed, "LocalCluster", cluster)
+    monkeypatch.delenv(hugepages.NUMPY_VARIABLE, raising=False)
+    for stalls in (True, False):
+        monkeypatch.setattr(runner, "worker_env", lambda stalls=stalls: {"NUMPY_MADVISE_HUGEPAGE": "0"} if stalls else {})
+        with pytest.raises(Stop), runner._client(None, 1, False):
+            pass
+    assert seen[0].get("NUMPY_MADVISE_HUGEPAGE") == "0" and "NUMPY_MADVISE_HUGEPAGE" not in seen[1]
