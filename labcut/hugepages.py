@@ -23,6 +23,9 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
+__all__ = ["DEFRAG_FILE", "NUMPY_VARIABLE", "STALLING", "defrag_policy", "numpy_off_for_this_process", "stalls",
+           "worker_env"]
+
 #: the kernel's transparent huge page defrag policy (Linux)
 DEFRAG_FILE = Path("/sys/kernel/mm/transparent_hugepage/defrag")
 #: the policies under which a fault in memory advised for huge pages compacts memory on the spot

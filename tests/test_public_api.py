@@ -17,7 +17,7 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 
 #: the namespaces a front end may import from (docs/architecture.md, "The public API")
-PUBLIC = ("labcut", "labcut.errors", "labcut.fileio", "labcut.validation", "labcut.planner", "labcut.scene",
+PUBLIC = ("labcut", "labcut.errors", "labcut.fileio", "labcut.hugepages", "labcut.validation", "labcut.planner", "labcut.scene",
           "labcut.geometry", "labcut.physics", "labcut.orientation", "labcut.rendering", "labcut.plots",
           "labcut.commands", "labcut.reports", "labcut.rough", "labcut.batch", "labcut.explorer")
 
