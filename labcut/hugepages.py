@@ -4,18 +4,19 @@ numpy asks the kernel for transparent huge pages (``madvise(MADV_HUGEPAGE)``) fo
 every array of 4 MiB or more. What a page fault in that memory then costs is the kernel's choice,
 its ``defrag`` policy (``/sys/kernel/mm/transparent_hugepage/defrag``): under ``always``,
 ``madvise`` and ``defer+madvise`` a fault in advised memory that finds no free huge page
-reclaims and compacts memory on the spot before it returns. On a machine whose memory is
-fragmented (a long-running host, a virtual machine whose host takes freed memory back) that
-stall is milliseconds a fault: a high-quality recommendation's first call in a process spent
-2.7-4.1 s of system time in its faults here, against 0.2-0.3 s with numpy's request off
-(docs/performance.md, "Huge pages"). Under ``defer`` and ``never`` nothing waits.
+reclaims and compacts memory on the spot before it returns, which on a machine whose memory is
+fragmented (a long-running host, a virtual machine whose host takes freed memory back) can take
+longer than the work the memory was for. Under ``defer`` and ``never`` nothing waits.
 
-labcut changes nothing in a process that imports it. The processes that are labcut's own turn
-numpy's request off where the kernel stalls (:func:`stalls`): the ``labcut`` command
-(:func:`numpy_off_for_this_process`, called by the CLI's entry point) and the batch workers it
-starts (:func:`worker_env`). A variable ``NUMPY_MADVISE_HUGEPAGE`` the user has set is left as
-set, in both. A program that calls the library can do the same for itself by setting
-``NUMPY_MADVISE_HUGEPAGE=0`` before numpy is imported.
+labcut changes nothing in a process that imports it. The ``labcut`` command's own process turns
+numpy's request off where the kernel stalls (:func:`stalls`; :func:`numpy_off_for_this_process`,
+called by the CLI's entry point) for the commands that run once and end: their big arrays are
+new, and the kernel has no free huge page to give them without compacting. A process that answers
+for minutes keeps the advice (``labcut explore``: its answers run on memory the last answer
+freed, where huge pages come without a stall and save the faults of 4 KiB pages). A variable
+``NUMPY_MADVISE_HUGEPAGE`` the user has set is left as set. A program that calls the library can
+choose for itself by setting ``NUMPY_MADVISE_HUGEPAGE=0`` before numpy is imported. What each
+choice costs here: docs/performance.md, "Huge pages".
 """
 
 from __future__ import annotations
@@ -23,8 +24,7 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
-__all__ = ["DEFRAG_FILE", "NUMPY_VARIABLE", "STALLING", "defrag_policy", "numpy_off_for_this_process", "stalls",
-           "worker_env"]
+__all__ = ["DEFRAG_FILE", "NUMPY_VARIABLE", "STALLING", "defrag_policy", "numpy_off_for_this_process", "stalls"]
 
 #: the kernel's transparent huge page defrag policy (Linux)
 DEFRAG_FILE = Path("/sys/kernel/mm/transparent_hugepage/defrag")
@@ -68,10 +68,3 @@ def numpy_off_for_this_process(path: Path | str = DEFRAG_FILE) -> bool:
     switch(False)
     return True
 
-
-def worker_env(path: Path | str = DEFRAG_FILE) -> dict[str, str]:
-    """The variable that keeps numpy's huge page advice off in a worker process labcut starts (a
-    batch worker), where the kernel stalls on it and the user has not set it; else nothing."""
-    if NUMPY_VARIABLE in os.environ or not stalls(path):
-        return {}
-    return {NUMPY_VARIABLE: "0"}

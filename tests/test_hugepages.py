@@ -11,7 +11,6 @@ import numpy as np
 import pytest
 
 from labcut import hugepages
-from labcut.batch import runner
 
 SWITCH = np._core.multiarray._set_madvise_hugepage
 
@@ -39,7 +38,6 @@ def test_the_policy_is_the_bracketed_word(tmp_path, text, policy, stalls):
 
 def test_no_policy_file_stalls_nothing(tmp_path):
     assert hugepages.defrag_policy(tmp_path / "absent") is None and not hugepages.stalls(tmp_path / "absent")
-    assert hugepages.worker_env(tmp_path / "absent") == {}
 
 
 @pytest.fixture
@@ -73,15 +71,12 @@ def test_a_variable_the_user_set_is_left_as_set(tmp_path, monkeypatch, numpy_swi
         monkeypatch.setenv(hugepages.NUMPY_VARIABLE, value)
         assert not hugepages.numpy_off_for_this_process(stalling)
         assert _advice_now() is True
-        assert hugepages.worker_env(stalling) == {}
-    monkeypatch.delenv(hugepages.NUMPY_VARIABLE)
-    assert hugepages.worker_env(stalling) == {"NUMPY_MADVISE_HUGEPAGE": "0"}
-    assert hugepages.worker_env(_policy(tmp_path, "always [never]")) == {}
 
 
-def test_only_the_console_script_turns_it_off(monkeypatch):
+def test_only_the_console_script_of_a_command_that_ends_turns_it_off(monkeypatch):
     """labcut_cli.app.main: run as the console script (argv None) it decides for its process; called
-    with arguments (a program or a test driving the CLI in its own process) it does not."""
+    with arguments (a program or a test driving the CLI in its own process) it does not, nor for a
+    command whose process answers for minutes (the explorer: its answers reuse freed memory)."""
     from labcut_cli import app as app_module
 
     calls = []
@@ -94,26 +89,9 @@ def test_only_the_console_script_turns_it_off(monkeypatch):
     with pytest.raises(SystemExit) as done:
         app_module.main()
     assert done.value.code == 0 and calls == [1]
+    assert "explore" in app_module.LONG_LIVED
+    monkeypatch.setattr(sys, "argv", ["labcut", "explore", "--help"])
+    with pytest.raises(SystemExit) as done:
+        app_module.main()
+    assert done.value.code == 0 and calls == [1]
 
-
-def test_the_batch_workers_get_the_variable_where_the_kernel_stalls(monkeypatch):
-    """The embedded cluster's workers start with NUMPY_MADVISE_HUGEPAGE=0 in their environment
-    where the kernel stalls (numpy reads it at its import in the worker), and without it elsewhere."""
-    import distributed
-
-    seen = []
-
-    class Stop(Exception):
-        pass
-
-    def cluster(**kwargs):
-        seen.append(kwargs.get("env"))
-        raise Stop
-
-    monkeypatch.setattr(distributed, "LocalCluster", cluster)
-    monkeypatch.delenv(hugepages.NUMPY_VARIABLE, raising=False)
-    for stalls in (True, False):
-        monkeypatch.setattr(runner, "worker_env", lambda stalls=stalls: {"NUMPY_MADVISE_HUGEPAGE": "0"} if stalls else {})
-        with pytest.raises(Stop), runner._client(None, 1, False):
-            pass
-    assert seen[0].get("NUMPY_MADVISE_HUGEPAGE") == "0" and "NUMPY_MADVISE_HUGEPAGE" not in seen[1]

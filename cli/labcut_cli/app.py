@@ -38,17 +38,20 @@ def _fail(message: str, code: int = 2) -> None:
     sys.exit(code)
 
 
+#: commands whose process answers for minutes: they keep numpy's huge page advice (labcut.hugepages)
+LONG_LIVED = frozenset({"explore"})
+
+
 def main(argv: list[str] | None = None) -> None:
     """Run the CLI; map every expected failure to a one-line message and exit 2.
 
     ``argv`` None (the console script): the process is the command's own. Where the kernel stalls
-    on numpy's huge page advice its arrays go without it (:func:`labcut.hugepages.numpy_off_for_this_process`:
-    a high-quality recommendation's faults waited seconds for memory compaction on such a machine);
-    and the process ends with the command, so the objects it made are frozen out of the
-    interpreter's last garbage collection, which would walk them all (0.2 s after a
-    recommendation) only to free memory the exit frees anyway; files and streams are closed as
-    usual."""
-    if argv is None:
+    on numpy's huge page advice, a command that runs once and ends makes its arrays without it
+    (:func:`labcut.hugepages.numpy_off_for_this_process`; not the :data:`LONG_LIVED` ones, whose
+    answers reuse memory already freed); and the process ends with the command, so the objects
+    it made are frozen out of the interpreter's last garbage collection, which would walk them
+    all only to free memory the exit frees anyway; files and streams are closed as usual."""
+    if argv is None and not LONG_LIVED & set(sys.argv[1:2]):
         numpy_off_for_this_process()
     try:
         _run(argv)

@@ -29,7 +29,6 @@ from pathlib import Path
 from typing import Any
 
 from ..errors import LabcutError, LabcutWarning, ParameterError
-from ..hugepages import worker_env
 from .catalog import Catalog, Defaults, Row, read_catalog
 from .store import ResultStore
 
@@ -308,7 +307,6 @@ def _client(client: Any, workers: int, node_cache: bool) -> Any:
     from distributed import Client, LocalCluster
 
     env = {k: os.environ[k] for k in ("DRJIT_CACHE_DIR", "DRJIT_LIBLLVM_PATH", "LABCUT_BACKEND") if k in os.environ}
-    env.update(worker_env())  # numpy's huge page advice off where the kernel stalls on it (labcut.hugepages)
     has_dashboard = importlib.util.find_spec("bokeh") is not None
     with dask.config.set({TRIM_KEY: None}):  # read once by each nanny when created; a restarted worker gets the same
         cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, silence_logs=logging.ERROR,
