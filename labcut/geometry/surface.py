@@ -353,8 +353,8 @@ def face_cells(mesh: Any) -> np.ndarray:
     vertices' box is found in a third of the time of the centroids'), as the rank of its cell among
     the occupied ones (int32, 0 .. occupied - 1, in curve order). The ranks order the faces as the
     codes do, and a stratified draw over them (:func:`_stratified_faces`) sums and searches arrays
-    as long as the occupied cells, not the 2^21 of the grid: a bundled stone's 10,000-odd faces
-    touch a few thousand cells, and fresh 16 MB arrays in every draw cost more than the draw."""
+    as long as the occupied cells, not the 2^21 of the grid: a bundled stone's faces occupy about
+    a hundredth of it, and two grid-long arrays in every draw cost more than the draw."""
     v = np.asarray(mesh.vertices, dtype=np.float32)
     f = np.asarray(mesh.faces)
     codes = morton_cells(v[f[:, 0]] + v[f[:, 1]] + v[f[:, 2]], 3.0 * v.min(axis=0), 3.0 * v.max(axis=0))

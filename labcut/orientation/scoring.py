@@ -140,10 +140,11 @@ def size_class(n: int) -> int:
     1/8 larger): the length of a Dr.Jit scatter-reduction's target whose exact length changes from
     call to call. On the LLVM backend Dr.Jit expands such a target to one copy per thread
     (``ReduceMode.Expand``, its choice for small targets and the fastest here) and writes the
-    target's length into the kernel, so a length never seen before is a kernel compiled anew (about
-    20 ms on 2 cores, and one more file in Dr.Jit's kernel cache): the bins of every new lamp and
-    material in ``labcut explore``, and of every new stone. Rounded to a class, the kernels repeat:
-    at most 8 per doubling, each compiled once per machine and read from Dr.Jit's cache after."""
+    target's length into the kernel, so a length never seen before is a kernel compiled anew (and
+    one more file in Dr.Jit's kernel cache): the bins of every new lamp and material in ``labcut
+    explore``, and of every new stone (docs/performance.md, "Kernels compiled anew for every new
+    lamp"). Rounded to a class, the kernels repeat: at most 8 per doubling, each compiled once per
+    machine and read from Dr.Jit's cache after."""
     n = max(int(n), 1)
     shift = n.bit_length() - SIZE_CLASSES_PER_OCTAVE.bit_length()  # log2(n) - log2(classes), floored
     if shift <= 0:
