@@ -1,22 +1,23 @@
-"""Transparent huge pages and numpy: whether this machine's kernel makes a process wait for them.
+"""Transparent huge pages and numpy: whether the kernel acts on numpy's huge page advice.
 
 numpy asks the kernel for transparent huge pages (``madvise(MADV_HUGEPAGE)``) for the memory of
-every array of 4 MiB or more. What a page fault in that memory then costs is the kernel's choice,
-its ``defrag`` policy (``/sys/kernel/mm/transparent_hugepage/defrag``): under ``always``,
-``madvise`` and ``defer+madvise`` a fault in advised memory that finds no free huge page
-reclaims and compacts memory on the spot before it returns, which on a machine whose memory is
-fragmented (a long-running host, a virtual machine whose host takes freed memory back) can take
-longer than the work the memory was for. Under ``defer`` and ``never`` nothing waits.
+every array of 4 MiB or more; the kernel acts on it where its transparent huge pages are enabled
+``always`` or on ``madvise`` (``/sys/kernel/mm/transparent_hugepage/enabled``). A huge page is a
+whole free 2 MiB block, and where the process has none of its own the first touch of one may
+wait: a kernel whose memory is fragmented compacts memory for it (its ``defrag`` policy), and a
+virtual machine that reports its free 2 MiB blocks to its host (free page reporting, a
+``page_reporting_order`` of 9) gets blocks the host has taken back and must supply again, page by
+page of the block, as the block is cleared. 4 KiB pages come from memory the kernel has at hand.
 
 labcut changes nothing in a process that imports it. The ``labcut`` command's own process turns
-numpy's request off where the kernel stalls (:func:`stalls`; :func:`numpy_off_for_this_process`,
-called by the CLI's entry point) for the commands that run once and end: their big arrays are
-new, and the kernel has no free huge page to give them without compacting. A process that answers
-for minutes keeps the advice (``labcut explore``: its answers run on memory the last answer
-freed, where huge pages come without a stall and save the faults of 4 KiB pages). A variable
+numpy's advice off where the kernel acts on it (:func:`advice_taken`;
+:func:`numpy_off_for_this_process`, called by the CLI's entry point) for the commands that run
+once and end: their big arrays are new, every one of them a first touch. A process that answers
+for minutes keeps the advice (``labcut explore``: its answers run on memory the last answer freed,
+where huge pages come without a wait and save the faults of 4 KiB pages). A variable
 ``NUMPY_MADVISE_HUGEPAGE`` the user has set is left as set. A program that calls the library can
 choose for itself by setting ``NUMPY_MADVISE_HUGEPAGE=0`` before numpy is imported. What each
-choice costs here: docs/performance.md, "Huge pages".
+choice costs on this project's machine: docs/performance.md, "Huge pages".
 """
 
 from __future__ import annotations
@@ -24,20 +25,20 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
-__all__ = ["DEFRAG_FILE", "NUMPY_VARIABLE", "STALLING", "defrag_policy", "numpy_off_for_this_process", "stalls"]
+__all__ = ["ENABLED_FILE", "NUMPY_VARIABLE", "TAKEN", "advice_taken", "numpy_off_for_this_process", "thp_policy"]
 
-#: the kernel's transparent huge page defrag policy (Linux)
-DEFRAG_FILE = Path("/sys/kernel/mm/transparent_hugepage/defrag")
-#: the policies under which a fault in memory advised for huge pages compacts memory on the spot
-STALLING = ("always", "madvise", "defer+madvise")
+#: whether the kernel's transparent huge pages are on (Linux)
+ENABLED_FILE = Path("/sys/kernel/mm/transparent_hugepage/enabled")
+#: the settings under which the kernel backs memory advised for huge pages with huge pages
+TAKEN = ("always", "madvise")
 #: numpy's switch, read when numpy is imported (``0``: no huge page advice)
 NUMPY_VARIABLE = "NUMPY_MADVISE_HUGEPAGE"
 
 
-def defrag_policy(path: Path | str = DEFRAG_FILE) -> str | None:
-    """The kernel's chosen defrag policy (the bracketed word of ``path``, e.g. ``madvise`` in
-    ``always defer defer+madvise [madvise] never``), or None where the file cannot be read (no
-    transparent huge pages, not Linux) or holds no bracketed word."""
+def thp_policy(path: Path | str = ENABLED_FILE) -> str | None:
+    """The kernel's chosen setting (the bracketed word of ``path``, e.g. ``madvise`` in
+    ``always [madvise] never``), or None where the file cannot be read (no transparent huge pages,
+    not Linux) or holds no bracketed word."""
     try:
         text = Path(path).read_text(encoding="ascii", errors="replace")
     except OSError:
@@ -48,17 +49,16 @@ def defrag_policy(path: Path | str = DEFRAG_FILE) -> str | None:
     return None
 
 
-def stalls(path: Path | str = DEFRAG_FILE) -> bool:
-    """Whether a page fault in memory advised for huge pages may wait for the kernel to compact
-    memory (:data:`STALLING`)."""
-    return defrag_policy(path) in STALLING
+def advice_taken(path: Path | str = ENABLED_FILE) -> bool:
+    """Whether the kernel backs memory advised for huge pages with huge pages (:data:`TAKEN`)."""
+    return thp_policy(path) in TAKEN
 
 
-def numpy_off_for_this_process(path: Path | str = DEFRAG_FILE) -> bool:
+def numpy_off_for_this_process(path: Path | str = ENABLED_FILE) -> bool:
     """Turn numpy's huge page advice off for the arrays this process makes from now on, where the
-    kernel stalls on it and the user has not set ``NUMPY_MADVISE_HUGEPAGE``; True when turned off.
+    kernel acts on it and the user has not set ``NUMPY_MADVISE_HUGEPAGE``; True when turned off.
     For a process that is labcut's own (the ``labcut`` command): a library call never makes it."""
-    if NUMPY_VARIABLE in os.environ or not stalls(path):
+    if NUMPY_VARIABLE in os.environ or not advice_taken(path):
         return False
     import numpy as np
 
@@ -67,4 +67,3 @@ def numpy_off_for_this_process(path: Path | str = DEFRAG_FILE) -> bool:
         return False
     switch(False)
     return True
-

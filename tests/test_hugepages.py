@@ -1,6 +1,7 @@
-"""numpy's huge page advice in labcut's own processes (labcut.hugepages): off where the kernel's
-defrag policy makes a fault in advised memory wait for compaction, left alone elsewhere, in a
-library call, and wherever the user set NUMPY_MADVISE_HUGEPAGE."""
+"""numpy's huge page advice in labcut's own processes (labcut.hugepages): off where the kernel acts
+on it (transparent huge pages enabled always or on madvise) in a command that runs once and ends,
+left alone elsewhere, in a library call, in the explorer, and wherever the user set
+NUMPY_MADVISE_HUGEPAGE."""
 
 from __future__ import annotations
 
@@ -21,23 +22,21 @@ def _policy(tmp_path, text):
     return path
 
 
-@pytest.mark.parametrize("text, policy, stalls", [
-    ("always defer defer+madvise [madvise] never", "madvise", True),
-    ("[always] defer defer+madvise madvise never", "always", True),
-    ("always defer [defer+madvise] madvise never", "defer+madvise", True),
-    ("always [defer] defer+madvise madvise never", "defer", False),
-    ("always defer defer+madvise madvise [never]", "never", False),
+@pytest.mark.parametrize("text, policy, taken", [
+    ("always [madvise] never", "madvise", True),
+    ("[always] madvise never", "always", True),
+    ("always madvise [never]", "never", False),
     ("always madvise never", None, False),
     ("", None, False),
 ])
-def test_the_policy_is_the_bracketed_word(tmp_path, text, policy, stalls):
+def test_the_policy_is_the_bracketed_word(tmp_path, text, policy, taken):
     path = _policy(tmp_path, text)
-    assert hugepages.defrag_policy(path) == policy
-    assert hugepages.stalls(path) is stalls
+    assert hugepages.thp_policy(path) == policy
+    assert hugepages.advice_taken(path) is taken
 
 
-def test_no_policy_file_stalls_nothing(tmp_path):
-    assert hugepages.defrag_policy(tmp_path / "absent") is None and not hugepages.stalls(tmp_path / "absent")
+def test_no_policy_file_takes_no_advice(tmp_path):
+    assert hugepages.thp_policy(tmp_path / "absent") is None and not hugepages.advice_taken(tmp_path / "absent")
 
 
 @pytest.fixture
@@ -55,21 +54,21 @@ def _advice_now() -> bool:
     return now
 
 
-def test_the_command_process_turns_the_advice_off_where_the_kernel_stalls(tmp_path, monkeypatch, numpy_switch):
+def test_the_command_process_turns_the_advice_off_where_the_kernel_acts_on_it(tmp_path, monkeypatch, numpy_switch):
     monkeypatch.delenv(hugepages.NUMPY_VARIABLE, raising=False)
     SWITCH(True)
-    assert not hugepages.numpy_off_for_this_process(_policy(tmp_path, "always [defer] madvise never"))
+    assert not hugepages.numpy_off_for_this_process(_policy(tmp_path, "always madvise [never]"))
     assert _advice_now() is True
-    assert hugepages.numpy_off_for_this_process(_policy(tmp_path, "always defer [madvise] never"))
+    assert hugepages.numpy_off_for_this_process(_policy(tmp_path, "always [madvise] never"))
     assert _advice_now() is False
 
 
 def test_a_variable_the_user_set_is_left_as_set(tmp_path, monkeypatch, numpy_switch):
-    stalling = _policy(tmp_path, "[always] madvise never")
+    taken = _policy(tmp_path, "[always] madvise never")  # the kernel acts on the advice
     SWITCH(True)
     for value in ("1", "0"):
         monkeypatch.setenv(hugepages.NUMPY_VARIABLE, value)
-        assert not hugepages.numpy_off_for_this_process(stalling)
+        assert not hugepages.numpy_off_for_this_process(taken)
         assert _advice_now() is True
 
 

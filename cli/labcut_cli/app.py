@@ -45,7 +45,7 @@ LONG_LIVED = frozenset({"explore"})
 def main(argv: list[str] | None = None) -> None:
     """Run the CLI; map every expected failure to a one-line message and exit 2.
 
-    ``argv`` None (the console script): the process is the command's own. Where the kernel stalls
+    ``argv`` None (the console script): the process is the command's own. Where the kernel acts
     on numpy's huge page advice, a command that runs once and ends makes its arrays without it
     (:func:`labcut.hugepages.numpy_off_for_this_process`; not the :data:`LONG_LIVED` ones, whose
     answers reuse memory already freed); and the process ends with the command, so the objects
