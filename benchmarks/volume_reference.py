@@ -682,7 +682,7 @@ def compare(paths: int, points: int, fresh: bool, *, stones: list[str] | None = 
             DATA.write_text(json.dumps(data, indent=1))
             print(f"{key}: labcut {rec.estimator} tilt {rec.tilt_deg:.2f}° tol {rec.tolerance_deg:.2f}°  "
                   f"reference tilt {ref_tilt:.2f}° tol {ref_tol:.2f}°", flush=True)
-    data["machine"] = f"{platform.machine()}, {platform.python_version()}"
+    data["machine"] = f"{platform.machine()}, Python {platform.python_version()}"
     DATA.write_text(json.dumps(data, indent=1))
     return data
 
