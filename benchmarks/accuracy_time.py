@@ -231,10 +231,9 @@ def render_study(quick: bool) -> list[dict]:
 
 def numpy_advice() -> bool:
     """Whether numpy asks for huge pages in this process (labcut.hugepages)."""
-    switch = np._core.multiarray._set_madvise_hugepage
-    now = switch(True)
-    switch(now)
-    return bool(now)
+    from labcut.hugepages import numpy_advice as advice
+
+    return advice() is not False
 
 
 def budget_study(quick: bool) -> list[dict]:
@@ -437,10 +436,10 @@ def report(results: list[dict], renders: list[dict], images: list[str], args, se
         lines += ["", f"Worst actual / budget where a rung fitted: {worst:.2f}. The runs go in the order shown, "
                   "starting with no learnt correction; each run's actual / predicted time updates the correction of "
                   "its kind (with or without occlusion) that the next prediction uses. "
-                  + ("Measured with numpy's huge page advice off, as the `labcut` command runs where the kernel acts on it "
+                  + ("Measured with numpy's huge page advice off, as the `labcut` command runs where the advice decides "
                      "(`NUMPY_MADVISE_HUGEPAGE=0`; docs/performance.md, \"Huge pages\")." if not numpy_advice() else
                      "Measured with numpy's huge page advice on (a library call's default; the `labcut` command turns it off "
-                     "where the kernel acts on it: docs/performance.md, \"Huge pages\")."), ""]
+                     "where the advice decides: docs/performance.md, \"Huge pages\")."), ""]
     if compare_budgets:
         lines += ["`labcut compare CUT... --time-budget SECONDS` (API `compare_cuts(..., time_budget=)`) does the same for a "
                   "whole comparison: each part of it (per cut and scenario the recommendation, the scorer of its curves, "

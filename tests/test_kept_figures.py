@@ -123,12 +123,11 @@ def test_the_depth_exposures_key_holds_the_geometry_the_material_and_the_samplin
     assert len(calls) == 6
 
 
-
 def test_a_stones_depth_geometry_serves_every_material(monkeypatch, fresh_user_cache):
     """The thicknesses behind the samples and the normals' turn rates are the stone's, whatever the
     material: a stone asked about three stacks casts its thickness rays once (a new flash peak in
-    the explorer compared its depth with them anew, 0.1 s), and each answer is the one a stone that
-    never saw another material gives."""
+    the explorer cast them anew), and each answer is the one a stone that never saw another
+    material gives."""
     calls = _counted(monkeypatch, volume, "convex_thickness")
     turns = _counted(monkeypatch, volume, "corner_normals")
     stone = labcut.Stone.of(_stone())
@@ -144,6 +143,7 @@ def test_a_stones_depth_geometry_serves_every_material(monkeypatch, fresh_user_c
         monkeypatch.setattr(fileio, "code_hash", lambda *paths: "another round")  # not read back from the cache
         assert volume.depth_exposure(labcut.Stone.of(_stone()), m) == a
     assert len(calls) == 4
+
 
 def test_a_damaged_depth_exposure_is_measured_again_with_a_warning(monkeypatch, fresh_user_cache):
     first = volume.depth_exposure(_stone(), LAB)

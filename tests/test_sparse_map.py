@@ -353,8 +353,7 @@ def test_size_class_rounds_up_by_at_most_an_eighth():
 def test_the_device_bins_kernel_repeats_for_a_new_bin_count(scorer):
     """A new lamp, material or stone occupies a new number of grid cells. The device sums' kernel
     must not change with it: Dr.Jit writes a scatter-reduction target's length into the LLVM
-    kernel, so an exact length compiled a new kernel (about 20 ms) for every new lamp in `labcut
-    explore`. Over problems of one size class and many bin counts the sums' kernel (the one with
+    kernel, so an exact length compiled a new kernel for every new lamp in `labcut explore`. Over problems of one size class and many bin counts the sums' kernel (the one with
     the most inputs) is one program: its LLVM code the same but for its name and the alignment
     Dr.Jit notes of each input it maps from numpy (64 bytes or not: a few variants, each compiled
     once and cached)."""

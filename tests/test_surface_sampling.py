@@ -76,7 +76,6 @@ def test_every_octant_of_the_stone_holds_its_area_share_to_within_one(high_oval)
     assert np.abs(rand - n * np.bincount(octant, weights=split.area_faces, minlength=8) / split.area_faces.sum()).max() > 5.0
 
 
-
 def test_face_cells_rank_the_occupied_cells_in_curve_order(high_oval):
     """face_cells gives each face the rank of its Morton cell among the occupied cells: 0 .. K-1,
     every rank used, in the codes' order; a draw over the ranks is the draw over the codes to the
@@ -95,6 +94,7 @@ def test_face_cells_rank_the_occupied_cells_in_curve_order(high_oval):
         by_rank = surface._stratified_faces(split.area_faces, ranks, 5000, np.random.default_rng(seed))
         by_code = surface._stratified_faces(split.area_faces, codes, 5000, np.random.default_rng(seed))
         assert np.array_equal(by_rank[0], by_code[0]) and np.array_equal(by_rank[1], by_code[1])
+
 
 def test_the_samples_are_area_uniform_on_the_surface(high_oval):
     """Their points lie on the mesh, their shading normals are unit, and the share above half the

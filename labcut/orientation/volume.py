@@ -446,8 +446,9 @@ def depth_exposure(mesh: Any, material: Labradorite) -> dict[str, float]:
     key = f"depth_exposure_{law.depth_mm:.6g}_{flash:.6g}"
 
     def build() -> dict[str, float]:
-        thick = stone.cached("depth_exposure_thickness", lambda: _exposure_thickness(stone))
-        rate, weight = stone.cached("depth_exposure_turn_rates", lambda: _exposure_turn_rates(stone))
+        thick = stone.cached(f"depth_exposure_thickness_{EXPOSURE_POINTS}_{EXPOSURE_SAMPLING}",
+                             lambda: _exposure_thickness(stone))
+        rate, weight = stone.cached(f"depth_exposure_turn_rates_{EXPOSURE_FACES}", lambda: _exposure_turn_rates(stone))
         thin = float(np.mean(thick < law.depth_mm))
         turn_deg = float(np.degrees(np.sum(weight * np.minimum(rate * 2.0 * flash, math.pi / 2)) / max(weight.sum(), 1e-300)))
         return {"thin_share": round(thin, 4), "turn_deg": round(turn_deg, 3), "flash_depth_mm": round(flash, 4),
