@@ -98,7 +98,7 @@ def test_a_library_call_leaves_numpys_advice_as_it_was():
     """In a process of the user's own, importing labcut and asking it something changes nothing of
     numpy's advice."""
     code = ("from labcut.hugepages import numpy_advice; before = numpy_advice(); import labcut; "
-            "labcut.recommend_orientation(labcut.cabochon('oval', 8, 6, dome='low'), 'blue', quality='draft'); "
+            "labcut.evaluate_orientation(labcut.cabochon('oval', 8, 6, dome='low'), (0, 0, 1), 'blue', quality='draft'); "
             "print(before, numpy_advice())")
     env = {k: v for k, v in os.environ.items() if k != hugepages.NUMPY_VARIABLE}
     out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=300)
