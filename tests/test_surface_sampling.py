@@ -82,9 +82,8 @@ def test_face_cells_rank_the_occupied_cells_in_curve_order(high_oval):
     bit (the empty cells between add exact zeros to the running total), over arrays of K cells
     instead of the grid's 2^21."""
     split = labcut.Stone.of(high_oval).smooth_split()
-    v = np.asarray(split.vertices, dtype=np.float32)
     f = split.faces
-    codes = surface.morton_cells(v[f[:, 0]] + v[f[:, 1]] + v[f[:, 2]], 3.0 * v.min(axis=0), 3.0 * v.max(axis=0))
+    codes = surface.face_codes(split)
     ranks = surface.face_cells(split)
     assert ranks.dtype.itemsize <= 4 and ranks.min() == 0
     assert np.array_equal(np.unique(ranks), np.arange(ranks.max() + 1))

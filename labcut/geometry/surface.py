@@ -346,18 +346,24 @@ def draw_samples(mesh: Any, count: int, seed: int, angle: float, convex: bool, s
     return SurfaceSamples(points, n_geo, n_sh, seed, convex)
 
 
-def face_cells(mesh: Any) -> np.ndarray:
-    """The faces of ``mesh`` (anything with ``vertices`` and ``faces``): each one's cell on the
-    :func:`morton_cells` curve by its centroid, in the box of the vertices (centroids summed in
+def face_codes(mesh: Any) -> np.ndarray:
+    """The faces of ``mesh`` (anything with ``vertices`` and ``faces``): each one's
+    :func:`morton_cells` code by its centroid, in the box of the vertices (centroids summed in
     float32, so the box is three times the vertices': the cells need no more precision, and the
-    vertices' box is found in a third of the time of the centroids'), as the rank of its cell among
-    the occupied ones (int32, 0 .. occupied - 1, in curve order). The ranks order the faces as the
-    codes do, and a stratified draw over them (:func:`_stratified_faces`) sums and searches arrays
-    as long as the occupied cells, not the 2^21 of the grid: a bundled stone's faces occupy about
-    a hundredth of it, and two grid-long arrays in every draw cost more than the draw."""
+    vertices' box is found in a third of the time of the centroids')."""
     v = np.asarray(mesh.vertices, dtype=np.float32)
     f = np.asarray(mesh.faces)
-    codes = morton_cells(v[f[:, 0]] + v[f[:, 1]] + v[f[:, 2]], 3.0 * v.min(axis=0), 3.0 * v.max(axis=0))
+    return morton_cells(v[f[:, 0]] + v[f[:, 1]] + v[f[:, 2]], 3.0 * v.min(axis=0), 3.0 * v.max(axis=0))
+
+
+def face_cells(mesh: Any) -> np.ndarray:
+    """Each face's :func:`face_codes` cell as the rank of its cell among the occupied ones (int32,
+    0 .. occupied - 1, in curve order). The ranks order the faces as the codes do, and a stratified
+    draw over them (:func:`_stratified_faces`) sums and searches arrays as long as the occupied
+    cells, not the 2^21 of the grid: a bundled stone's faces occupy about a hundredth of it, and two
+    grid-long arrays in every draw cost more than the draw. (The ranks are
+    :func:`labcut.orientation.scoring.grid_inverse`'s dense form, which this layer cannot call.)"""
+    codes = face_codes(mesh)
     present = np.zeros(1 << (3 * CELL_BITS), dtype=bool)
     present[codes] = True
     rank = np.cumsum(present, dtype=np.int32)
