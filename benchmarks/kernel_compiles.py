@@ -1,0 +1,91 @@
+"""Kernels Dr.Jit compiles for a question it has not seen (docs/performance.md, "Kernels compiled
+anew for every new lamp").
+
+    .venv/bin/python benchmarks/kernel_compiles.py
+
+1. The score map's bin sums (``labcut.orientation.scoring._device_bins``) on the low oval's live
+   problem: the median time of a call with the scatter-reduction's mode Dr.Jit picks (``Expand`` on
+   the LLVM backend) and with plain atomics (``Direct``), warm.
+2. Renders (96 px, 4 spp) of three cabochons of new sizes, then of the last one in three new
+   materials: the kernels compiled (Dr.Jit's kernel history: neither in memory nor in its cache
+   folder), their operations and their compile milliseconds.
+3. The files in Dr.Jit's kernel cache folder (``~/.drjit``, or ``DRJIT_CACHE_DIR``).
+"""
+
+from __future__ import annotations
+
+import os
+import random
+import statistics
+import time
+from pathlib import Path
+
+
+def compiled(call) -> list[dict]:
+    """The kernels ``call()`` compiled (not found in memory or in the cache folder)."""
+    import drjit as dr
+
+    dr.set_flag(dr.JitFlag.KernelHistory, True)
+    dr.kernel_history()  # cleared
+    try:
+        call()
+        return [k for k in dr.kernel_history() if k.get("hash") and not k.get("cache_hit") and not k.get("cache_disk")]
+    finally:
+        dr.set_flag(dr.JitFlag.KernelHistory, False)
+
+
+def bin_sums_by_mode() -> None:
+    import drjit as dr
+
+    import labcut
+    from labcut.explorer.session import ExploreSession
+    from labcut.orientation import scoring
+
+    session = ExploreSession(labcut.Stone.load("meshes/oval-16x12-low.ply"), scenario="bench", quality="standard")
+    session.view()
+    problem = session.study().surface_scorer.problem
+    real = dr.scatter_reduce
+    try:
+        for mode in ("Auto", "Direct"):
+            dr.scatter_reduce = lambda *a, _m=getattr(dr.ReduceMode, mode), **k: real(*a, **{"mode": _m, **k})
+            scoring._device_bins(problem, 612)  # compiled or read from the cache
+            times = []
+            for _ in range(15):
+                t = time.perf_counter()
+                scoring._device_bins(problem, 612)
+                times.append(time.perf_counter() - t)
+            print(f"bin sums, mode {mode}: median {1e3 * statistics.median(times):.1f} ms "
+                  f"({problem.n_triples:,} triples, 612 x 612 grid)")
+    finally:
+        dr.scatter_reduce = real
+
+
+def renders_of_new_stones() -> None:
+    import labcut
+
+    rng = random.Random()
+    cab = None
+    for _ in range(3):
+        length = round(rng.uniform(12.0, 20.0), 3)
+        cab = labcut.cabochon("oval", length, round(length * rng.uniform(0.6, 0.9), 3), dome="medium")
+        built = compiled(lambda: labcut.render(cab, "blue", resolution=96, spp=4))
+        print(f"render of a new {length} mm cabochon: {len(built)} kernel(s) compiled, "
+              f"{sum(k['operation_count'] for k in built)} operations, {sum(k['backend_time'] for k in built):.0f} ms")
+    for _ in range(3):
+        peak = round(rng.uniform(450.0, 600.0), 2)
+        built = compiled(lambda: labcut.render(cab, labcut.Labradorite.from_peak_wavelength(peak), resolution=96, spp=4))
+        print(f"the same cabochon in a new material ({peak} nm): {len(built)} kernel(s) compiled, "
+              f"{sum(k['backend_time'] for k in built):.0f} ms")
+
+
+def main() -> None:
+    os.chdir(Path(__file__).resolve().parents[1])
+    bin_sums_by_mode()
+    renders_of_new_stones()
+    folder = Path(os.environ.get("DRJIT_CACHE_DIR", Path.home() / ".drjit"))
+    files = list(folder.glob("*")) if folder.is_dir() else []
+    print(f"Dr.Jit's kernel cache {folder}: {len(files):,} files, {sum(f.stat().st_size for f in files) / 2**20:.0f} MiB")
+
+
+if __name__ == "__main__":
+    main()
