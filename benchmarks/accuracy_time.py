@@ -229,13 +229,6 @@ def render_study(quick: bool) -> list[dict]:
     return out
 
 
-def numpy_advice() -> bool:
-    """Whether numpy asks for huge pages in this process (labcut.hugepages)."""
-    from labcut.hugepages import numpy_advice as advice
-
-    return advice() is not False
-
-
 def budget_study(quick: bool) -> list[dict]:
     """``time_budget=``: the quality chosen, predicted and actual seconds, for each case and budget."""
     import labcut
@@ -364,6 +357,8 @@ def plot(results: list[dict], images: Path) -> list[str]:
 
 def report(results: list[dict], renders: list[dict], images: list[str], args, seconds: float,
            budgets: list[dict] | None = None, compare_budgets: list[dict] | None = None) -> str:
+    from labcut.hugepages import numpy_advice
+
     cpu = next((ln.split(":", 1)[1].strip() for ln in open("/proc/cpuinfo") if ln.startswith("model name")), platform.processor())
     cmd = "`.venv/bin/python benchmarks/accuracy_time.py" + (" --quick" if args.quick else "") + "`"
     lines = [
@@ -437,7 +432,7 @@ def report(results: list[dict], renders: list[dict], images: list[str], args, se
                   "starting with no learnt correction; each run's actual / predicted time updates the correction of "
                   "its kind (with or without occlusion) that the next prediction uses. "
                   + ("Measured with numpy's huge page advice off, as the `labcut` command runs where the advice decides "
-                     "(`NUMPY_MADVISE_HUGEPAGE=0`; docs/performance.md, \"Huge pages\")." if not numpy_advice() else
+                     "(`NUMPY_MADVISE_HUGEPAGE=0`; docs/performance.md, \"Huge pages\")." if numpy_advice() is False else
                      "Measured with numpy's huge page advice on (a library call's default; the `labcut` command turns it off "
                      "where the advice decides: docs/performance.md, \"Huge pages\")."), ""]
     if compare_budgets:

@@ -10,8 +10,8 @@ seen. ``--pictures``: the preview and the refined picture of each state drawn be
 change, as the server draws them (the memory they free is what the next answer's arrays land on);
 the preview, drawn right after the answer as the server draws it, is timed too ("preview ms").
 ``--no-huge-pages``: numpy asked not to request transparent huge pages for its big arrays (this
-benchmark's process only: labcut itself changes no numpy setting), to see what they add to the
-system time. ``--fresh-cache``: labcut's user cache in a new empty folder, so that every material (and
+benchmark's process only: the library changes no numpy setting, and ``labcut explore`` keeps
+numpy's default: docs/performance.md, "Huge pages"), to see what they add to the system time. ``--fresh-cache``: labcut's user cache in a new empty folder, so that every material (and
 lamp) is one the machine has never seen and its reflectance tables are built in the answer. ``perf record -g .venv/bin/python benchmarks/explore_inprocess.py --pictures`` shows
 where the system time goes (``clear_page_erms``: the kernel clearing fresh pages).
 ``--random-lamps``: the six lamps' elevations drawn at random (40-85°, a new draw each run), as a

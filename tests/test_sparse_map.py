@@ -353,12 +353,10 @@ def test_size_class_rounds_up_by_at_most_an_eighth():
 def test_the_device_bins_kernel_repeats_for_a_new_bin_count(scorer):
     """A new lamp, material or stone occupies a new number of grid cells. The device sums' kernel
     must not change with it: Dr.Jit writes a scatter-reduction target's length into the LLVM
-    kernel, so an exact length compiled a new kernel for every new lamp in `labcut explore`. Over problems of one size class and many bin counts the sums' kernel (the one with
-    the most inputs) is one program: its LLVM code the same but for its name and the alignment
-    Dr.Jit notes of each input it maps from numpy (64 bytes or not: a few variants, each compiled
-    once and cached)."""
-    from dataclasses import replace
-
+    kernel, so an exact length compiled a new kernel for every new lamp in `labcut explore`. Over
+    problems of one size class and many bin counts the sums' kernel (the one with the most inputs)
+    is one program: its LLVM code the same but for its name and the alignment Dr.Jit notes of each
+    input it maps from numpy (64 bytes or not: a few variants, each compiled once and cached)."""
     import drjit as dr
 
     from labcut.orientation import scoring as scoring_module
