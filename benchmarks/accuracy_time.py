@@ -231,17 +231,21 @@ def render_study(quick: bool) -> list[dict]:
 
 def budget_study(quick: bool) -> list[dict]:
     """``time_budget=``: the quality chosen, predicted and actual seconds, for each case and budget."""
+    import warnings
+
     import labcut
     from labcut.commands.budget import corrections_path
+    from labcut.hugepages import numpy_advice
 
+    with warnings.catch_warnings():  # this machine's calibrations measured where none are kept
+        warnings.simplefilter("ignore")
+        labcut.recommend_orientation(load(next(iter(CASES))), "blue", scenario=SCENARIO, time_budget=0.25)
     corrections_path().unlink(missing_ok=True)  # start from the calibration alone: the table shows the learning
     out = []
     for case in CASES:
         mesh = load(case)
         labcut.recommend_orientation(mesh, "blue", scenario=SCENARIO, quality="draft")  # warm
         for budget in ((0.5, 2.0) if quick else (0.25, 0.5, 1.0, 2.0, 5.0, 10.0)):
-            import warnings
-
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
                 t = time.perf_counter()
@@ -250,7 +254,7 @@ def budget_study(quick: bool) -> list[dict]:
             b = rec.settings["time_budget"]
             out.append({"case": case, "budget": budget, "quality": b["quality"], "predicted": b["predicted_seconds"],
                         "seconds": took, "over": b["note"] is not None, "bar_deg": rec.uncertainty.angle_deg,
-                        "correction": b.get("correction", 1.0)})
+                        "correction": b.get("correction", 1.0), "huge_page_advice": numpy_advice()})
             print(f"  budget {case} {budget:g} s: {b['quality']}, predicted {b['predicted_seconds']:.2f} s, took {took:.2f} s",
                   flush=True)
     return out
@@ -267,10 +271,14 @@ def compare_budget_study(quick: bool) -> list[dict]:
 
     import labcut
     from labcut.commands.budget import forget
+    from labcut.hugepages import numpy_advice
     from labcut.reports.budget import KIND
 
+    with warnings.catch_warnings():  # warm, this machine's calibrations measured where none are kept
+        warnings.simplefilter("ignore")
+        labcut.compare_cuts(COMPARE_CUTS[:1], "blue", [SCENARIO], quality="draft", resolution=32, spp=2)
+        labcut.compare_cuts(COMPARE_CUTS[:1], "blue", [SCENARIO], time_budget=3.0, resolution=32, spp=2)
     forget(KIND)  # start from the calibration alone: the table shows the learning
-    labcut.compare_cuts(COMPARE_CUTS[:1], "blue", [SCENARIO], quality="draft", resolution=32, spp=2)  # warm
     out = []
     for budget in ((5.0, 20.0) if quick else (3.0, 5.0, 10.0, 20.0, 40.0)):
         with warnings.catch_warnings():
@@ -281,7 +289,8 @@ def compare_budget_study(quick: bool) -> list[dict]:
         b = cmp.budget
         bars = [c.scenarios[SCENARIO].recommendation.uncertainty.angle_deg for c in cmp.cuts]
         out.append({"budget": budget, "quality": b["quality"], "predicted": b["predicted_seconds"], "seconds": took,
-                    "over": b["note"] is not None, "bar_deg": max(bars), "correction": b.get("correction", 1.0)})
+                    "over": b["note"] is not None, "bar_deg": max(bars), "correction": b.get("correction", 1.0),
+                    "huge_page_advice": numpy_advice()})
         print(f"  compare budget {budget:g} s: {b['quality']}, predicted {b['predicted_seconds']:.2f} s, took {took:.2f} s",
               flush=True)
     return out
@@ -290,7 +299,7 @@ def compare_budget_study(quick: bool) -> list[dict]:
 def budget_table(rows: list[dict], bar: str) -> list[str]:
     """Markdown rows of a budget study (a ``case`` column when the rows have one)."""
     case = bool(rows) and "case" in rows[0]
-    head = ["case"] * case + ["budget", "quality chosen", "predicted", "correction learnt", "actual", "actual / budget", bar]
+    head = ["case"] * case + ["budget", "quality chosen", "predicted", "correction applied", "actual", "actual / budget", bar]
     out = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     for b in rows:
         flag = " (below the cheapest: ran it)" if b["over"] else ""
@@ -355,9 +364,22 @@ def plot(results: list[dict], images: Path) -> list[str]:
     return names
 
 
+def advice_note(budgets: list[dict]) -> str:
+    """Under which numpy huge page advice the time budgets ran, as their rows recorded it."""
+    seen = {b.get("huge_page_advice") for b in budgets}
+    if seen == {False}:
+        return ("Measured with numpy's huge page advice off, as the `labcut` command runs where the advice decides "
+                "(`NUMPY_MADVISE_HUGEPAGE=0`; docs/performance.md, \"Huge pages\").")
+    if seen == {True}:
+        return ("Measured with numpy's huge page advice on (a library call's default; the `labcut` command turns it off "
+                "where the advice decides: docs/performance.md, \"Huge pages\").")
+    return ("The runs recorded different numpy huge page advice, or none (docs/performance.md, "
+            "\"Huge pages\").")
+
+
 def report(results: list[dict], renders: list[dict], images: list[str], args, seconds: float,
            budgets: list[dict] | None = None, compare_budgets: list[dict] | None = None) -> str:
-    from labcut.hugepages import numpy_advice
+    from labcut.commands.budget import REACH
 
     cpu = next((ln.split(":", 1)[1].strip() for ln in open("/proc/cpuinfo") if ln.startswith("model name")), platform.processor())
     cmd = "`.venv/bin/python benchmarks/accuracy_time.py" + (" --quick" if args.quick else "") + "`"
@@ -430,20 +452,23 @@ def report(results: list[dict], renders: list[dict], images: list[str], args, se
         worst = worst_ratio(budgets)
         lines += ["", f"Worst actual / budget where a rung fitted: {worst:.2f}. The runs go in the order shown, "
                   "starting with no learnt correction; each run's actual / predicted time updates the correction of "
-                  "its kind (with or without occlusion) that the next prediction uses. "
-                  + ("Measured with numpy's huge page advice off, as the `labcut` command runs where the advice decides "
-                     "(`NUMPY_MADVISE_HUGEPAGE=0`; docs/performance.md, \"Huge pages\")." if numpy_advice() is False else
-                     "Measured with numpy's huge page advice on (a library call's default; the `labcut` command turns it off "
-                     "where the advice decides: docs/performance.md, \"Huge pages\")."), ""]
+                  "its kind (with or without occlusion) that the next prediction uses. A correction below 1 holds only "
+                  f"up to {REACH:g}x the largest prediction a run beat (`labcut/commands/budget.py`): where the "
+                  "correction applied is x1.00 after smaller runs that were faster, the rung lies beyond that reach. "
+                  + advice_note(budgets), ""]
     if compare_budgets:
         lines += ["`labcut compare CUT... --time-budget SECONDS` (API `compare_cuts(..., time_budget=)`) does the same for a "
                   "whole comparison: each part of it (per cut and scenario the recommendation, the scorer of its curves, "
                   "the tilt curve, the renders and flash-colour map) predicted from this machine's calibrations, times a "
-                  "correction learnt from past budgeted comparisons (`labcut/reports/budget.py`). Here the comparison of "
+                  "correction learnt from past budgeted comparisons (`labcut/reports/budget.py`; the table shows the factor the "
+                  "chosen rung's prediction had). Here the comparison of "
                   f"{len(COMPARE_CUTS)} cuts (the oval cabochon, the biplane carving and a round high cabochon `cab:round,12,high`) "
                   "under bench, the runs in the order shown, starting with no learnt correction:", "",
                   *budget_table(compare_budgets, "largest error bar")]
-        lines += ["", f"Worst actual / budget where a rung fitted: {worst_ratio(compare_budgets):.2f}.", ""]
+        lines += ["", f"Worst actual / budget where a rung fitted: {worst_ratio(compare_budgets):.2f}. The same reach "
+                  f"holds here: a rung predicted beyond {REACH:g}x the largest comparison that beat its prediction is "
+                  "predicted without a correction below 1, so a large budget can take a rung below the one a learnt "
+                  "factor would have allowed, until a comparison of that size has run.", ""]
     lines += ["## Render knobs", "",
               "The oval cabochon at its recommended orientation, bench scenario, diagram look; RMSE of the linear RGB "
               "image against the reference, relative to the reference's mean non-zero pixel; each setting timed on its "
@@ -500,10 +525,13 @@ def main() -> None:
     images = plot(results, out.parent / "images")
     total = json.loads(data.read_text())["seconds"]
     text = report(results, renders, images, args, total, budgets, compare_budgets)
-    # the coverage study of every scenario (benchmarks/scenario_coverage.py) keeps its block
+    # the coverage study of every scenario (benchmarks/scenario_coverage.py) keeps its block, and
+    # what follows it up to the time budgets (its prose, benchmarks/direction_convergence.py's block)
     old = out.read_text() if out.exists() else ""
     if COVERAGE_BEGIN in old and COVERAGE_END in old:
-        block = COVERAGE_BEGIN + old.split(COVERAGE_BEGIN, 1)[1].split(COVERAGE_END, 1)[0] + COVERAGE_END
+        after = old.split(COVERAGE_BEGIN, 1)[1]
+        kept = after.split("\n## ", 1)[0]  # up to the next section: the time budgets
+        block = COVERAGE_BEGIN + (kept if COVERAGE_END in kept else after.split(COVERAGE_END, 1)[0] + COVERAGE_END).rstrip("\n")
         head, sep, tail = text.partition("## Time budgets")
         text = head + block + "\n\n" + sep + tail
     if CALL_BEGIN in old and CALL_END in old:

@@ -119,7 +119,41 @@ def test_the_correction_is_a_geometric_running_mean_of_half_weight(own_cache):
     assert B.record(True, 1.0, 9.0) == pytest.approx(3.0, rel=1e-12)
     assert B.record("compare", 1.0, 0.25) == pytest.approx(0.5, rel=1e-12)
     data = stored(own_cache)
-    assert data == {"key": "k1", "plain": pytest.approx(1.0), "occlusion": pytest.approx(3.0), "compare": pytest.approx(0.5)}
+    assert data == {"key": "k1", "plain": pytest.approx(1.0), "occlusion": pytest.approx(3.0), "compare": pytest.approx(0.5),
+                    "largest plain": 2.0, "largest compare": 1.0}  # the runs that beat their predictions
+
+
+def test_a_factor_below_1_holds_within_twice_the_largest_prediction_a_run_beat(own_cache):
+    """Runs faster than predicted teach a factor below 1; it holds for predictions up to 2x the
+    largest one a run beat (``REACH``), beyond it the calibration's own prediction (factor 1). Above
+    1 a factor holds at every size. A larger run that beats its prediction extends the reach, one
+    that does not leaves it; ``forget`` drops it."""
+    assert B.REACH == 2.0
+    assert B.factor_at(B.learnt(), False, 1.0) == 1.0  # nothing learnt
+    B.record(False, 1.0, 0.25)  # sqrt(0.25): 0.5, learnt at 1 s
+    B.record(False, 0.5, 0.25)  # sqrt(0.5 x 0.5): 0.5, the largest still 1 s
+    kept = B.learnt()
+    assert kept["largest plain"] == 1.0 and B.correction(False) == pytest.approx(0.5)
+    assert B.factor_at(kept, False, 0.1) == pytest.approx(0.5)
+    assert B.factor_at(kept, False, 2.0) == pytest.approx(0.5)  # the reach inclusive
+    assert B.factor_at(kept, False, math.nextafter(2.0, 3.0)) == 1.0
+    assert B.factor_at(kept, False, 20.0) == 1.0
+    assert B.factor_at(kept, True, 0.1) == 1.0  # another kind learnt nothing
+    B.record(False, 16.0, 32.0)  # a larger run, slower than predicted: the reach stays (factor 1)
+    assert B.learnt()["largest plain"] == 1.0 and B.correction(False) == pytest.approx(1.0)
+    B.record(False, 16.0, 16.0)  # exactly as predicted: not beaten, the reach stays
+    assert B.learnt()["largest plain"] == 1.0
+    B.record(False, 1.0, 0.25)  # 0.5 again
+    B.record(False, 4.0, 3.0)  # a run of 4 s that beat its prediction: the reach now 8 s
+    f = B.correction(False)
+    assert f < 1.0 and B.factor_at(B.learnt(), False, 8.0) == pytest.approx(f) and B.factor_at(B.learnt(), False, 8.1) == 1.0
+    B.record(True, 1.0, 9.0)  # 3: slower than calibrated, at every size
+    assert B.factor_at(B.learnt(), True, 1000.0) == pytest.approx(3.0)
+    own_cache.write_text(json.dumps({"key": "k1", "plain": 0.5}))  # a factor with no size kept: not held
+    assert B.factor_at(B.learnt(), False, 0.1) == 1.0
+    B.record(False, 1.0, 0.25)
+    B.forget(False)
+    assert "largest plain" not in stored(own_cache)
 
 
 @pytest.mark.parametrize("actual, expected", [(100.0, 5.0), (0.01, 0.2), (25.0, 5.0), (0.04, 0.2), (24.0, math.sqrt(24.0))])
@@ -160,6 +194,17 @@ def test_a_first_call_learns_its_extra_seconds_not_the_factor(own_cache):
     assert stored(own_cache)["first call occlusion"] == 60.0
     B.record(False, 1.0, 0.5, first_call=True)  # the first one, 0, kept as it is
     assert stored(own_cache)["first call plain"] == 0.0 and "plain" not in stored(own_cache)
+
+
+def test_a_first_call_beyond_the_reach_learns_beyond_the_uncorrected_prediction(own_cache):
+    """Factor 0.5 held up to 0.8 s: a first call predicted 2.4 s (beyond the reach, so predicted at
+    2.4 s) that took 2.9 s cost 0.5 s beyond its prediction, not 2.9 - 0.5 x 2.4 = 1.7 s; within the
+    reach, 0.6 s predicted (0.3 s corrected) and 1.3 s taken: 1 s (0.5 x 0.5 + 0.5 x 1 = 0.75)."""
+    own_cache.write_text(json.dumps({"key": "k1", "plain": 0.5, "largest plain": 0.4}))
+    assert B.record(False, 2.4, 2.9, first_call=True) == 0.5
+    assert B.first_call_seconds(False) == pytest.approx(0.5)
+    B.record(False, 0.6, 1.3, first_call=True)
+    assert B.first_call_seconds(False) == pytest.approx(0.75)
 
 
 def test_a_first_call_learns_the_first_value_whole(own_cache):
@@ -320,6 +365,21 @@ def test_choose_applies_the_learnt_factor_and_first_call_seconds(calibration, ow
     assert c.quality.name == "budget-2" and not c.cold and c.first_call_seconds == 0.0
     c = B.choose(1.0, ("bench", None, None), False)  # the plain kind: factor 3, cold, no first-call seconds learnt
     assert [t for _, t in c.rungs] == pytest.approx([3e-4 * p for p in POINTS], rel=1e-12) and c.cold
+
+
+def test_choose_holds_a_fast_machines_factor_only_within_its_reach(calibration, own_cache):
+    """Factor 0.5 learnt from runs of up to 0.4 s: the rungs predicted at most 0.8 s (0.15, 0.3,
+    0.4899, 0.8 s) are halved, the rest stand (1.3856, 2.4, 4.8 s). A budget of 1 s takes standard
+    at its halved 0.4 s, where a factor held at every size would have taken budget-4 at 0.69 s; the
+    choice's ``correction`` is the factor of the rung it took, so what it records is uncorrected."""
+    own_cache.write_text(json.dumps({"key": "k1", "plain": 0.5, "largest plain": 0.4}))
+    B.mark_warm(False)
+    c = B.choose(1.0, ("bench", None, None), False)
+    assert [t for _, t in c.rungs] == pytest.approx([0.5e-4 * p for p in POINTS[:4]] + [1e-4 * p for p in POINTS[4:]],
+                                                    rel=1e-12)
+    assert c.quality.name == "standard" and c.correction == 0.5 and c.uncorrected(c.predicted_seconds) == pytest.approx(0.8)
+    c = B.choose(1.5, ("bench", None, None), False)
+    assert c.quality.name == "budget-4" and c.correction == 1.0 and c.predicted_seconds == pytest.approx(1.3856)
 
 
 def test_choose_refuses_a_bad_budget(calibration):

@@ -69,6 +69,22 @@ def test_the_most_accurate_rung_that_fits_is_chosen(monkeypatch):
     assert correction(B.KIND) == 1.0 and correction(False) > 1.0
 
 
+def test_a_fast_machines_factor_holds_only_within_its_reach(monkeypatch):
+    """Comparisons that ran at a quarter of their prediction up to 1.6 s (per pair: standard 0.8 s,
+    high 2.4 s): the factor 0.25 holds up to 3.2 s predicted, so standard (1.6 s) counts as 0.4 s
+    and high (4.8 s) as the calibration has it; a budget of 2 s takes budget-4 (2.77 s: 0.69 s), not
+    high (1.2 s at the factor everywhere)."""
+    from labcut.commands.budget import record
+
+    _fake_machine(monkeypatch, per_point=1e-4, per_sample=0.0)
+    cuts = resolve_cuts(CUTS)
+    record(B.KIND, 1.6, 0.1)  # sqrt(1/16): 0.25
+    c = B.choose_quality(2.0, cuts, ["bench"], {})
+    rungs = dict(c.rungs)
+    assert rungs["standard"] == pytest.approx(0.4) and rungs["high"] == pytest.approx(4.8)
+    assert c.quality.name == "budget-4" and c.correction == pytest.approx(0.25)
+
+
 def test_plan_comparison_with_a_budget(monkeypatch):
     _fake_machine(monkeypatch, per_point=1e-4, per_sample=0.0)
     plan = plan_comparison(CUTS, "blue", ["bench"], time_budget=1.7)

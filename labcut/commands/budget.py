@@ -14,7 +14,12 @@ The calibration adapts: after each budgeted recommendation the ratio of its actu
 predicted seconds updates a correction factor (a geometric running mean, one for stones with
 occlusion and one without, kept in the user cache beside the calibration and reset when it is
 measured again), so a machine that runs slower or faster than its calibration, or meshes whose
-shadow rays cost more than the calibration's, are predicted better the next time.
+shadow rays cost more than the calibration's, are predicted better the next time. A factor below 1
+(runs faster than calibrated) holds only for predictions up to :data:`REACH` times the largest run
+that beat its prediction: what a machine's overheads make of small problems says little of a
+problem several times larger, and there an overrun is what a budget must avoid, so beyond that
+reach the calibration's own prediction stands until a run of that size beats it. A factor above 1
+holds at every size.
 
 The calibration times warm recommendations; the first one of its kind in a process (every CLI
 call) also pays for what a warm one finds done: modules imported on first use, compiled kernels
@@ -31,7 +36,7 @@ not a positive finite number of seconds is a :class:`~labcut.errors.ParameterErr
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from typing import Any
 
 from ..errors import ParameterError
@@ -70,7 +75,8 @@ class BudgetChoice:
     budget_seconds: float
     rungs: tuple[tuple[str, float], ...]
     note: str | None = None
-    #: the adaptive correction the predictions include (:func:`correction`), and whether occlusion was counted
+    #: the adaptive correction the chosen rung's prediction includes (:func:`factor_at`), and whether
+    #: occlusion was counted
     correction: float = 1.0
     occlusion: bool = False
     #: the estimator the prediction is of (``samples`` or ``render``): the correction's kind follows it
@@ -111,6 +117,8 @@ def quality_or_budget(quality_given: bool, budget_given: bool, *, flags: bool = 
 #: weight of the newest run in the correction's geometric running mean; the correction's range
 ADAPT = 0.5
 CORRECTION_RANGE = (0.2, 5.0)
+#: a factor below 1 holds for predictions up to this many times the largest one a run beat
+REACH = 2.0
 
 
 def corrections_path() -> Any:
@@ -137,6 +145,12 @@ def _corrections() -> tuple[Any, dict[str, Any]]:
     return path, data
 
 
+def learnt() -> dict[str, Any]:
+    """This machine's learnt corrections as kept (the factors, their reach and the first-call
+    seconds by kind), for :func:`factor_at`: one read of the file for a whole ladder."""
+    return _corrections()[1]
+
+
 def _kind(kind: bool | str) -> str:
     """A correction's key: a recommendation's ``occlusion`` / ``plain`` (``kind`` a bool: whether
     occlusion was counted), or another budgeted command's own name (e.g. ``"compare"``)."""
@@ -156,6 +170,24 @@ def correction(kind: bool | str) -> float:
 _WARM: set[str] = set()
 #: the range of the learnt first-call seconds
 FIRST_CALL_RANGE = (0.0, 60.0)
+
+
+def _largest_key(kind: bool | str) -> str:
+    """The corrections file's key of the largest uncorrected prediction of ``kind`` that a run
+    beat (took less time than)."""
+    return f"largest {_kind(kind)}"
+
+
+def factor_at(kept: dict[str, Any], kind: bool | str, seconds: float) -> float:
+    """The factor the corrections ``kept`` (:func:`learnt`) put on a prediction of
+    ``seconds`` (uncorrected) of ``kind``: the learnt factor, except that one below 1 holds only up
+    to :data:`REACH` times the largest prediction a run beat (none recorded: it does not hold);
+    beyond, 1 (module docstring)."""
+    factor = float(kept.get(_kind(kind), 1.0))
+    if factor >= 1.0:
+        return factor
+    largest = kept.get(_largest_key(kind))
+    return factor if largest is not None and seconds <= REACH * float(largest) else 1.0
 
 
 def _first_key(kind: bool | str) -> str:
@@ -191,7 +223,7 @@ def forget(kind: bool | str) -> None:
     from ..fileio import write_cache
 
     path, data = _corrections()
-    dropped = [data.pop(k, None) for k in (_kind(kind), _first_key(kind))]
+    dropped = [data.pop(k, None) for k in (_kind(kind), _first_key(kind), _largest_key(kind))]
     if any(v is not None for v in dropped):
         write_cache(path, data)
 
@@ -209,8 +241,8 @@ def record(kind: bool | str, predicted_seconds: float, actual_seconds: float, *,
         return float(data.get(name, 1.0))
     old = float(data.get(name, 1.0))
     if first_call:
-        key = _first_key(kind)
-        extra = max(actual_seconds - old * predicted_seconds, 0.0)
+        key = _first_key(kind)  # beyond the prediction as corrected for its size (:func:`factor_at`)
+        extra = max(actual_seconds - factor_at(data, kind, predicted_seconds) * predicted_seconds, 0.0)
         seen = data.get(key)
         value = extra if seen is None else (1.0 - ADAPT) * float(seen) + ADAPT * extra
         data[key] = float(min(max(value, FIRST_CALL_RANGE[0]), FIRST_CALL_RANGE[1]))
@@ -218,6 +250,8 @@ def record(kind: bool | str, predicted_seconds: float, actual_seconds: float, *,
         return old
     new = math.exp((1.0 - ADAPT) * math.log(old) + ADAPT * math.log(actual_seconds / predicted_seconds))
     data[name] = float(min(max(new, CORRECTION_RANGE[0]), CORRECTION_RANGE[1]))
+    if actual_seconds < predicted_seconds:  # a run that beat its prediction: a factor below 1 holds this far
+        data[_largest_key(kind)] = float(max(float(data.get(_largest_key(kind), 0.0)), predicted_seconds))
     write_cache(path, data)
     return data[name]
 
@@ -243,11 +277,11 @@ def choose(budget: Any, scene_spec: tuple[Any, Any, Any], occlusion: bool, *, pl
     pilots = float(getattr(plan, "pilot_seconds", 0.0) or 0.0)
     renders = plan is not None and plan.estimator == "render"
     kind = "render" if renders else occlusion
-    _, learnt = _corrections()  # one read of the corrections file: the factor and the first-call seconds
-    factor = float(learnt.get(_kind(kind), 1.0))
+    kept = learnt()  # one read of the corrections file: the factors and the first-call seconds
     cold = not is_warm(kind)
-    extra = float(learnt.get(_first_key(kind), 0.0)) if cold else 0.0
+    extra = float(kept.get(_first_key(kind), 0.0)) if cold else 0.0
     rungs = []
+    factors: dict[str, float] = {}
     from ..planner import env_samples_enough, estimator_seconds
 
     for q in ladder():
@@ -261,9 +295,11 @@ def choose(budget: Any, scene_spec: tuple[Any, Any, Any], occlusion: bool, *, pl
             if plan is not None and plan.env_samples:  # the map seen past the parts: as densely at this rung
                 scene = scene.with_env_samples(env_samples_enough(len(scene.lights) - scene.lights.n_lamps, len(scene.poses())))
             t = predict_sample_seconds(scene.settings(), q.surface_points, occlusion)
-        rungs.append((q, factor * t + extra))
-    return pick(rungs, seconds, "the cheapest setting's", pilot_seconds=pilots, correction=factor, occlusion=occlusion,
-                estimator="render" if renders else "samples", cold=cold, first_call_seconds=extra)
+        factors[q.name] = factor_at(kept, kind, t)
+        rungs.append((q, factors[q.name] * t + extra))
+    choice = pick(rungs, seconds, "the cheapest setting's", pilot_seconds=pilots, occlusion=occlusion,
+                  estimator="render" if renders else "samples", cold=cold, first_call_seconds=extra)
+    return replace(choice, correction=factors[choice.quality.name])
 
 
 def pick(rungs: list[tuple[Quality, float]], seconds: float, cheapest: str, detail: str = "",

@@ -19,8 +19,8 @@ once and kept in the user cache:
 
 The sum, times an adaptive correction learnt from past budgeted comparisons (the actual over the
 predicted seconds, a geometric running mean kept with the recommendation's corrections,
-:func:`labcut.commands.budget.record` under the name ``"compare"``), is each rung's
-prediction; the most accurate rung of :func:`labcut.commands.budget.ladder` predicted to fit
+:func:`labcut.commands.budget.record` under the name ``"compare"``; one below 1 only within its
+reach, :func:`labcut.commands.budget.factor_at`), is each rung's prediction; the most accurate rung of :func:`labcut.commands.budget.ladder` predicted to fit
 runs. A budget below the cheapest rung's prediction runs the cheapest with a one-line note; a
 budget that is not a positive number of seconds is a :class:`~labcut.errors.ParameterError`.
 """
@@ -28,10 +28,11 @@ budget that is not a positive number of seconds is a :class:`~labcut.errors.Para
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
+from dataclasses import replace
 from typing import Any
 
 from ..geometry.stone import Stone
-from ..commands.budget import BudgetChoice, correction, ladder, pick
+from ..commands.budget import BudgetChoice, factor_at, ladder, learnt, pick
 from ..validation import check_budget
 from ..scene.quality import Quality
 from ..scene.scenario import scenarios_from
@@ -147,9 +148,15 @@ def predict_comparison(cuts: Sequence[Any], scenarios: Sequence[Any], quality: Q
 def choose_quality(budget: Any, cuts: Sequence[Any], scenarios: Sequence[Any], effects: Mapping[str, bool],
                    resolution: int | None = None, spp: int | None = None) -> BudgetChoice:
     """The most accurate rung of :func:`~labcut.commands.budget.ladder` whose predicted
-    comparison (:func:`predict_comparison` x the ``compare`` correction) fits ``budget`` seconds."""
+    comparison (:func:`predict_comparison` x the ``compare`` correction at its size,
+    :func:`~labcut.commands.budget.factor_at`) fits ``budget`` seconds."""
     seconds = check_budget(budget)
-    factor = correction(KIND)
-    rungs = [(q, factor * predict_comparison(cuts, scenarios, q, effects, resolution, spp)) for q in ladder()]
-    return pick(rungs, seconds, "the cheapest comparison's", f" ({len(cuts)} cut(s) x {len(scenarios)} scenario(s))",
-                correction=factor)
+    kept = learnt()
+    rungs: list[tuple[Quality, float]] = []
+    factors: dict[str, float] = {}
+    for q in ladder():
+        t = predict_comparison(cuts, scenarios, q, effects, resolution, spp)
+        factors[q.name] = factor_at(kept, KIND, t)
+        rungs.append((q, factors[q.name] * t))
+    choice = pick(rungs, seconds, "the cheapest comparison's", f" ({len(cuts)} cut(s) x {len(scenarios)} scenario(s))")
+    return replace(choice, correction=factors[choice.quality.name])
