@@ -198,20 +198,47 @@ _CALIBRATIONS: dict[tuple[str, str], dict[str, Any]] = {}
 _STORES: dict[str, dict[str, Any]] = {}
 
 
+def instrumented() -> bool:
+    """Whether Python runs a profiler or a tracer in this thread (``sys.getprofile()`` or
+    ``sys.gettrace()``: cProfile, coverage, a debugger): timings measured now say what the
+    instrumentation costs, not what this machine does."""
+    import sys
+
+    return sys.getprofile() is not None or sys.gettrace() is not None
+
+
+#: the calibration files whose timing this process measured under a profiler or tracer and did not keep
+_UNKEPT_WARNED: set[str] = set()
+
+
+def _unkept(path: Path) -> None:
+    """Warn, once per file and process, that a timing measured under instrumentation is not kept."""
+    import warnings
+
+    if str(path) in _UNKEPT_WARNED:
+        return
+    _UNKEPT_WARNED.add(str(path))
+    warnings.warn(f"labcut timed this machine under a profiler or tracer: the timing is used in this process but "
+                  f"not kept in {path} (it would mislead the next run's predictions)", LabcutWarning, stacklevel=4)
+
+
 def calibration(name: str, key: str, measure: Any, *, check: Any = None, refresh: bool = False,
-                keep: int = 64) -> dict[str, Any]:
+                keep: int = 64, timed: bool = False) -> dict[str, Any]:
     """A measurement of this machine (or a slow value it computes the same every time), made once
     and kept: the value of ``key`` in this process,
     else in the user cache file ``name`` (:func:`cache_path`; up to ``keep`` keys per file, the
     newest kept), else ``measure()`` (a JSON-able dict), stored under ``key``. ``key`` names what
     the value depends on (versions, CPU count, the layout): a changed key measures again. ``check``:
     optional ``check(value)`` raising KeyError/TypeError/ValueError for a stored value that is not
-    what is kept under ``key`` (a damaged entry: measured again, with one warning for the file). ``refresh`` measures again whatever is kept."""
-    return calibrations(name, [key], lambda missing: [measure()], check=check, refresh=refresh, keep=keep)[0]
+    what is kept under ``key`` (a damaged entry: measured again, with one warning for the file). ``refresh`` measures again whatever is kept.
+    ``timed``: the value is a timing of this machine; measured under a profiler or tracer
+    (:func:`instrumented`) it is used in this process but not written to the file (one warning)."""
+    return calibrations(name, [key], lambda missing: [measure()], check=check, refresh=refresh, keep=keep,
+                        timed=timed)[0]
 
 
 def calibrations(name: str, keys: Sequence[str], measure: Any, *, check: Any = None, refresh: bool = False,
-                 keep: int = 64) -> list[dict[str, Any]]:
+                 keep: int = 64, timed: bool = False) -> list[dict[str, Any]]:
     """:func:`calibration` of several keys of one file at once: the values of ``keys`` (in order),
     those kept in this process or in the file as they are, the others from one call
     ``measure(missing_keys)`` (a list of JSON-able dicts, one per missing key, in order), stored with
@@ -242,9 +269,16 @@ def calibrations(name: str, keys: Sequence[str], measure: Any, *, check: Any = N
             values[key] = value
     missing = list(dict.fromkeys(k for k in keys if k not in values))
     if missing:
+        was_instrumented = timed and instrumented()
         measured = [dict(v) for v in measure(missing)]
         if len(measured) != len(missing):
             raise ValueError(f"measure gave {len(measured)} values for {len(missing)} keys of {name}")
+        if was_instrumented or (timed and instrumented()):  # this process only
+            _unkept(path)
+            values.update(zip(missing, measured))
+            for key in keys:
+                _CALIBRATIONS[(name, key)] = values[key]
+            return [values[key] for key in keys]
         stored = read_cache(path) or {}  # what other processes wrote since, kept
         for key, value in zip(missing, measured):
             stored.pop(key, None)

@@ -1006,7 +1006,7 @@ def evaluate_timing(refresh: bool = False) -> dict[str, float]:
         fixed, per_term, per_ray = time_three(evaluate_run, repeats=2)  # a calibration run (timing.calibration_run) itself
         return {"fixed": fixed, "per_term": per_term, "per_ray": per_ray}
 
-    value = calibration("planner-evaluate-timing.json", _evaluate_key(), measure, refresh=refresh,
+    value = calibration("planner-evaluate-timing.json", _evaluate_key(), measure, refresh=refresh, timed=True,
                         check=lambda v: [float(v[k]) for k in ("fixed", "per_term", "per_ray")])
     return {k: float(value[k]) for k in ("fixed", "per_term", "per_ray")}
 
@@ -1067,7 +1067,7 @@ def render_command_timing(mode: str, polarised: bool, integrator: str, look: str
                 rows.append((res * res, n, time.perf_counter() - t))
         return pixel_sample_fit(rows)
 
-    value = calibration("planner-render-timing.json", key, measure, refresh=refresh,
+    value = calibration("planner-render-timing.json", key, measure, refresh=refresh, timed=True,
                         check=lambda v: (float(v["fixed"]), float(v["per_sample"]), float(v["per_pixel"])))
     return float(value["fixed"]), float(value["per_sample"]), float(value["per_pixel"])
 

@@ -176,6 +176,76 @@ def test_the_smooth_split_is_read_back_the_same_and_follows_the_mesh(cache):
 
 
 # ----------------------------------------------------------------------------- damaged or unwritable: one warning
+@pytest.mark.parametrize("instrument", ["profile", "trace"])
+def test_a_timing_measured_under_a_profiler_or_tracer_is_used_but_not_kept(tmp_path, monkeypatch, instrument):
+    """cProfile (``sys.setprofile``) or coverage and debuggers (``sys.settrace``) make a timing
+    measure the instrumentation: a ``timed`` calibration measured so is this process's value, the
+    file is not written, one warning per file says why; a value that is not a timing is kept as
+    always; and the same timing measured without instrumentation is kept. A budget's correction
+    learns nothing from a run under instrumentation."""
+    import sys
+    import warnings
+
+    from labcut.commands import budget
+
+    monkeypatch.setattr(fileio, "cache_path", lambda name: tmp_path / name)
+    monkeypatch.setattr(fileio, "_CALIBRATIONS", {})
+    monkeypatch.setattr(fileio, "_STORES", {})
+    monkeypatch.setattr(fileio, "_UNKEPT_WARNED", set())
+    monkeypatch.setattr(budget, "corrections_path", lambda: tmp_path / "corrections.json")
+    monkeypatch.setattr("labcut.planner.sample_timing", lambda: type("T", (), {"key": "k1"})())
+    setter, getter = (sys.setprofile, sys.getprofile) if instrument == "profile" else (sys.settrace, sys.gettrace)
+    before = getter()
+    assert not fileio.instrumented()
+    setter(lambda *args: None)
+    try:
+        assert fileio.instrumented()
+        with pytest.warns(labcut.LabcutWarning, match=r"under a profiler or tracer: the timing is used in this process "
+                                                       r"but not kept in .*t\.json") as caught:
+            assert fileio.calibration("t.json", "k", lambda: {"s": 1.0}, timed=True) == {"s": 1.0}
+            assert fileio.calibration("t.json", "k", lambda: pytest.fail("kept in the process"), timed=True) == {"s": 1.0}
+            assert fileio.calibration("t.json", "k2", lambda: {"s": 2.0}, timed=True) == {"s": 2.0}
+        assert len(caught) == 1 and not (tmp_path / "t.json").exists()
+        assert fileio.calibration("v.json", "k", lambda: {"v": 1}) == {"v": 1}  # not a timing: kept
+        assert fileio.read_cache(tmp_path / "v.json") == {"k": {"v": 1}}
+        assert budget.record(False, 1.0, 4.0) == 1.0 and not (tmp_path / "corrections.json").exists()
+    finally:
+        setter(before)
+    assert not fileio.instrumented()
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert fileio.calibration("t.json", "k3", lambda: {"s": 3.0}, timed=True) == {"s": 3.0}
+    assert fileio.read_cache(tmp_path / "t.json") == {"k3": {"s": 3.0}}
+    assert budget.record(False, 1.0, 4.0) == pytest.approx(2.0)
+
+
+def test_every_timing_of_this_machine_is_a_timed_calibration(monkeypatch):
+    """The five timings (the sample estimator's recommendation and evaluation, labcut.render's, the
+    render estimator's and a comparison's renders) ask :func:`fileio.calibration` with
+    ``timed=True``, so none is kept when measured under a profiler or tracer."""
+    from labcut import planner
+    from labcut.orientation import render_estimator, timing
+    from labcut.reports import budget as report_budget
+
+    asked = []
+    value = {"fixed": 0.0, "per_term": 0.0, "per_ray": 0.0, "per_sample": 0.0, "per_pixel": 0.0, "first": 0.0,
+             "primal": {}, "adjoint": {}, "compile": {}, "setup": 0.0}
+
+    def recorder(name, key, measure, **kw):
+        asked.append((name, kw.get("timed")))
+        return value
+
+    monkeypatch.setattr(fileio, "calibration", recorder)
+    timing.sample_timing(lambda mesh, quality: None)
+    planner.evaluate_timing()
+    planner.render_command_timing("rgb", False, "direct")
+    render_estimator.render_timing()
+    report_budget.compare_render_timing("direct")
+    assert asked == [("sample-estimator-timing.json", True), ("planner-evaluate-timing.json", True),
+                     ("planner-render-timing.json", True), ("render-estimator-timing.json", True),
+                     ("compare-render-timing.json", True)]
+
+
 @pytest.fixture
 def fresh_warnings(monkeypatch):
     monkeypatch.setattr(fileio, "_CACHE_WARNED", set())

@@ -232,12 +232,15 @@ def record(kind: bool | str, predicted_seconds: float, actual_seconds: float, *,
     """Fold one run of ``kind`` (predicted seconds before correction, actual seconds) into its
     correction; returns it. ``first_call``: the first of its kind in its process (the choice's
     ``cold``): what it took beyond the corrected prediction feeds :func:`first_call_seconds`
-    instead, the factor is left as it is."""
-    from ..fileio import write_cache
+    instead, the factor is left as it is. A run under a profiler or tracer
+    (:func:`labcut.fileio.instrumented`) times the instrumentation: nothing is learnt."""
+    from ..fileio import instrumented, write_cache
 
     path, data = _corrections()
     name = _kind(kind)
     if not (predicted_seconds > 0 and actual_seconds > 0 and math.isfinite(predicted_seconds) and math.isfinite(actual_seconds)):
+        return float(data.get(name, 1.0))
+    if instrumented():  # a run under a profiler or tracer times the instrumentation: nothing learnt
         return float(data.get(name, 1.0))
     old = float(data.get(name, 1.0))
     if first_call:

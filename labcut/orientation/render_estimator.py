@@ -450,7 +450,8 @@ def render_timing(refresh: bool = False) -> RenderTiming:
                             {k: (float(v[0]), float(v[1])) for k, v in data["adjoint"].items()},
                             {k: float(v) for k, v in data["compile"].items()}, float(data["setup"]), key)
 
-    return read(calibration(_TIMING_FILE, key, lambda: measure_render_timing().to_dict(), check=read, refresh=refresh))
+    return read(calibration(_TIMING_FILE, key, lambda: measure_render_timing().to_dict(), check=read, refresh=refresh,
+                            timed=True))
 
 
 def predict_render_seconds(n_views_total: int, resolution: int, spp: int, convex: bool, iterations: int | None = None,

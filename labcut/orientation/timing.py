@@ -136,7 +136,7 @@ def sample_timing(run: Callable[[Any, str], Any] | None = None, refresh: bool = 
         t = measure_sample_timing(run)
         return {k: getattr(t, k) for k in names}
 
-    value = calibration(TIMING_FILE, key, measure, refresh=refresh, check=lambda v: [float(v[k]) for k in names])
+    value = calibration(TIMING_FILE, key, measure, refresh=refresh, timed=True, check=lambda v: [float(v[k]) for k in names])
     return SampleTiming(*(float(value[k]) for k in names), key)
 
 

@@ -107,7 +107,7 @@ def compare_render_timing(integrator: str, refresh: bool = False) -> tuple[float
         mark_warm(integrator)
         return {**linear_fit(rows), "first": first}
 
-    value = calibration("compare-render-timing.json", key, measure, refresh=refresh,
+    value = calibration("compare-render-timing.json", key, measure, refresh=refresh, timed=True,
                         check=lambda v: (float(v["fixed"]), float(v["per_sample"]), float(v["first"])))
     return float(value["fixed"]), float(value["per_sample"]), float(value["first"])
 
