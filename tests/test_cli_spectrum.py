@@ -9,9 +9,19 @@ import pytest
 from labcut import Labradorite
 
 
-def test_table_plot_and_json(cli, tmp_path):
+@pytest.fixture
+def cli(cli_main):
+    """The command in this process (``labcut_cli.app.main`` as the console script runs it): the
+    spectrum's checks cost milliseconds, a new interpreter a second. The console script itself
+    runs in :func:`test_table_plot_and_json` and :func:`test_the_table_is_readable_at_80_columns`."""
+    return cli_main
+
+
+def test_table_plot_and_json(tmp_path):
+    from conftest import run_cli
+
     png, js = tmp_path / "s.png", tmp_path / "s.json"
-    proc = cli("spectrum", "--preset", "green", "--angles", "0,20,40", "-o", str(png), "--json", str(js))
+    proc = run_cli("spectrum", "--preset", "green", "--angles", "0,20,40", "-o", str(png), "--json", str(js))
     assert proc.returncode == 0, proc.stderr
     assert "peak λ" in proc.stdout and "530.0 nm" in proc.stdout
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and png.stat().st_size > 20_000

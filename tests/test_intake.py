@@ -20,6 +20,15 @@ from labcut.errors import LabcutWarning, MeshError, ParameterError
 from labcut.geometry.meshio import UNITS, load_mesh, save_mesh
 from labcut.geometry.orient import UP_ROTATIONS, detect_up_axis, up_rotation
 
+
+@pytest.fixture
+def cli(cli_main):
+    """The command in this process (``labcut_cli.app.main`` as the console script runs it): a new
+    interpreter costs a second a call; tests/test_cli_spectrum.py and the tests that need a fresh
+    process (a first call, a signal) run the console script itself."""
+    return cli_main
+
+
 MESHES = Path(__file__).resolve().parents[1] / "meshes"
 OVAL = MESHES / "oval-16x12-low.ply"
 

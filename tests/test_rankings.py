@@ -19,6 +19,15 @@ from labcut.errors import ParameterError
 from labcut.reports.compare import competition_ranks, differ, overall_score, shared
 from labcut.reports.cuts import split_size
 
+
+@pytest.fixture
+def cli(cli_main):
+    """The command in this process (``labcut_cli.app.main`` as the console script runs it): a new
+    interpreter costs a second a call; tests/test_cli_spectrum.py and the tests that need a fresh
+    process (a first call, a signal) run the console script itself."""
+    return cli_main
+
+
 ROOT = Path(__file__).resolve().parents[1]
 SRB = ROOT / "meshes" / "designs" / "SRB.asc"
 TINY = dict(quality="draft", resolution=24, spp=1)

@@ -24,6 +24,15 @@ import pytest
 
 import labcut
 
+
+@pytest.fixture
+def cli(cli_main):
+    """The command in this process (``labcut_cli.app.main`` as the console script runs it): a new
+    interpreter costs a second a call; tests/test_cli_spectrum.py and the tests that need a fresh
+    process (a first call, a signal) run the console script itself."""
+    return cli_main
+
+
 ROOT = Path(__file__).resolve().parents[1]
 MESH = ROOT / "meshes" / "oval-16x12-low.ply"
 LUM = np.array([0.2126, 0.7152, 0.0722])

@@ -17,6 +17,15 @@ from labcut.colour import dominant_wavelength, tables
 from labcut.rendering.noise import equalise, fbm
 from labcut.rendering.zoning import ZONED_KEYS, Zoning
 
+
+@pytest.fixture
+def cli(cli_main):
+    """The command in this process (``labcut_cli.app.main`` as the console script runs it): a new
+    interpreter costs a second a call; tests/test_cli_spectrum.py and the tests that need a fresh
+    process (a first call, a signal) run the console script itself."""
+    return cli_main
+
+
 ROOT = Path(__file__).resolve().parents[1]
 
 MESHES = Path(__file__).resolve().parents[1] / "meshes"
