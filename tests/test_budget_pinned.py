@@ -420,6 +420,25 @@ def test_choose_with_a_plan_of_the_sample_estimator(calibration, monkeypatch):
     assert [points for _, points, _ in calibration[plain:]] == POINTS
 
 
+def test_choose_with_a_plan_of_the_volume_estimator(calibration, monkeypatch):
+    """A plan of the volume estimator: each rung is the sample estimator's prediction plus its
+    paths at ``VOLUME_PATH_SECONDS`` each (a stand-in: 1000 paths a surface point, 2.5 ms a
+    point), as the planner predicts that estimator; the choice names the estimator."""
+    import labcut.orientation.volume
+    import labcut.planner
+
+    assert labcut.planner.VOLUME_PATH_SECONDS == 2.5e-6
+    monkeypatch.setattr(labcut.orientation.volume, "volume_paths", lambda settings, points: 1000.0 * points)
+    plan = SimpleNamespace(estimator="volume", pilot_seconds=None, env_samples=False)
+    c = B.choose(5.0, ("bench", None, None), True, plan=plan)
+    assert [t for _, t in c.rungs] == pytest.approx([2e-4 * p + 2.5e-3 * p for p in POINTS], rel=1e-12)
+    assert c.quality.name == "budget-0" and c.note is None  # 2.7e-3 x 1500 = 4.05 s fits; draft's 8.1 s not
+    assert c.estimator == "volume" and c.kind is True  # learnt as the stones with occlusion
+    c = B.choose(5.0, ("bench", None, None), True, plan=SimpleNamespace(estimator="samples", pilot_seconds=None,
+                                                                        env_samples=False))
+    assert [t for _, t in c.rungs] == pytest.approx([2e-4 * p for p in POINTS], rel=1e-12) and c.estimator == "samples"
+
+
 def test_choose_with_the_render_estimator(monkeypatch, own_cache):
     """The render estimator: the three presets only, each predicted as the planner predicts that
     estimator (its ``render`` seconds, for the plan's effects), times the ``render`` kind's factor."""

@@ -79,7 +79,7 @@ class BudgetChoice:
     #: occlusion was counted
     correction: float = 1.0
     occlusion: bool = False
-    #: the estimator the prediction is of (``samples`` or ``render``): the correction's kind follows it
+    #: the estimator the prediction is of (``samples``, ``volume`` or ``render``): the correction's kind follows it
     estimator: str = "samples"
     #: seconds of the budget a stone's first plan spent on its pilot renders before choosing (which
     #: the calibration does not include): the rungs had the rest
@@ -267,7 +267,9 @@ def choose(budget: Any, scene_spec: tuple[Any, Any, Any], occlusion: bool, *, pl
     render estimator, the rungs are the three presets (the render estimator's own settings go by
     them) and each is predicted as the planner predicts that estimator
     (:func:`labcut.planner.estimator_seconds`: the sample answer it starts from, then the renders);
-    the correction is then the ``render`` kind's. Otherwise the sample estimator's calibration.
+    the correction is then the ``render`` kind's. Otherwise the sample estimator's calibration, and
+    for a plan of the ``volume`` estimator its paths on top (:data:`labcut.planner.VOLUME_PATH_SECONDS`
+    each, as the planner predicts that estimator).
 
     The pilot renders ``plan`` made (``plan.pilot_seconds``: a stone not planned before; the
     calibration does not include them) are spent: the rungs must fit in what is left (:func:`pick`).
@@ -279,13 +281,15 @@ def choose(budget: Any, scene_spec: tuple[Any, Any, Any], occlusion: bool, *, pl
     seconds = check_budget(budget)
     pilots = float(getattr(plan, "pilot_seconds", 0.0) or 0.0)
     renders = plan is not None and plan.estimator == "render"
+    volume = plan is not None and plan.estimator == "volume"
     kind = "render" if renders else occlusion
     kept = learnt()  # one read of the corrections file: the factors and the first-call seconds
     cold = not is_warm(kind)
     extra = float(kept.get(_first_key(kind), 0.0)) if cold else 0.0
     rungs = []
     factors: dict[str, float] = {}
-    from ..planner import env_samples_enough, estimator_seconds
+    from ..orientation.volume import volume_paths
+    from ..planner import VOLUME_PATH_SECONDS, env_samples_enough, estimator_seconds
 
     for q in ladder():
         if renders and q.name not in QUALITIES:
@@ -297,11 +301,15 @@ def choose(budget: Any, scene_spec: tuple[Any, Any, Any], occlusion: bool, *, pl
         else:
             if plan is not None and plan.env_samples:  # the map seen past the parts: as densely at this rung
                 scene = scene.with_env_samples(env_samples_enough(len(scene.lights) - scene.lights.n_lamps, len(scene.poses())))
-            t = predict_sample_seconds(scene.settings(), q.surface_points, occlusion)
+            settings = scene.settings()
+            t = predict_sample_seconds(settings, q.surface_points, occlusion)
+            if volume:  # the light carried through the stone: its paths on top (as the planner predicts it)
+                t += VOLUME_PATH_SECONDS * volume_paths(settings, q.surface_points)
         factors[q.name] = factor_at(kept, kind, t)
         rungs.append((q, factors[q.name] * t + extra))
     choice = pick(rungs, seconds, "the cheapest setting's", pilot_seconds=pilots, occlusion=occlusion,
-                  estimator="render" if renders else "samples", cold=cold, first_call_seconds=extra)
+                  estimator="render" if renders else "volume" if volume else "samples", cold=cold,
+                  first_call_seconds=extra)
     return replace(choice, correction=factors[choice.quality.name])
 
 
