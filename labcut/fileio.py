@@ -273,19 +273,16 @@ def calibrations(name: str, keys: Sequence[str], measure: Any, *, check: Any = N
         measured = [dict(v) for v in measure(missing)]
         if len(measured) != len(missing):
             raise ValueError(f"measure gave {len(measured)} values for {len(missing)} keys of {name}")
+        values.update(zip(missing, measured))
         if was_instrumented or (timed and instrumented()):  # this process only
             _unkept(path)
-            values.update(zip(missing, measured))
-            for key in keys:
-                _CALIBRATIONS[(name, key)] = values[key]
-            return [values[key] for key in keys]
-        stored = read_cache(path) or {}  # what other processes wrote since, kept
-        for key, value in zip(missing, measured):
-            stored.pop(key, None)
-            stored[key] = value
-            values[key] = value
-        stored = _STORES[str(path)] = dict(list(stored.items())[-keep:])
-        write_cache(path, stored)
+        else:
+            stored = read_cache(path) or {}  # what other processes wrote since, kept
+            for key, value in zip(missing, measured):
+                stored.pop(key, None)
+                stored[key] = value
+            stored = _STORES[str(path)] = dict(list(stored.items())[-keep:])
+            write_cache(path, stored)
     for key in keys:
         _CALIBRATIONS[(name, key)] = values[key]
     return [values[key] for key in keys]
