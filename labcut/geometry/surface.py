@@ -356,16 +356,22 @@ def face_codes(mesh: Any) -> np.ndarray:
     return morton_cells(v[f[:, 0]] + v[f[:, 1]] + v[f[:, 2]], 3.0 * v.min(axis=0), 3.0 * v.max(axis=0))
 
 
+def dense_ranks(key: np.ndarray, n_keys: int, dtype: Any = np.int64) -> np.ndarray:
+    """Each integer key in ``[0, n_keys)``: its rank among the distinct keys present, in ascending
+    key order (``np.unique(key, return_inverse=True)[1]``), through one mask as long as the key
+    range instead of a sort: O(N + n_keys). The faces' cells here (:func:`face_cells`) and the
+    score map's bins (:func:`labcut.orientation.scoring.grid_inverse`) both rank so."""
+    present = np.zeros(n_keys, dtype=bool)
+    present[key] = True
+    rank = np.cumsum(present, dtype=dtype)
+    rank -= 1
+    return rank[key]
+
+
 def face_cells(mesh: Any) -> np.ndarray:
     """Each face's :func:`face_codes` cell as the rank of its cell among the occupied ones (int32,
-    0 .. occupied - 1, in curve order). The ranks order the faces as the codes do, and a stratified
-    draw over them (:func:`_stratified_faces`) sums and searches arrays as long as the occupied
-    cells, not the 2^21 of the grid: a bundled stone's faces occupy about a hundredth of it, and two
-    grid-long arrays in every draw cost more than the draw. (The ranks are
-    :func:`labcut.orientation.scoring.grid_inverse`'s dense form, which this layer cannot call.)"""
-    codes = face_codes(mesh)
-    present = np.zeros(1 << (3 * CELL_BITS), dtype=bool)
-    present[codes] = True
-    rank = np.cumsum(present, dtype=np.int32)
-    rank -= 1
-    return rank[codes]
+    0 .. occupied - 1, in curve order: :func:`dense_ranks`). The ranks order the faces as the codes
+    do, and a stratified draw over them (:func:`_stratified_faces`) sums and searches arrays as long
+    as the occupied cells, not the 2^21 of the grid: a bundled stone's faces occupy about a
+    hundredth of it, and two grid-long arrays in every draw cost more than the draw."""
+    return dense_ranks(face_codes(mesh), 1 << (3 * CELL_BITS), np.int32)

@@ -30,6 +30,7 @@ import numpy as np
 from ..errors import ParameterError
 from ..physics.ops import drjit_ops
 from ..physics.schiller import lobe_density
+from ..geometry.surface import dense_ranks
 from .problem import FlashProblem
 from ..backend import Launched
 from .kernels import DEFAULT_KERNELS, KernelOptions
@@ -208,13 +209,12 @@ def _device_bins(problem: Any, bins: int) -> tuple[np.ndarray, np.ndarray]:
 def grid_inverse(key: np.ndarray, n_keys: int) -> np.ndarray:
     """For integer grid keys in ``[0, n_keys)``: each key's rank among the distinct keys present,
     in ascending key order (``np.unique(key, return_inverse=True)[1]``, without the sort when the
-    grid is small enough for one ``bincount``: O(N + n_keys) instead of O(N log N))."""
+    grid is small enough for one mask, :func:`labcut.geometry.surface.dense_ranks`: O(N + n_keys)
+    instead of O(N log N))."""
     key = np.asarray(key, dtype=np.int64).ravel()
     if n_keys > DENSE_KEY_LIMIT:
         return np.unique(key, return_inverse=True)[1].ravel().astype(np.int64)
-    present = np.bincount(key, minlength=n_keys) > 0
-    rank = np.cumsum(present) - 1
-    return rank[key]
+    return dense_ranks(key, n_keys)
 
 
 def _cos_matrix(m: np.ndarray, ht: np.ndarray) -> np.ndarray:
