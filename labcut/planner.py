@@ -915,7 +915,6 @@ def estimator_seconds(scene: Any, command: str, occlusion: bool, inter_reflectio
         return {}
     from .orientation.optimize import Constraint, hemisphere_grid
     from .orientation.render_estimator import RenderQuality, predict_render_seconds
-    from .orientation.volume import volume_paths
 
     settings = scene.with_env_samples(env_samples).settings()  # the samples' scene (the renders see the map itself)
     q = scene.quality
@@ -926,13 +925,13 @@ def estimator_seconds(scene: Any, command: str, occlusion: bool, inter_reflectio
         samples = predict_evaluate_seconds(settings, q.surface_points, occlusion)
         one = predict_render_seconds(n_views, rq.resolution, rq.spp, convex, 1, 0, depth)
         two = predict_render_seconds(n_views, rq.resolution, rq.spp, convex, 2, 0, depth)
-        volume = samples + VOLUME_PATH_SECONDS * volume_paths(settings, q.surface_points)
+        volume = samples + volume_path_seconds(settings, q.surface_points)
         return {"samples": samples, "volume": volume,
                 "render": samples + max(one - (two - one), 0.0)}  # no L-BFGS step: one primal per view
     samples = predict_sample_seconds(settings, q.surface_points, occlusion)
     if command == "compare":
         return {"samples": samples}
-    volume = samples + VOLUME_PATH_SECONDS * volume_paths(settings, q.surface_points)
+    volume = samples + volume_path_seconds(settings, q.surface_points)
     coarse = len(hemisphere_grid(rq.coarse_deg, Constraint(90.0))) if zoned else 0
     render = samples + predict_render_seconds(n_views, rq.resolution, rq.spp, convex, rq.iterations, coarse, depth)
     return {"samples": samples, "volume": volume, "render": render}
@@ -981,6 +980,15 @@ def sample_timing(refresh: bool = False) -> Any:
     from .orientation.timing import sample_timing as calibrated
 
     return calibrated(recommend_run, refresh=refresh)
+
+
+def volume_path_seconds(settings: Sequence[Any], surface_points: int) -> float:
+    """Predicted seconds the volume estimator adds to the sample estimator's for a problem of
+    ``settings`` and ``surface_points``: its paths (:func:`labcut.orientation.volume.volume_paths`)
+    at :data:`VOLUME_PATH_SECONDS` each."""
+    from .orientation.volume import volume_paths
+
+    return VOLUME_PATH_SECONDS * volume_paths(settings, surface_points)
 
 
 def predict_sample_seconds(settings: Sequence[Any], surface_points: int, occlusion: bool) -> float:

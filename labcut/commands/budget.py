@@ -238,9 +238,8 @@ def record(kind: bool | str, predicted_seconds: float, actual_seconds: float, *,
 
     path, data = _corrections()
     name = _kind(kind)
-    if not (predicted_seconds > 0 and actual_seconds > 0 and math.isfinite(predicted_seconds) and math.isfinite(actual_seconds)):
-        return float(data.get(name, 1.0))
-    if instrumented():  # a run under a profiler or tracer times the instrumentation: nothing learnt
+    sound = predicted_seconds > 0 and actual_seconds > 0 and math.isfinite(predicted_seconds) and math.isfinite(actual_seconds)
+    if not sound or instrumented():  # nonsense, or a run that timed a profiler or tracer: nothing learnt
         return float(data.get(name, 1.0))
     old = float(data.get(name, 1.0))
     if first_call:
@@ -268,15 +267,15 @@ def choose(budget: Any, scene_spec: tuple[Any, Any, Any], occlusion: bool, *, pl
     them) and each is predicted as the planner predicts that estimator
     (:func:`labcut.planner.estimator_seconds`: the sample answer it starts from, then the renders);
     the correction is then the ``render`` kind's. Otherwise the sample estimator's calibration, and
-    for a plan of the ``volume`` estimator its paths on top (:data:`labcut.planner.VOLUME_PATH_SECONDS`
-    each, as the planner predicts that estimator).
+    for a plan of the ``volume`` estimator its paths on top (:func:`labcut.planner.volume_path_seconds`,
+    as the planner predicts that estimator).
 
     The pilot renders ``plan`` made (``plan.pilot_seconds``: a stone not planned before; the
     calibration does not include them) are spent: the rungs must fit in what is left (:func:`pick`).
     They sample the scene at :data:`labcut.planner.PILOT_QUALITY` whatever the plan's quality, so
     the chosen rung's plan finds them cached."""
+    from ..planner import env_samples_enough, estimator_seconds, predict_sample_seconds, volume_path_seconds
     from ..scene import resolve_scene
-    from ..planner import predict_sample_seconds
 
     seconds = check_budget(budget)
     pilots = float(getattr(plan, "pilot_seconds", 0.0) or 0.0)
@@ -286,11 +285,7 @@ def choose(budget: Any, scene_spec: tuple[Any, Any, Any], occlusion: bool, *, pl
     kept = learnt()  # one read of the corrections file: the factors and the first-call seconds
     cold = not is_warm(kind)
     extra = float(kept.get(_first_key(kind), 0.0)) if cold else 0.0
-    rungs = []
-    factors: dict[str, float] = {}
-    from ..orientation.volume import volume_paths
-    from ..planner import VOLUME_PATH_SECONDS, env_samples_enough, estimator_seconds
-
+    rungs: list[tuple[Quality, float]] = []
     for q in ladder():
         if renders and q.name not in QUALITIES:
             continue
@@ -304,12 +299,21 @@ def choose(budget: Any, scene_spec: tuple[Any, Any, Any], occlusion: bool, *, pl
             settings = scene.settings()
             t = predict_sample_seconds(settings, q.surface_points, occlusion)
             if volume:  # the light carried through the stone: its paths on top (as the planner predicts it)
-                t += VOLUME_PATH_SECONDS * volume_paths(settings, q.surface_points)
-        factors[q.name] = factor_at(kept, kind, t)
-        rungs.append((q, factors[q.name] * t + extra))
-    choice = pick(rungs, seconds, "the cheapest setting's", pilot_seconds=pilots, occlusion=occlusion,
-                  estimator="render" if renders else "volume" if volume else "samples", cold=cold,
-                  first_call_seconds=extra)
+                t += volume_path_seconds(settings, q.surface_points)
+        rungs.append((q, t))
+    return pick_corrected(rungs, kept, kind, seconds, "the cheapest setting's", extra=extra, pilot_seconds=pilots,
+                          occlusion=occlusion, estimator="render" if renders else "volume" if volume else "samples",
+                          cold=cold, first_call_seconds=extra)
+
+
+def pick_corrected(raw: list[tuple[Quality, float]], kept: dict[str, Any], kind: bool | str, seconds: float,
+                   cheapest: str, detail: str = "", *, extra: float = 0.0, **fields: Any) -> BudgetChoice:
+    """:func:`pick` over ``raw`` (``(quality, uncorrected seconds)``, cheapest first), each rung
+    predicted as its :func:`factor_at` of ``kind`` in ``kept`` (:func:`learnt`) times its seconds,
+    plus ``extra`` (a cold call's first-call seconds); the choice's ``correction`` is the factor of
+    the rung it took. ``fields``: the rest of the :class:`BudgetChoice`."""
+    factors = {q.name: factor_at(kept, kind, t) for q, t in raw}
+    choice = pick([(q, factors[q.name] * t + extra) for q, t in raw], seconds, cheapest, detail, **fields)
     return replace(choice, correction=factors[choice.quality.name])
 
 

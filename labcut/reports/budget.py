@@ -20,19 +20,18 @@ once and kept in the user cache:
 The sum, times an adaptive correction learnt from past budgeted comparisons (the actual over the
 predicted seconds, a geometric running mean kept with the recommendation's corrections,
 :func:`labcut.commands.budget.record` under the name ``"compare"``; one below 1 only within its
-reach, :func:`labcut.commands.budget.factor_at`), is each rung's prediction; the most accurate rung of :func:`labcut.commands.budget.ladder` predicted to fit
-runs. A budget below the cheapest rung's prediction runs the cheapest with a one-line note; a
+reach, :func:`labcut.commands.budget.factor_at`), is each rung's prediction; the most accurate
+rung of :func:`labcut.commands.budget.ladder` predicted to fit runs. A budget below the cheapest rung's prediction runs the cheapest with a one-line note; a
 budget that is not a positive number of seconds is a :class:`~labcut.errors.ParameterError`.
 """
 
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import replace
 from typing import Any
 
 from ..geometry.stone import Stone
-from ..commands.budget import BudgetChoice, factor_at, ladder, learnt, pick
+from ..commands.budget import BudgetChoice, ladder, learnt, pick_corrected
 from ..validation import check_budget
 from ..scene.quality import Quality
 from ..scene.scenario import scenarios_from
@@ -151,12 +150,6 @@ def choose_quality(budget: Any, cuts: Sequence[Any], scenarios: Sequence[Any], e
     comparison (:func:`predict_comparison` x the ``compare`` correction at its size,
     :func:`~labcut.commands.budget.factor_at`) fits ``budget`` seconds."""
     seconds = check_budget(budget)
-    kept = learnt()
-    rungs: list[tuple[Quality, float]] = []
-    factors: dict[str, float] = {}
-    for q in ladder():
-        t = predict_comparison(cuts, scenarios, q, effects, resolution, spp)
-        factors[q.name] = factor_at(kept, KIND, t)
-        rungs.append((q, factors[q.name] * t))
-    choice = pick(rungs, seconds, "the cheapest comparison's", f" ({len(cuts)} cut(s) x {len(scenarios)} scenario(s))")
-    return replace(choice, correction=factors[choice.quality.name])
+    raw = [(q, predict_comparison(cuts, scenarios, q, effects, resolution, spp)) for q in ladder()]
+    return pick_corrected(raw, learnt(), KIND, seconds, "the cheapest comparison's",
+                          f" ({len(cuts)} cut(s) x {len(scenarios)} scenario(s))")
