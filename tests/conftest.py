@@ -33,8 +33,24 @@ def run_cli(*args: str, cwd: Path | None = None, columns: int = 120) -> subproce
 
 
 @pytest.fixture
-def cli():
+def cli(request, capsys):
+    """``cli(*args, cwd=None, columns=120)``: the ``labcut`` command as a ``CompletedProcess``. The
+    installed console script in a new process (:func:`run_cli`), or, in a module that sets
+    ``CLI_IN_PROCESS = True`` (nothing it checks depends on a fresh interpreter: no first call of a
+    process, no signal), ``labcut_cli.app.main`` in this process (:func:`cli_main`), without an
+    interpreter's start-up and imports per call."""
+    if getattr(request.module, "CLI_IN_PROCESS", False):
+        return _in_process_cli(capsys)
     return run_cli
+
+
+def _in_process_cli(capsys):
+    from cli_run import in_process
+
+    def run(*args: str, cwd: Path | None = None, columns: int = 120) -> subprocess.CompletedProcess[str]:
+        return in_process(args, capsys, cwd=cwd, columns=columns)  # 120 columns: as run_cli's terminal
+
+    return run
 
 
 @pytest.fixture
@@ -42,12 +58,7 @@ def cli_main(capsys):
     """The CLI in this process (``labcut_cli.app.main``, as the console script runs it, without a
     new interpreter's start-up and imports: about 1.5 s a call): ``cli_main(*args)`` returns a
     ``subprocess.CompletedProcess`` of its exit status, stdout and stderr, like :func:`run_cli`."""
-    from cli_run import in_process
-
-    def run(*args: str, cwd: Path | None = None, columns: int = 120) -> subprocess.CompletedProcess[str]:
-        return in_process(args, capsys, cwd=cwd, columns=columns)  # 120 columns: as run_cli's terminal
-
-    return run
+    return _in_process_cli(capsys)
 
 
 @pytest.fixture

@@ -15,11 +15,8 @@ OVAL = str(MESHES / "oval-16x12-low.ply")
 BIPLANE = str(MESHES / "carving-biplane.ply")
 
 
-@pytest.fixture
-def cli(cli_main):
-    """This module's CLI calls run in process (conftest's ``cli_main``): the same code and exit
-    statuses without a new interpreter's start-up each (about 1.5 s a call)."""
-    return cli_main
+#: the CLI in this process (conftest's ``cli``): nothing here depends on a fresh interpreter
+CLI_IN_PROCESS = True
 
 
 class _Res:

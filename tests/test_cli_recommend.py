@@ -11,11 +11,8 @@ MESHES = Path(__file__).resolve().parents[1] / "meshes"
 OVAL = str(MESHES / "oval-16x12-low.ply")
 
 
-@pytest.fixture
-def cli(cli_main):
-    """This module's CLI calls run in process (conftest's ``cli_main``): the same code and exit
-    statuses without a new interpreter's start-up each (about 1.5 s a call)."""
-    return cli_main
+#: the CLI in this process (conftest's ``cli``): nothing here depends on a fresh interpreter
+CLI_IN_PROCESS = True
 
 
 def test_recommend_writes_json_render_and_map(cli, tmp_path):

@@ -10,11 +10,8 @@ import pytest
 MESH = str(Path(__file__).resolve().parents[1] / "meshes" / "oval-16x12-low.ply")
 
 
-@pytest.fixture
-def cli(cli_main):
-    """This module's CLI calls run in process (conftest's ``cli_main``): the same code and exit
-    statuses without a new interpreter's start-up each (about 1.5 s a call)."""
-    return cli_main
+#: the CLI in this process (conftest's ``cli``): nothing here depends on a fresh interpreter
+CLI_IN_PROCESS = True
 
 
 def test_render_png_exr_and_plan_json(cli, tmp_path):

@@ -9,12 +9,9 @@ import pytest
 from labcut import Labradorite
 
 
-@pytest.fixture
-def cli(cli_main):
-    """The command in this process (``labcut_cli.app.main`` as the console script runs it): the
-    spectrum's checks cost milliseconds, a new interpreter a second. The console script itself
-    runs in :func:`test_table_plot_and_json` and :func:`test_the_table_is_readable_at_80_columns`."""
-    return cli_main
+#: the CLI in this process (conftest's ``cli``): the spectrum's checks cost milliseconds, a new
+#: interpreter a second; test_table_plot_and_json and the 80-column check run the console script
+CLI_IN_PROCESS = True
 
 
 def test_table_plot_and_json(tmp_path):

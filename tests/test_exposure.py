@@ -27,11 +27,8 @@ ROUND = ROOT / "meshes" / "round-12-medium.ply"
 SCENARIOS = ("bench", "pendant", "ring", "outdoor")
 
 
-@pytest.fixture
-def cli(cli_main):
-    """This module's CLI calls run in process (conftest's ``cli_main``): the same code and exit
-    statuses without a new interpreter's start-up each (about 1.5 s a call)."""
-    return cli_main
+#: the CLI in this process (conftest's ``cli``): nothing here depends on a fresh interpreter
+CLI_IN_PROCESS = True
 
 
 @pytest.fixture(scope="module")

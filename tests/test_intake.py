@@ -21,12 +21,8 @@ from labcut.geometry.meshio import UNITS, load_mesh, save_mesh
 from labcut.geometry.orient import UP_ROTATIONS, detect_up_axis, up_rotation
 
 
-@pytest.fixture
-def cli(cli_main):
-    """The command in this process (``labcut_cli.app.main`` as the console script runs it): a new
-    interpreter costs a second a call; tests/test_cli_spectrum.py and the tests that need a fresh
-    process (a first call, a signal) run the console script itself."""
-    return cli_main
+#: the CLI in this process (conftest's ``cli``): nothing here depends on a fresh interpreter
+CLI_IN_PROCESS = True
 
 
 MESHES = Path(__file__).resolve().parents[1] / "meshes"

@@ -15,12 +15,8 @@ from labcut.orientation import MisorientationCurve, Recommendation, misorientati
 from labcut.orientation.misorientation import SIDES, towards
 
 
-@pytest.fixture
-def cli(cli_main):
-    """The command in this process (``labcut_cli.app.main`` as the console script runs it): a new
-    interpreter costs a second a call; tests/test_cli_spectrum.py and the tests that need a fresh
-    process (a first call, a signal) run the console script itself."""
-    return cli_main
+#: the CLI in this process (conftest's ``cli``): nothing here depends on a fresh interpreter
+CLI_IN_PROCESS = True
 
 
 OVAL = Path(__file__).resolve().parents[1] / "meshes" / "oval-16x12-low.ply"

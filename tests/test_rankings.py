@@ -20,12 +20,8 @@ from labcut.reports.compare import competition_ranks, differ, overall_score, sha
 from labcut.reports.cuts import split_size
 
 
-@pytest.fixture
-def cli(cli_main):
-    """The command in this process (``labcut_cli.app.main`` as the console script runs it): a new
-    interpreter costs a second a call; tests/test_cli_spectrum.py and the tests that need a fresh
-    process (a first call, a signal) run the console script itself."""
-    return cli_main
+#: the CLI in this process (conftest's ``cli``): nothing here depends on a fresh interpreter
+CLI_IN_PROCESS = True
 
 
 ROOT = Path(__file__).resolve().parents[1]
