@@ -531,7 +531,9 @@ def main() -> None:
     if COVERAGE_BEGIN in old and COVERAGE_END in old:
         after = old.split(COVERAGE_BEGIN, 1)[1]
         kept = after.split("\n## ", 1)[0]  # up to the next section: the time budgets
-        block = COVERAGE_BEGIN + (kept if COVERAGE_END in kept else after.split(COVERAGE_END, 1)[0] + COVERAGE_END).rstrip("\n")
+        if COVERAGE_END not in kept:  # a page whose next section begins inside the block: the block alone
+            kept = after.split(COVERAGE_END, 1)[0] + COVERAGE_END
+        block = COVERAGE_BEGIN + kept.rstrip("\n")
         head, sep, tail = text.partition("## Time budgets")
         text = head + block + "\n\n" + sep + tail
     if CALL_BEGIN in old and CALL_END in old:

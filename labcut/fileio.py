@@ -269,12 +269,12 @@ def calibrations(name: str, keys: Sequence[str], measure: Any, *, check: Any = N
             values[key] = value
     missing = list(dict.fromkeys(k for k in keys if k not in values))
     if missing:
-        was_instrumented = timed and instrumented()
+        before = instrumented()  # a profiler or tracer on before the measurement or after it
         measured = [dict(v) for v in measure(missing)]
         if len(measured) != len(missing):
             raise ValueError(f"measure gave {len(measured)} values for {len(missing)} keys of {name}")
         values.update(zip(missing, measured))
-        if was_instrumented or (timed and instrumented()):  # this process only
+        if timed and (before or instrumented()):  # this process only
             _unkept(path)
         else:
             stored = read_cache(path) or {}  # what other processes wrote since, kept
