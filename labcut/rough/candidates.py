@@ -16,6 +16,7 @@ at the reference size serves every scale.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import cached_property
 from typing import Any
 
 import numpy as np
@@ -23,6 +24,7 @@ import numpy as np
 from ..errors import ParameterError
 from ..geometry.inspect import carats
 from ..study import Study
+from .pose import thinned
 from .shape import DENSITY
 
 #: outline -> (length, width) of the reference cut, mm: the outline's usual proportions
@@ -80,6 +82,12 @@ class CutModel:
     @property
     def length_mm(self) -> float:
         return float(np.max(self.mesh.extents[:2]))
+
+    @cached_property
+    def screen_points(self) -> np.ndarray:
+        """At most :data:`~labcut.rough.pose.SCREEN_POINTS` of ``points`` (:func:`~labcut.rough.pose.thinned`):
+        what the screening of many rotations reads, the same for every region of every plan."""
+        return thinned(self.points)
 
     @property
     def best_score(self) -> float:

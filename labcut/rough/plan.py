@@ -34,7 +34,7 @@ from ..validation import check_budget, check_number, unit_vector
 from .candidates import CutModel, build_models
 from .check import OUTSIDE_LIMIT, Checker, gap_mm, inside, overlap_mm3
 from .pose import axial_upper, centred_scales, largest_fit, rotations, sphere_directions, supports, transform
-from .search import Piece, Placement, Ranking, Region, exact_placement, partition, search_region, thinned
+from .search import Piece, Placement, Ranking, Region, exact_placement, partition, search_region
 from .shape import SLAB_PREFIX, Rough, load_rough
 from .workshop import stone_steps
 
@@ -424,7 +424,7 @@ def _tradeoff(found: list[Placement], region: Region, n: np.ndarray, quality: Qu
     period = math.pi if model.symmetric else 2.0 * math.pi
     rots = rotations(sphere_directions(quality.rough_directions), np.arange(quality.rough_spins) * (period / quality.rough_spins))
     planes = region.screening_planes()
-    scale = centred_scales(supports(rots, planes[:, :3], thinned(model.points)), planes, region.middle)
+    scale = centred_scales(supports(rots, planes[:, :3], model.screen_points), planes, region.middle)
     flash = model.flash_ratio(axial_upper(np.einsum("rji,j->ri", rots, n)))
     curve = []
     for level in TRADEOFF_LEVELS:

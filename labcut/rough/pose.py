@@ -53,9 +53,24 @@ def rotation_of(up: np.ndarray, psi: float) -> np.ndarray:
     return frame_to(up) @ spin(psi)
 
 
+def _lengths(rows: np.ndarray) -> np.ndarray:
+    """(U, 1) lengths of ``rows`` as ``np.linalg.norm`` gives each (a dot product: the same bits)."""
+    return np.sqrt(np.matmul(rows[:, None, :], rows[:, :, None])[:, 0])
+
+
+def frames_to(axes: np.ndarray) -> np.ndarray:
+    """(U, 3, 3): :func:`~labcut.scene.directions.frame_to` of each row of ``axes`` at once."""
+    z = np.asarray(axes, dtype=np.float64).reshape(-1, 3)
+    z = z / _lengths(z)
+    helper = np.where((np.abs(z[:, 0]) < 0.9)[:, None], np.array([1.0, 0.0, 0.0]), np.array([0.0, 1.0, 0.0]))
+    x = np.cross(helper, z)
+    x /= _lengths(x)
+    return np.stack([x, np.cross(z, x), z], axis=2)
+
+
 def rotations(ups: np.ndarray, spins: np.ndarray) -> np.ndarray:
     """(len(ups) * len(spins), 3, 3) rotations, every face-up axis with every spin."""
-    frames = np.stack([frame_to(u) for u in ups])  # (U, 3, 3)
+    frames = frames_to(ups)  # (U, 3, 3)
     c, s = np.cos(spins), np.sin(spins)
     z = np.zeros_like(c)
     spin_m = np.stack([np.stack([c, -s, z], -1), np.stack([s, c, z], -1),
@@ -63,16 +78,34 @@ def rotations(ups: np.ndarray, spins: np.ndarray) -> np.ndarray:
     return np.einsum("uij,sjk->usik", frames, spin_m).reshape(-1, 3, 3)
 
 
+#: hull points a screening of many rotations reads at most (:func:`thinned`)
+SCREEN_POINTS = 256
+
+
+def thinned(points: np.ndarray, count: int = SCREEN_POINTS) -> np.ndarray:
+    """At most ``count`` of ``points``: for each of as many directions the point farthest along it."""
+    if len(points) <= count:
+        return points
+    return points[np.unique(np.argmax(sphere_directions(count) @ points.T, axis=1))]
+
+
+#: how many plane-point products :func:`supports` forms at once (512 KiB of doubles)
+SUPPORT_CHUNK = 65_536
+
+
 def supports(rots: np.ndarray, normals: np.ndarray, points: np.ndarray) -> np.ndarray:
     """(R, m): ``h[r, i] = max_v (rots[r]^T normals[i]) . points[v]``, the cut's extent (points:
     its hull's vertices relative to its reference point) towards each plane, in each rotation."""
-    out = np.empty((len(rots), len(normals)))
+    rots = np.asarray(rots, dtype=np.float64)
     pts_t = np.ascontiguousarray(np.asarray(points, dtype=np.float64).T)
-    step = max(1, int(4_000_000 // max(1, len(normals) * len(points))))
-    for k in range(0, len(rots), step):
-        local = np.matmul(normals[None, :, :], rots[k : k + step])  # rows a^T R = (R^T a)^T, (r, m, 3)
-        out[k : k + step] = (local.reshape(-1, 3) @ pts_t).max(axis=1).reshape(len(local), len(normals))
-    return out
+    local = np.matmul(normals[None, :, :], rots).reshape(-1, 3)  # rows a^T R = (R^T a)^T, (r * m, 3)
+    out = np.empty(len(local))
+    # a step's products stay in the CPU's cache (SUPPORT_CHUNK doubles): written once and read
+    # back by the max while still there, not streamed through memory
+    step = max(1, SUPPORT_CHUNK // max(1, len(points)))
+    for k in range(0, len(local), step):
+        out[k : k + step] = (local[k : k + step] @ pts_t).max(axis=1)
+    return out.reshape(len(rots), len(normals))
 
 
 def centred_scales(h: np.ndarray, planes: np.ndarray, centre: np.ndarray) -> np.ndarray:

@@ -31,8 +31,8 @@ RANKS: dict[str, tuple[float, float]] = {"value": (1.5, 1.0), "weight": (1.0, 0.
 #: the flash ratio a pose counts with at least: where no pose flashes (a flash plane the rough
 #: cannot turn up), plans still rank by weight
 FLASH_FLOOR = 0.01
-#: hull points and planes the screening reads at most (the exact programme reads them all)
-SCREEN_POINTS = 256
+#: hull planes the screening reads at most (the exact programme reads them all; the points:
+#: :data:`labcut.rough.pose.SCREEN_POINTS`)
 SCREEN_PLANES = 256
 #: poses per cut that the exact programme solves, by rank, and more by flash alone (the front)
 EXACT_BY_RANK = 12
@@ -135,13 +135,6 @@ def _aligned(model: CutModel, normal: np.ndarray, n_spins: int) -> np.ndarray:
     return np.stack([axis_rotation(normal, t) @ base for t in turns])
 
 
-def thinned(points: np.ndarray, count: int = SCREEN_POINTS) -> np.ndarray:
-    """At most ``count`` of ``points``: for each of as many directions the point farthest along it."""
-    if len(points) <= count:
-        return points
-    return points[np.unique(np.argmax(sphere_directions(count) @ points.T, axis=1))]
-
-
 def exact_placement(model: CutModel, rot: np.ndarray, region: Region, flash: float) -> Placement | None:
     """``model`` turned by ``rot`` at the largest scale that fits ``region`` (a fixed size: at
     scale 1 when it fits), or None when it does not fit at its smallest size; ``flash`` travels."""
@@ -175,7 +168,7 @@ def search_region(models: list[CutModel], region: Region, normal: np.ndarray, qu
         period = math.pi if model.symmetric else 2.0 * math.pi
         spins = np.arange(n_spins) * (period / n_spins)
         rots = np.concatenate([rotations(ups, spins), _aligned(model, normal, n_spins)])
-        h = supports(rots, screen_planes[:, :3], thinned(model.points))
+        h = supports(rots, screen_planes[:, :3], model.screen_points)
         scale = centred_scales(h, screen_planes, region.middle)
         flash = model.flash_ratio(axial_upper(np.einsum("rji,j->ri", rots, normal)))
         if model.fixed:
