@@ -22,7 +22,7 @@ def monte_carlo_intensity(lam, cos_theta, d_a, d_b, s_a, s_b, pairs=600, stacks=
     # round-trip phase per nm of path along the normal, one angle in both phases
     k_a = 4.0 * np.pi * N_A * cos_theta / lam
     k_b = 4.0 * np.pi * N_B * cos_theta / lam
-    sign = np.where(np.arange(2 * pairs) % 2 == 0, 1.0, -1.0)
+    sign32 = np.where(np.arange(2 * pairs) % 2 == 0, 1.0, -1.0).astype(np.float32)
     total = 0.0
     for _ in range(stacks // chunk):
         phase = np.empty((chunk, 2 * pairs))
@@ -31,8 +31,11 @@ def monte_carlo_intensity(lam, cos_theta, d_a, d_b, s_a, s_b, pairs=600, stacks=
         cumulative = np.cumsum(phase, axis=1)
         cumulative[:, 1:] = cumulative[:, :-1]
         cumulative[:, 0] = 0.0
-        v = np.exp(1j * cumulative) @ sign
-        total += float(np.sum(v.real**2 + v.imag**2))
+        # the phases reduced to [0, 2 pi) in float64, then their cosines and sines in float32: an
+        # error of ~1e-7 rad a term, far below the 1/sqrt(stacks) noise, at a third less time
+        wrapped = np.mod(cumulative, 2.0 * np.pi).astype(np.float32)
+        re, im = np.cos(wrapped) @ sign32, np.sin(wrapped) @ sign32
+        total += float(np.sum(re.astype(np.float64) ** 2 + im.astype(np.float64) ** 2))
     return total / stacks / (2 * pairs)
 
 
