@@ -9,7 +9,8 @@ import mitsuba as mi
 def surface_interaction(n: int, wi, p=None) -> mi.SurfaceInteraction3f:
     """``n`` surface interactions with incident direction ``wi`` (local frame), the shading
     frame the lamella normal is expressed in, optionally a hit point ``p`` (zoning looks it up),
-    and four fixed wavelengths in spectral variants."""
+    and four fixed wavelengths in spectral variants. Opaque: a test that asks many directions
+    compiles its kernels once (a literal direction would be baked into a new kernel each time)."""
     si = dr.zeros(mi.SurfaceInteraction3f, n)
     si.wi = wi
     if p is not None:
@@ -18,4 +19,5 @@ def surface_interaction(n: int, wi, p=None) -> mi.SurfaceInteraction3f:
     si.n = mi.Vector3f(0.0, 0.0, 1.0)
     if mi.is_spectral:
         si.wavelengths = mi.UnpolarizedSpectrum(450.0, 500.0, 550.0, 600.0)
+    dr.make_opaque(si)  # values, not literals: another ``wi`` runs the kernels already compiled
     return si

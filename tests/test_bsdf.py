@@ -15,6 +15,11 @@ from mitsuba_helpers import surface_interaction
 _si = surface_interaction
 
 
+def _opaque(x: float, y: float, z: float):
+    """A direction as a value, not a literal: the next angle runs the same compiled kernel."""
+    return mi.Vector3f(*(dr.opaque(mi.Float, float(c)) for c in (x, y, z)))
+
+
 def _bsdf(**params):
     return mi.load_dict({"type": "labradorite", **params})
 
@@ -156,7 +161,7 @@ def test_polarized_schiller_is_the_stacks_s_and_p(theta_deg, variant):
     r_s, r_p = lab.reflectance(wl, cos_l, "s"), lab.reflectance(wl, cos_l, "p")
 
     variant("spectral", polarized=True)
-    wi, wo = mi.Vector3f(math.sin(t), 0.0, math.cos(t)), mi.Vector3f(-math.sin(t), 0.0, math.cos(t))
+    wi, wo = _opaque(math.sin(t), 0.0, math.cos(t)), _opaque(-math.sin(t), 0.0, math.cos(t))
     value = _bsdf(normal=[0, 0, 1], surface=False, body=False, **params).eval(mi.BSDFContext(), _si(1, wi), wo)
     m = np.array([[np.array(value[i, j]).ravel() for j in range(4)] for i in range(4)])  # (4, 4, wavelengths)
     assert np.allclose(np.abs(m[0, 1]) / m[0, 0], np.abs(r_s - r_p) / (r_s + r_p), rtol=2e-3, atol=3e-4)  # float32 r_s, r_p
@@ -164,9 +169,40 @@ def test_polarized_schiller_is_the_stacks_s_and_p(theta_deg, variant):
     if theta_deg == 0.0:
         assert np.allclose(m[2, 2], -m[0, 0], rtol=1e-4)  # a mirror at normal incidence
     variant("spectral")
-    wi, wo = mi.Vector3f(math.sin(t), 0.0, math.cos(t)), mi.Vector3f(-math.sin(t), 0.0, math.cos(t))
+    wi, wo = _opaque(math.sin(t), 0.0, math.cos(t)), _opaque(-math.sin(t), 0.0, math.cos(t))
     unpolarised = np.array(_bsdf(normal=[0, 0, 1], surface=False, body=False, **params).eval(mi.BSDFContext(), _si(1, wi), wo))
     assert np.allclose(m[0, 0], unpolarised.ravel(), rtol=1e-4)
+
+
+def _kernel_hashes(call) -> set[str]:
+    """The hashes of the Dr.Jit kernels ``call()`` launched (compiled or found in a cache)."""
+    dr.set_flag(dr.JitFlag.KernelHistory, True)
+    dr.kernel_history()  # cleared
+    try:
+        call()
+        return {k["hash"] for k in dr.kernel_history() if k.get("hash")}
+    finally:
+        dr.set_flag(dr.JitFlag.KernelHistory, False)
+
+
+@pytest.mark.parametrize("polarized", [False, True])
+def test_another_material_runs_the_spectral_kernels_already_made(polarized, variant):
+    """The spectral and polarised schiller read the stack as opaque values: another material
+    launches the very kernels the first one did (its fields as literals would make new kernels,
+    compiled for every material a render meets)."""
+    from labcut import Labradorite
+
+    variant("spectral", polarized=polarized)
+    wi, wo = _opaque(0.3, 0.0, 0.954), _opaque(-0.3, 0.0, 0.954)
+
+    def schiller(peak):
+        params = {k: v for k, v in Labradorite.from_peak_wavelength(peak, spread_deg=4.0).to_dict().items() if k != "name"}
+        bsdf = _bsdf(normal=[0, 0, 1], surface=False, body=False, **params)
+        return lambda: np.array(mi.unpolarized_spectrum(bsdf.eval(mi.BSDFContext(), _si(16, wi), wo)))
+
+    first, second = schiller(470.0), schiller(563.7)
+    assert not np.allclose(first(), second())  # two materials indeed
+    assert _kernel_hashes(second) <= _kernel_hashes(first)
 
 
 def test_polarized_surface_is_a_mueller_matrix_and_body_is_depolarised(variant):

@@ -70,6 +70,14 @@ class Stack(NamedTuple):
     pairs: Any
     n_surface: Any
 
+    def opaque(self, float_type: Any) -> Stack:
+        """This stack with every field an opaque Dr.Jit value of ``float_type`` (the kernel's
+        float type, e.g. ``mi.Float``): a kernel that reads it is compiled once for every
+        material, where float fields would be baked into a new kernel as literals."""
+        import drjit as dr
+
+        return Stack(*(dr.opaque(float_type, float(f)) for f in self))
+
     def reflectance(self, wavelength_nm: Any, cos_theta: Any, polarization: str | None = None) -> Any:
         """:func:`stack_reflectance` of this stack (what the colour tables ask of the stack they
         are given, :func:`labcut.colour.stack_table`)."""
@@ -122,7 +130,7 @@ def _jit_grid(stack: Stack, wl: np.ndarray, c: np.ndarray, polarizations: tuple[
     from ..backend import ad_types
 
     dr, t = ad_types()
-    opaque = Stack(*(dr.opaque(t.Float64, float(f)) for f in stack))
+    opaque = stack.opaque(t.Float64)
     wl_d, c_d = t.Float64(np.array(wl.ravel())), t.Float64(np.array(c.ravel()))
     n_wl, total = wl.size, wl.size * c.size
     width = dr.opaque(t.UInt32, n_wl)

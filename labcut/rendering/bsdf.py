@@ -199,6 +199,7 @@ def _define_class() -> type:
             self._one_minus_exp_k = dr.opaque(mi.Float, self.one_minus_exp_k)
             self._schiller_weight = dr.opaque(mi.Float, float(self.schiller_weight))
             self._albedo = dr.opaque(mi.Float, float(self.material.body_albedo))
+            self._stack = self.stack.opaque(mi.Float)  # the spectral and polarised lobes' stack
 
         # ------------------------------------------------------------------ set-up
         def _build_tables(self) -> None:
@@ -274,7 +275,7 @@ def _define_class() -> type:
             if self.zoning is not None:
                 return self.zoning.reflectance(si, cos_l)
             if self._spectral:
-                r = stack_reflectance(si.wavelengths, cos_l, self.stack)
+                r = stack_reflectance(si.wavelengths, cos_l, self._stack)
                 return mi.UnpolarizedSpectrum(r)
             # texel i sits at (i + 0.5)/N: map cos θ in [0, 1] onto the texel centres
             coord = (dr.clip(cos_l, 0.0, 1.0) * (TABLE_SIZE - 1) + 0.5) * (1.0 / TABLE_SIZE)
@@ -336,7 +337,7 @@ def _define_class() -> type:
             surface, and the polarisation of its transmissions, are left out."""
             m = self.material
             if self._spectral:
-                r_s, r_p, sign = stack_reflectance_sp(si.wavelengths, cos_l, self.stack)
+                r_s, r_p, sign = stack_reflectance_sp(si.wavelengths, cos_l, self._stack)
                 r_s, r_p = mi.UnpolarizedSpectrum(r_s), mi.UnpolarizedSpectrum(r_p)
             else:  # mono polarized: luminance tables of R_s and R_p
                 coord = (dr.clip(cos_l, 0.0, 1.0) * (TABLE_SIZE - 1) + 0.5) * (1.0 / TABLE_SIZE)
