@@ -51,6 +51,29 @@ def test_largest_fit_is_the_exact_largest_homothet():
     assert fit.scale == pytest.approx(10.0 / math.sqrt(2.0), rel=1e-9)
 
 
+@pytest.mark.parametrize("chunk", [1, 7, 65_536])
+def test_supports_are_the_brute_force_maxima_whatever_the_chunk(chunk, monkeypatch):
+    """h[r, i] = max_v (R_r^T a_i) . p_v, to the bit, however many products a step forms (one
+    product a step, a step ending inside a rotation's planes, the default)."""
+    from labcut.rough import pose
+
+    monkeypatch.setattr(pose, "SUPPORT_CHUNK", chunk)
+    rng = np.random.default_rng(5)
+    pts, planes = rng.normal(size=(9, 3)) * 4.0, sphere_directions(5)
+    rots = rotations(sphere_directions(3), np.array([0.0, 1.1]))
+    want = np.einsum("rji,mj,vi->rmv", rots, planes, pts).max(axis=2)
+    assert np.allclose(supports(rots, planes, pts), want, rtol=0, atol=1e-12)
+    assert np.array_equal(supports(rots, planes, pts), supports(rots[::-1], planes, pts)[::-1])
+
+
+def test_frames_are_frame_to_of_each_axis_to_the_bit():
+    from labcut.rough.pose import frames_to
+    from labcut.scene.directions import frame_to
+
+    axes = np.vstack([sphere_directions(50), np.eye(3), -np.eye(3), np.random.default_rng(2).normal(size=(20, 3)) * 7.0])
+    assert np.array_equal(frames_to(axes), np.stack([frame_to(a) for a in axes]))
+
+
 def test_rotations_are_rotations_with_the_asked_face_up_axis():
     ups = sphere_directions(17)
     rots = rotations(ups, np.array([0.0, 1.0, 2.5]))
