@@ -66,12 +66,17 @@ def test_supports_are_the_brute_force_maxima_whatever_the_chunk(chunk, monkeypat
     assert np.array_equal(supports(rots, planes, pts), supports(rots[::-1], planes, pts)[::-1])
 
 
-def test_frames_are_frame_to_of_each_axis_to_the_bit():
-    from labcut.rough.pose import frames_to
-    from labcut.scene.directions import frame_to
+def test_frames_of_many_axes_are_each_axis_frame_to_the_bit():
+    """frames_to of a batch (the rough's rotations) is frame_to of each axis alone, to the bit:
+    rotations with the axis as third column, right-handed, the helper axis switched near X."""
+    from labcut.scene.directions import frame_to, frames_to
 
     axes = np.vstack([sphere_directions(50), np.eye(3), -np.eye(3), np.random.default_rng(2).normal(size=(20, 3)) * 7.0])
-    assert np.array_equal(frames_to(axes), np.stack([frame_to(a) for a in axes]))
+    frames = frames_to(axes)
+    assert np.array_equal(frames, np.stack([frame_to(a) for a in axes]))
+    assert np.allclose(np.einsum("uji,ujk->uik", frames, frames), np.eye(3), atol=1e-12)
+    assert np.allclose(np.linalg.det(frames), 1.0)
+    assert np.allclose(frames[:, :, 2], axes / np.linalg.norm(axes, axis=1)[:, None], atol=1e-15)
 
 
 def test_rotations_are_rotations_with_the_asked_face_up_axis():

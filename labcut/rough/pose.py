@@ -20,7 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..scene.directions import GOLDEN_ANGLE, frame_to
+from ..scene.directions import GOLDEN_ANGLE, frame_to, frames_to
 
 
 @dataclass(frozen=True)
@@ -51,21 +51,6 @@ def rotation_of(up: np.ndarray, psi: float) -> np.ndarray:
     """The rotation taking the cut's frame into the rough's: its +Z to the unit vector ``up``,
     spun by ``psi`` radians about it."""
     return frame_to(up) @ spin(psi)
-
-
-def _lengths(rows: np.ndarray) -> np.ndarray:
-    """(U, 1) lengths of ``rows`` as ``np.linalg.norm`` gives each (a dot product: the same bits)."""
-    return np.sqrt(np.matmul(rows[:, None, :], rows[:, :, None])[:, 0])
-
-
-def frames_to(axes: np.ndarray) -> np.ndarray:
-    """(U, 3, 3): :func:`~labcut.scene.directions.frame_to` of each row of ``axes`` at once."""
-    z = np.asarray(axes, dtype=np.float64).reshape(-1, 3)
-    z = z / _lengths(z)
-    helper = np.where((np.abs(z[:, 0]) < 0.9)[:, None], np.array([1.0, 0.0, 0.0]), np.array([0.0, 1.0, 0.0]))
-    x = np.cross(helper, z)
-    x /= _lengths(x)
-    return np.stack([x, np.cross(z, x), z], axis=2)
 
 
 def rotations(ups: np.ndarray, spins: np.ndarray) -> np.ndarray:

@@ -43,12 +43,23 @@ def tilt_azimuth(d: Any) -> tuple[float, float]:
 
 def frame_to(axis: Any) -> np.ndarray:
     """A rotation (3 x 3, columns x, y, z) whose third column is the unit vector ``axis``."""
-    z = np.asarray(axis, dtype=np.float64)
-    z = z / np.linalg.norm(z)
-    helper = np.array([1.0, 0.0, 0.0]) if abs(z[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    return frames_to(np.asarray(axis, dtype=np.float64).reshape(1, 3))[0]
+
+
+def _lengths(rows: np.ndarray) -> np.ndarray:
+    """(U, 1) lengths of ``rows``, each a dot product as ``np.linalg.norm`` of one row takes it."""
+    return np.sqrt(np.matmul(rows[:, None, :], rows[:, :, None])[:, 0])
+
+
+def frames_to(axes: Any) -> np.ndarray:
+    """(U, 3, 3): :func:`frame_to` of each row of ``axes`` (U x 3) at once. The x column is the
+    helper axis (+X, or +Y for an axis within 26° of X) crossed with the axis."""
+    z = np.asarray(axes, dtype=np.float64).reshape(-1, 3)
+    z = z / _lengths(z)
+    helper = np.where((np.abs(z[:, 0]) < 0.9)[:, None], np.array([1.0, 0.0, 0.0]), np.array([0.0, 1.0, 0.0]))
     x = np.cross(helper, z)
-    x /= np.linalg.norm(x)
-    return np.stack([x, np.cross(z, x), z], axis=1)
+    x /= _lengths(x)
+    return np.stack([x, np.cross(z, x), z], axis=2)
 
 
 def spherical_cap(centre: Any, half_angle_deg: float, n: int) -> np.ndarray:
