@@ -21,15 +21,21 @@ import time
 from pathlib import Path
 
 
+def newly_compiled(history: list[dict]) -> list[dict]:
+    """The kernels of Dr.Jit's kernel ``history`` that were compiled (not found in memory or in
+    the cache folder)."""
+    return [k for k in history if k.get("hash") and not k.get("cache_hit") and not k.get("cache_disk")]
+
+
 def compiled(call) -> list[dict]:
-    """The kernels ``call()`` compiled (not found in memory or in the cache folder)."""
+    """The kernels ``call()`` compiled (:func:`newly_compiled`)."""
     import drjit as dr
 
     dr.set_flag(dr.JitFlag.KernelHistory, True)
     dr.kernel_history()  # cleared
     try:
         call()
-        return [k for k in dr.kernel_history() if k.get("hash") and not k.get("cache_hit") and not k.get("cache_disk")]
+        return newly_compiled(dr.kernel_history())
     finally:
         dr.set_flag(dr.JitFlag.KernelHistory, False)
 

@@ -15,6 +15,7 @@ import os
 from pathlib import Path
 
 import pytest
+from kernel_compiles import newly_compiled  # benchmarks/ is on the path of the runs that load this plugin
 
 _RECORDS: list[dict] = []
 
@@ -22,9 +23,7 @@ _RECORDS: list[dict] = []
 def _compiled(nodeid: str) -> None:
     import drjit as dr
 
-    for k in dr.kernel_history():
-        if k.get("type") != dr.KernelType.JIT or not k.get("hash") or k.get("cache_hit") or k.get("cache_disk"):
-            continue
+    for k in newly_compiled(dr.kernel_history()):
         _RECORDS.append({"test": nodeid, "hash": k["hash"], "ops": int(k.get("operation_count", 0)),
                          "compile_ms": float(k.get("backend_time", 0.0)) + float(k.get("codegen_time", 0.0))})
 

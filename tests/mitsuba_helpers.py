@@ -21,3 +21,12 @@ def surface_interaction(n: int, wi, p=None) -> mi.SurfaceInteraction3f:
         si.wavelengths = mi.UnpolarizedSpectrum(450.0, 500.0, 550.0, 600.0)
     dr.make_opaque(si)  # values, not literals: another ``wi`` runs the kernels already compiled
     return si
+
+
+def launched(call):
+    """``(call(), kernels)``: what ``call`` returns and the JIT kernels it launched, compiled or
+    found in memory or the cache folder (Dr.Jit's kernel history, cleared first)."""
+    with dr.scoped_set_flag(dr.JitFlag.KernelHistory, True):
+        dr.kernel_history()  # cleared
+        value = call()
+        return value, [k for k in dr.kernel_history() if k.get("type") == dr.KernelType.JIT]

@@ -9,7 +9,7 @@ import mitsuba as mi
 import numpy as np
 import pytest
 
-from mitsuba_helpers import surface_interaction
+from mitsuba_helpers import launched, surface_interaction
 
 
 _si = surface_interaction
@@ -174,17 +174,6 @@ def test_polarized_schiller_is_the_stacks_s_and_p(theta_deg, variant):
     assert np.allclose(m[0, 0], unpolarised.ravel(), rtol=1e-4)
 
 
-def _kernel_hashes(call) -> set[str]:
-    """The hashes of the Dr.Jit kernels ``call()`` launched (compiled or found in a cache)."""
-    dr.set_flag(dr.JitFlag.KernelHistory, True)
-    dr.kernel_history()  # cleared
-    try:
-        call()
-        return {k["hash"] for k in dr.kernel_history() if k.get("hash")}
-    finally:
-        dr.set_flag(dr.JitFlag.KernelHistory, False)
-
-
 @pytest.mark.parametrize("polarized", [False, True])
 def test_another_material_runs_the_spectral_kernels_already_made(polarized, variant):
     """The spectral and polarised schiller read the stack as opaque values: another material
@@ -202,7 +191,7 @@ def test_another_material_runs_the_spectral_kernels_already_made(polarized, vari
 
     first, second = schiller(470.0), schiller(563.7)
     assert not np.allclose(first(), second())  # two materials indeed
-    assert _kernel_hashes(second) <= _kernel_hashes(first)
+    assert {k["hash"] for k in launched(second)[1]} <= {k["hash"] for k in launched(first)[1]}
 
 
 def test_polarized_surface_is_a_mueller_matrix_and_body_is_depolarised(variant):

@@ -145,7 +145,7 @@ def test_the_s_and_p_spectra_from_one_kernel_are_each_polarisations_own():
 def test_one_spectra_kernel_serves_every_material():
     """The stack's parameters reach the kernel as opaque values: a new material (a flash peak never
     asked before) runs the kernel compiled for the last one instead of compiling its own."""
-    import drjit as dr
+    from mitsuba_helpers import launched
 
     from labcut.colour import stack_spectra
 
@@ -156,14 +156,10 @@ def test_one_spectra_kernel_serves_every_material():
     assert all(len({m.stack[i] for m in materials}) >= 2 for i in range(len(materials[0].stack)))
     grid = np.linspace(0.0, 1.0, 40)
     stack_spectra(Labradorite().stack, grid[:33])  # compiled (or loaded) here
-    with dr.scoped_set_flag(dr.JitFlag.KernelHistory, True):
-        dr.kernel_history()  # cleared
-        for k, m in enumerate(materials):
-            c = grid[k:k + 33]  # views at other offsets: numpy's buffers fall on other alignments
-            stack_spectra(m.stack, c)
-        launched = [k for k in dr.kernel_history()
-                    if k.get("type") == dr.KernelType.JIT and k.get("size") == 33 * tables().wavelengths.size]
-    assert len(launched) == 3 and len({k["hash"] for k in launched}) == 1
+    # views of the grid at other offsets: numpy's buffers fall on other alignments
+    _, kernels = launched(lambda: [stack_spectra(m.stack, grid[k:k + 33]) for k, m in enumerate(materials)])
+    tables_kernels = [k for k in kernels if k.get("size") == 33 * tables().wavelengths.size]
+    assert len(tables_kernels) == 3 and len({k["hash"] for k in tables_kernels}) == 1
 
 
 def test_a_stack_of_arrays_takes_numpys_path():

@@ -357,7 +357,7 @@ def test_the_device_bins_kernel_repeats_for_a_new_bin_count(scorer):
     problems of one size class and many bin counts the sums' kernel (the one with the most inputs)
     is one program: its LLVM code the same but for its name and the alignment Dr.Jit notes of each
     input it maps from numpy (64 bytes or not: a few variants, each compiled once and cached)."""
-    import drjit as dr
+    from mitsuba_helpers import launched
 
     from labcut.orientation import scoring as scoring_module
 
@@ -366,22 +366,16 @@ def test_the_device_bins_kernel_repeats_for_a_new_bin_count(scorer):
     def program(ir: str) -> str:  # the kernel's code without its name and its inputs' alignment
         return re.sub(r"align \d+", "align _", re.sub(r"drjit_[0-9a-f]{32}", "drjit_", ir))
 
-    def launched(n: int) -> tuple[int, str]:
+    def bins_kernel(n: int) -> tuple[int, str]:
         sub = replace(p, host_h=p.h[:n].copy(), c=p.c[:n].copy(), pair=p.pair[:n])
         assert scoring_module._device_keys_apply(sub, 612 * 612)
         sub.device_triples  # copied to the device before the history starts
-        dr.set_flag(dr.JitFlag.KernelHistory, True)
-        try:
-            dr.kernel_history()  # cleared
-            _, weights = scoring_module._device_bins(sub, 612)
-            history = [k for k in dr.kernel_history() if k.get("hash") is not None]
-        finally:
-            dr.set_flag(dr.JitFlag.KernelHistory, False)
+        (_, weights), history = launched(lambda: scoring_module._device_bins(sub, 612))
         return len(weights), program(max(history, key=lambda k: k["input_count"])["ir"].getvalue())
 
     by_class: dict[int, list[tuple[int, str]]] = {}
     for n in range(20_000, 60_001, 1_000):
-        length, kernel = launched(n)
+        length, kernel = bins_kernel(n)
         by_class.setdefault(scoring_module.size_class(length), []).append((length, kernel))
     runs = max(by_class.values(), key=lambda r: len({length for length, _ in r}))
     assert len({length for length, _ in runs}) >= 8
