@@ -129,10 +129,8 @@ def corrections_path() -> Any:
 
 
 def _corrections() -> tuple[Any, dict[str, Any]]:
-    from ..fileio import read_cache
+    from ..fileio import cache_problem, read_cache
     from ..planner import sample_timing
-
-    from ..fileio import cache_problem
 
     path = corrections_path()
     data = read_cache(path) or {}
@@ -162,8 +160,7 @@ def _kind(kind: bool | str) -> str:
 def correction(kind: bool | str) -> float:
     """The factor this machine's recent budgeted runs of ``kind`` (:func:`_kind`) put on the
     calibration's prediction."""
-    _, data = _corrections()
-    return float(data.get(_kind(kind), 1.0))
+    return float(learnt().get(_kind(kind), 1.0))
 
 
 #: the kinds (:func:`_kind`) whose recommendation has run in this process (:func:`mark_warm`)

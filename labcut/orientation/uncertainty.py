@@ -69,7 +69,7 @@ COVER = 2.0
 #: differences ranges over 0.1-10 (benchmarks/direction_convergence.py), so the factor is
 #: calibrated on the study of every scenario (docs/accuracy.md): at 2 the median distance to the
 #: reference is 0.48 of the bar, as for a 2-D normal error whose bar covers 95 % (1.18 / 2.45
-#: standard deviations); at 1.5 it was 0.56, with too few normals covered. Poses: 2.5 at r = 1.7
+#: standard deviations). Poses: 2.5 at r = 1.7
 #: (the accuracy study's 1.7-2.5x per doubling of the poses)
 DIRECTION_FACTOR = 2.0
 POSE_FACTOR = 2.5
