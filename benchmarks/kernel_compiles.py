@@ -8,7 +8,8 @@ anew for every new lamp").
    the LLVM backend) and with plain atomics (``Direct``), warm.
 2. Renders (96 px, 4 spp) of three cabochons of new sizes, then of the last one in three new
    materials: the kernels compiled (Dr.Jit's kernel history: neither in memory nor in its cache
-   folder), their operations and their compile milliseconds.
+   folder), their operations and their compile milliseconds, and the float literals by which a
+   new size's render kernel differs from the last size's.
 3. The files in Dr.Jit's kernel cache folder (``~/.drjit``, or ``DRJIT_CACHE_DIR``).
 """
 
@@ -16,8 +17,11 @@ from __future__ import annotations
 
 import os
 import random
+import re
 import statistics
+import struct
 import time
+from collections import Counter
 from pathlib import Path
 
 
@@ -66,17 +70,34 @@ def bin_sums_by_mode() -> None:
         dr.scatter_reduce = real
 
 
+def float_literals(kernel: dict) -> list[float]:
+    """The float constants written into a kernel's LLVM code, in order (LLVM writes them as the
+    hex of their double value)."""
+    ir = kernel.get("ir")
+    text = ir.getvalue() if hasattr(ir, "getvalue") else str(ir or "")
+    return [struct.unpack(">d", bytes.fromhex(h))[0] for h in re.findall(r"float 0x([0-9A-Fa-f]{16})", text)]
+
+
 def renders_of_new_stones() -> None:
     import labcut
 
     rng = random.Random()
     cab = None
+    last: dict[int, list[float]] = {}  # the last size's compiled kernels: operations -> their float literals
     for _ in range(3):
         length = round(rng.uniform(12.0, 20.0), 3)
         cab = labcut.cabochon("oval", length, round(length * rng.uniform(0.6, 0.9), 3), dome="medium")
         built = compiled(lambda: labcut.render(cab, "blue", resolution=96, spp=4))
         print(f"render of a new {length} mm cabochon: {len(built)} kernel(s) compiled, "
               f"{sum(k['operation_count'] for k in built)} operations, {sum(k['backend_time'] for k in built):.0f} ms")
+        now = {k["operation_count"]: float_literals(k) for k in built}
+        for ops, values in now.items():
+            if ops in last:  # the literals each has and the other lacks (its callables may come in another order)
+                gone, new = Counter(last[ops]) - Counter(values), Counter(values) - Counter(last[ops])
+                print(f"  its {ops}-operation kernel against the last size's: float literals "
+                      f"{', '.join(f'{v:.4g}' for v in sorted(gone.elements())) or 'none'} -> "
+                      f"{', '.join(f'{v:.4g}' for v in sorted(new.elements())) or 'none'}")
+        last = now
     for _ in range(3):
         peak = round(rng.uniform(450.0, 600.0), 2)
         built = compiled(lambda: labcut.render(cab, labcut.Labradorite.from_peak_wavelength(peak), resolution=96, spp=4))
