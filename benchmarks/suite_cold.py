@@ -82,7 +82,7 @@ def report(cold: dict, warm: dict | None) -> str:
         compiles[k["test"]] += k["compile_ms"] / 1e3
     out += ["", "The tests that cost most more cold than warm (the first 15):", "",
             "| test | cold s | warm s | kernels compiled cold (s) |", "|---|---|---|---|"]
-    for d, t in gap[:15]:
+    for _, t in gap[:15]:
         out.append(f"| `{t}` | {cold['tests'][t]:.1f} | {warm['tests'].get(t, 0.0):.1f} | {compiles.get(t, 0.0):.1f} |")
     return "\n".join(out)
 
