@@ -3,7 +3,7 @@ after a lamp or material change, with the process's user and system CPU time and
 over each answer (``resource.getrusage``).
 
     .venv/bin/python benchmarks/explore_inprocess.py [--stone meshes/oval-16x12-low.ply] [--quality standard]
-        [--pictures] [--no-huge-pages] [--fresh-cache] [--random-lamps]
+        [--pictures] [--no-huge-pages] [--fresh-cache] [--random-lamps] [--domes]
 
 Six new lamps, then three materials (two presets and a flash peak), each one the session has not
 seen. ``--pictures``: the preview and the refined picture of each state drawn before the next
@@ -18,6 +18,10 @@ where the system time goes (``clear_page_erms``: the kernel clearing fresh pages
 user's slider gives them: a lamp no earlier run has seen gives new bin counts, and the columns
 "kernels compiled" and "compile ms" (Dr.Jit's kernel history) show what of the answer was LLVM
 compiling kernels that Dr.Jit's cache did not hold.
+``--domes``: then three oval cabochons of new dome heights (drawn at random, 1.5-5.5 mm, a new draw
+each run), each a stone of a new size, with ``--pictures`` their previews' kernels compiled too
+("preview kernels"): a render of a new size had compiled its render kernel again before renders
+placed every stone in its render frame (docs/performance.md, "Renders in the stone's frame").
 The figures of docs/explore.md ("What the wall times above hold") and docs/performance.md ("fresh
 memory") come from this command.
 """
@@ -46,6 +50,8 @@ def main() -> None:
                              "machine has never seen, its reflectance tables built in the answer")
     parser.add_argument("--random-lamps", action="store_true",
                         help="the lamps' elevations drawn at random (40-85 deg), new to the machine's kernel cache")
+    parser.add_argument("--domes", action="store_true",
+                        help="then three oval cabochons of new dome heights (1.5-5.5 mm, drawn at random): new stone sizes")
     args = parser.parse_args()
     lamps = LAMPS
     if args.random_lamps:
@@ -70,7 +76,12 @@ def main() -> None:
     rows = []
     if args.pictures:
         session.preview()
-    for kind, change in [("lamp", {"lamp_elevation": e}) for e in lamps] + [("material", m) for m in MATERIALS]:
+    changes = [("lamp", {"lamp_elevation": e}) for e in lamps] + [("material", m) for m in MATERIALS]
+    if args.domes:
+        import random
+
+        changes += [("dome", {"outline": "oval", "dome": round(random.uniform(1.5, 5.5), 3)}) for _ in range(3)]
+    for kind, change in changes:
         if args.pictures:  # the rest of the last state's pictures (its preview is timed below)
             session.planned_estimator()
             list(session.refine())
@@ -80,23 +91,24 @@ def main() -> None:
         built = compiled(session.view)  # the answer, and the kernels it compiled
         wall = time.perf_counter() - t
         after = resource.getrusage(resource.RUSAGE_SELF)
-        preview = float("nan")
+        preview, preview_built = float("nan"), []
         if args.pictures:  # as the server does: the answer, then the state's first picture
             t = time.perf_counter()
-            session.preview()
+            preview_built = compiled(session.preview)
             preview = 1000 * (time.perf_counter() - t)
         rows.append((kind, change, 1000 * wall, 1000 * (after.ru_utime - before.ru_utime),
                      1000 * (after.ru_stime - before.ru_stime), after.ru_minflt - before.ru_minflt,
-                     len(built), sum(float(k.get("backend_time", 0.0)) for k in built), preview))
+                     len(built), sum(float(k.get("backend_time", 0.0)) for k in built), preview, len(preview_built)))
     print(f"{args.stone}, {args.quality}, {'pictures between changes' if args.pictures else 'no pictures'}"
           f"{', numpy without huge pages' if args.no_huge_pages else ''}"
           f"{', a new cache folder (every material never seen)' if args.fresh_cache else ''}\n")
-    print("| change | wall ms | user CPU ms | system CPU ms | minor page faults | kernels compiled | compile ms | preview ms |")
-    print("|---|---:|---:|---:|---:|---:|---:|---:|")
-    for kind, change, wall, user, system, faults, built, compile_ms, preview in rows:
+    print("| change | wall ms | user CPU ms | system CPU ms | minor page faults | kernels compiled | compile ms | preview ms "
+          "| preview kernels |")
+    print("|---|---:|---:|---:|---:|---:|---:|---:|---:|")
+    for kind, change, wall, user, system, faults, built, compile_ms, preview, preview_built in rows:
         print(f"| {kind} {change} | {wall:.0f} | {user:.0f} | {system:.0f} | {faults} | {built} | {compile_ms:.0f} | "
-              f"{'-' if preview != preview else f'{preview:.0f}'} |")
-    for kind in ("lamp", "material"):
+              f"{'-' if preview != preview else f'{preview:.0f}'} | {preview_built if args.pictures else '-'} |")
+    for kind in ("lamp", "material") + (("dome",) if args.domes else ()):
         walls = [r[2] for r in rows if r[0] == kind]
         print(f"\n{kind}: median {statistics.median(walls):.0f} ms, range {min(walls):.0f}-{max(walls):.0f} ms")
         if args.pictures:

@@ -6,10 +6,11 @@ anew for every new lamp").
 1. The score map's bin sums (``labcut.orientation.scoring._device_bins``) on the low oval's live
    problem: the median time of a call with the scatter-reduction's mode Dr.Jit picks (``Expand`` on
    the LLVM backend) and with plain atomics (``Direct``), warm.
-2. Renders (96 px, 4 spp) of three cabochons of new sizes, then of the last one in three new
+2. Renders (96 px, 4 spp), in the diagram look and then the studio look, of three cabochons of
+   new outlines, sizes, domes and places (drawn at random), then of the last one in three new
    materials: the kernels compiled (Dr.Jit's kernel history: neither in memory nor in its cache
    folder), their operations and their compile milliseconds, and the float literals by which a
-   new size's render kernel differs from the last size's.
+   new stone's render kernel differs from the last stone's, where one was compiled.
 3. The files in Dr.Jit's kernel cache folder (``~/.drjit``, or ``DRJIT_CACHE_DIR``).
 """
 
@@ -79,25 +80,36 @@ def float_literals(kernel: dict) -> list[float]:
 
 
 def renders_of_new_stones() -> None:
+    import numpy as np
+    import trimesh
+
     import labcut
 
     rng = random.Random()
     cab = None
-    last: dict[int, list[float]] = {}  # the last size's compiled kernels: operations -> their float literals
-    for _ in range(3):
-        length = round(rng.uniform(12.0, 20.0), 3)
-        cab = labcut.cabochon("oval", length, round(length * rng.uniform(0.6, 0.9), 3), dome="medium")
-        built = compiled(lambda: labcut.render(cab, "blue", resolution=96, spp=4))
-        print(f"render of a new {length} mm cabochon: {len(built)} kernel(s) compiled, "
-              f"{sum(k['operation_count'] for k in built)} operations, {sum(k['backend_time'] for k in built):.0f} ms")
-        now = {k["operation_count"]: float_literals(k) for k in built}
-        for ops, values in now.items():
-            if ops in last:  # the literals each has and the other lacks (its callables may come in another order)
-                gone, new = Counter(last[ops]) - Counter(values), Counter(values) - Counter(last[ops])
-                print(f"  its {ops}-operation kernel against the last size's: float literals "
-                      f"{', '.join(f'{v:.4g}' for v in sorted(gone.elements())) or 'none'} -> "
-                      f"{', '.join(f'{v:.4g}' for v in sorted(new.elements())) or 'none'}")
-        last = now
+    for look in ("diagram", "studio"):
+        last: dict[int, list[float]] = {}  # the last stone's compiled kernels: operations -> their float literals
+        for _ in range(3):
+            outline = rng.choice(("oval", "round", "cushion", "pear"))
+            length = round(rng.uniform(8.0, 30.0), 3)
+            width = length if outline == "round" else round(length * rng.uniform(0.6, 0.9), 3)
+            dome = rng.choice(("low", "medium", "high"))
+            shift = [round(rng.uniform(-50.0, 50.0), 2) for _ in range(3)]  # where the stone lies in its file
+            made = labcut.cabochon(outline, length, width, dome=dome)
+            cab = trimesh.Trimesh(np.asarray(made.vertices) + shift, np.asarray(made.faces), process=False)
+            built = compiled(lambda: labcut.render(cab, "blue", resolution=96, spp=4, look=look, check_flash=False))
+            big = [k for k in built if k["operation_count"] > 100]  # not the mesh copies (their alignment varies)
+            print(f"{look} render of a new {outline} {length} x {width} mm cabochon, {dome} dome, at {shift}: "
+                  f"{len(built)} kernel(s) compiled ({len(big)} of more than 100 operations), "
+                  f"{sum(k['operation_count'] for k in built)} operations, {sum(k['backend_time'] for k in built):.0f} ms")
+            now = {k["operation_count"]: float_literals(k) for k in big}
+            for ops, values in now.items():
+                if ops in last:  # the literals each has and the other lacks (its callables may come in another order)
+                    gone, new = Counter(last[ops]) - Counter(values), Counter(values) - Counter(last[ops])
+                    print(f"  its {ops}-operation kernel against the last stone's: float literals "
+                          f"{', '.join(f'{v:.4g}' for v in sorted(gone.elements())) or 'none'} -> "
+                          f"{', '.join(f'{v:.4g}' for v in sorted(new.elements())) or 'none'}")
+            last = now
     for _ in range(3):
         peak = round(rng.uniform(450.0, 600.0), 2)
         built = compiled(lambda: labcut.render(cab, labcut.Labradorite.from_peak_wavelength(peak), resolution=96, spp=4))

@@ -123,7 +123,7 @@ def throughput() -> list[tuple]:
     from labcut.orientation.problem import build_problem
     from labcut.scene import Lights, Views
     from labcut.orientation.scoring import Scorer
-    from labcut.rendering.scene import to_mitsuba_mesh
+    from labcut.rendering.scene import RenderFrame, to_mitsuba_mesh
 
     rows = []
     lab = labcut.Labradorite.preset("blue")
@@ -150,7 +150,7 @@ def throughput() -> list[tuple]:
     scene = mi.load_dict({"type": "scene", "stone": to_mitsuba_mesh(mesh, mi.load_dict({"type": "diffuse"}))})
     n = 4_000_000
     rng = np.random.default_rng(1)
-    o = rng.uniform(-10, 10, size=(n, 3)) + [0, 0, 20]
+    o = RenderFrame.of(mesh).points(rng.uniform(-10, 10, size=(n, 3)) + [0, 0, 20])  # mm rays, in the render frame
     d = rng.normal(size=(n, 3)) - [0, 0, 2]
     d /= np.linalg.norm(d, axis=1, keepdims=True)
     ray = mi.Ray3f(mi.Point3f(o.T.astype(np.float32)), mi.Vector3f(d.T.astype(np.float32)))

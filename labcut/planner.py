@@ -443,6 +443,7 @@ def measured_interreflection(mesh: Any, material: Any, scene: Any, timing: dict[
     # what is rendered: the mesh itself (the key as before the copies), or its copy of PILOT_CELLS cells
     on_copy = f" copy {PILOT_CELLS} v2" if pilots_on_copy(mesh) else " v1"
     on_copy += " emitters hidden"  # since the renders stopped counting the lights seen behind the stone
+    on_copy += " render frame"  # since renders place the stone in its render frame (last bits moved)
     h.update(f"pilot {PILOT_RESOLUTION} {PILOT_SPP} {PILOT_POSES}{on_copy}".encode())
     from . import __version__
 

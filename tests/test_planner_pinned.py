@@ -932,7 +932,7 @@ class Clock:
 
 def pilot_key(mesh, material, settings, mark=" v1"):
     """measured_interreflection's cache key, as documented: the mesh, the material, the poses' lights,
-    views, poses and weights, the pilots' size and labcut's version."""
+    views, poses and weights, the pilots' size, the renders' kind and labcut's version."""
     import hashlib
 
     h = hashlib.sha256()
@@ -943,7 +943,7 @@ def pilot_key(mesh, material, settings, mark=" v1"):
         for a in (st.lights.directions, st.lights.weights, st.views.directions, st.views.weights, st.pose):
             h.update(np.ascontiguousarray(a, dtype=np.float64).tobytes())
         h.update(str(float(st.weight)).encode())
-    h.update(f"pilot 64 16 5{mark} emitters hidden".encode())
+    h.update(f"pilot 64 16 5{mark} emitters hidden render frame".encode())
     h.update(f"labcut {labcut.__version__}".encode())
     return h.hexdigest()[:32]
 

@@ -14,7 +14,9 @@ threshold (6 % of a pendant's pixels at 16 spp, 3 % at 64, where none flash). Th
 share of the stone's pixels in the mask is the view's flash area as the picture shows it: the
 surface-sample estimator's within a few points (tests/test_flash_mask.py).
 
-Frames and units: the mesh frame (mm, +Z face-up); ``ratio`` is ``L_s / L_ref``; the cameras
+Frames and units: the mesh frame (mm, +Z face-up; the scene traced is in the stone's render
+frame, :class:`~labcut.rendering.scene.RenderFrame`, which moves no direction); ``ratio`` is
+``L_s / L_ref``; the cameras
 are the render's (:class:`~labcut.rendering.scene.CameraView`), tiled 4 across like a render's.
 """
 
@@ -29,7 +31,7 @@ import numpy as np
 from ..errors import ParameterError
 from ..physics.material import Labradorite
 from ..rendering.api import bsdf_dict, tile_views
-from ..rendering.scene import CameraView, camera, to_mitsuba_mesh
+from ..rendering.scene import CameraView, camera, stone_entries, to_mitsuba_mesh
 from ..scene import Setting
 from ..scene.directions import normalize_normal
 from .radiance import flash_threshold, reference_radiance
@@ -183,7 +185,7 @@ def flash_mask(mesh: Any, material: Labradorite, lamella_normal: Any, setting: S
     ratios, covers, shares = [], [], []
     for cam in cameras:
         sensor = camera(mesh, cam, res, perspective, fov_deg, margin=margin, far_radii=far_radii, rfilter="box")
-        scene = mi.load_dict({"type": "scene", "sensor": sensor, "stone": stone})
+        scene = mi.load_dict({"type": "scene", "sensor": sensor, **stone_entries(stone)})
         ratio, cover = schiller_ratio(scene, setting.lights.directions, irradiances, res, l_ref, subsamples,
                                       cam.direction if perspective else None)
         ratios.append(ratio)

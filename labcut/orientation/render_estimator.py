@@ -74,7 +74,7 @@ def render_metrics(
     from ..backend import set_variant
     from ..rendering import bsdf as _bsdf  # noqa: F401
     from ..rendering.api import bsdf_dict
-    from ..rendering.scene import CameraView, camera, emitters, to_mitsuba_mesh
+    from ..rendering.scene import CameraView, camera, emitters, stone_entries, to_mitsuba_mesh
 
     if settings is None:
         if lights is None or views is None:
@@ -95,7 +95,7 @@ def render_metrics(
             sensor = camera(mesh, CameraView("v", tuple(d), tuple(st.up())), resolution)
             sensor["film"]["pixel_format"] = "luminance_alpha"
             sensor["film"]["rfilter"] = {"type": "box"}
-            scene = mi.load_dict({"type": "scene", "integrator": flash_integrator(), "sensor": sensor, "stone": stone, **lamps})
+            scene = mi.load_dict({"type": "scene", "integrator": flash_integrator(), "sensor": sensor, **stone_entries(stone), **lamps})
             img = np.array(mi.render(scene, spp=spp, seed=seed), dtype=np.float64)
             value, alpha = img[..., 0], img[..., 1]
             cover = alpha > 1e-3

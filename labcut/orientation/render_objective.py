@@ -173,7 +173,7 @@ class RenderObjective:
         from ..geometry.meshio import validate_mesh
         from ..rendering import bsdf as _bsdf  # noqa: F401  (registers the plugin)
         from ..rendering.api import bsdf_dict
-        from ..rendering.scene import CameraView, camera, emitters, to_mitsuba_mesh
+        from ..rendering.scene import CameraView, RenderFrame, camera, emitters, stone_entries, to_mitsuba_mesh
         from ..validation import check_number
         from .scoring import OBJECTIVES
 
@@ -201,7 +201,7 @@ class RenderObjective:
         from ..rendering.zoning import resolve as resolve_zoning
 
         self.zoning = resolve_zoning(zoning, self.material)  # colour zones: each point's own lamella stack
-        baked = None if self.zoning is None else self.zoning.bake(mesh.bounds)
+        baked = None if self.zoning is None else self.zoning.bake(mesh.bounds).in_frame(RenderFrame.of(mesh))
         integ = flash_integrator(self.max_depth)
         # direct lighting: the schiller lobe alone is the flash. Deeper paths: every lobe, so light
         # the polish (or the body) of one part sends to another reaches its schiller; the flash is
@@ -246,11 +246,11 @@ class RenderObjective:
                     weights.append(float(st.weight) / pose_total * float(wv))
                     view_poses.append(p)
             lamps = lamp_sets[poses[0]]
-            scene = mi.load_dict({"type": "scene", "integrator": integ, "stone": shape, **lamps, **sensors})
+            scene = mi.load_dict({"type": "scene", "integrator": integ, **stone_entries(shape), **lamps, **sensors})
             self._scenes.append(scene)
             self._views += [(scene, i, p) for i, p in enumerate(view_poses)]
             if base_shape is not None:
-                base = mi.load_dict({"type": "scene", "integrator": integ, "stone": base_shape, **lamps, **sensors})
+                base = mi.load_dict({"type": "scene", "integrator": integ, **stone_entries(base_shape), **lamps, **sensors})
                 self._base_scenes.append(base)
                 self._base_views += [(base, i, p) for i, p in enumerate(view_poses)]
         wv = np.asarray(weights, dtype=np.float64)

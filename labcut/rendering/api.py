@@ -50,7 +50,7 @@ from ..scene import Setting, resolve_scene
 from ..scene.directions import normalize_normal
 from .passes import render_pass
 from .plan import LOBES, RenderPlan, plan_render
-from .scene import RENDER_IRRADIANCE, CameraView, camera, camera_views, emitters, to_mitsuba_mesh
+from .scene import RENDER_IRRADIANCE, CameraView, camera, camera_views, emitters, RenderFrame, stone_entries, to_mitsuba_mesh
 
 log = logging.getLogger("labcut.render")
 
@@ -246,7 +246,7 @@ def _scene_parts(mesh: Any, ask: Any, normal: np.ndarray, setting: Setting, inte
     plan = plan_render(mesh, setting.lights, ask.mode, ask.polarizer_deg, ask.lobes, ask.max_depth, look=ask.look_spec,
                        denoise=ask.denoise, zoning=ask.zoning)
     mi.set_variant(plan.variant)
-    baked = ask.zoning.bake(mesh.bounds) if ask.zoning is not None else None
+    baked = ask.zoning.bake(mesh.bounds).in_frame(RenderFrame.of(mesh)) if ask.zoning is not None else None
     d = bsdf_dict(ask.material, normal, plan.lobes, zoning=baked)
     if studio is not None and plan.polarizer_deg is None:
         from .studio import body_grid
@@ -281,7 +281,7 @@ def _scene(mesh: Any, ask: Any, normal: np.ndarray, setting: Setting, cam: Camer
         "type": "scene",
         "integrator": parts.integrator,
         "sensor": sensor,
-        "stone": to_mitsuba_mesh(mesh, mi.load_dict(parts.bsdf)),
+        **stone_entries(to_mitsuba_mesh(mesh, mi.load_dict(parts.bsdf))),
         **parts.lights,
     }
     return mi.load_dict(scene_dict), parts.plan

@@ -13,8 +13,9 @@ Three components, each importance-sampled by its own shape:
    times both Fresnel transmissions.
 
 Frames. The lamella ``normal`` is given in the mesh (object) frame; labcut's
-scenes place meshes with an identity transform, so it is also the world frame,
-and it is moved into the local shading frame per hit. It is axial: ``m`` and
+scenes place meshes in their render frame (moved and scaled, axes unchanged:
+:class:`~labcut.rendering.scene.RenderFrame`), so it is also the world frame's
+direction, and it is moved into the local shading frame per hit. It is axial: ``m`` and
 ``-m`` are the same orientation. All directions below are local, +Z the shading
 normal, pointing away from the surface.
 
@@ -73,6 +74,7 @@ from ..physics.lamella import interface_amplitudes, phase_wavenumbers, stack_ref
 from ..physics.material import Labradorite
 from ..physics.ops import drjit_ops
 from ..validation import unit_vector
+from .textures import texture_data
 
 PLUGIN_NAME = "labradorite"
 TABLE_SIZE = LUMINANCE_TABLE_SIZE  # entries over cos θ in [0, 1] for the RGB / mono tables
@@ -116,15 +118,15 @@ PLUGIN_PARAMETERS: tuple[tuple[str, str, str, str], ...] = (
     ("body", "boolean", "true", "Simulate the grey body (component 2); off when `body_albedo` is 0."),
     ("body_tint", "rgb", "(1, 1, 1)", "Studio look: linear sRGB tint of the body (luminance 1; `body_albedo` sets the brightness)."),
     ("body_grid", "tensor", "(none)", "Studio look: baked (nz, ny, nx, 2) grid of the body multiplier and the flash mask "
-     "(dark inclusions) over the box `body_lo`..`body_hi` (mesh frame, mm)."),
-    ("body_lo", "point", "(none)", "Studio look: the body grid's low corner, mesh frame, mm."),
-    ("body_hi", "point", "(none)", "Studio look: the body grid's high corner, mesh frame, mm."),
+     "(dark inclusions) over the box `body_lo`..`body_hi` (scene coordinates; labcut renders: the stone's render frame)."),
+    ("body_lo", "point", "(none)", "Studio look: the body grid's low corner, scene coordinates (labcut: the render frame)."),
+    ("body_hi", "point", "(none)", "Studio look: the body grid's high corner, scene coordinates (labcut: the render frame)."),
     ("zoning_grid", "tensor", "(none)", "Colour zoning: baked noise values x in [0, 1], shape (nz, ny, nx, 1) "
      "(docs/zoning.md); needs the three below."),
     ("zoning_path", "tensor", "(none)", "Colour zoning: the parameter path, (N, 5) rows of d_a, d_b, sigma_a, "
      "sigma_b, pairs at x = i / (N - 1)."),
-    ("zoning_lo", "point", "(none)", "Colour zoning: the grid box's low corner, mesh frame, mm."),
-    ("zoning_hi", "point", "(none)", "Colour zoning: the grid box's high corner, mesh frame, mm."),
+    ("zoning_lo", "point", "(none)", "Colour zoning: the grid box's low corner, scene coordinates (labcut: the render frame)."),
+    ("zoning_hi", "point", "(none)", "Colour zoning: the grid box's high corner, scene coordinates (labcut: the render frame)."),
 )
 
 
@@ -220,12 +222,12 @@ def _define_class() -> type:
                     data = rgb_table(self.material)
                 else:
                     data = lum[:, None].astype(np.float32)
-                self.table = mi.Texture1f(mi.TensorXf(data))
+                self.table = mi.Texture1f(texture_data(data))
                 if mi.is_polarized:  # mono polarized: luminance of R_s and R_p
                     from ..colour import reflectance_luminance
 
                     sp = np.stack([reflectance_luminance(self.material, c, polarization=pol) for pol in ("s", "p")], axis=1)
-                    self.table_sp = mi.Texture1f(mi.TensorXf(np.clip(sp, 0.0, None).astype(np.float32)))
+                    self.table_sp = mi.Texture1f(texture_data(np.clip(sp, 0.0, None)))
 
         def _init_body(self, props: Any) -> None:
             """The studio body: tint and the baked (body multiplier, flash mask) grid (optional)."""
@@ -248,9 +250,10 @@ def _define_class() -> type:
                 hi = np.array([float(props["body_hi"][k]) for k in range(3)])
                 if not (np.all(np.isfinite(lo)) and np.all(np.isfinite(hi)) and np.all(hi > lo)):
                     raise ParameterError("body_lo must lie below body_hi on every axis")
-                self.body_lo = mi.ScalarPoint3f(*lo.tolist())
-                self.body_inv_ext = mi.ScalarVector3f(*(1.0 / (hi - lo)).tolist())
-                self.body_grid = mi.Texture3f(mi.TensorXf(g), use_accel=False, filter_mode=dr.FilterMode.Linear,
+                # opaque: a stone of another shape renders with the kernels already compiled
+                self.body_lo = mi.Point3f(*(dr.opaque(mi.Float, float(x)) for x in lo))
+                self.body_inv_ext = mi.Vector3f(*(dr.opaque(mi.Float, float(x)) for x in 1.0 / (hi - lo)))
+                self.body_grid = mi.Texture3f(texture_data(g), use_accel=False, filter_mode=dr.FilterMode.Linear,
                                               wrap_mode=dr.WrapMode.Clamp)
 
         def _body_at(self, si: Any) -> tuple[Any, Any]:

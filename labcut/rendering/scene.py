@@ -1,9 +1,11 @@
 """Mitsuba pieces for rendering a stone: mesh conversion, emitters of a scene's lights, cameras.
 
-Frames and units: renders are set up in the mesh frame (mm, +Z face-up, DESIGN.md
+Frames and units: renders are set up in the mesh frame's axes (+Z face-up, DESIGN.md
 §3); a :class:`~labcut.Scenario` has already turned its world-frame lights and
 viewers into that frame (:mod:`labcut.scene`). The *front* of the stone is -Y.
-Azimuths are measured from +X toward +Y, tilts from +Z.
+Azimuths are measured from +X toward +Y, tilts from +Z. Positions in a Mitsuba scene are in the
+stone's :class:`RenderFrame` (the mesh frame moved and scaled so that the stone's bounding sphere
+is the unit sphere), not in mm: directions are the same in both.
 """
 
 from __future__ import annotations
@@ -29,6 +31,66 @@ class CameraView:
     name: str
     direction: tuple[float, float, float]
     up: tuple[float, float, float] = (0.0, 0.0, 1.0)
+
+
+#: half the side of the cube that every render's scene spans (render frame, stone radii): the
+#: stone lies inside the unit sphere, and :func:`bounds_marker` holds the cube's corners
+SCENE_HALF_SIDE = 4.0
+
+
+@dataclass(frozen=True)
+class RenderFrame:
+    """The frame a stone is rendered in: the mesh frame moved so that the centre of the stone's
+    bounding box is the origin and scaled so that the stone's bounding radius (half the box's
+    diagonal) is 1; axes unchanged, so directions (lamps, viewers, lamella normals) are the mesh
+    frame's and no light or shading changes.
+
+    Why: Mitsuba writes the scene's sizes into its kernels as constants (an orthographic camera's
+    clip planes; the bounding sphere from which a directional lamp or an environment takes its
+    shadow rays' length). In this frame, with :func:`bounds_marker` fixing the scene's bounds,
+    they are the same for every stone, so a stone of a new size or place renders with the kernels
+    already compiled (``benchmarks/kernel_compiles.py``)."""
+
+    centre: tuple[float, float, float]  #: the bounding box's centre, mesh frame, mm
+    radius: float  #: the bounding radius, mm
+
+    @classmethod
+    def of(cls, mesh: Any) -> RenderFrame:
+        """The render frame of a stone (a :class:`~labcut.Stone` or ``trimesh.Trimesh``, mm)."""
+        lo, hi = (np.asarray(b, dtype=np.float64) for b in Stone.of(mesh).mesh.bounds)
+        return cls(tuple(float(x) for x in 0.5 * (lo + hi)), max(0.5 * float(np.linalg.norm(hi - lo)), 1e-6))
+
+    def points(self, p: Any) -> np.ndarray:
+        """Points (..., 3) of the mesh frame (mm) in this frame (float64)."""
+        return (np.asarray(p, dtype=np.float64) - np.asarray(self.centre)) / self.radius
+
+    def box(self, lo: Any, hi: Any) -> tuple[list[float], list[float]]:
+        """An axis-aligned box of the mesh frame (its corners, mm) in this frame."""
+        return self.points(lo).tolist(), self.points(hi).tolist()
+
+
+def bounds_marker() -> Any:
+    """A Mitsuba mesh that only widens the scene's bounds to the cube of half side
+    :data:`SCENE_HALF_SIDE` about the origin: two triangles, each shrunk to one corner of that
+    cube, which no ray can hit (zero area). Every render's scene holds one beside its stone
+    (:class:`RenderFrame` says why; a studio scene's table reaches further, the same for every
+    stone); ``tests/test_render_frame.py`` checks that it changes no pixel."""
+    import drjit as dr
+    import mitsuba as mi
+
+    h = float(SCENE_HALF_SIDE)
+    m = mi.Mesh("scene bounds", vertex_count=2, face_count=2, has_vertex_normals=False, props=mi.Properties())
+    params = mi.traverse(m)
+    params["vertex_positions"] = dr.ravel(mi.Point3f([-h, h], [-h, h], [-h, h]))
+    params["faces"] = dr.ravel(mi.Vector3u([0, 1], [0, 1], [0, 1]))
+    params.update()
+    return m
+
+
+def stone_entries(stone: Any) -> dict[str, Any]:
+    """A render scene's shapes: its ``stone`` (:func:`to_mitsuba_mesh`) and the
+    :func:`bounds_marker`, as scene dictionary entries."""
+    return {"stone": stone, "scene_bounds": bounds_marker()}
 
 
 def emitters(lights: Any, total_irradiance: float = RENDER_IRRADIANCE, ambient: float = ROOM_AMBIENT) -> dict[str, Any]:
@@ -86,21 +148,21 @@ VIEW_CHOICES = ("main", "face-up", "orbit")
 
 
 def to_mitsuba_mesh(mesh: Any, bsdf: Any, smooth_angle_deg: float | None = None) -> Any:
-    """A Mitsuba mesh of a stone (a :class:`~labcut.Stone` or ``trimesh.Trimesh``, mm),
-    smooth-shaded except across sharp edges.
+    """A Mitsuba mesh of a stone (a :class:`~labcut.Stone` or ``trimesh.Trimesh``, mm) in its
+    :class:`RenderFrame`, smooth-shaded except across sharp edges.
 
     Edges sharper than ``smooth_angle_deg`` (default: the stone's
     :attr:`~labcut.Stone.shading_angle_deg`, 30° or 0.5° for faceted designs) keep flat shading;
     curved domes get interpolated vertex normals.
     """
     split = Stone.of(mesh).smooth_split(smooth_angle_deg)
-    m = _mitsuba_mesh(split.vertices, split.faces, split.vertex_normals)
+    m = _mitsuba_mesh(RenderFrame.of(mesh).points(split.vertices), split.faces, split.vertex_normals)
     m.set_bsdf(bsdf)
     return m
 
 
 def _mitsuba_mesh(vertices: Any, faces: Any, normals: Any = None) -> Any:
-    """A Mitsuba mesh of vertex positions (mm), triangles and optional vertex normals (float32 arrays)."""
+    """A Mitsuba mesh of vertex positions, triangles and optional vertex normals (float32 arrays)."""
     import drjit as dr
     import mitsuba as mi
 
@@ -121,16 +183,15 @@ def _mitsuba_mesh(vertices: Any, faces: Any, normals: Any = None) -> Any:
 def camera(mesh: Any, view: CameraView, resolution: int, perspective: bool = False, fov_deg: float = 25.0,
            *, margin: float = 1.0, far_radii: float = 2.0, rfilter: str = "gaussian") -> dict[str, Any]:
     """A sensor dict looking at the mesh's bounding sphere from ``view.direction`` (mesh frame),
-    the image's top towards ``view.up``; clip planes from the bounds, so any size renders.
+    the image's top towards ``view.up``, placed in the stone's :class:`RenderFrame` (where that
+    sphere is the unit sphere: the same clip planes for every stone).
     ``margin`` (perspective): frame a sphere that many times wider than the stone's (room for a
     table around it); ``far_radii``: the far clip plane, in bounding radii beyond the centre.
     ``rfilter``: the film's reconstruction filter (``box`` keeps pixel noise independent, as a
     denoiser expects; the gaussian spreads each sample over neighbouring pixels)."""
     import mitsuba as mi
 
-    lo, hi = np.asarray(mesh.bounds[0]), np.asarray(mesh.bounds[1])
-    centre = 0.5 * (lo + hi)
-    radius = max(0.5 * float(np.linalg.norm(hi - lo)), 1e-6)
+    centre, radius = np.zeros(3), 1.0  # the render frame's bounding sphere
     d = np.asarray(view.direction, dtype=np.float64)
     d = d / np.linalg.norm(d)
     up = np.asarray(view.up, dtype=np.float64)

@@ -1,6 +1,8 @@
 """The studio look: a stone photographed on a table, under its scenario's lamps, in a light tent.
 
-Everything here is built in code (no download) and set up in the mesh frame (mm, +Z face-up):
+Everything here is built in code (no download) and set up in the mesh frame's axes (+Z face-up),
+its positions in the stone's render frame (:class:`~labcut.rendering.scene.RenderFrame`: sizes in
+stone radii):
 
 * **Lamps as area lights.** A scenario's lamps reach the renderer as sampled directions
   (:class:`~labcut.scene.Lights`: a round lamp of angular radius r is n equal-solid-angle
@@ -46,7 +48,7 @@ import numpy as np
 
 from ..errors import ParameterError
 from ..scene.envmap import Environment, pixel_directions
-from .scene import RENDER_IRRADIANCE
+from .scene import RENDER_IRRADIANCE, RenderFrame
 
 LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
 
@@ -259,22 +261,19 @@ def studio_environment(setting: Any, studio: Studio, scale: float) -> Environmen
 
 
 # ---------------------------------------------------------------------- scene pieces
-def bounding_sphere(mesh: Any) -> tuple[np.ndarray, float]:
-    lo, hi = np.asarray(mesh.bounds[0], dtype=np.float64), np.asarray(mesh.bounds[1], dtype=np.float64)
-    return 0.5 * (lo + hi), max(0.5 * float(np.linalg.norm(hi - lo)), 1e-6)
-
-
 def studio_emitters(mesh: Any, setting: Any, studio: Studio,
                     total_irradiance: float = RENDER_IRRADIANCE) -> tuple[dict[str, Any], list[Lamp], Environment | None]:
     """Mitsuba emitters (lamp discs and the environment) and the table of a studio render.
 
-    Returns (scene entries, the lamps, the environment used or None: :func:`studio_environment`),
-    all in the mesh frame."""
+    Returns (scene entries, the lamps, the environment used or None: :func:`studio_environment`):
+    directions in the mesh frame, positions in the stone's render frame (:class:`~labcut.rendering.
+    scene.RenderFrame`, where its bounding sphere is the unit sphere)."""
     import mitsuba as mi
 
     lights = setting.lights
     scale = total_irradiance / float(np.sum(lights.weights))
-    centre, radius = bounding_sphere(mesh)
+    frame = RenderFrame.of(mesh)
+    centre, radius = np.zeros(3), 1.0  # the stone's bounding sphere in its render frame
     lamps = lamps_of(lights, studio.point_lamp_deg)
     out: dict[str, Any] = {}
     dist = studio.lamp_distance * radius
@@ -296,7 +295,7 @@ def studio_emitters(mesh: Any, setting: Any, studio: Studio,
     if env is not None:
         out["environment"] = env.emitter(1.0)
         out["environment"]["sampling_weight"] = irradiance_towards(env, np.array([0.0, 0.0, 1.0]))
-    zmin = float(mesh.bounds[0][2])
+    zmin = float(frame.points(mesh.bounds[0])[2])
     half = TABLE_HALF_RADII * radius
     out["table"] = {
         "type": "rectangle",
@@ -392,16 +391,18 @@ def _body_grid_cached(lo: tuple[float, ...], hi: tuple[float, ...], inclusions: 
 
 def body_grid(mesh: Any, studio: Studio) -> dict[str, Any]:
     """BSDF properties of the studio body: tint, and a baked (nz, ny, nx, 2) grid over the mesh's
-    box of (body multiplier, flash mask) (mesh frame, mm; deterministic for ``studio.seed``)."""
+    box of (body multiplier, flash mask) (baked in the mesh frame, mm, deterministic for
+    ``studio.seed``; its box given in the stone's render frame, where its renders place it)."""
     import mitsuba as mi
 
     lo = tuple(float(x) for x in mesh.bounds[0])
     hi = tuple(float(x) for x in mesh.bounds[1])
     grid, box = _body_grid_cached(lo, hi, float(studio.inclusions), int(studio.seed), float(studio.translucency))
     pad = 1e-3 * float(np.max(box[1] - box[0]))
+    body_lo, body_hi = RenderFrame.of(mesh).box([float(x) - pad for x in box[0]], [float(x) + pad for x in box[1]])
     return {
         "body_tint": [float(x) for x in studio.tint],
         "body_grid": mi.TensorXf(grid),
-        "body_lo": [float(x) - pad for x in box[0]],
-        "body_hi": [float(x) + pad for x in box[1]],
+        "body_lo": body_lo,
+        "body_hi": body_hi,
     }

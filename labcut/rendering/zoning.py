@@ -14,8 +14,10 @@ same:
   ``seed``, ``resolution``). ``mode="smooth"`` blends linearly across the gap
   between two ranges; ``mode="sharp"`` replaces each gap by a step at its
   middle (Spectrolite-like zone edges, paper Fig. 10).
-* The noise is 3D fBm of Perlin gradient noise in object (= mesh = world) space,
-  in mm, baked once per render on a grid over the mesh's bounding box and then
+* The noise is 3D fBm of Perlin gradient noise in object (= mesh) space, in mm
+  (a render looks it up in the stone's render frame, over the grid's box mapped
+  there: :meth:`BakedZoning.in_frame`), baked once per render on a grid over the
+  mesh's bounding box and then
   *equalised*: each grid value is replaced by its rank, scaled to [0, 1]. ``x``
   is therefore uniformly distributed over the box, and a LUT range of width w
   holds a fraction w of the stone's volume (about; the stone is not its box).
@@ -108,6 +110,12 @@ class BakedZoning:
             "zoning_lo": [float(v) for v in self.lo],
             "zoning_hi": [float(v) for v in self.hi],
         }
+
+    def in_frame(self, frame: Any) -> BakedZoning:
+        """This zoning with its box in ``frame`` (a :class:`~labcut.rendering.scene.RenderFrame`:
+        where a render places the stone; the grid, baked in mm, is the same)."""
+        lo, hi = frame.box(self.lo, self.hi)
+        return dataclasses.replace(self, lo=tuple(lo), hi=tuple(hi))
 
     def values_at(self, points: np.ndarray) -> np.ndarray:
         """x at ``points`` (N, 3) by trilinear interpolation of the grid (numpy twin of the kernel lookup)."""

@@ -14,6 +14,7 @@ import numpy as np
 
 from ..errors import ParameterError
 from ..physics.lamella import Stack, stack_reflectance
+from .textures import texture_data
 from .zoning import COS_SIZE, ZONED_KEYS
 
 
@@ -56,7 +57,7 @@ class ZoningKernel:
 
     Built from the plugin properties ``zoning_grid`` (TensorXf, nz x ny x nx x 1, values of
     x in [0, 1]), ``zoning_path`` (TensorXf, N x 5: ``d_a, d_b, sigma_a, sigma_b, pairs``
-    at ``x = i / (N - 1)``), ``zoning_lo`` and ``zoning_hi`` (the grid's box, world mm).
+    at ``x = i / (N - 1)``), ``zoning_lo`` and ``zoning_hi`` (the grid's box, scene coordinates: labcut's renders use the stone's render frame).
     """
 
     def __init__(self, props: Any, shared: dict[str, Any]) -> None:
@@ -84,15 +85,16 @@ class ZoningKernel:
         self.shared = dict(shared)
         self.path = p
         self.rows = p.shape[0]
-        self.lo = mi.ScalarPoint3f(*lo.tolist())
-        self.inv_ext = mi.ScalarVector3f(*(1.0 / (hi - lo)).tolist())
-        self.grid = mi.Texture3f(mi.TensorXf(g), use_accel=False, filter_mode=dr.FilterMode.Linear, wrap_mode=dr.WrapMode.Clamp)
+        # opaque: a stone of another shape looks its zones up with the kernels already compiled
+        self.lo = mi.Point3f(*(dr.opaque(mi.Float, float(x)) for x in lo))
+        self.inv_ext = mi.Vector3f(*(dr.opaque(mi.Float, float(x)) for x in 1.0 / (hi - lo)))
+        self.grid = mi.Texture3f(texture_data(g), use_accel=False, filter_mode=dr.FilterMode.Linear, wrap_mode=dr.WrapMode.Clamp)
         self.spectral = bool(mi.is_spectral)
         if self.spectral:
-            self.table = mi.Texture1f(mi.TensorXf(p), use_accel=False, filter_mode=dr.FilterMode.Linear, wrap_mode=dr.WrapMode.Clamp)
+            self.table = mi.Texture1f(texture_data(p), use_accel=False, filter_mode=dr.FilterMode.Linear, wrap_mode=dr.WrapMode.Clamp)
         else:
             data = reflectance_table(p, shared, "rgb" if mi.is_rgb else "mono")
-            self.table = mi.Texture2f(mi.TensorXf(data), use_accel=False, filter_mode=dr.FilterMode.Linear, wrap_mode=dr.WrapMode.Clamp)
+            self.table = mi.Texture2f(texture_data(data), use_accel=False, filter_mode=dr.FilterMode.Linear, wrap_mode=dr.WrapMode.Clamp)
         self.weight = schiller_weight(p, shared)
 
     def x_at(self, p: Any) -> Any:

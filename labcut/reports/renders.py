@@ -71,8 +71,7 @@ class StoneScene:
         self.params = mi.traverse(self.scene)
         # the camera and every emitter, as built for the rest pose
         self._rest = {k: type(self.params[k])(self.params[k]) for k in self.params.keys() if k.endswith("to_world")}  # noqa: SIM118 (iterating SceneParameters gives items)
-        lo, hi = np.asarray(mesh.bounds[0], dtype=np.float64), np.asarray(mesh.bounds[1], dtype=np.float64)
-        self.centre = 0.5 * (lo + hi)
+        self.centre = np.zeros(3)  # the stone's centre in its render frame (labcut.rendering.scene.RenderFrame)
         self.resolution = int(resolution)
         self._dr, self._mi = dr, mi
         self._turn = np.eye(3)
