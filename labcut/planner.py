@@ -1029,8 +1029,12 @@ def predict_evaluate_seconds(settings: Sequence[Any], surface_points: int, occlu
     return float(t["fixed"] + t["per_term"] * terms + (t["per_ray"] * rays if occlusion else 0.0))
 
 
-#: the two image sizes (px, spp) a render's calibration times
-_RENDER_CAL = ((96, 4), (256, 4), (256, 32))
+#: the image sizes (px, spp) a render's calibration times: two image sizes (the per-pixel cost, the
+#: studio look's denoiser most of it, against the fixed) and two sample counts at the larger (the
+#: per-sample cost). Small, so that the first render of a look on a machine waits about 1.5-2 s
+#: for it (studio) instead of 7.5-8 s at (96, 4), (256, 4), (256, 32), with predictions as close
+#: (docs/performance.md, "The render command's calibration")
+_RENDER_CAL = ((64, 4), (128, 4), (128, 16))
 
 
 def render_command_timing(mode: str, polarised: bool, integrator: str, look: str = "diagram",
@@ -1041,8 +1045,9 @@ def render_command_timing(mode: str, polarised: bool, integrator: str, look: str
     sizes; the ``path`` integrator to depth 4, the carvings' default), each after one warm-up. The
     per-pixel term is what does not grow with the samples: the studio look's denoiser (its guide
     and normal passes, OIDN) and the image's own handling.
-    Measured once per key (a second or two) and kept in the user cache (``planner-render-timing.json``),
-    again when Mitsuba's or labcut's version or the CPU count differ."""
+    Measured once per key (a second or two, with the kernels compiled) and kept in the user cache
+    (``planner-render-timing.json``), again when Mitsuba's or labcut's version, the CPU count or
+    the calibration's sizes differ."""
     import os
     import time
 
@@ -1051,7 +1056,7 @@ def render_command_timing(mode: str, polarised: bool, integrator: str, look: str
     from . import __version__
     from .fileio import calibration
 
-    key = f"{mode} {'polarised' if polarised else 'plain'} {integrator} {look} | mitsuba {mi.__version__} labcut {__version__} cpus {os.cpu_count()} v3"
+    key = f"{mode} {'polarised' if polarised else 'plain'} {integrator} {look} | mitsuba {mi.__version__} labcut {__version__} cpus {os.cpu_count()} v4"
 
     def measure() -> dict[str, float]:
         import trimesh

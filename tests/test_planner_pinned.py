@@ -1286,7 +1286,7 @@ def test_the_render_calibration_times_three_sizes_and_fits_them(monkeypatch):
     monkeypatch.setattr(time, "perf_counter", lambda: clock[0])
     fixed, per_sample, per_pixel = P.render_command_timing("rgb", True, "path", "studio", refresh=True)
     assert (fixed, per_sample, per_pixel) == pytest.approx((0.2, 2e-8, 1e-6), rel=1e-6)
-    assert [(r[3], r[4]) for r in rendered] == [(96, 4), (96, 4), (256, 4), (256, 4), (256, 32), (256, 32)]
+    assert [(r[3], r[4]) for r in rendered] == [(64, 4), (64, 4), (128, 4), (128, 4), (128, 16), (128, 16)]
     assert all(r[6] for r in rendered)
     mesh, material, normal, _, _, kw, _ = rendered[0]
     assert all(r[0] is mesh and r[1] is material and r[2] is normal and r[5] == kw for r in rendered)
@@ -1300,7 +1300,7 @@ def test_the_render_calibration_times_three_sizes_and_fits_them(monkeypatch):
     name, key, refresh, check = seen[0]
     assert name == "planner-render-timing.json" and refresh is True
     assert key == (f"rgb polarised path studio | mitsuba {mi.__version__} labcut {labcut.__version__} "
-                   f"cpus {os.cpu_count()} v3")
+                   f"cpus {os.cpu_count()} v4")
     check({"fixed": 1.0, "per_sample": 2.0, "per_pixel": "3"})
     for bad in ({"fixed": 1.0, "per_sample": 2.0}, {"per_sample": 2.0, "per_pixel": 3.0}, {"fixed": 1.0, "per_pixel": 3.0}):
         with pytest.raises(KeyError):
@@ -1365,8 +1365,8 @@ def test_a_render_s_seconds_against_its_formula(monkeypatch):
 def test_the_module_s_constants_as_docs_planner_md_sets_them():
     """mutmut leaves module-level constants alone: each pinned here against docs/planner.md (the 2 %
     tolerance, the 20 % thin share, 96 directions over the poses, 256 past the parts, the pilots' 64² px,
-    16 spp, at most 5 poses at standard, 200,000 triangles and 256 cells, 0.4 s a pose before any) and
-    docs/accuracy.md (2.5 µs per volume path)."""
+    16 spp, at most 5 poses at standard, 200,000 triangles and 256 cells, 0.4 s a pose before any, the
+    render calibration's 64² and 128² px at 4 and 16 spp) and docs/accuracy.md (2.5 µs per volume path)."""
     assert P.INTERREFLECTION_TOLERANCE == 0.02 and P.DEPTH_THIN_SHARE == 0.2
     assert P.ENV_DIRECTIONS_ENOUGH == 96 and P.ENV_SAMPLES_PAST_PARTS == 256
     assert (P.PILOT_RESOLUTION, P.PILOT_SPP, P.PILOT_POSES, P.PILOT_QUALITY) == (64, 16, 5, "standard")
@@ -1374,4 +1374,4 @@ def test_the_module_s_constants_as_docs_planner_md_sets_them():
     assert P.PILOT_BUDGET_SHARE == 0.25 and P.PILOT_TIMING_KEY == "seconds per pose"
     assert P.VOLUME_PATH_SECONDS == 2.5e-6 and P.POLARISATION_KEEP == 256
     assert P.COMMANDS == ("render", "recommend", "evaluate", "compare") and P.COMPARE_REFUSES == ("render", "volume")
-    assert P._RENDER_CAL == ((96, 4), (256, 4), (256, 32))
+    assert P._RENDER_CAL == ((64, 4), (128, 4), (128, 16))
