@@ -55,7 +55,7 @@ def main() -> None:
             d = {
                 "type": "scene",
                 "integrator": {"type": "direct"},
-                "sensor": camera(mesh, CameraView("face-up", (0.0, 0.0, 1.0)), RES),
+                "sensor": camera(CameraView("face-up", (0.0, 0.0, 1.0)), RES),
                 "stone": to_mitsuba_mesh(mesh, mi.load_dict(bsdf)),
                 **emitters(Lights.preset("overhead")),
             }

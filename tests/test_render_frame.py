@@ -66,12 +66,13 @@ def test_the_bounds_marker_widens_the_scene_and_changes_no_pixel():
     images = []
     for marker in (False, True):
         d = {"type": "scene", "integrator": {"type": "path", "max_depth": 4}, "stone": stone, **emitters(setting.lights),
-             "sensor": camera(carving, CameraView("v", (0.3, -0.2, 0.93)), 48, rfilter="box")}
+             "sensor": camera(CameraView("v", (0.3, -0.2, 0.93)), 48, rfilter="box")}
         if marker:
             d["scene_bounds"] = bounds_marker()
         scene = mi.load_dict(d)
         h = SCENE_HALF_SIDE
-        assert (np.array(scene.bbox().max) == (h if marker else np.array(scene.bbox().max))).all()
+        top = np.array(scene.bbox().max).ravel()
+        assert np.all(top == h) if marker else np.all(top < 1.0 + 1e-5)  # the cube's corner, or the stone's box
         images.append(np.array(mi.render(scene, spp=8, seed=5)))
     assert np.array_equal(images[0], images[1])
     alone = mi.load_dict({"type": "scene", "m": bounds_marker()})

@@ -184,7 +184,7 @@ def flash_mask(mesh: Any, material: Labradorite, lamella_normal: Any, setting: S
     irradiances = weights / float(weights.sum())
     ratios, covers, shares = [], [], []
     for cam in cameras:
-        sensor = camera(mesh, cam, res, perspective, fov_deg, margin=margin, far_radii=far_radii, rfilter="box")
+        sensor = camera(cam, res, perspective, fov_deg, margin=margin, far_radii=far_radii, rfilter="box")
         scene = mi.load_dict({"type": "scene", "sensor": sensor, **stone_entries(stone)})
         ratio, cover = schiller_ratio(scene, setting.lights.directions, irradiances, res, l_ref, subsamples,
                                       cam.direction if perspective else None)

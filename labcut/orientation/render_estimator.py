@@ -92,7 +92,7 @@ def render_metrics(
         lamps = emitters(st.lights, total_irradiance=1.0, ambient=0.0)
         for d, wv in zip(st.views.directions, st.views.weights):
             weight_v.append(float(st.weight) / pose_total * float(wv))
-            sensor = camera(mesh, CameraView("v", tuple(d), tuple(st.up())), resolution)
+            sensor = camera(CameraView("v", tuple(d), tuple(st.up())), resolution)
             sensor["film"]["pixel_format"] = "luminance_alpha"
             sensor["film"]["rfilter"] = {"type": "box"}
             scene = mi.load_dict({"type": "scene", "integrator": flash_integrator(), "sensor": sensor, **stone_entries(stone), **lamps})

@@ -238,7 +238,7 @@ class RenderObjective:
             for p in poses:
                 st = settings[p]
                 for k, (d, wv) in enumerate(zip(st.views.directions, st.views.weights)):
-                    sensor = camera(mesh, CameraView(f"view {k}", tuple(d), tuple(st.up())), self.resolution)
+                    sensor = camera(CameraView(f"view {k}", tuple(d), tuple(st.up())), self.resolution)
                     sensor["film"]["pixel_format"] = "luminance_alpha"
                     sensor["film"]["rfilter"] = {"type": "box"}
                     # scene.sensors() keeps the dictionary's (sorted) order of the keys: pose, then view

@@ -50,7 +50,7 @@ from ..scene import Setting, resolve_scene
 from ..scene.directions import normalize_normal
 from .passes import render_pass
 from .plan import LOBES, RenderPlan, plan_render
-from .scene import RENDER_IRRADIANCE, CameraView, camera, camera_views, emitters, RenderFrame, stone_entries, to_mitsuba_mesh
+from .scene import RENDER_IRRADIANCE, CameraView, RenderFrame, camera, camera_views, emitters, stone_entries, to_mitsuba_mesh
 
 log = logging.getLogger("labcut.render")
 
@@ -276,7 +276,7 @@ def _scene(mesh: Any, ask: Any, normal: np.ndarray, setting: Setting, cam: Camer
     parts = parts or _scene_parts(mesh, ask, normal, setting, integrator)
     studio = ask.studio
     rfilter = "box" if studio is not None and parts.plan.denoise else "gaussian"
-    sensor = camera(mesh, cam, ask.resolution, **camera_framing(ask), rfilter=rfilter)
+    sensor = camera(cam, ask.resolution, **camera_framing(ask), rfilter=rfilter)
     scene_dict: dict[str, Any] = {
         "type": "scene",
         "integrator": parts.integrator,

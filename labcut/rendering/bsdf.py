@@ -74,7 +74,7 @@ from ..physics.lamella import interface_amplitudes, phase_wavenumbers, stack_ref
 from ..physics.material import Labradorite
 from ..physics.ops import drjit_ops
 from ..validation import unit_vector
-from .textures import texture_data
+from .textures import texture_box, texture_data
 
 PLUGIN_NAME = "labradorite"
 TABLE_SIZE = LUMINANCE_TABLE_SIZE  # entries over cos θ in [0, 1] for the RGB / mono tables
@@ -250,9 +250,7 @@ def _define_class() -> type:
                 hi = np.array([float(props["body_hi"][k]) for k in range(3)])
                 if not (np.all(np.isfinite(lo)) and np.all(np.isfinite(hi)) and np.all(hi > lo)):
                     raise ParameterError("body_lo must lie below body_hi on every axis")
-                # opaque: a stone of another shape renders with the kernels already compiled
-                self.body_lo = mi.Point3f(*(dr.opaque(mi.Float, float(x)) for x in lo))
-                self.body_inv_ext = mi.Vector3f(*(dr.opaque(mi.Float, float(x)) for x in 1.0 / (hi - lo)))
+                self.body_lo, self.body_inv_ext = texture_box(lo, hi)
                 self.body_grid = mi.Texture3f(texture_data(g), use_accel=False, filter_mode=dr.FilterMode.Linear,
                                               wrap_mode=dr.WrapMode.Clamp)
 

@@ -180,11 +180,11 @@ def _mitsuba_mesh(vertices: Any, faces: Any, normals: Any = None) -> Any:
     return m
 
 
-def camera(mesh: Any, view: CameraView, resolution: int, perspective: bool = False, fov_deg: float = 25.0,
+def camera(view: CameraView, resolution: int, perspective: bool = False, fov_deg: float = 25.0,
            *, margin: float = 1.0, far_radii: float = 2.0, rfilter: str = "gaussian") -> dict[str, Any]:
-    """A sensor dict looking at the mesh's bounding sphere from ``view.direction`` (mesh frame),
-    the image's top towards ``view.up``, placed in the stone's :class:`RenderFrame` (where that
-    sphere is the unit sphere: the same clip planes for every stone).
+    """A sensor dict looking at a stone's bounding sphere from ``view.direction`` (mesh frame),
+    the image's top towards ``view.up``, in the stone's :class:`RenderFrame` (where that sphere
+    is the unit sphere about the origin, so the camera is the same for every stone).
     ``margin`` (perspective): frame a sphere that many times wider than the stone's (room for a
     table around it); ``far_radii``: the far clip plane, in bounding radii beyond the centre.
     ``rfilter``: the film's reconstruction filter (``box`` keeps pixel noise independent, as a

@@ -1,4 +1,5 @@
-"""Texture data for the BSDF's kernels: the same kernel code whatever numpy's memory layout."""
+"""Texture data for the BSDF's kernels: the same kernel code whatever numpy's memory layout and
+whatever box the texture spans."""
 
 from __future__ import annotations
 
@@ -25,3 +26,16 @@ def texture_data(values: Any) -> Any:
     flat = mi.Float(a.ravel()) + dr.opaque(mi.Float, 0.0)
     dr.eval(flat)
     return mi.TensorXf(flat, a.shape)
+
+
+def texture_box(lo: Any, hi: Any) -> tuple[Any, Any]:
+    """``(lo, 1 / (hi - lo))`` of a texture's box as an opaque ``mi.Point3f`` and ``mi.Vector3f``
+    (a point ``p`` is looked up at ``(p - lo) * inv_ext``): values the kernel reads, not
+    constants written into it, so a stone of another shape reads its textures with the kernels
+    already compiled."""
+    import drjit as dr
+    import mitsuba as mi
+
+    lo_a, hi_a = np.asarray(lo, dtype=np.float64), np.asarray(hi, dtype=np.float64)
+    return (mi.Point3f(*(dr.opaque(mi.Float, float(x)) for x in lo_a)),
+            mi.Vector3f(*(dr.opaque(mi.Float, float(x)) for x in 1.0 / (hi_a - lo_a))))

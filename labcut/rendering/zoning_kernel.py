@@ -14,7 +14,7 @@ import numpy as np
 
 from ..errors import ParameterError
 from ..physics.lamella import Stack, stack_reflectance
-from .textures import texture_data
+from .textures import texture_box, texture_data
 from .zoning import COS_SIZE, ZONED_KEYS
 
 
@@ -85,9 +85,7 @@ class ZoningKernel:
         self.shared = dict(shared)
         self.path = p
         self.rows = p.shape[0]
-        # opaque: a stone of another shape looks its zones up with the kernels already compiled
-        self.lo = mi.Point3f(*(dr.opaque(mi.Float, float(x)) for x in lo))
-        self.inv_ext = mi.Vector3f(*(dr.opaque(mi.Float, float(x)) for x in 1.0 / (hi - lo)))
+        self.lo, self.inv_ext = texture_box(lo, hi)
         self.grid = mi.Texture3f(texture_data(g), use_accel=False, filter_mode=dr.FilterMode.Linear, wrap_mode=dr.WrapMode.Clamp)
         self.spectral = bool(mi.is_spectral)
         if self.spectral:

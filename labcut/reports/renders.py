@@ -71,7 +71,6 @@ class StoneScene:
         self.params = mi.traverse(self.scene)
         # the camera and every emitter, as built for the rest pose
         self._rest = {k: type(self.params[k])(self.params[k]) for k in self.params.keys() if k.endswith("to_world")}  # noqa: SIM118 (iterating SceneParameters gives items)
-        self.centre = np.zeros(3)  # the stone's centre in its render frame (labcut.rendering.scene.RenderFrame)
         self.resolution = int(resolution)
         self._dr, self._mi = dr, mi
         self._turn = np.eye(3)
@@ -80,7 +79,8 @@ class StoneScene:
         """Turn the stone by the rotation ``q`` (mesh frame of the rest pose) about its centre, the
         lamella normal with it; ``np.eye(3)`` restores the rest pose.
 
-        Done by turning the camera and every emitter by ``qᵀ`` about the stone's centre: the same
+        Done by turning the camera and every emitter by ``qᵀ`` about the stone's centre (the
+        origin of its render frame, :class:`~labcut.rendering.scene.RenderFrame`): the same
         picture (only relative directions matter to distant lights and an orthographic camera),
         while the scene's bounds, which Mitsuba bakes into its kernels, stay the same, so no
         frame compiles a kernel of its own."""
@@ -91,7 +91,6 @@ class StoneScene:
         rest_pose = np.allclose(q, np.eye(3), atol=0.0)
         m = np.eye(4)
         m[:3, :3] = q.T
-        m[:3, 3] = self.centre - q.T @ self.centre
         about = mi.Transform4f(m)
         for key, rest in self._rest.items():
             self.params[key] = type(rest)(rest) if rest_pose else about @ rest
