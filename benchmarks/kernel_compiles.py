@@ -12,6 +12,14 @@ anew for every new lamp").
    folder), their operations and their compile milliseconds, and the float literals by which a
    new stone's render kernel differs from the last stone's, where one was compiled.
 3. The files in Dr.Jit's kernel cache folder (``~/.drjit``, or ``DRJIT_CACHE_DIR``).
+
+    .venv/bin/python benchmarks/kernel_compiles.py --variants 8 [--plain-textures]
+
+instead renders the same low oval (32 px, 4 spp) in the diagram and the studio look in 8 new
+processes side by side and prints, per look, the distinct sets of render kernels (of more than
+1,000 operations) they launched and how many processes launched each: one set if a scene always
+makes the same kernels. ``--plain-textures``: the BSDF's textures made straight from numpy arrays,
+as before ``labcut.rendering.textures.texture_data`` (in those processes only).
 """
 
 from __future__ import annotations
@@ -117,8 +125,54 @@ def renders_of_new_stones() -> None:
               f"{sum(k['backend_time'] for k in built):.0f} ms")
 
 
+#: one process of ``--variants``: the render kernels of the same scene in each look, as JSON
+VARIANT = r"""
+import json, sys
+import drjit as dr, mitsuba as mi, numpy as np
+import labcut
+if sys.argv[1] == "plain":  # the textures as before texture_data: straight from numpy
+    from labcut.rendering import bsdf, zoning_kernel
+    plain = lambda values: mi.TensorXf(np.ascontiguousarray(values, dtype=np.float32))
+    bsdf.texture_data = zoning_kernel.texture_data = plain
+oval = labcut.load_mesh("meshes/oval-16x12-low.ply")
+out = {}
+for look in ("diagram", "studio"):
+    with dr.scoped_set_flag(dr.JitFlag.KernelHistory, True):
+        dr.kernel_history()
+        labcut.render(oval, "blue", np.array([0.1, 0.0, 1.0]), resolution=32, spp=4, look=look, check_flash=False)
+        out[look] = sorted(k["hash"][:8] for k in dr.kernel_history()
+                           if k.get("type") == dr.KernelType.JIT and k["operation_count"] > 1000)
+print(json.dumps(out))
+"""
+
+
+def variants(n: int, plain: bool) -> None:
+    import json
+    import subprocess
+    import sys
+
+    procs = [subprocess.Popen([sys.executable, "-c", VARIANT, "plain" if plain else "owned"], stdout=subprocess.PIPE,
+                              stderr=subprocess.DEVNULL, text=True) for _ in range(n)]
+    runs = [json.loads(p.communicate()[0].strip().splitlines()[-1]) for p in procs]
+    print(f"{n} new processes side by side, the same low oval, textures "
+          f"{'straight from numpy' if plain else 'through texture_data'}:")
+    for look in ("diagram", "studio"):
+        sets = Counter(" ".join(r[look]) for r in runs)
+        print(f"  {look}: {len(sets)} distinct set(s) of render kernels: "
+              + "; ".join(f"{k} in {c}" for k, c in sets.most_common()))
+
+
 def main() -> None:
+    import argparse
+
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--variants", type=int, default=0, help="render one scene in this many new processes")
+    parser.add_argument("--plain-textures", action="store_true", help="with --variants: textures straight from numpy")
+    args = parser.parse_args()
     os.chdir(Path(__file__).resolve().parents[1])
+    if args.variants:
+        variants(args.variants, args.plain_textures)
+        return
     bin_sums_by_mode()
     renders_of_new_stones()
     folder = Path(os.environ.get("DRJIT_CACHE_DIR", Path.home() / ".drjit"))
