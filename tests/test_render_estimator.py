@@ -303,6 +303,63 @@ def test_poses_in_one_scene_render_as_one_scene_per_pose(mesh_name, depth, scena
         np.testing.assert_allclose(ga, gb, rtol=1e-5, atol=1e-9 * np.abs(gb).max())
 
 
+@pytest.mark.parametrize("depth", [2, 4])
+def test_values_render_one_scene_at_a_time_and_give_each_normals_value(depth, monkeypatch):
+    """``values`` (the planner's pilots) renders pose by pose: a pose's scene (and, with deeper
+    paths, its no-schiller scene) is built, renders every normal's views and is let go before the
+    next pose's, since every live scene slows each render's tracing; the values are ``value``'s,
+    bit for bit, and nothing is left alive."""
+    from labcut.orientation import render_objective as ro
+
+    monkeypatch.setattr(ro, "poses_share_a_scene", lambda lamp_sets: False)  # as poses under other lamps
+    mesh = labcut.load_mesh(MESHES / "carving-biplane.ply")
+    settings = resolve_scene("ring", quality="draft").settings()[:3]
+    kw = dict(resolution=16, spp=2, seed=3, max_depth=depth)
+    normals = [(0.0, 0.0, 1.0), (0.3, -0.2, 1.0)]
+    one_by_one = RenderObjective(mesh, LAB, settings, **kw)
+    want = [one_by_one.value(n) for n in normals]
+    del one_by_one
+    obj = RenderObjective(mesh, LAB, settings, **kw)
+    assert obj._pose_lamps is None and len(obj._groups) == 3  # a scene per pose
+    alive, real = [], obj._render
+
+    def counted(group, sensor, pose, base=False):
+        alive.append(len(obj._built))
+        return real(group, sensor, pose, base)
+
+    monkeypatch.setattr(obj, "_render", counted)
+    got = obj.values(normals)
+    assert got == want and all(v > 0.0 for v in got)
+    assert len(alive) == len(normals) * obj.n_views + (obj.n_views if depth == 4 else 0)
+    assert max(alive) == (2 if depth == 4 else 1) and not obj._built
+
+
+def test_the_pilots_objectives_are_alive_one_at_a_time(monkeypatch):
+    """interreflection_share lets the direct-lighting objective go before the deeper one renders."""
+    import weakref
+
+    from labcut.orientation import render_objective as ro
+
+    made: list[weakref.ref] = []
+    seen: list[int] = []
+    init, values = ro.RenderObjective.__init__, ro.RenderObjective.values
+
+    def tracked_init(self, *a, **k):
+        init(self, *a, **k)
+        made.append(weakref.ref(self))
+
+    def tracked_values(self, normals):
+        seen.append(sum(r() is not None for r in made))
+        return values(self, normals)
+
+    monkeypatch.setattr(ro.RenderObjective, "__init__", tracked_init)
+    monkeypatch.setattr(ro.RenderObjective, "values", tracked_values)
+    mesh = labcut.load_mesh(MESHES / "carving-biplane.ply")
+    share = ro.interreflection_share(mesh, LAB, resolve_scene("bench", quality="draft").settings()[:1],
+                                     normals=[(0.0, 0.0, 1.0)], resolution=16, spp=2)
+    assert share >= 0.0 and seen == [1, 1]
+
+
 def test_which_poses_share_a_scene():
     from labcut.orientation.render_objective import poses_share_a_scene
 

@@ -131,7 +131,7 @@ class RenderObjective:
     """The flash objective of a lamella normal from Mitsuba renders, with its gradient by Dr.Jit AD.
 
     For every pose of ``settings`` (:meth:`labcut.Scenario.settings`: lights and views in the mesh
-    frame, mm, +Z face-up) a scene is built once, holding that pose's lights (lamps as distant
+    frame, mm, +Z face-up) a scene is built when first rendered, holding that pose's lights (lamps as distant
     lights at unit total irradiance, an environment map as an ``envmap`` emitter, no ambient room)
     and one orthographic sensor per view; all scenes share one stone mesh and one ``labradorite``
     BSDF with only its schiller lobe on for direct lighting (the delta ``surface`` lobe does not
@@ -218,21 +218,19 @@ class RenderObjective:
             base_lobes = tuple(x for x in LOBES if x != "schiller")
             base_shape = to_mitsuba_mesh(mesh, mi.load_dict(bsdf_dict(self.material, np.array([0.0, 0.0, 1.0]), base_lobes,
                                                                       zoning=baked)))
-        self._base_scenes: list[Any] = []
         pose_total = sum(float(st.weight) for st in settings)
-        self._views: list[tuple[Any, int, int]] = []  # (scene, sensor index, pose) per view
-        self._base_views: list[tuple[Any, int, int]] = []
+        # (group, sensor index in the group's scene, pose) per view, in the order of the weights
+        self._views: list[tuple[int, int, int]] = []
         weights = []
-        self._scenes = []
         lamp_sets = [emitters(st.lights, total_irradiance=1.0, ambient=0.0) for st in settings]
         # poses that differ only in where their lamps stand share one scene (one tree, the sensors
         # of every pose): a pose's lamps are set through mi.traverse before its views render
         shared = poses_share_a_scene(lamp_sets)
         self._pose_lamps = [_lamp_params(lamps) for lamps in lamp_sets] if shared else None
-        self._shown: dict[int, int] = {}  # id(scene) -> the pose whose lamps it holds
         # the poses of each scene: all in one, or one scene per pose
         groups = [range(len(settings))] if shared else [range(p, p + 1) for p in range(len(settings))]
-        for poses in groups:
+        self._groups: list[dict[str, Any]] = []  # each scene's entries: lamps and sensors
+        for g, poses in enumerate(groups):
             sensors: dict[str, Any] = {}
             view_poses = []  # the pose of each sensor, in the scene's order
             for p in poses:
@@ -245,23 +243,54 @@ class RenderObjective:
                     sensors[f"sensor_{p:03d}_{k:03d}"] = sensor
                     weights.append(float(st.weight) / pose_total * float(wv))
                     view_poses.append(p)
-            lamps = lamp_sets[poses[0]]
-            scene = mi.load_dict({"type": "scene", "integrator": integ, **stone_entries(shape), **lamps, **sensors})
-            self._scenes.append(scene)
-            self._views += [(scene, i, p) for i, p in enumerate(view_poses)]
-            if base_shape is not None:
-                base = mi.load_dict({"type": "scene", "integrator": integ, **stone_entries(base_shape), **lamps, **sensors})
-                self._base_scenes.append(base)
-                self._base_views += [(base, i, p) for i, p in enumerate(view_poses)]
+            self._groups.append({**lamp_sets[poses[0]], **sensors})
+            self._views += [(g, i, p) for i, p in enumerate(view_poses)]
+        self._integ = integ
+        self._shape, self._base_shape = shape, base_shape
+        # the scenes, built when first rendered: (group, False) the flash scene, (group, True) the
+        # no-schiller scene of deeper paths (rendered once per view, then let go)
+        self._built: dict[tuple[int, bool], Any] = {}
         wv = np.asarray(weights, dtype=np.float64)
         self.view_weight = wv / wv.sum()
-        self._base: list[np.ndarray] | None = None  # the no-schiller luminance per view (indirect only)
-        self._params = mi.traverse(self._scenes[0])
-        self._scene_params = {id(self._scenes[0]): self._params}
-        self._key = "stone.bsdf.normal"
+        self._base: list[np.ndarray | None] = [None] * len(self._views)  # no-schiller luminance per view (indirect)
+        self._params = mi.traverse(self._bsdf)  # the BSDF every scene shares
+        self._scene_params: dict[tuple[int, bool], Any] = {}
+        self._shown: dict[tuple[int, bool], int] = {}  # scene -> the pose whose lamps it holds
+        self._key = "normal"
         self.evaluations = 0  # objective evaluations (value, or value and gradient)
         self.renders = 0  # images rendered: one per view for a value, plus one adjoint pass per view for a gradient
         self.render_seconds = 0.0
+
+    def _scene(self, group: int, base: bool = False) -> Any:
+        """The Mitsuba scene of ``group`` (its poses' lamps and sensors, the stone), built on first
+        use; ``base``: the same without the schiller (deeper paths)."""
+        if (group, base) not in self._built:
+            import mitsuba as mi
+
+            from ..rendering.scene import stone_entries
+
+            # a flash scene and the no-schiller scene its views still need are built together, in
+            # that order: Dr.Jit writes the registry number of a scene's environment into the render
+            # kernels, so each new objective numbers its scenes as the last did and reuses its kernels
+            wanted = [base]
+            if not base and self._base_shape is not None and (group, True) not in self._built and any(
+                    self._base[k] is None for k, (g, _, _) in enumerate(self._views) if g == group):
+                wanted.append(True)
+            for b in wanted:
+                shape = self._base_shape if b else self._shape
+                self._built[(group, b)] = mi.load_dict({"type": "scene", "integrator": self._integ,
+                                                        **stone_entries(shape), **self._groups[group]})
+        return self._built[(group, base)]
+
+    def _let_go(self, group: int, base: bool) -> None:
+        """Forget the scene of ``group`` (and its traversal, its lamps' pose): built again if needed."""
+        for store in (self._built, self._scene_params, self._shown):
+            store.pop((group, base), None)
+
+    @property
+    def _scenes(self) -> list[Any]:
+        """The flash scenes, one per group (built if not yet)."""
+        return [self._scene(g) for g in range(len(self._groups))]
 
     @property
     def n_views(self) -> int:
@@ -304,42 +333,79 @@ class RenderObjective:
         that reaches the lamellae of one part by way of another part's polish or body is in it."""
         m = normalize_normal(normal)
         self._set_normal(m, grad=False)
-        return self._flash([self._render(scene, i, p) for scene, i, p in self._views])
+        return self._flash([self._render(g, i, p) for g, i, p in self._views])
+
+    def values(self, normals: Sequence[Any]) -> list[float]:
+        """:meth:`value` (hard threshold) at each of ``normals``, rendered a scene at a time: each
+        scene not built yet is built, renders its views for every normal and is let go before the
+        next is built. The same images, so the same values as ``[value(n) for n in normals]``.
+        Faster where a scenario has several scenes (a pose each): Dr.Jit traces every live BSDF,
+        shape and emitter into each render's calls, so the fewer scenes alive, the cheaper each
+        render (the effect planner's pilot renders, :func:`interreflection_share`)."""
+        import gc
+
+        ms = [normalize_normal(n) for n in normals]
+        images: list[list[Any]] = [[None] * len(self._views) for _ in ms]
+        for g in range(len(self._groups)):
+            kept = (g, False) in self._built  # built before (this objective's own use): kept
+            views = [(k, i, p) for k, (gg, i, p) in enumerate(self._views) if gg == g]
+            for pose in sorted({p for _, _, p in views}):  # a pose's lamps set once for every normal
+                for j, m in enumerate(ms):
+                    self._set_normal(m, grad=False)
+                    for k, i, p in views:
+                        if p == pose:
+                            images[j][k] = self._render(g, i, p)
+            if self.indirect:
+                for k, i, p in views:
+                    self._base_image(k)
+                self._let_go(g, True)
+            if not kept:
+                self._let_go(g, False)
+                gc.collect()  # the scene's Python BSDF is a reference cycle: free it before the next
+        self.evaluations += len(ms)
+        return [self._metrics(self._flash(imgs)).score(self.objective) for imgs in images]
+
+    def _base_image(self, k: int) -> np.ndarray:
+        """The no-schiller luminance of view ``k`` (deeper paths), rendered once."""
+        base = self._base[k]
+        if base is None:
+            g, i, p = self._views[k]
+            base = self._base[k] = self._render(g, i, p, base=True)[..., 0]
+        return base
 
     def _flash(self, images: list[np.ndarray]) -> list[np.ndarray]:
         if not self.indirect:
             return images
-        if self._base is None:
-            self._base = [self._render(scene, i, p)[..., 0] for scene, i, p in self._base_views]
-            for scene in self._base_scenes:  # rendered: free their memory
-                self._scene_params.pop(id(scene), None)
-                self._shown.pop(id(scene), None)
-            self._base_scenes, self._base_views = [], []
         out = []
-        for img, base in zip(images, self._base):
+        for k, img in enumerate(images):
             img = img.copy()
-            img[..., 0] -= base
+            img[..., 0] -= self._base_image(k)
             out.append(img)
+        for g in range(len(self._groups)):  # rendered: free their memory
+            self._let_go(g, True)
         return out
 
-    def _show_pose(self, scene: Any, pose: int) -> None:
-        """Set the lamps of ``pose`` in a scene the poses share (nothing for a scene of one pose)."""
-        if self._pose_lamps is None or self._shown.get(id(scene)) == pose:
-            return
+    def _show_pose(self, group: int, base: bool, pose: int) -> Any:
+        """The scene of ``group`` (``base``: without the schiller), its lamps set to ``pose``'s where
+        the poses share it (nothing to set for a scene of one pose)."""
+        scene = self._scene(group, base)
+        if self._pose_lamps is None or self._shown.get((group, base)) == pose:
+            return scene
         import mitsuba as mi
 
-        params = self._scene_params.get(id(scene))
+        params = self._scene_params.get((group, base))
         if params is None:
-            params = self._scene_params[id(scene)] = mi.traverse(scene)
+            params = self._scene_params[(group, base)] = mi.traverse(scene)
         for key, value in self._pose_lamps[pose].items():
             params[key] = value
         params.update()
-        self._shown[id(scene)] = pose
+        self._shown[(group, base)] = pose
+        return scene
 
-    def _render(self, scene: Any, sensor: int, pose: int) -> np.ndarray:
+    def _render(self, group: int, sensor: int, pose: int, base: bool = False) -> np.ndarray:
         import drjit as dr
 
-        self._show_pose(scene, pose)
+        scene = self._show_pose(group, base, pose)
         start = time.perf_counter()
         passes = self._passes()
         acc = None
@@ -386,16 +452,16 @@ class RenderObjective:
         m = normalize_normal(normal)
         self.evaluations += 1
         self._set_normal(m, grad=False)
-        images = self._flash([self._render(scene, i, p) for scene, i, p in self._views])
+        images = self._flash([self._render(g, i, p) for g, i, p in self._views])
         value, d_images = combine_views(self._terms(images, self.smooth_width), self.view_weight, self.objective)
         assert d_images is not None
         start = time.perf_counter()
         var = self._set_normal(m, grad=True)
         passes = self._passes()
-        for (scene, i, p), d_value in zip(self._views, d_images):
+        for (g, i, p), d_value in zip(self._views, d_images):
             if not np.any(d_value):
                 continue
-            self._show_pose(scene, p)
+            scene = self._show_pose(g, False, p)
             grad_in = np.zeros((self.resolution, self.resolution, 2), dtype=np.float32)
             grad_in[..., 0] = d_value
             integ = scene.integrator()
@@ -489,10 +555,18 @@ def interreflection_share(mesh: Any, material: Any, settings: Sequence[Setting],
         t = math.radians(30.0)
         normals = [(0.0, 0.0, 1.0)] + [(math.sin(t) * math.cos(a), math.sin(t) * math.sin(a), math.cos(t))
                                        for a in np.radians([0.0, 90.0, 180.0, 270.0])]
+    import gc
+
+    # one objective and one of its scenes alive at a time (RenderObjective.values): each render
+    # traces every live BSDF, shape and emitter, so the other's would slow every one of them
     direct = RenderObjective(mesh, material, settings, resolution=resolution, spp=spp, seed=seed, max_depth=DIRECT_DEPTH)
+    e_direct = np.array(direct.values(normals))
+    del direct
+    gc.collect()
     deep = RenderObjective(mesh, material, settings, resolution=resolution, spp=spp, seed=seed, max_depth=max_depth)
-    e_direct = np.array([direct.value(n) for n in normals])
-    e_deep = np.array([deep.value(n) for n in normals])
+    e_deep = np.array(deep.values(normals))
+    del deep
+    gc.collect()
     best = float(e_direct.max())
     if not best > 0.0:
         return 0.0
