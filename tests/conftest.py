@@ -20,6 +20,10 @@ settings.register_profile(
 )
 settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "labcut"))
 
+# every test computes its answers: the command's answer store (labcut_cli.answers) is off for the
+# suite and its own processes; tests/test_cli_answers.py switches it on where it tests it
+os.environ["LABCUT_ANSWERS"] = "off"
+
 ROOT = Path(__file__).resolve().parents[1]
 
 

@@ -53,9 +53,9 @@ class MeshOptions:
     units_arg: str | float = "auto"
     up: str = "auto"
 
-    def load(self, path: Path, **kwargs: Any) -> Any:
+    def load(self, path: Path, printed: list[tuple[str, str]] | None = None, **kwargs: Any) -> Any:
         """Read ``path`` with these (already checked) options: :func:`read`."""
-        return read(path, self.units_arg, self.up, self.size, **kwargs)
+        return read(path, self.units_arg, self.up, self.size, printed=printed, **kwargs)
 
 
 def _mesh_options(units: str = "auto", up_axis: str = "auto", size: float | None = None) -> MeshOptions:
@@ -101,8 +101,10 @@ def load(mesh_path: Path, units: str = "auto", up_axis: str = "auto", size: floa
     return read(mesh_path, unit_arg, up, size, **kwargs)
 
 
-def read(mesh_path: Path, unit_arg: str | float, up: str, size: float | None = None, **kwargs: Any) -> Any:
-    """:func:`load` with options :func:`check_mesh_options` already checked (``unit_arg``, ``up``)."""
+def read(mesh_path: Path, unit_arg: str | float, up: str, size: float | None = None,
+         printed: list[tuple[str, str]] | None = None, **kwargs: Any) -> Any:
+    """:func:`load` with options :func:`check_mesh_options` already checked (``unit_arg``, ``up``);
+    ``printed``: a list that gets ``("warning", text)`` for each warning line printed."""
     from labcut.errors import LabcutWarning
     from labcut.geometry import load_mesh
 
@@ -120,6 +122,8 @@ def read(mesh_path: Path, unit_arg: str | float, up: str, size: float | None = N
     for w in caught:
         if issubclass(w.category, LabcutWarning):
             print_warning(str(w.message))
+            if printed is not None:
+                printed.append(("warning", str(w.message)))
     return mesh
 
 
@@ -135,7 +139,11 @@ def print_provenance(mesh: Any, name: str) -> None:
     and every repair."""
     import labcut
 
-    info = labcut.Stone.of(mesh).metadata()
+    print_provenance_facts(labcut.Stone.of(mesh).metadata(), name)
+
+
+def print_provenance_facts(info: dict[str, Any], name: str) -> None:
+    """:func:`print_provenance` from the stone's record (``Stone.metadata()``, as JSON keeps it)."""
     design = info.get("design")
     if design:
         sized = "as given" if design.get("size_source") == "given" else "the default; --size sets it"

@@ -20,8 +20,9 @@ from . import meshes as mo
 from . import plan_options as po
 from . import look_options as lo
 from . import scene_options as so
+from . import answers
 from .preflight import Yes, check_cost
-from .root import all_or_nothing, app, check_outputs, console, figure_after_answer, interruptibly, normal_or_angles, notes_after, parse_vector, write_json
+from .root import all_or_nothing, app, check_outputs, console, figure_after_answer, interruptibly, normal_or_angles, notes_after, parse_vector, print_note, write_json
 
 Quality = Annotated[str, typer.Option(help="draft, standard or high.")]
 
@@ -157,6 +158,85 @@ def print_render_notes(result: Any) -> None:
         console.print(f"note: {note}", highlight=False)
 
 
+def _print_answer(rec: Any, data: dict[str, Any], provenance: dict[str, Any], name: str, scene: Any,
+                  json_path: str | None, objective: str, remembered: dict[str, Any] | None = None) -> None:
+    """The answer of ``recommend-orientation``: its JSON (``json_path``, ``-`` for stdout alone) and
+    the tables, with the mesh's provenance (``Stone.metadata()``); ``remembered``: the store's entry
+    when the answer is an earlier call's (:mod:`labcut_cli.answers`), said under the tables."""
+    if json_path is not None:
+        write_json(json_path, data)
+    if json_path == "-":
+        return
+    mo.print_provenance_facts(provenance, name)
+    console.print(f"[bold]Recommendation for {name}[/] ({_scene_label(scene)}): {rec.description}.")
+    console.print(_answer_table(rec, name, scene))
+    console.print(_metrics_table("Flash at the recommended orientation", rec.metrics))
+    misses = _misorientation_table(rec)
+    if misses is not None:
+        console.print(misses)
+    if rec.metrics.flash_area == 0.0:
+        console.print(
+            f"No part of the stone reaches the flash threshold ({rec.settings['tau']:g} x the brightest schiller this "
+            "scenario's light can give a flat polished face) at this orientation. The energy score still ranks orientations."
+        )
+    if rec.robustness is not None:
+        r = rec.robustness
+        style = "bold yellow" if r.verdict == "swings" else ""
+        console.print((f"[{style}]" if style else "") + r.sentence()[0].upper() + r.sentence()[1:] + "."
+                      + (f"[/{style}]" if style else ""), highlight=False)
+    if rec.runners_up:
+        table = Table(title="Other good orientations (distinct optima)")
+        for col in ("#", "orientation", f"{objective} vs best"):
+            table.add_column(col)
+        for i, r in enumerate(rec.runners_up, start=2):
+            table.add_row(str(i), r["description"], f"{r['relative_score']:.0%}")
+        console.print(table)
+    console.print(f"{rec.optimizer}: {rec.evaluations} evaluations, {rec.seconds:.2f} s; "
+                  f"{rec.settings['triples']} (point, light, view) triples")
+    if rec.settings.get("time_budget"):
+        b = rec.settings["time_budget"]
+        console.print(f"time budget {b['call_budget_seconds']:g} s for the call ({b['before_seconds']:.2f} s loading, "
+                      f"{b['budget_seconds']:.2f} s left for the recommendation): quality {b['quality']} "
+                      f"(predicted {b['predicted_seconds']:.2f} s, took {rec.seconds:.2f} s; its error bars "
+                      f"±{rec.uncertainty.angle_deg:.1f}°, ±{rec.uncertainty.score_rel:.0%}, about 95 %)", highlight=False)
+    volume = rec.settings.get("volume")
+    if volume:  # the volume estimator: say what the light did inside the stone
+        paths = max(1, volume["paths"])
+        console.print(f"volume estimator: {volume['paths']} paths through the stone ({volume['depths']} depth per "
+                      f"point, view and light, flash depth {volume['flash_depth_mm']:.2f} mm); "
+                      f"{volume['thin'] / paths:.0%} found too little stone below, {volume['unlit'] / paths:.0%} an "
+                      f"entry the light does not reach", highlight=False)
+    if rec.estimator == "render":
+        r = rec.render
+        console.print(f"render estimator ({r['integrator']}, depth {r['max_depth']}, {r['resolution']}² px, {r['spp']} spp): "
+                      f"{r['evaluations']} evaluations, {r['renders']} renders, {r['seconds']:.1f} s; "
+                      f"{r['angle_to_samples_deg']:.2f}° from the sample estimator's answer")
+    if json_path is not None:
+        console.print(f"JSON written to {json_path}")
+    if remembered is not None:
+        console.print(f"remembered answer of an identical call on {remembered['computed']} "
+                      f"({remembered['seconds']:.2f} s then); --recompute computes it again", highlight=False)
+
+
+def _answer_again(entry: dict[str, Any], setup: Any, mesh_path: Path, json_path: str | None, objective: str) -> None:
+    """Print a remembered answer (:mod:`labcut_cli.answers`) as its call printed it: its warning and
+    note lines, its JSON and its tables, the mesh not loaded."""
+    import dataclasses
+
+    from labcut.orientation import Recommendation
+
+    for kind, text in entry.get("messages", []):
+        (mo.print_warning if kind == "warning" else print_note)(text)
+    data = entry["answer"]
+    data.setdefault("mesh", {})["path"] = str(mesh_path)
+    if json_path == "-":  # the document alone: no tables to rebuild
+        write_json(json_path, data)
+        return
+    rec = dataclasses.replace(Recommendation.from_dict(data, source="remembered answer"), scenario=setup.scenario)
+    _print_answer(rec, data, entry.get("provenance") or {}, mesh_path.name, setup.scenario, json_path, objective,
+                  remembered=entry)
+
+
 @app.command("recommend-orientation")
 @mo.takes_mesh_options
 @po.takes_plan_options
@@ -200,6 +280,11 @@ def recommend_orientation(
     denoise: lo.Denoise = None,
     plan_options: Any = None,  # --estimator, --effect, --plan, --plan-only (plan_options.takes_plan_options)
     zoning: m.ZoningOpt = None,
+    recompute: Annotated[bool, typer.Option(
+        "--recompute",
+        help="Compute the answer even when labcut remembers it from an identical earlier call (same mesh file, "
+             "options and labcut); the new answer is remembered in its place. Calls with --time-budget, "
+             "--render, --map or --plan are always computed.")] = False,
 ) -> None:
     """Find the lamella orientation that makes MESH flash most, and how precisely it must be cut.
 
@@ -248,7 +333,17 @@ def recommend_orientation(
         check_budget(time_budget)
     from labcut.planner import PILOT_BUDGET_SHARE, plan_question
 
-    mesh = mesh_options.load(mesh_path)
+    # an identical earlier call's answer (answers.py): printed without loading the mesh
+    stored = None
+    if answers.enabled() and time_budget is None and render_path is None and map_path is None and not (plan or plan_only):
+        stored = answers.key("recommend-orientation", mesh_path, mesh_options, setup, optimizer=optimizer, variants=variation)
+        with notes_after():  # a damaged entry: one note, then computed again
+            entry = None if stored is None or recompute else answers.read(stored)
+        if entry is not None:
+            _answer_again(entry, setup, mesh_path, json_path, objective)
+            return
+    printed: list[tuple[str, str]] = []  # the warning and note lines, remembered with the answer
+    mesh = mesh_options.load(mesh_path, printed=printed)
     if render_ask is not None:  # what the render will cost, before the recommendation's work
         interruptibly(check_cost, mesh, render_ask, yes, quiet=json_path == "-", budget=False)
     the_plan = None
@@ -263,7 +358,7 @@ def recommend_orientation(
 
     before = time.perf_counter() - call_start  # loading and checking: spent of a time budget
     remaining = None if time_budget is None else max(time_budget - before - ANSWER_SECONDS, MIN_BUDGET_SECONDS)
-    with notes_after(), progress_bar("recommending", "%") as update:
+    with notes_after(printed), progress_bar("recommending", "%") as update:
         rec = labcut.recommend_orientation(
             mesh, setup=setup, optimizer=optimizer, progress=lambda stage, fraction: update(int(round(100 * fraction)), 100),
             time_budget=remaining, plan=None if time_budget is not None else the_plan,  # planned once
@@ -277,56 +372,12 @@ def recommend_orientation(
         data["render"] = {"path": str(render_path), "status": "pending: rendered after the answer was written"}
 
     # 1. the answer: JSON and table; the figures come after it, so a failing figure leaves the answer
-    if json_path is not None:
-        write_json(json_path, data)
+    provenance = labcut.Stone.of(mesh).metadata()
+    _print_answer(rec, data, provenance, mesh_path.name, scene, json_path, objective)
     quiet = json_path == "-"
-    if not quiet:
-        mo.print_provenance(mesh, mesh_path.name)
-        console.print(f"[bold]Recommendation for {mesh_path.name}[/] ({_scene_label(scene)}): {rec.description}.")
-        console.print(_answer_table(rec, mesh_path.name, scene))
-        console.print(_metrics_table("Flash at the recommended orientation", rec.metrics))
-        misses = _misorientation_table(rec)
-        if misses is not None:
-            console.print(misses)
-        if rec.metrics.flash_area == 0.0:
-            console.print(
-                f"No part of the stone reaches the flash threshold ({rec.settings['tau']:g} x the brightest schiller this "
-                "scenario's light can give a flat polished face) at this orientation. The energy score still ranks orientations."
-            )
-        if rec.robustness is not None:
-            r = rec.robustness
-            style = "bold yellow" if r.verdict == "swings" else ""
-            console.print((f"[{style}]" if style else "") + r.sentence()[0].upper() + r.sentence()[1:] + "."
-                          + (f"[/{style}]" if style else ""), highlight=False)
-        if rec.runners_up:
-            table = Table(title="Other good orientations (distinct optima)")
-            for col in ("#", "orientation", f"{objective} vs best"):
-                table.add_column(col)
-            for i, r in enumerate(rec.runners_up, start=2):
-                table.add_row(str(i), r["description"], f"{r['relative_score']:.0%}")
-            console.print(table)
-        console.print(f"{rec.optimizer}: {rec.evaluations} evaluations, {rec.seconds:.2f} s; "
-                      f"{rec.settings['triples']} (point, light, view) triples")
-        if rec.settings.get("time_budget"):
-            b = rec.settings["time_budget"]
-            console.print(f"time budget {b['call_budget_seconds']:g} s for the call ({b['before_seconds']:.2f} s loading, "
-                          f"{b['budget_seconds']:.2f} s left for the recommendation): quality {b['quality']} "
-                          f"(predicted {b['predicted_seconds']:.2f} s, took {rec.seconds:.2f} s; its error bars "
-                          f"±{rec.uncertainty.angle_deg:.1f}°, ±{rec.uncertainty.score_rel:.0%}, about 95 %)", highlight=False)
-        volume = rec.settings.get("volume")
-        if volume:  # the volume estimator: say what the light did inside the stone
-            paths = max(1, volume["paths"])
-            console.print(f"volume estimator: {volume['paths']} paths through the stone ({volume['depths']} depth per "
-                          f"point, view and light, flash depth {volume['flash_depth_mm']:.2f} mm); "
-                          f"{volume['thin'] / paths:.0%} found too little stone below, {volume['unlit'] / paths:.0%} an "
-                          f"entry the light does not reach", highlight=False)
-        if rec.estimator == "render":
-            r = rec.render
-            console.print(f"render estimator ({r['integrator']}, depth {r['max_depth']}, {r['resolution']}² px, {r['spp']} spp): "
-                          f"{r['evaluations']} evaluations, {r['renders']} renders, {r['seconds']:.1f} s; "
-                          f"{r['angle_to_samples_deg']:.2f}° from the sample estimator's answer")
-        if json_path is not None:
-            console.print(f"JSON written to {json_path}")
+    if stored is not None:
+        with notes_after():  # a folder that cannot be written: one note
+            answers.remember(stored, data, provenance, printed, time.perf_counter() - call_start)
 
     # 2. the optional figures, each after the answer: a failure or Ctrl-C leaves the answer above in place
     if map_path is not None:

@@ -132,9 +132,10 @@ def figure_after_answer(answer_path: Any, figure: Any, what: str) -> Iterator[No
 
 
 @contextlib.contextmanager
-def notes_after() -> Iterator[None]:
+def notes_after(printed: list[tuple[str, str]] | None = None) -> Iterator[None]:
     """Hold labcut's warnings (:class:`~labcut.errors.LabcutWarning`) of the block and print each as
-    one ``note:`` line on stderr after it (not inside a progress bar); other warnings go on as usual."""
+    one ``note:`` line on stderr after it (not inside a progress bar); other warnings go on as usual.
+    ``printed``: a list that gets ``("note", text)`` for each line printed."""
     import warnings
 
     from labcut.errors import LabcutWarning
@@ -144,9 +145,16 @@ def notes_after() -> Iterator[None]:
         yield
     for w in caught:
         if issubclass(w.category, LabcutWarning):
-            err_console.print(f"note: {w.message}", highlight=False, soft_wrap=True)
+            print_note(str(w.message))
+            if printed is not None:
+                printed.append(("note", str(w.message)))
         else:
             warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+
+
+def print_note(text: str) -> None:
+    """One ``note:`` line on stderr."""
+    err_console.print(f"note: {text}", highlight=False, soft_wrap=True)
 
 
 def write_json(path: str, data: Any) -> None:

@@ -1,0 +1,178 @@
+"""Answers the ``labcut`` command remembers: the same question asked again is read back, not computed.
+
+A recommendation asked a second time with the same inputs (``labcut recommend-orientation``) is
+printed from the entry its first call left in labcut's user cache folder (``answers/``), without
+loading the mesh: the warm call then costs the command's imports, not trimesh's and SciPy's nor the
+work (docs/performance.md, "The warm command").
+
+An entry is keyed by everything that shapes the answer:
+
+- the command and this module's :data:`FORMAT`;
+- labcut's version and its code: the bytes of every module of ``labcut`` and ``labcut_cli``, so an
+  edited checkout never reads what its old code answered;
+- the installed distributions (the ``*.dist-info`` names beside numpy: every library's version) and
+  the Dr.Jit backend the work runs on (``cuda`` or ``llvm``);
+- the mesh file's name and bytes and the options it is read with (units, up axis, size);
+- the whole question, as its pickle (material, scenario with its lights, views and poses, quality,
+  objective, constraint, seed, estimator, effects, zoning), and the command's other options that
+  shape the answer (the optimiser, the scenario variants).
+
+Calls whose answer depends on this machine's speed (a time budget) or that make pictures or plans
+(``--render``, ``--map``, ``--plan``, ``--plan-only``) are neither read nor remembered;
+``--recompute`` computes the answer and remembers it anew; ``LABCUT_ANSWERS=off`` in the
+environment switches the store off (the test suite does, so that every test computes).
+
+An entry holds the JSON document the command wrote, the mesh's provenance facts and the warning and
+note lines the call printed, so a remembered answer prints as the computed one did. A damaged entry
+is computed again with one warning; a folder that cannot be written only costs the next call's
+time (:func:`labcut.fileio.cache_problem`). The newest :data:`KEEP` entries are kept.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import gzip
+import hashlib
+import json
+import os
+import pickle
+import time
+from pathlib import Path
+from typing import Any
+
+#: the entries' layout and key recipe: a change here makes every earlier entry unread
+FORMAT = "labcut answers 1"
+#: how many entries the folder keeps (the most recently used)
+KEEP = 256
+#: the environment variable that switches the store off (``off``, ``0``, ``no`` or ``false``)
+SWITCH = "LABCUT_ANSWERS"
+
+
+def enabled() -> bool:
+    """Whether answers are read and remembered (:data:`SWITCH` not set to off)."""
+    return os.environ.get(SWITCH, "").strip().lower() not in ("off", "0", "no", "false")
+
+
+def folder() -> Path:
+    """The store's folder in labcut's user cache."""
+    from labcut.fileio import cache_path
+
+    return cache_path("answers")
+
+
+def _code() -> bytes:
+    """The bytes of every module of labcut and of this command-line package, with their paths."""
+    import labcut
+
+    import labcut_cli
+
+    h = hashlib.blake2b(digest_size=16)
+    for package in (labcut, labcut_cli):
+        root = Path(package.__file__).resolve().parent
+        for f in sorted(root.rglob("*.py")):
+            h.update(str(f.relative_to(root)).encode())
+            h.update(f.read_bytes())
+    return h.digest()
+
+
+def _distributions() -> list[str]:
+    """The installed distributions' ``*.dist-info`` names where numpy is installed (name and
+    version of each: an upgraded library changes them)."""
+    import numpy
+
+    site = Path(numpy.__file__).resolve().parent.parent
+    try:
+        return sorted(p for p in os.listdir(site) if p.endswith(".dist-info"))
+    except OSError:
+        return []
+
+
+def key(command: str, mesh_path: Path, mesh_options: Any, question: Any, **options: Any) -> str | None:
+    """The store's key of ``command`` asked of the mesh file ``mesh_path`` (read with
+    ``mesh_options``) with ``question`` (a :class:`~labcut.orientation.FlashQuestion`) and the
+    command's other ``options`` that shape its answer; None where the mesh file cannot be read (the
+    command's load then says why) or a part of the question cannot be pickled (not remembered)."""
+    import labcut
+    from labcut.backend import device
+
+    try:
+        mesh_bytes = Path(mesh_path).read_bytes()
+        asked = pickle.dumps((mesh_options, question, sorted(options.items())), protocol=5)
+    except (OSError, pickle.PicklingError, TypeError, AttributeError):
+        return None
+    h = hashlib.sha256()
+    h.update(FORMAT.encode())
+    h.update(command.encode())
+    h.update(labcut.__version__.encode())
+    h.update(_code())
+    h.update("\n".join(_distributions()).encode())
+    h.update(device().encode())
+    path = Path(mesh_path)
+    h.update(path.name.encode())
+    h.update(hashlib.sha256(mesh_bytes).digest())
+    h.update(asked)
+    return h.hexdigest()[:40]
+
+
+def _entry_path(key_: str) -> Path:
+    return folder() / f"{key_}.json.gz"
+
+
+def read(key_: str) -> dict[str, Any] | None:
+    """The entry stored under ``key_``, or None (none, or damaged: one warning, then computed again)."""
+    from labcut.fileio import cache_problem
+
+    path = _entry_path(key_)
+    try:
+        raw = path.read_bytes()
+    except (FileNotFoundError, NotADirectoryError):  # none stored (or no folder: said when written)
+        return None
+    except OSError as exc:
+        cache_problem(path, exc.strerror or str(exc))
+        return None
+    try:
+        entry = json.loads(gzip.decompress(raw))
+    except (OSError, EOFError, ValueError):
+        cache_problem(path, "not a remembered answer")
+        return None
+    if not (isinstance(entry, dict) and entry.get("format") == FORMAT and isinstance(entry.get("answer"), dict)):
+        cache_problem(path, "not a remembered answer")
+        return None
+    with contextlib.suppress(OSError):
+        os.utime(path)  # used: the newest entries are the ones kept
+    return entry
+
+
+def remember(key_: str, answer: dict[str, Any], provenance: dict[str, Any], messages: list[tuple[str, str]],
+             seconds: float) -> None:
+    """Store an answer (the command's JSON document), the mesh's provenance facts and the lines the
+    call printed (``(kind, text)``: ``warning`` or ``note``); ``seconds``: what the call took."""
+    from labcut.fileio import cache_problem
+
+    entry = {"format": FORMAT, "computed": time.strftime("%Y-%m-%d %H:%M"), "seconds": float(seconds),
+             "answer": answer, "provenance": provenance, "messages": [list(m) for m in messages]}
+    path = _entry_path(key_)
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        tmp.write_bytes(gzip.compress(json.dumps(entry, allow_nan=False).encode(), compresslevel=5))
+        os.replace(tmp, path)
+    except (OSError, ValueError, TypeError) as exc:
+        with contextlib.suppress(OSError):
+            tmp.unlink(missing_ok=True)
+        cache_problem(path, getattr(exc, "strerror", None) or str(exc), unwritable=True)
+        return
+    _prune(path.parent)
+
+
+def _prune(where: Path) -> None:
+    """Keep the :data:`KEEP` most recently used entries."""
+    try:
+        entries = [(p.stat().st_mtime, p) for p in where.glob("*.json.gz")]
+    except OSError:
+        return
+    if len(entries) <= KEEP:
+        return
+    for _, p in sorted(entries)[: len(entries) - KEEP]:
+        with contextlib.suppress(OSError):
+            p.unlink(missing_ok=True)
