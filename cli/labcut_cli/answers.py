@@ -95,8 +95,12 @@ def key(command: str, mesh_path: Path, mesh_options: Any, question: Any, **optio
     import labcut
     from labcut.backend import device
 
+    path = Path(mesh_path)
     try:
-        mesh_bytes = Path(mesh_path).read_bytes()
+        if not path.is_file():  # a folder, a pipe, a device: the load says what it is (a pipe is never read here)
+            return None
+        with open(path, "rb") as fh:
+            mesh_digest = hashlib.file_digest(fh, "sha256").digest()
         asked = pickle.dumps((mesh_options, question, sorted(options.items())), protocol=5)
     except (OSError, pickle.PicklingError, TypeError, AttributeError):
         return None
@@ -107,9 +111,8 @@ def key(command: str, mesh_path: Path, mesh_options: Any, question: Any, **optio
     h.update(_code())
     h.update("\n".join(_distributions()).encode())
     h.update(device().encode())
-    path = Path(mesh_path)
     h.update(path.name.encode())
-    h.update(hashlib.sha256(mesh_bytes).digest())
+    h.update(mesh_digest)
     h.update(asked)
     return h.hexdigest()[:40]
 
