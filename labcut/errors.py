@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 
-__all__ = ["BackendError", "LLVMVersionError", "LabcutError", "LabcutWarning", "MeshError", "OutputError", "ParameterError"]
+__all__ = ["BackendError", "CacheWarning", "LLVMVersionError", "LabcutError", "LabcutWarning", "MeshError", "OutputError", "ParameterError"]
 
 
 class LabcutError(Exception):
@@ -59,3 +59,9 @@ class LabcutWarning(UserWarning):
     """Something that may make an answer wrong but is not an error: a mesh file that looked
     upside down or Y-up and was turned, an up axis the shape contradicts. The CLI prints
     these as ``warning:`` lines; they are also recorded in the result's JSON."""
+
+
+class CacheWarning(LabcutWarning):
+    """labcut's user cache could not be read or written, or a measurement was not kept in it: the
+    work goes on (what the cache would have held is computed), so it says nothing about an
+    answer, only about this run's time (:func:`labcut.fileio.cache_problem`)."""

@@ -15,9 +15,9 @@ from collections.abc import Iterator, Sequence
 from pathlib import Path
 from typing import Any
 
-from .errors import LabcutError, LabcutWarning, OutputError, ParameterError
+from .errors import CacheWarning, LabcutError, OutputError, ParameterError
 
-__all__ = ["atomic_output", "cache_path", "cached_array", "cache_problem", "cached_arrays", "distinct_outputs", "calibration", "check_output_path", "check_outputs", "code_hash", "read_cache", "read_json", "write_cache"]
+__all__ = ["atomic_output", "cache_path", "cached_array", "cache_problem", "cached_arrays", "distinct_outputs", "calibration", "check_output_path", "check_outputs", "code_hash", "compute_platform", "read_cache", "read_json", "write_cache"]
 
 
 def check_output_path(path: str | os.PathLike[str], suffixes: tuple[str, ...] | None = None, *, probe: bool = True) -> Path:
@@ -147,7 +147,7 @@ def cache_problem(path: str | os.PathLike[str], detail: str, *, unwritable: bool
     """Warn, once per process for each file (each folder, ``unwritable``), that labcut's user cache
     is damaged or cannot be written: the cache is only ever a saving, so the work goes on (what the
     file held is computed again; what could not be written is computed again next run), and one
-    :class:`~labcut.errors.LabcutWarning` says so."""
+    :class:`~labcut.errors.CacheWarning` (a :class:`~labcut.errors.LabcutWarning`) says so."""
     import warnings
 
     where = Path(path).parent if unwritable else Path(path)
@@ -160,7 +160,7 @@ def cache_problem(path: str | os.PathLike[str], detail: str, *, unwritable: bool
                 "which computes it again")
     else:
         text = f"labcut's cache file {where} is damaged ({detail}): ignored, and what it held is computed again"
-    warnings.warn(text, LabcutWarning, stacklevel=3)
+    warnings.warn(text, CacheWarning, stacklevel=3)
 
 
 def read_cache(path: str | os.PathLike[str]) -> dict[str, Any] | None:
@@ -219,7 +219,7 @@ def _unkept(path: Path) -> None:
         return
     _UNKEPT_WARNED.add(str(path))
     warnings.warn(f"labcut timed this machine under a profiler or tracer: the timing is used in this process but "
-                  f"not kept in {path} (it would mislead the next run's predictions)", LabcutWarning, stacklevel=4)
+                  f"not kept in {path} (it would mislead the next run's predictions)", CacheWarning, stacklevel=4)
 
 
 def calibration(name: str, key: str, measure: Any, *, check: Any = None, refresh: bool = False,
@@ -359,6 +359,23 @@ def cached_arrays(name: str, key: str, build: Any) -> dict[str, Any]:
     except (OSError, LabcutError) as exc:
         cache_problem(path, getattr(exc, "strerror", None) or str(exc), unwritable=True)
     return value
+
+
+def compute_platform() -> str:
+    """What computes labcut's kernels here, for cache keys: the Dr.Jit backend (``cuda`` or
+    ``llvm``, :func:`labcut.backend.device`) with the libLLVM version, or the CUDA version and the
+    device's compute capability; the backend's name alone where it cannot say."""
+    import drjit as dr
+
+    from .backend import device
+
+    name = device()
+    try:
+        if name == "cuda":
+            return f"cuda {dr.detail.cuda_version()} {dr.detail.cuda_compute_capability()}"
+        return f"llvm {dr.detail.llvm_version()}"
+    except Exception:  # noqa: BLE001 - a backend that cannot say: its name alone
+        return name
 
 
 def code_hash(*paths: str | os.PathLike[str]) -> str:

@@ -92,7 +92,8 @@ def test_what_shapes_the_answer_makes_it_compute_again(store, oval, cli_main, tm
     assert ask(cli_main, oval, "--json", "-").returncode == 0 and store.computed == 1
     assert ask(cli_main, oval, "--json", "-").returncode == 0 and store.computed == 1
     for options in (("--seed", "1"), ("--scenario", "ring"), ("--objective", "area"), ("--preset", "blue"),
-                    ("--max-tilt", "10"), ("--units", "cm"), ("--optimizer", "grid")):
+                    ("--max-tilt", "10"), ("--units", "cm"), ("--optimizer", "grid"), ("--variants", "2"),
+                    ("--tilt-axis", "1,0,0"), ("--estimator", "volume")):
         before = store.computed
         done = ask(cli_main, oval, "--json", "-", *options)
         assert done.returncode == 0, (options, done.stderr)
@@ -112,6 +113,7 @@ def test_what_shapes_the_answer_makes_it_compute_again(store, oval, cli_main, tm
     before = store.computed
     out = ask(cli_main, moved, "--json", "-")
     assert store.computed == before and json.loads(out.stdout)["mesh"]["path"] == str(moved)
+    assert json.loads(out.stdout)["mesh"]["source"] == str(moved)
     # --recompute computes it
     assert ask(cli_main, oval, "--json", "-", "--recompute").returncode == 0 and store.computed == before + 1
 
@@ -135,9 +137,18 @@ def test_switched_off_nothing_is_read_or_kept(store, oval, cli_main, monkeypatch
 
 
 def test_a_damaged_entry_is_computed_again_with_one_warning(store, oval, cli_main):
+    import gzip
+
     assert ask(cli_main, oval, "--json", "-").returncode == 0
     (entry,) = store.entries()
-    for damage in (b"not gzip at all", __import__("gzip").compress(b'{"format": "something else", "answer": {}}')):
+    good = entry.read_bytes()
+    flipped = bytearray(good)
+    flipped[len(good) // 2] ^= 0xFF  # the deflate stream broken in its middle
+    whole = json.loads(gzip.decompress(good))
+    damages = [b"not gzip at all", gzip.compress(b'{"format": "something else", "answer": {}}'), bytes(flipped),
+               gzip.compress(json.dumps({**whole, "answer": {"normal": [0, 0, 1]}}).encode()),  # well formed, no answer
+               gzip.compress(json.dumps({**whole, "messages": [["shout", 3]]}).encode())]
+    for damage in damages:
         entry.write_bytes(damage)
         from labcut import fileio
 
@@ -146,7 +157,7 @@ def test_a_damaged_entry_is_computed_again_with_one_warning(store, oval, cli_mai
         done = ask(cli_main, oval, "--json", "-")
         assert done.returncode == 0 and store.computed == before + 1
         assert "not a remembered answer" in done.stderr and "Traceback" not in done.stderr
-        json.loads(done.stdout)
+        assert json.loads(done.stdout)["normal"] == json.loads(gzip.decompress(good))["answer"]["normal"]  # one document
     assert ask(cli_main, oval, "--json", "-").returncode == 0 and store.computed == before + 1  # written anew
 
 
@@ -232,3 +243,46 @@ def test_a_remembered_answer_imports_no_trimesh(tmp_path, cli_main, monkeypatch)
                            capture_output=True, text=True, env=env, timeout=300)
     assert "IMPORTED False False" in again.stderr, again.stderr[-2000:]
     assert again.stdout == first.stdout
+
+
+def test_a_gltf_whose_buffers_are_other_files_is_always_computed(store, tmp_path, cli_main):
+    """A .gltf names the files its buffers are read from: the key would hold its own bytes alone."""
+    import labcut
+
+    mesh = tmp_path / "oval.gltf"
+    labcut.load_mesh(MESHES / "oval-16x12-low.ply").export(mesh)
+    assert any(p.suffix == ".bin" for p in tmp_path.iterdir())  # the buffers beside it
+    for _ in range(2):
+        done = ask(cli_main, mesh, "--json", "-", "--units", "mm")  # glTF is metres by its specification
+        assert done.returncode == 0, done.stderr
+    assert store.computed == 2 and store.entries() == []
+
+
+def test_a_mesh_rewritten_while_it_is_read_is_not_remembered(store, oval, cli_main, monkeypatch):
+    states = iter([(1, 1), (2, 2)])
+    monkeypatch.setattr(answers, "file_state", lambda path: next(states))
+    assert ask(cli_main, oval, "--json", "-").returncode == 0
+    assert store.computed == 1 and store.entries() == []
+
+
+def test_notes_about_the_cache_are_not_remembered(store, oval, cli_main, monkeypatch):
+    """A damaged cache file is this run's trouble, not the answer's: not printed again later."""
+    import warnings
+
+    import labcut
+    from labcut.errors import CacheWarning, LabcutWarning
+
+    counted = labcut.recommend_orientation
+
+    def noting(*args, **kwargs):
+        warnings.warn("labcut's cache file x is damaged", CacheWarning)
+        warnings.warn("the work's own note", LabcutWarning)
+        return counted(*args, **kwargs)
+
+    monkeypatch.setattr(labcut, "recommend_orientation", noting)
+    first = ask(cli_main, oval, "--json", "-")
+    again = ask(cli_main, oval, "--json", "-")
+    assert store.computed == 1
+    assert [x for x in first.stderr.splitlines() if x.startswith("note:")] == \
+        ["note: labcut's cache file x is damaged", "note: the work's own note"]
+    assert [x for x in again.stderr.splitlines() if x.startswith("note:")] == ["note: the work's own note"]

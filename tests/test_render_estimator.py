@@ -319,16 +319,19 @@ def test_poses_in_one_scene_render_as_one_scene_per_pose(mesh_name, depth, scena
         np.testing.assert_allclose(ga, gb, rtol=1e-5, atol=1e-9 * np.abs(gb).max())
 
 
-@pytest.mark.parametrize("mesh_name, depth, scenario", [("oval-16x12-low.ply", None, "bench"),
-                                                        ("carving-biplane.ply", 4, "pendant")])
-def test_values_render_one_scene_at_a_time_and_give_each_normals_value(mesh_name, depth, scenario, monkeypatch):
+@pytest.mark.parametrize("mesh_name, depth, scenario, shared", [("oval-16x12-low.ply", None, "bench", False),
+                                                                ("carving-biplane.ply", 4, "pendant", False),
+                                                                ("carving-biplane.ply", 4, "pendant", True)])
+def test_values_render_one_scene_at_a_time_and_give_each_normals_value(mesh_name, depth, scenario, shared, monkeypatch):
     """``values`` (the planner's pilots) renders pose by pose: a pose's scene (and, with deeper
     paths, its no-schiller scene) is built, renders every normal's views and is let go before the
     next pose's, since every live scene slows each render's tracing; the values are ``value``'s,
-    bit for bit, and nothing is left alive. (The scenes of the test above: its kernels.)"""
+    bit for bit, and nothing is left alive, the no-schiller shape neither. Poses that share a scene
+    (their lamps set pose by pose) give ``value``'s too. (The scenes of the test above: its kernels.)"""
     from labcut.orientation import render_objective as ro
 
-    monkeypatch.setattr(ro, "poses_share_a_scene", lambda lamp_sets: False)  # as poses under other lamps
+    if not shared:
+        monkeypatch.setattr(ro, "poses_share_a_scene", lambda lamp_sets: False)  # as poses under other lamps
     mesh = labcut.load_mesh(MESHES / mesh_name)
     settings = resolve_scene(scenario, quality="draft").settings()[:2]
     kw = dict(resolution=24, spp=4, seed=2, max_depth=depth)
@@ -337,7 +340,7 @@ def test_values_render_one_scene_at_a_time_and_give_each_normals_value(mesh_name
     want = [one_by_one.value(n) for n in normals]
     del one_by_one
     obj = RenderObjective(mesh, LAB, settings, **kw)
-    assert obj._pose_lamps is None and len(obj._groups) == 2  # a scene per pose
+    assert (obj._pose_lamps is None and len(obj._groups) == 2) if not shared else len(obj._groups) == 1
     alive, real = [], obj._render
 
     def counted(group, sensor, pose, base=False):
@@ -348,7 +351,7 @@ def test_values_render_one_scene_at_a_time_and_give_each_normals_value(mesh_name
     got = obj.values(normals)
     assert got == want and all(v > 0.0 for v in got)
     assert len(alive) == len(normals) * obj.n_views + (obj.n_views if obj.indirect else 0)
-    assert max(alive) == (2 if obj.indirect else 1) and not obj._built
+    assert max(alive) == (2 if obj.indirect else 1) and not obj._built and obj._base_shape is None
 
 
 def test_the_pilots_objectives_are_alive_one_at_a_time(monkeypatch):

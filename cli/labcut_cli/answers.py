@@ -10,8 +10,9 @@ An entry is keyed by everything that shapes the answer:
 - the command and this module's :data:`FORMAT`;
 - labcut's version and its code: the bytes of every module of ``labcut`` and ``labcut_cli``, so an
   edited checkout never reads what its old code answered;
-- the installed distributions (the ``*.dist-info`` names beside numpy: every library's version) and
-  the Dr.Jit backend the work runs on (``cuda`` or ``llvm``);
+- the installed distributions (the ``*.dist-info`` names on ``sys.path``: every library's version)
+  and what runs the kernels (:func:`labcut.fileio.compute_platform`: the Dr.Jit backend with its
+  libLLVM or CUDA version);
 - the mesh file's name and bytes and the options it is read with (units, up axis, size);
 - the whole question, as its pickle (material, scenario with its lights, views and poses, quality,
   objective, constraint, seed, estimator, effects, zoning), and the command's other options that
@@ -46,6 +47,9 @@ FORMAT = "labcut answers 1"
 KEEP = 256
 #: the environment variable that switches the store off (``off``, ``0``, ``no`` or ``false``)
 SWITCH = "LABCUT_ANSWERS"
+#: mesh formats whose file may name others it is read with (a glTF's buffers and images): not
+#: remembered, as the key holds the named file's bytes alone
+SPREAD_FORMATS = (".gltf",)
 
 
 def enabled() -> bool:
@@ -76,15 +80,28 @@ def _code() -> bytes:
 
 
 def _distributions() -> list[str]:
-    """The installed distributions' ``*.dist-info`` names where numpy is installed (name and
-    version of each: an upgraded library changes them)."""
-    import numpy
+    """The ``*.dist-info`` names in every folder of ``sys.path`` (each installed distribution's name
+    and version: an upgraded library changes them), folder by folder."""
+    import sys
 
-    site = Path(numpy.__file__).resolve().parent.parent
+    names = []
+    for entry in sys.path:
+        try:
+            found = sorted(p for p in os.listdir(entry or ".") if p.endswith(".dist-info"))
+        except OSError:
+            continue
+        names += [f"{entry}:{p}" for p in found]
+    return names
+
+
+def file_state(path: Path) -> tuple[int, int] | None:
+    """A mesh file's size and modification time (ns): the same before the load and after it, or
+    the file changed while it was read and its answer is not remembered under the bytes hashed."""
     try:
-        return sorted(p for p in os.listdir(site) if p.endswith(".dist-info"))
+        st = Path(path).stat()
     except OSError:
-        return []
+        return None
+    return st.st_size, st.st_mtime_ns
 
 
 def key(command: str, mesh_path: Path, mesh_options: Any, question: Any, **options: Any) -> str | None:
@@ -93,16 +110,21 @@ def key(command: str, mesh_path: Path, mesh_options: Any, question: Any, **optio
     command's other ``options`` that shape its answer; None where the mesh file cannot be read (the
     command's load then says why) or a part of the question cannot be pickled (not remembered)."""
     import labcut
-    from labcut.backend import device
+    from labcut.fileio import compute_platform
 
     path = Path(mesh_path)
+    if path.suffix.lower() in SPREAD_FORMATS:
+        return None
     try:
         if not path.is_file():  # a folder, a pipe, a device: the load says what it is (a pipe is never read here)
             return None
+        digest = hashlib.sha256()
         with open(path, "rb") as fh:
-            mesh_digest = hashlib.file_digest(fh, "sha256").digest()
+            for block in iter(lambda: fh.read(1 << 20), b""):
+                digest.update(block)
+        mesh_digest = digest.digest()
         asked = pickle.dumps((mesh_options, question, sorted(options.items())), protocol=5)
-    except (OSError, pickle.PicklingError, TypeError, AttributeError):
+    except (OSError, pickle.PicklingError, TypeError, AttributeError, RecursionError):
         return None
     h = hashlib.sha256()
     h.update(FORMAT.encode())
@@ -110,14 +132,15 @@ def key(command: str, mesh_path: Path, mesh_options: Any, question: Any, **optio
     h.update(labcut.__version__.encode())
     h.update(_code())
     h.update("\n".join(_distributions()).encode())
-    h.update(device().encode())
+    h.update(compute_platform().encode())
     h.update(path.name.encode())
     h.update(mesh_digest)
     h.update(asked)
     return h.hexdigest()[:40]
 
 
-def _entry_path(key_: str) -> Path:
+def entry_path(key_: str) -> Path:
+    """The file of the entry stored under ``key_``."""
     return folder() / f"{key_}.json.gz"
 
 
@@ -125,7 +148,7 @@ def read(key_: str) -> dict[str, Any] | None:
     """The entry stored under ``key_``, or None (none, or damaged: one warning, then computed again)."""
     from labcut.fileio import cache_problem
 
-    path = _entry_path(key_)
+    path = entry_path(key_)
     try:
         raw = path.read_bytes()
     except (FileNotFoundError, NotADirectoryError):  # none stored (or no folder: said when written)
@@ -135,15 +158,26 @@ def read(key_: str) -> dict[str, Any] | None:
         return None
     try:
         entry = json.loads(gzip.decompress(raw))
-    except (OSError, EOFError, ValueError):
+    except Exception:  # noqa: BLE001 - zlib.error, EOFError, ValueError, RecursionError: damaged either way
         cache_problem(path, "not a remembered answer")
         return None
-    if not (isinstance(entry, dict) and entry.get("format") == FORMAT and isinstance(entry.get("answer"), dict)):
+    if not _well_formed(entry):
         cache_problem(path, "not a remembered answer")
         return None
     with contextlib.suppress(OSError):
         os.utime(path)  # used: the newest entries are the ones kept
     return entry
+
+
+def _well_formed(entry: Any) -> bool:
+    """An entry as :func:`remember` writes it (its answer's own fields are checked when read back)."""
+    if not (isinstance(entry, dict) and entry.get("format") == FORMAT and isinstance(entry.get("answer"), dict)):
+        return False
+    messages = entry.get("messages")
+    return (isinstance(entry.get("computed"), str) and isinstance(entry.get("seconds"), (int, float))
+            and isinstance(entry.get("provenance"), dict) and isinstance(messages, list)
+            and all(isinstance(m, list) and len(m) == 2 and m[0] in ("warning", "note") and isinstance(m[1], str)
+                    for m in messages))
 
 
 def remember(key_: str, answer: dict[str, Any], provenance: dict[str, Any], messages: list[tuple[str, str]],
@@ -154,7 +188,7 @@ def remember(key_: str, answer: dict[str, Any], provenance: dict[str, Any], mess
 
     entry = {"format": FORMAT, "computed": time.strftime("%Y-%m-%d %H:%M"), "seconds": float(seconds),
              "answer": answer, "provenance": provenance, "messages": [list(m) for m in messages]}
-    path = _entry_path(key_)
+    path = entry_path(key_)
     tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
     try:
         path.parent.mkdir(parents=True, exist_ok=True)

@@ -218,23 +218,39 @@ def _print_answer(rec: Any, data: dict[str, Any], provenance: dict[str, Any], na
                       f"({remembered['seconds']:.2f} s then); --recompute computes it again", highlight=False)
 
 
-def _answer_again(entry: dict[str, Any], setup: Any, mesh_path: Path, json_path: str | None, objective: str) -> None:
-    """Print a remembered answer (:mod:`labcut_cli.answers`) as its call printed it: its warning and
-    note lines, its JSON and its tables, the mesh not loaded."""
+def _remembered(entry: dict[str, Any], setup: Any, mesh_path: Path, where: Path) -> tuple[dict[str, Any], Any] | None:
+    """A remembered answer's JSON document (with this call's mesh path) and its recommendation, or
+    None with one note naming the entry's file ``where`` when its answer cannot be read back (then
+    it is computed again)."""
+    import copy
     import dataclasses
 
+    from labcut.errors import LabcutError
+    from labcut.fileio import cache_problem
     from labcut.orientation import Recommendation
 
-    for kind, text in entry.get("messages", []):
+    data = copy.deepcopy(entry["answer"])
+    try:
+        rec = dataclasses.replace(Recommendation.from_dict(data, source="remembered answer"), scenario=setup.scenario)
+        mesh = data["mesh"]
+        if not isinstance(mesh, dict):
+            raise TypeError("its mesh is not an object")
+    except (LabcutError, KeyError, TypeError, ValueError) as exc:
+        cache_problem(where, f"not a remembered answer: {exc}")
+        return None
+    mesh["path"] = str(mesh_path)
+    if "source" in mesh:  # the same bytes read from where this call found them
+        mesh["source"] = str(mesh_path)
+    return data, rec
+
+
+def _answer_again(entry: dict[str, Any], data: dict[str, Any], rec: Any, scene: Any, mesh_path: Path,
+                  json_path: str | None, objective: str) -> None:
+    """Print a remembered answer (:mod:`labcut_cli.answers`, read back by :func:`_remembered`) as
+    its call printed it: its warning and note lines, its JSON and its tables, the mesh not loaded."""
+    for kind, text in entry["messages"]:
         (mo.print_warning if kind == "warning" else print_note)(text)
-    data = entry["answer"]
-    data.setdefault("mesh", {})["path"] = str(mesh_path)
-    if json_path == "-":  # the document alone: no tables to rebuild
-        write_json(json_path, data)
-        return
-    rec = dataclasses.replace(Recommendation.from_dict(data, source="remembered answer"), scenario=setup.scenario)
-    _print_answer(rec, data, entry.get("provenance") or {}, mesh_path.name, setup.scenario, json_path, objective,
-                  remembered=entry)
+    _print_answer(rec, data, entry["provenance"], mesh_path.name, scene, json_path, objective, remembered=entry)
 
 
 @app.command("recommend-orientation")
@@ -339,11 +355,15 @@ def recommend_orientation(
         stored = answers.key("recommend-orientation", mesh_path, mesh_options, setup, optimizer=optimizer, variants=variation)
         with notes_after():  # a damaged entry: one note, then computed again
             entry = None if stored is None or recompute else answers.read(stored)
-        if entry is not None:
-            _answer_again(entry, setup, mesh_path, json_path, objective)
+            again = None if entry is None else _remembered(entry, setup, mesh_path, answers.entry_path(stored))
+        if again is not None:
+            _answer_again(entry, *again, setup.scenario, mesh_path, json_path, objective)
             return
     printed: list[tuple[str, str]] = []  # the warning and note lines, remembered with the answer
+    state = answers.file_state(mesh_path)
     mesh = mesh_options.load(mesh_path, printed=printed)
+    if stored is not None and answers.file_state(mesh_path) != state:  # rewritten while read: not its bytes' answer
+        stored = None
     if render_ask is not None:  # what the render will cost, before the recommendation's work
         interruptibly(check_cost, mesh, render_ask, yes, quiet=json_path == "-", budget=False)
     the_plan = None

@@ -135,10 +135,11 @@ def figure_after_answer(answer_path: Any, figure: Any, what: str) -> Iterator[No
 def notes_after(printed: list[tuple[str, str]] | None = None) -> Iterator[None]:
     """Hold labcut's warnings (:class:`~labcut.errors.LabcutWarning`) of the block and print each as
     one ``note:`` line on stderr after it (not inside a progress bar); other warnings go on as usual.
-    ``printed``: a list that gets ``("note", text)`` for each line printed."""
+    ``printed``: a list that gets ``("note", text)`` for each line printed but those about labcut's
+    user cache (:class:`~labcut.errors.CacheWarning`: this run's, not the answer's)."""
     import warnings
 
-    from labcut.errors import LabcutWarning
+    from labcut.errors import CacheWarning, LabcutWarning
 
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", LabcutWarning)
@@ -146,7 +147,7 @@ def notes_after(printed: list[tuple[str, str]] | None = None) -> Iterator[None]:
     for w in caught:
         if issubclass(w.category, LabcutWarning):
             print_note(str(w.message))
-            if printed is not None:
+            if printed is not None and not issubclass(w.category, CacheWarning):
                 printed.append(("note", str(w.message)))
         else:
             warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)

@@ -366,11 +366,19 @@ class RenderObjective:
         return [self._metrics(self._flash(imgs)).score(self.objective) for imgs in images]
 
     def _base_image(self, k: int) -> np.ndarray:
-        """The no-schiller luminance of view ``k`` (deeper paths), rendered once."""
+        """The no-schiller luminance of view ``k`` (deeper paths), rendered once; when every view's
+        is, the no-schiller shape and its BSDF are let go (each live BSDF slows every later render)."""
         base = self._base[k]
         if base is None:
             g, i, p = self._views[k]
             base = self._base[k] = self._render(g, i, p, base=True)[..., 0]
+            if all(b is not None for b in self._base):
+                import gc
+
+                for group in range(len(self._groups)):
+                    self._let_go(group, True)
+                self._base_shape = None
+                gc.collect()  # the Python BSDF is a reference cycle
         return base
 
     def _flash(self, images: list[np.ndarray]) -> list[np.ndarray]:
