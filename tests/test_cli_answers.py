@@ -174,28 +174,36 @@ def test_an_unwritable_store_only_costs_time(store, oval, cli_main):
     assert "Traceback" not in done.stderr and store.entries() == []
 
 
-def test_the_notes_of_the_computed_call_are_printed_again(store, oval, cli_main, monkeypatch):
-    """What the work said (labcut's warnings, printed as ``note:`` lines) is said again by the
-    remembered call, in the same words and order."""
+def noted_twice(monkeypatch, cli_main, oval, *warned):
+    """The ``note:`` lines of a computed call whose work warns ``warned`` (``(text, category)``
+    pairs) and of the same call asked again."""
     import warnings
 
     import labcut
-    from labcut.errors import LabcutWarning
 
     counted = labcut.recommend_orientation
 
     def noting(*args, **kwargs):
-        warnings.warn("first thing the work noted", LabcutWarning)
-        warnings.warn("second thing", LabcutWarning)
+        for text, category in warned:
+            warnings.warn(text, category)
         return counted(*args, **kwargs)
 
     monkeypatch.setattr(labcut, "recommend_orientation", noting)
     first = ask(cli_main, oval, "--json", "-")
     again = ask(cli_main, oval, "--json", "-")
-    assert first.returncode == again.returncode == 0 and store.computed == 1
-    notes = [x for x in first.stderr.splitlines() if x.startswith(("warning:", "note:"))]
-    assert notes == ["note: first thing the work noted", "note: second thing"]
-    assert [x for x in again.stderr.splitlines() if x.startswith(("warning:", "note:"))] == notes
+    assert first.returncode == again.returncode == 0
+    return [[x for x in done.stderr.splitlines() if x.startswith(("warning:", "note:"))] for done in (first, again)]
+
+
+def test_the_notes_of_the_computed_call_are_printed_again(store, oval, cli_main, monkeypatch):
+    """What the work said (labcut's warnings, printed as ``note:`` lines) is said again by the
+    remembered call, in the same words and order."""
+    from labcut.errors import LabcutWarning
+
+    first, again = noted_twice(monkeypatch, cli_main, oval, ("first thing the work noted", LabcutWarning),
+                               ("second thing", LabcutWarning))
+    assert store.computed == 1
+    assert first == ["note: first thing the work noted", "note: second thing"] and again == first
 
 
 def test_the_key_changes_with_the_code_and_the_libraries(monkeypatch, tmp_path):
@@ -267,22 +275,10 @@ def test_a_mesh_rewritten_while_it_is_read_is_not_remembered(store, oval, cli_ma
 
 def test_notes_about_the_cache_are_not_remembered(store, oval, cli_main, monkeypatch):
     """A damaged cache file is this run's trouble, not the answer's: not printed again later."""
-    import warnings
-
-    import labcut
     from labcut.errors import CacheWarning, LabcutWarning
 
-    counted = labcut.recommend_orientation
-
-    def noting(*args, **kwargs):
-        warnings.warn("labcut's cache file x is damaged", CacheWarning)
-        warnings.warn("the work's own note", LabcutWarning)
-        return counted(*args, **kwargs)
-
-    monkeypatch.setattr(labcut, "recommend_orientation", noting)
-    first = ask(cli_main, oval, "--json", "-")
-    again = ask(cli_main, oval, "--json", "-")
+    first, again = noted_twice(monkeypatch, cli_main, oval, ("labcut's cache file x is damaged", CacheWarning),
+                               ("the work's own note", LabcutWarning))
     assert store.computed == 1
-    assert [x for x in first.stderr.splitlines() if x.startswith("note:")] == \
-        ["note: labcut's cache file x is damaged", "note: the work's own note"]
-    assert [x for x in again.stderr.splitlines() if x.startswith("note:")] == ["note: the work's own note"]
+    assert first == ["note: labcut's cache file x is damaged", "note: the work's own note"]
+    assert again == ["note: the work's own note"]
