@@ -417,7 +417,8 @@ def measured_interreflection(mesh: Any, material: Any, scene: Any, timing: dict[
     of :data:`PILOT_RESOLUTION`² px at :data:`PILOT_SPP` spp, seed 0, at most :data:`PILOT_POSES`
     of the scene's poses, evenly spaced). Cached for the process and
     on disk (the user cache folder, keyed by the mesh's vertices and faces, the material, the
-    scene's lights, views and poses), so a second plan of the same stone costs nothing. A stone of
+    scene's lights, views and poses, labcut's version and what renders:
+    :func:`labcut.fileio.compute_platform`), so a second plan of the same stone costs nothing. A stone of
     more than :data:`PILOT_FACES` triangles (a scan) is rendered as its clustered copy
     (:func:`pilot_mesh`): a 64-pixel pilot sees the same shape, at a fraction of the cost.
     ``timing``: a dict that gets ``"pilot_seconds"``, the seconds the renders took (0 when cached).
@@ -446,8 +447,10 @@ def measured_interreflection(mesh: Any, material: Any, scene: Any, timing: dict[
     on_copy += " render frame"  # since renders place the stone in its render frame (last bits moved)
     h.update(f"pilot {PILOT_RESOLUTION} {PILOT_SPP} {PILOT_POSES}{on_copy}".encode())
     from . import __version__
+    from .fileio import compute_platform
 
     h.update(f"labcut {__version__}".encode())  # a new release may render (or decide) otherwise
+    h.update(compute_platform().encode())  # another backend or libLLVM renders other noise
     key = h.hexdigest()[:32]
     if key in _PILOT_CACHE:
         return _PILOT_CACHE[key]

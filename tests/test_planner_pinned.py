@@ -932,7 +932,8 @@ class Clock:
 
 def pilot_key(mesh, material, settings, mark=" v1"):
     """measured_interreflection's cache key, as documented: the mesh, the material, the poses' lights,
-    views, poses and weights, the pilots' size, the renders' kind and labcut's version."""
+    views, poses and weights, the pilots' size, the renders' kind, labcut's version and what renders
+    (the backend with its libLLVM or CUDA version)."""
     import hashlib
 
     h = hashlib.sha256()
@@ -945,6 +946,9 @@ def pilot_key(mesh, material, settings, mark=" v1"):
         h.update(str(float(st.weight)).encode())
     h.update(f"pilot 64 16 5{mark} emitters hidden render frame".encode())
     h.update(f"labcut {labcut.__version__}".encode())
+    from labcut.fileio import compute_platform
+
+    h.update(compute_platform().encode())
     return h.hexdigest()[:32]
 
 
@@ -966,7 +970,7 @@ def pilots(monkeypatch):
 def test_pilot_renders_are_measured_once_and_kept(oval, pilots, monkeypatch, own_caches):
     mat = labcut.Labradorite.preset("blue")
     scene = resolve_scene("bench", quality="draft")  # 7 poses: every second one, 4
-    monkeypatch.setattr(P, "time", Clock(10.0, 12.0, 20.0, 21.0))
+    monkeypatch.setattr(P, "time", Clock(10.0, 12.0, 20.0, 21.0, 30.0, 31.0))
     timing = {}
     assert P.measured_interreflection(oval, mat, scene, timing=timing) == 0.031
     (call,) = pilots
@@ -991,6 +995,11 @@ def test_pilot_renders_are_measured_once_and_kept(oval, pilots, monkeypatch, own
     assert list(stored) == [k, pilot_key(oval, red, call.settings), "seconds per pose"]
     assert stored["seconds per pose"] == 0.375
     assert P.pilot_seconds_predicted(4) == 1.5 and P.pilot_seconds_predicted(9) == 1.875
+    # another backend (or libLLVM) renders other noise: measured again, not read
+    from labcut import fileio
+
+    monkeypatch.setattr(fileio, "compute_platform", lambda: "cuda 12.8 (9, 0)")
+    assert P.measured_interreflection(oval, mat, scene) == 0.052 and len(pilots) == 3
 
 
 def test_the_pilot_key_reads_the_mesh_in_float64_and_int64_and_names_a_copy(oval, pilots, monkeypatch, own_caches):
