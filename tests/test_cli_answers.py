@@ -215,7 +215,7 @@ def test_the_key_changes_with_the_code_and_the_libraries(monkeypatch, tmp_path):
     assert k == answers.key("recommend-orientation", mesh, None, q, optimizer="nlopt")
     assert k != answers.key("recommend-orientation", mesh, None, q, optimizer="grid")
     assert k != answers.key("evaluate-orientation", mesh, None, q, optimizer="nlopt")
-    monkeypatch.setattr(answers, "_code", lambda: b"edited")
+    monkeypatch.setattr(answers, "_code", lambda: "edited")
     assert k != answers.key("recommend-orientation", mesh, None, q, optimizer="nlopt")
     monkeypatch.undo()
     monkeypatch.setattr(answers, "_distributions", lambda: ["numpy-0.0.dist-info"])

@@ -64,19 +64,16 @@ def folder() -> Path:
     return cache_path("answers")
 
 
-def _code() -> bytes:
-    """The bytes of every module of labcut and of this command-line package, with their paths."""
+def _code() -> str:
+    """A hash of the bytes of every module of labcut and of this command-line package
+    (:func:`labcut.fileio.code_hash`)."""
     import labcut
+    from labcut.fileio import code_hash
 
     import labcut_cli
 
-    h = hashlib.blake2b(digest_size=16)
-    for package in (labcut, labcut_cli):
-        root = Path(package.__file__).resolve().parent
-        for f in sorted(root.rglob("*.py")):
-            h.update(str(f.relative_to(root)).encode())
-            h.update(f.read_bytes())
-    return h.digest()
+    return code_hash(*(f for package in (labcut, labcut_cli)
+                       for f in sorted(Path(package.__file__).resolve().parent.rglob("*.py"))))
 
 
 def _distributions() -> list[str]:
@@ -130,7 +127,7 @@ def key(command: str, mesh_path: Path, mesh_options: Any, question: Any, **optio
     h.update(FORMAT.encode())
     h.update(command.encode())
     h.update(labcut.__version__.encode())
-    h.update(_code())
+    h.update(_code().encode())
     h.update("\n".join(_distributions()).encode())
     h.update(compute_platform().encode())
     h.update(path.name.encode())
@@ -184,19 +181,18 @@ def remember(key_: str, answer: dict[str, Any], provenance: dict[str, Any], mess
              seconds: float) -> None:
     """Store an answer (the command's JSON document), the mesh's provenance facts and the lines the
     call printed (``(kind, text)``: ``warning`` or ``note``); ``seconds``: what the call took."""
-    from labcut.fileio import cache_problem
+    from labcut.errors import LabcutError
+    from labcut.fileio import atomic_output, cache_problem
 
     entry = {"format": FORMAT, "computed": time.strftime("%Y-%m-%d %H:%M"), "seconds": float(seconds),
              "answer": answer, "provenance": provenance, "messages": [list(m) for m in messages]}
     path = entry_path(key_)
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
     try:
+        data = gzip.compress(json.dumps(entry, allow_nan=False).encode(), compresslevel=5)
         path.parent.mkdir(parents=True, exist_ok=True)
-        tmp.write_bytes(gzip.compress(json.dumps(entry, allow_nan=False).encode(), compresslevel=5))
-        os.replace(tmp, path)
-    except (OSError, ValueError, TypeError) as exc:
-        with contextlib.suppress(OSError):
-            tmp.unlink(missing_ok=True)
+        with atomic_output(path, (".gz",)) as tmp:
+            tmp.write_bytes(data)
+    except (OSError, ValueError, TypeError, LabcutError) as exc:
         cache_problem(path, getattr(exc, "strerror", None) or str(exc), unwritable=True)
         return
     _prune(path.parent)
