@@ -301,14 +301,14 @@ def test_poses_in_one_scene_render_as_one_scene_per_pose(mesh_name, depth, scena
         return obj.images(n), [obj.value_and_grad(normal) for normal in normals]
 
     shared = RenderObjective(mesh, LAB, settings, **kw)
-    assert shared._pose_lamps is not None and len(shared._scenes) == 1
+    assert shared._pose_lamps is not None and len(shared._groups) == 1
     want = answers(shared)
     del shared
     gc.collect()  # one objective's scenes alive at a time: each render traces every live one
     with monkeypatch.context() as m:
         m.setattr(ro, "poses_share_a_scene", lambda lamp_sets: False)
         apart = RenderObjective(mesh, LAB, settings, **kw)
-    assert apart._pose_lamps is None and len(apart._scenes) == 3
+    assert apart._pose_lamps is None and len(apart._groups) == 3
     got = answers(apart)
     for a, b in zip(want[0], got[0]):
         assert np.array_equal(a, b)

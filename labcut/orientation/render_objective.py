@@ -288,11 +288,6 @@ class RenderObjective:
             store.pop((group, base), None)
 
     @property
-    def _scenes(self) -> list[Any]:
-        """The flash scenes, one per group (built if not yet)."""
-        return [self._scene(g) for g in range(len(self._groups))]
-
-    @property
     def n_views(self) -> int:
         return len(self._views)
 
